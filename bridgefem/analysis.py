@@ -1,0 +1,132 @@
+"""The FE limit analysis of a scene: scene -> ring -> mesh -> elastic model -> joint pairs -> solver -> search.
+
+Also reads the collapse mechanism off the last converged state: per joint the resultant normal force N (N,
+compression positive), shear V (N), eccentricity e (m, from the joint centre, positive towards the extrados)
+and the open part of its length. A *hinge* is a joint cracked over at least half its length whose |e| is the
+largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
+intrados when e < 0 and at the extrados when e > 0. A *sliding* joint has every closed pair slipping one way.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from mpi4py import MPI
+
+from .contact import OPEN, SLIP, JointPairs, build_pairs
+from .geometry import ArchRing, build_ring
+from .mesh import BlockMesh, build_block_mesh
+from .model import ElasticModel, build_elastic_model
+from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
+from .scene import Scene
+from .solver import ContactSolver, Iterate
+
+HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length
+FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
+
+
+@dataclass
+class JointState:
+    """Resultants and state of one joint at the last converged step (forces in N, lengths in m)."""
+
+    id: int
+    normal_force: float
+    shear_force: float
+    eccentricity: float
+    open_fraction: float
+    sliding: int
+    hinge: str = ""
+
+
+@dataclass
+class Analysis:
+    """Everything a run produced; ``timings`` in seconds per phase."""
+
+    scene: Scene
+    ring: ArchRing
+    block_mesh: BlockMesh
+    model: ElasticModel
+    pairs: JointPairs
+    solver: ContactSolver
+    search: LimitSearch
+    joints: list[JointState]
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def load_total(self) -> float:
+        """Total live load (N) per unit load level."""
+        return sum(ld.factor for ld in self.scene.loads)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.solver.N
+
+
+def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None,
+                 report: Callable[[LoadStep], None] = lambda s: None) -> Analysis:
+    """Compute the limit load of a bare arch on rigid springings (collective over ``comm``)."""
+    timings = {}
+    t = time.perf_counter()
+
+    def lap(name):
+        nonlocal t
+        now = time.perf_counter()
+        timings[name] = comm.allreduce(now - t, op=MPI.MAX)
+        t = now
+
+    a = scene.arch
+    ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
+    lap("geometry")
+    bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm)
+    lap("mesh")
+    model = build_elastic_model(bm, ring, scene)
+    lap("assembly")
+    pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
+    lap("pairing")
+    c = scene.masonry.young * a.width * pairs.length / bm.element_size
+    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.friction, c,
+                           FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
+                           {**scene.solver.petsc, **(petsc_options or {})})
+    lap("solver setup")
+    s = scene.solver
+    search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
+                             initial_step=s.initial_step or model.dead_weight / 4,
+                             max_load=s.max_load or 100 * model.dead_weight, max_steps=s.max_steps, report=report)
+    lap("limit search")
+    joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
+    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)
+
+
+def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
+    """Per-joint resultants, hinges and sliding at a converged iterate (identical on every rank)."""
+    _, lam, _ = solver.split(it.x)
+    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign])
+    table = np.vstack(solver.comm.allgather(local))
+    states = []
+    for jt in ring.joints:
+        rows = table[table[:, 0] == jt.id]
+        lam_n, lam_t, pos, length, st, sign = rows[:, 1], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6]
+        n_force = lam_n.sum()
+        ecc = float((lam_n * (pos - jt.length / 2)).sum() / n_force) if n_force > 0 else 0.0
+        closed = st != OPEN
+        slip_signs = set(sign[closed & (st == SLIP)])
+        sliding = int(slip_signs.pop()) if closed.any() and np.all(st[closed] == SLIP) and len(slip_signs) == 1 else 0
+        states.append(JointState(jt.id, float(n_force), float(lam_t.sum()), ecc,
+                                 float(length[~closed].sum() / length.sum()), sliding))
+    _mark_hinges(states, ring)
+    return states
+
+
+def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
+    cracked = [s.open_fraction >= HINGE_OPEN_FRACTION for s in states]
+    run: list[JointState] = []
+    for s, c in zip(states + [None], cracked + [False]):
+        if c and run and np.sign(s.eccentricity) == np.sign(run[-1].eccentricity):
+            run.append(s)
+            continue
+        if run:
+            best = max(run, key=lambda r: abs(r.eccentricity) / ring.joints[r.id].length)
+            best.hinge = "extrados" if best.eccentricity > 0 else "intrados"
+        run = [s] if c else []

@@ -1,0 +1,164 @@
+"""Joint node pairs and the unilateral contact / Coulomb friction laws (seed paper, eqs. 1-6).
+
+Each joint is a set of coincident node pairs (left face, right face; a springing pairs a voussoir face
+with the rigid ground). Per pair k, with unit normal n from the left face into the right face and tangent
+tau = n rotated +90 degrees:
+
+- relative displacement ``d = [(u_R - u_L).n, (u_R - u_L).tau]`` (m); ``d_n >= 0`` is opening
+  (eq. 1 with zero initial gap: ``h = -d_n <= 0``);
+- joint force on the right face ``lam = [lam_n, lam_t]`` (N, whole width); ``lam_n >= 0`` is compression
+  (eq. 2) and ``lam_n d_n = 0`` (eq. 3);
+- Coulomb friction (eqs. 4-6): ``|lam_t| <= mu lam_n``; stick (``Delta d_t = 0``) while strictly inside the
+  cone; slip in either direction with ``lam_t = -mu lam_n sign(Delta d_t)`` (friction opposes the slip of the
+  right face). ``Delta d_t`` is the slip since the last converged load step (incremental, path following).
+
+The laws are written as Alart-Curnier complementarity functions with the constant c (N/m per pair):
+``sigma_n = lam_n - c d_n`` (contact iff > 0), ``sigma_t = lam_t - c Delta d_t`` (stick iff |sigma_t| <= mu
+sigma_n). Their semismooth Newton method is the primal-dual active-set method in :mod:`bridgefem.solver`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_vector
+from petsc4py import PETSc
+
+from .geometry import ArchRing
+from .mesh import EXTRADOS_TAG, BlockMesh, joint_face_tag
+
+OPEN, STICK, SLIP = 0, 1, 2
+STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
+GROUND = -1
+
+
+@dataclass
+class JointPairs:
+    """The node pairs of this rank (a contiguous share ``offset .. offset + len`` of ``total`` pairs).
+
+    ``left``/``right`` are global blocked node indices of the vector space (``GROUND`` for the rigid ground);
+    ``length`` is the tributary length (m) of the pair along its joint; ``position`` its distance from the
+    intrados (m).
+    """
+
+    joint: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    length: np.ndarray
+    position: np.ndarray
+    offset: int
+    total: int
+
+    def __len__(self) -> int:
+        return len(self.joint)
+
+
+def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
+    """Integral of each basis function over the joint faces: the tributary length per blocked dof (m)."""
+    ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=bm.facet_tags)
+    v = ufl.TestFunction(V)
+    vec = assemble_vector(fem.form(v[0] * ds(tuple(tags))))
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return vec.array[0::2].copy()
+
+
+def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: float) -> JointPairs:
+    """Pair the nodes of both faces of every joint by position along the joint (any degree, any partition).
+
+    Owned face nodes of all ranks are gathered (only joint nodes: small), paired identically on every rank,
+    then split evenly over the ranks. ``match_tol`` (m) is the largest allowed distance within a pair.
+    """
+    comm = bm.mesh.comm
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    face_tags = sorted(int(t) for t in np.unique(bm.facet_tags.values) if t != EXTRADOS_TAG)
+    all_tags = comm.allreduce(face_tags)
+    weights = _tributary_lengths(V, bm, sorted(set(all_tags)))
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    rows = []
+    for tag in face_tags:
+        facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
+        nodes = fem.locate_dofs_topological(V, 1, facets)
+        nodes = nodes[nodes < n_owned]
+        g = imap.local_to_global(nodes.astype(np.int32))
+        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes]]))
+    mine = np.vstack(rows) if rows else np.zeros((0, 5))
+    table = np.vstack(comm.allgather(mine))
+
+    cols = {k: [] for k in ("joint", "left", "right", "normal", "tangent", "length", "position")}
+    for jt in ring.joints:
+        faces = []
+        for side in (0, 1):
+            sel = table[table[:, 0] == joint_face_tag(jt.id, side)]
+            s = (sel[:, 2:4] - jt.intrados) @ jt.tangent
+            faces.append((sel[np.argsort(s)], np.sort(s)))
+        present = [f for f in faces if len(f[0])]
+        if len(present) == 2 and len(present[0][0]) != len(present[1][0]):
+            raise RuntimeError(f"joint {jt.id}: {len(present[0][0])} and {len(present[1][0])} nodes on its faces")
+        if len(present) == 2 and np.abs(present[0][0][:, 2:4] - present[1][0][:, 2:4]).max() > match_tol:
+            raise RuntimeError(f"joint {jt.id}: face nodes do not coincide")
+        ref, s = present[0]
+        n = len(ref)
+        side_nodes = [f[0][:, 1].astype(np.int64) if len(f[0]) else np.full(n, GROUND) for f in faces]
+        cols["joint"].append(np.full(n, jt.id))
+        cols["left"].append(side_nodes[0])
+        cols["right"].append(side_nodes[1])
+        cols["normal"].append(np.tile(jt.normal, (n, 1)))
+        cols["tangent"].append(np.tile(jt.tangent, (n, 1)))
+        cols["length"].append(np.mean([f[0][:, 4] for f in present], axis=0))
+        cols["position"].append(s)
+    total = sum(len(c) for c in cols["joint"])
+    share = np.array_split(np.arange(total), comm.size)[comm.rank]
+    lo, hi = (int(share[0]), int(share[-1]) + 1) if len(share) else (0, 0)
+    return JointPairs(**{k: np.concatenate(v)[lo:hi] for k, v in cols.items()}, offset=lo, total=total)
+
+
+@dataclass
+class ContactState:
+    """Active set of the local pairs: ``state`` in {OPEN, STICK, SLIP} and the slip sign (+1/-1) for SLIP."""
+
+    state: np.ndarray
+    sign: np.ndarray
+
+    @classmethod
+    def all_stick(cls, n: int) -> "ContactState":
+        return cls(np.full(n, STICK, dtype=np.int8), np.zeros(n, dtype=np.int8))
+
+    def copy(self) -> "ContactState":
+        return ContactState(self.state.copy(), self.sign.copy())
+
+    def key(self) -> bytes:
+        return self.state.tobytes() + self.sign.tobytes()
+
+
+def classify(prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
+             mu: float, c: np.ndarray, force_tol: float) -> ContactState:
+    """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` (N) so that pairs
+    carrying no force do not chatter between states. ``lam``, ``d``: (m, 2) arrays; ``slip_ref``: d_t at the
+    last converged step."""
+    sig_n = lam[:, 0] - c * d[:, 0]
+    sig_t = lam[:, 1] - c * (d[:, 1] - slip_ref)
+    was_closed = prev.state != OPEN
+    closed = np.where(was_closed, sig_n >= -force_tol, sig_n > force_tol)
+    bound = mu * np.maximum(sig_n, 0.0)
+    excess = np.abs(sig_t) - bound
+    was_slip = prev.state == SLIP
+    sign = np.sign(sig_t).astype(np.int8)
+    reversed_slip = was_slip & (sign != prev.sign)
+    slip = np.where(was_slip & ~reversed_slip, excess > -force_tol, excess > force_tol)
+    state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
+    return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8))
+
+
+def complementarity_residual(lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray, mu: float,
+                             c: np.ndarray) -> np.ndarray:
+    """Alart-Curnier residual (N) per pair: zero iff eqs. (1)-(6) hold."""
+    sig_n = np.maximum(lam[:, 0] - c * d[:, 0], 0.0)
+    sig_t = lam[:, 1] - c * (d[:, 1] - slip_ref)
+    r_n = lam[:, 0] - sig_n
+    r_t = lam[:, 1] - np.clip(sig_t, -mu * sig_n, mu * sig_n)
+    return np.column_stack([r_n, r_t])

@@ -1,0 +1,293 @@
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
+
+Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
+x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
+springing (p = 0) to the right springing (p = 1).
+
+The ring is the band swept by the joint segments ``intrados(p) -> intrados(p) + t n(p)`` where ``n`` is
+the unit normal of the intrados pointing towards the extrados. Offset curves share their normals, so
+every joint is perpendicular to the intrados, the centreline (offset t/2) and the extrados (offset t);
+for circular shapes the joints are radial. Joints are spaced evenly along the centreline arc length,
+except that by default the nearest joint is moved under each concentrated load.
+
+Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
+joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
+normal points from its left block into its right block (the centreline tangent); its unit tangent is
+the normal rotated +90 degrees, which points from the intrados towards the extrados at the left springing.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
+_FINE = 4001  # samples of the parameter used to measure arc lengths and invert x(p)
+_EDGE_SAMPLES = 17  # points per voussoir intrados/extrados edge (polygon and Gmsh splines)
+
+
+class _Shape(ABC):
+    """An intrados curve: ``point(p)`` and ``normal(p)`` for p in [0, 1], vectorised; ``kinks`` lists corners."""
+
+    kinks: tuple[float, ...] = ()
+
+    @abstractmethod
+    def point(self, p: np.ndarray) -> np.ndarray:
+        """Intrados points (m), shape (..., 2)."""
+
+    @abstractmethod
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit normals towards the extrados, shape (..., 2)."""
+
+
+class _Circular(_Shape):
+    """Circular arc through both springings and the crown (semicircular when rise = span/2)."""
+
+    def __init__(self, span: float, rise: float):
+        self.radius = (span ** 2 / 4 + rise ** 2) / (2 * rise)
+        self.yc = rise - self.radius
+        self.a0 = np.arccos(np.clip(span / (2 * self.radius), -1.0, 1.0))
+
+    def _angle(self, p):
+        return self.a0 + np.asarray(p, float) * (np.pi - 2 * self.a0)
+
+    def point(self, p):
+        a = self._angle(p)
+        return np.stack([-self.radius * np.cos(a), self.yc + self.radius * np.sin(a)], axis=-1)
+
+    def normal(self, p):
+        a = self._angle(p)
+        return np.stack([-np.cos(a), np.sin(a)], axis=-1)
+
+
+class _Pointed(_Shape):
+    """Two circular arcs centred on the springing line, meeting at the crown (equilateral if rise = span*sqrt(3)/2)."""
+
+    kinks = (0.5,)
+
+    def __init__(self, span: float, rise: float):
+        self.x0 = (rise ** 2 - span ** 2 / 4) / span
+        self.radius = span / 2 + self.x0
+        self.a_top = np.arccos(self.x0 / self.radius)
+
+    def _left(self, q):
+        a = 2 * np.asarray(q, float) * self.a_top
+        pt = np.stack([self.x0 - self.radius * np.cos(a), self.radius * np.sin(a)], axis=-1)
+        return pt, np.stack([-np.cos(a), np.sin(a)], axis=-1)
+
+    def _mirror(self, p, which):
+        p = np.asarray(p, float)
+        left = p <= 0.5
+        v = which(np.where(left, p, 1.0 - p))
+        return np.where(left[..., None], v, v * np.array([-1.0, 1.0]))
+
+    def point(self, p):
+        return self._mirror(p, lambda q: self._left(q)[0])
+
+    def normal(self, p):
+        n = self._mirror(p, lambda q: self._left(q)[1])
+        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)
+        return np.where(crown[..., None], np.array([0.0, 1.0]), n)
+
+
+class _Elliptical(_Shape):
+    """Semi-ellipse with semi-axes span/2 (horizontal) and rise (vertical)."""
+
+    def __init__(self, span: float, rise: float):
+        self.a, self.b = span / 2, rise
+
+    def point(self, p):
+        t = np.pi * np.asarray(p, float)
+        return np.stack([-self.a * np.cos(t), self.b * np.sin(t)], axis=-1)
+
+    def normal(self, p):
+        t = np.pi * np.asarray(p, float)
+        n = np.stack([-self.b * np.cos(t), self.a * np.sin(t)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+class _Parabolic(_Shape):
+    """Parabola y = rise (1 - (2x/span)^2)."""
+
+    def __init__(self, span: float, rise: float):
+        self.span, self.rise = span, rise
+
+    def point(self, p):
+        x = self.span * (np.asarray(p, float) - 0.5)
+        return np.stack([x, self.rise * (1 - (2 * x / self.span) ** 2)], axis=-1)
+
+    def normal(self, p):
+        x = self.span * (np.asarray(p, float) - 0.5)
+        n = np.stack([8 * self.rise * x / self.span ** 2, np.ones_like(x)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def make_shape(shape: str, span: float, rise: float) -> _Shape:
+    """The intrados curve of a named shape (see ``SHAPES``); span and rise in m on the intrados."""
+    return {"semicircular": _Circular, "segmental": _Circular, "pointed": _Pointed,
+            "elliptical": _Elliptical, "parabolic": _Parabolic}[shape](span, rise)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A potential crack between two blocks; ``left``/``right`` are voussoir ids or None for the ground."""
+
+    id: int
+    intrados: np.ndarray
+    extrados: np.ndarray
+    left: int | None
+    right: int | None
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.extrados - self.intrados))
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Unit vector along the joint, from intrados to extrados."""
+        return (self.extrados - self.intrados) / self.length
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normal from the left block into the right block (the centreline direction)."""
+        t = self.tangent
+        return np.array([t[1], -t[0]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        return 0.5 * (self.intrados + self.extrados)
+
+
+@dataclass(frozen=True)
+class Voussoir:
+    """A block of the ring: intrados and extrados edges as polylines (left to right), m.
+
+    ``*_splits`` are indices of interior polyline points where the edge has a corner (pointed crown) or
+    carries a concentrated load; the mesh places a node there.
+    """
+
+    id: int
+    intrados: np.ndarray
+    extrados: np.ndarray
+    intrados_splits: tuple[int, ...] = ()
+    extrados_splits: tuple[int, ...] = ()
+
+    @property
+    def polygon(self) -> np.ndarray:
+        """Counter-clockwise boundary: intrados left to right, then extrados right to left."""
+        return np.vstack([self.intrados, self.extrados[::-1]])
+
+    @property
+    def area(self) -> float:
+        return polygon_area_centroid(self.polygon)[0]
+
+    @property
+    def centroid(self) -> np.ndarray:
+        return polygon_area_centroid(self.polygon)[1]
+
+
+def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
+    """Area (m^2) and centroid (m) of a simple counter-clockwise polygon (shoelace formula)."""
+    x, y = poly[:, 0], poly[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = 0.5 * cross.sum()
+    cx = ((x + xn) * cross).sum() / (6 * area)
+    cy = ((y + yn) * cross).sum() / (6 * area)
+    return float(area), np.array([cx, cy])
+
+
+@dataclass(frozen=True)
+class ArchRing:
+    """The geometry of a ring of voussoirs on two springings.
+
+    ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings).
+    """
+
+    shape: str
+    span: float
+    rise: float
+    thickness: float
+    params: np.ndarray
+    joints: list[Joint] = field(repr=False)
+    voussoirs: list[Voussoir] = field(repr=False)
+
+    @property
+    def n_voussoirs(self) -> int:
+        return len(self.voussoirs)
+
+    def extrados_point(self, x: float) -> np.ndarray:
+        """The extrados point above horizontal position x (m)."""
+        ext = np.vstack([v.extrados for v in self.voussoirs])
+        return np.array([x, np.interp(x, ext[:, 0], ext[:, 1])])
+
+
+def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray:
+    return shape.point(p) + offset * thickness * shape.normal(p)
+
+
+def _extrados_x_to_param(shape: _Shape, thickness: float, x: float) -> float:
+    p = np.linspace(0.0, 1.0, _FINE)
+    return float(np.interp(x, _ring_point(shape, thickness, p, 1.0)[:, 0], p))
+
+
+def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float]) -> np.ndarray:
+    """Move the nearest interior joint onto each load parameter; springing joints never move."""
+    params = params.copy()
+    taken: set[int] = set()
+    s_joints = s_of_p(params)
+    for pl in sorted(set(load_params)):
+        order = np.argsort(np.abs(s_joints - s_of_p(np.array([pl]))[0]))
+        free = [j for j in order if 0 < j < len(params) - 1 and j not in taken]
+        if not free:
+            break
+        j = free[0]
+        params[j] = pl
+        taken.add(j)
+    if np.any(np.diff(params) <= 0):
+        raise ValueError("loads are too close together for this number of voussoirs: "
+                         "a voussoir would vanish; use more voussoirs or joint_at_loads = false")
+    return params
+
+
+def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoirs: int,
+               load_x: list[float] = (), joint_at_loads: bool = True) -> ArchRing:
+    """Build joints and voussoirs of a ring (all lengths in m).
+
+    ``load_x`` are the horizontal positions of concentrated loads and patch-load edges on the extrados;
+    with ``joint_at_loads`` the nearest interior joint is moved under each (a block straddling a
+    concentrated load overstates the limit load).
+    """
+    curve = make_shape(shape, span, rise)
+    p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), curve.kinks]))
+    centre = _ring_point(curve, thickness, p, 0.5)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))])
+
+    def s_of_p(q):
+        return np.interp(q, p, s)
+
+    params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
+    params[0], params[-1] = 0.0, 1.0
+    if joint_at_loads and len(load_x):
+        params = _place_joints_at_loads(params, s_of_p,
+                                        [_extrados_x_to_param(curve, thickness, x) for x in load_x])
+
+    load_params = [_extrados_x_to_param(curve, thickness, x) for x in load_x]
+
+    def voussoir(i):
+        pa, pb = params[i], params[i + 1]
+        kinks = [k for k in curve.kinks if pa < k < pb]
+        loads = [k for k in load_params if pa + 1e-9 < k < pb - 1e-9]
+        q = np.unique(np.concatenate([np.linspace(pa, pb, _EDGE_SAMPLES), kinks, loads]))
+        split = tuple(int(k) for k in np.searchsorted(q, kinks))
+        return Voussoir(i, _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0), split,
+                        tuple(int(k) for k in np.searchsorted(q, sorted(kinks + loads))))
+
+    voussoirs = [voussoir(i) for i in range(n_voussoirs)]
+    joints = []
+    for j, pj in enumerate(params):
+        a = _ring_point(curve, thickness, pj, 0.0)
+        b = _ring_point(curve, thickness, pj, 1.0)
+        joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
+    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs)

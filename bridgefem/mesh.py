@@ -1,0 +1,187 @@
+"""Gmsh mesh of the voussoirs, split into blocks with duplicated nodes on every joint, as a DOLFINx mesh.
+
+Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is conformal; each joint has
+``elements_through_thickness`` segments. The mesh is then split: every node gets one copy per block it
+belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
+have a single face, which meets the rigid ground.
+
+Tags on the DOLFINx mesh:
+- cell tag = voussoir id;
+- facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
+  ``EXTRADOS_TAG`` = extrados of the ring (where live loads act).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import cpp as _cpp
+from dolfinx.mesh import Mesh, MeshTagsMetaClass, create_mesh, meshtags_from_entities
+from mpi4py import MPI
+
+from .geometry import ArchRing
+
+EXTRADOS_TAG = 1_000_000
+
+
+def joint_face_tag(joint: int, side: int) -> int:
+    """Facet tag of a joint face: side 0 = the joint's left block, 1 = its right block."""
+    return 2 * joint + side
+
+
+@dataclass
+class BlockMesh:
+    """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh."""
+
+    mesh: Mesh
+    cell_tags: MeshTagsMetaClass
+    facet_tags: MeshTagsMetaClass
+    element_size: float
+    n_cells: int
+    n_nodes: int
+
+
+def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
+    """Splines through ``points`` between existing Gmsh points ``first`` and ``last``, broken at ``splits``."""
+    tags = [first] + [geo.addPoint(x, y, 0.0) for x, y in points[1:-1]] + [last]
+    cuts = [0, *splits, len(points) - 1]
+    return [geo.addSpline(tags[a:b + 1]) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _segment_counts(lengths: list[float], total: int) -> list[int]:
+    """Split ``total`` segments over curves in proportion to length, at least one each."""
+    raw = np.maximum(1, np.round(np.asarray(lengths) / sum(lengths) * total)).astype(int)
+    raw[np.argmax(raw)] += total - raw.sum()
+    return [int(v) for v in raw]
+
+
+def _gmsh_ring(ring: ArchRing, per_thickness: int):
+    """Mesh the ring with Gmsh (rank 0); returns node coordinates, triangles, cell block ids, joint segments."""
+    import gmsh
+
+    gmsh.initialize([], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("ring")
+        geo = gmsh.model.geo
+        h = ring.thickness / per_thickness
+        inner = [geo.addPoint(*j.intrados, 0.0) for j in ring.joints]
+        outer = [geo.addPoint(*j.extrados, 0.0) for j in ring.joints]
+        joint_curves = [geo.addLine(a, b) for a, b in zip(inner, outer)]
+        surfaces, extrados_curves = [], []
+        for v in ring.voussoirs:
+            i = v.id
+            intra = _add_polyline_side(geo, v.intrados, v.intrados_splits, inner[i], inner[i + 1])
+            extra = _add_polyline_side(geo, v.extrados, v.extrados_splits, outer[i], outer[i + 1])
+            loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
+            surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
+            extrados_curves += extra
+        geo.synchronize()
+        mesh = gmsh.model.mesh
+        for c in joint_curves:
+            mesh.setTransfiniteCurve(c, per_thickness + 1)
+        for s, intra, extra, i in surfaces:
+            centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
+            n_along = max(1, int(np.ceil(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum() / h - 1e-9)))
+            for side in (intra, extra):
+                for c, n in zip(side, _segment_counts([_curve_length(c) for c in side], n_along)):
+                    mesh.setTransfiniteCurve(c, n + 1)
+            mesh.setTransfiniteSurface(s, "Alternate", [inner[i], inner[i + 1], outer[i + 1], outer[i]])
+            gmsh.model.addPhysicalGroup(2, [s], i)
+        for j, c in enumerate(joint_curves):
+            gmsh.model.addPhysicalGroup(1, [c], joint_face_tag(j, 0))
+        gmsh.model.addPhysicalGroup(1, extrados_curves, EXTRADOS_TAG)
+        mesh.generate(2)
+        tags, xyz, _ = mesh.getNodes()
+        order = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        order[tags.astype(np.int64)] = np.arange(len(tags))
+        x = xyz.reshape(-1, 3)[:, :2]
+        cells, blocks = [], []
+        for s, _, _, i in surfaces:
+            _, _, nodes = mesh.getElements(2, s)
+            tri = order[np.asarray(nodes[0], dtype=np.int64)].reshape(-1, 3)
+            cells.append(tri)
+            blocks.append(np.full(len(tri), i, dtype=np.int32))
+        segments = {}
+        for j, c in enumerate(joint_curves):
+            _, _, nodes = mesh.getElements(1, c)
+            segments[j] = order[np.asarray(nodes[0], dtype=np.int64)].reshape(-1, 2)
+        ext = np.vstack([order[np.asarray(mesh.getElements(1, c)[2][0], dtype=np.int64)].reshape(-1, 2)
+                         for c in extrados_curves])
+        return x, np.vstack(cells), np.concatenate(blocks), segments, ext, h
+    finally:
+        gmsh.finalize()
+
+
+def _curve_length(curve: int) -> float:
+    import gmsh
+
+    pts = np.array([gmsh.model.getValue(1, curve, [u]) for u in
+                    np.linspace(*gmsh.model.getParametrizationBounds(1, curve)[0:2], 9).ravel()])
+    return float(np.linalg.norm(np.diff(pts[:, :2], axis=0), axis=1).sum())
+
+
+def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
+    """Give every node one copy per block: returns new coordinates, cells and ``copy(block, old_node)``."""
+    n_old = len(x)
+    keys = blocks.astype(np.int64)[:, None] * n_old + cells
+    unique, inverse = np.unique(keys.ravel(), return_inverse=True)
+
+    def copy(block, old):
+        k = np.asarray(block, dtype=np.int64) * n_old + np.asarray(old, dtype=np.int64)
+        idx = np.searchsorted(unique, k)
+        assert np.all(unique[np.minimum(idx, len(unique) - 1)] == k), "node not in block"
+        return idx
+
+    return x[unique % n_old], inverse.reshape(cells.shape), copy
+
+
+def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD) -> BlockMesh:
+    """Mesh the ring on rank 0, split it at the joints and distribute it over ``comm``."""
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    if comm.rank == 0:
+        x, cells, blocks, segments, ext, h = _gmsh_ring(ring, per_thickness)
+        xs, cs, copy = split_blocks(x, cells, blocks)
+        facets, values = [], []
+        for j, seg in segments.items():
+            for side, block in enumerate((ring.joints[j].left, ring.joints[j].right)):
+                if block is not None:
+                    facets.append(copy(np.full(seg.shape, block), seg))
+                    values.append(np.full(len(seg), joint_face_tag(j, side), dtype=np.int32))
+        ext_block = blocks[_owning_cell(cells, ext)]
+        facets.append(copy(np.stack([ext_block, ext_block], axis=1), ext))
+        values.append(np.full(len(ext), EXTRADOS_TAG, dtype=np.int32))
+        facets, values = np.vstack(facets).astype(np.int64), np.concatenate(values)
+        cell_values = blocks
+        info = comm.bcast((h, len(cs), len(xs)), root=0)
+    else:
+        xs, cs = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
+        facets, values = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
+        cell_values = np.zeros(0, dtype=np.int32)
+        info = comm.bcast(None, root=0)
+    mesh = create_mesh(comm, cs, xs, domain)
+    tdim = mesh.topology.dim
+    ct = _tags(mesh, tdim, cs, cell_values)
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    ft = _tags(mesh, tdim - 1, facets, values)
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2])
+
+
+def _owning_cell(cells: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """For each boundary segment (two node ids), the index of a cell containing both nodes."""
+    n = cells.max() + 1
+    edge_keys = np.concatenate([np.sort(cells[:, [a, b]], axis=1) @ np.array([n, 1]) for a, b in
+                                ((0, 1), (1, 2), (2, 0))])
+    edge_cell = np.tile(np.arange(len(cells)), 3)
+    order = np.argsort(edge_keys)
+    seg_keys = np.sort(segments, axis=1) @ np.array([n, 1])
+    pos = np.searchsorted(edge_keys[order], seg_keys)
+    return edge_cell[order][pos]
+
+
+def _tags(mesh: Mesh, dim: int, entities: np.ndarray, values: np.ndarray) -> MeshTagsMetaClass:
+    local, local_values = _cpp.io.distribute_entity_data(mesh._mesh, dim, entities, values)
+    mesh.topology.create_connectivity(dim, 0)
+    return meshtags_from_entities(mesh, dim, _cpp.graph.AdjacencyList_int32(local),
+                                  np.asarray(local_values, dtype=np.int32))

@@ -1,0 +1,472 @@
+"""Rigid-block limit analysis by linear programming (Gilbert & Melbourne / LimitState:RING style).
+
+The structure is an assembly of rigid blocks in contact through plane joints; the ground is a block without an
+equilibrium equation. Units are SI throughout: m, N, N·m; velocities are virtual and dimensionless in scale.
+
+**Joints.** Joint ``j`` is the segment from its start point ``a_j`` to its end point ``b_j`` (for a ring: intrados
+to extrados), with length ``t_j``, centre ``c_j``, unit tangent ``T_j = (b_j - a_j)/t_j`` and unit normal
+``N_j = (T_y, -T_x)``, which must point from the joint's *left* block into its *right* block. Its statics are
+
+* ``n_j >= 0`` the normal (compressive) force, N;
+* ``s_j`` the shear force, N;
+* ``m_j = n_j e_j`` the moment of the normal force about ``c_j``, N·m, where ``e_j`` is the position of the thrust
+  along ``T_j`` measured from ``c_j`` (``m > 0``: thrust on the extrados/``b`` side).
+
+The left block pushes the right block with the force ``n N + s T`` acting at ``c + e T``, i.e. with moment ``-m``
+about ``c`` (because ``T x N = -1``); the left block receives the opposite.
+
+**Equilibrium** of every block ``k`` (forces x, y and moment about its reference point ``r_k``)::
+
+    sum_j (joint contributions) + d_k + lambda l_k = 0        (A q + lambda l = -d)
+
+with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k``). **Yield** (per joint)::
+
+    |m_j| <= n_j t_j / 2          no tension: the thrust lies within the joint
+    |s_j| <= mu_j n_j + c_j       Coulomb friction (associative: c_j = 0)
+
+The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS).
+
+**Mechanism.** The equilibrium duals are the block virtual velocities ``(u, v, omega)`` at ``r_k`` (the velocity
+is ``minus`` HiGHS' marginals, normalised so that the live load does unit work). At a joint the relative motion of
+the right block with respect to the left one is described by the relative rotation ``[omega]``, the slip
+``T . [v]`` and the opening ``N . [v](e) = N . [v](c) - e [omega]``. Since the opening is nonnegative along the
+joint, a hinge with ``[omega] > 0`` is at the end ``b`` (extrados) and one with ``[omega] < 0`` at ``a`` (intrados).
+Virtual work: ``d . u + lambda l . u = D`` where ``D = sum c_j |z_j|`` is the cohesive dissipation (zero for the
+associative programme, hence ``d . u = -lambda``).
+
+**Non-associative friction** (Gilbert, Casapulla & Ahmed 2006, Computers & Structures 84:873): associative
+friction lets sliding joints dilate and overestimates the collapse load. The iterative scheme starts from the
+associative solution and replaces the Coulomb line of every joint by ``|s| <= alpha mu n + (1 - alpha) mu n~``
+with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <- n~ + beta (n - n~)``), so that
+the shear capacity no longer grows with dilatancy; it repeats until the load factor and the normal forces settle.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+from .geometry import build_ring, polygon_area_centroid
+from .scene import Scene
+
+FRICTION_MODELS = ("associative", "non-associative")
+LOAD_AT_JOINT = ("left", "right", "split")
+_AT_JOINT_TOL = 1e-4  # a point load within this fraction of the span from a joint's extrados corner is on it
+_MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
+
+
+@dataclass(frozen=True)
+class BlockModel:
+    """Generic rigid-block data; ``nb`` blocks, ``nj`` joints, ground = block id -1.
+
+    ref: (nb, 2) reference point of each block (m), about which ``dead``/``live`` moments are taken;
+    dead, live: (nb, 3) generalised loads (Fx, Fy in N; M in N·m, counter-clockwise), live for unit load factor;
+    joint_a, joint_b: (nj, 2) joint start and end points (m); the normal (T_y, -T_x) must point left -> right;
+    joint_left, joint_right: (nj,) block ids (-1: ground); friction: (nj,) Coulomb coefficients.
+    """
+
+    ref: np.ndarray
+    dead: np.ndarray
+    live: np.ndarray
+    joint_a: np.ndarray
+    joint_b: np.ndarray
+    joint_left: np.ndarray
+    joint_right: np.ndarray
+    friction: np.ndarray
+
+    @property
+    def n_blocks(self) -> int:
+        return len(self.ref)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_a)
+
+    def frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Joint lengths t (m), centres c, unit tangents T and unit normals N (arrays over joints)."""
+        d = self.joint_b - self.joint_a
+        t = np.linalg.norm(d, axis=1)
+        tang = d / t[:, None]
+        return t, 0.5 * (self.joint_a + self.joint_b), tang, np.column_stack([tang[:, 1], -tang[:, 0]])
+
+
+def generalised_loads(ref: np.ndarray, blocks, points, forces) -> np.ndarray:
+    """(nb, 3) loads (Fx, Fy, M about ``ref``) from forces (k, 2) in N applied at points (k, 2) on given blocks."""
+    blocks = np.asarray(blocks, int)
+    points, forces = np.atleast_2d(points).astype(float), np.atleast_2d(forces).astype(float)
+    arm = points - ref[blocks]
+    out = np.zeros((len(ref), 3))
+    np.add.at(out, blocks, np.column_stack([forces, arm[:, 0] * forces[:, 1] - arm[:, 1] * forces[:, 0]]))
+    return out
+
+
+@dataclass
+class LPResult:
+    """Outcome of a rigid-block analysis (all arrays over joints/blocks in model order).
+
+    load: total live load at collapse, N (load_factor x sum of live forces; None without live load);
+    load_factor: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
+    the load level in N); load_factor_associative: the associative value (differs only for non-associative runs);
+    status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
+    hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
+    "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
+    block_velocities: (nb, 3) u, v (m/s-like) and omega (rad) at the reference points, live-load work = 1
+    (dead-load-only problems: largest block speed = 1); joint_rotation, joint_slip: relative motions;
+    work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
+    iterations: LPs solved; time_s: wall time.
+    """
+
+    load: float | None
+    load_factor: float | None
+    status: str
+    friction_model: str = "associative"
+    load_factor_associative: float | None = None
+    hinges: list[int] = field(default_factory=list)
+    hinge_positions: dict[int, str] = field(default_factory=dict)
+    sliding: list[int] = field(default_factory=list)
+    joint_forces: dict[str, np.ndarray] = field(default_factory=dict)
+    block_velocities: np.ndarray | None = None
+    joint_rotation: np.ndarray | None = None
+    joint_slip: np.ndarray | None = None
+    work_dead: float | None = None
+    work_live: float | None = None
+    dissipation: float = 0.0
+    iterations: int = 0
+    time_s: float = 0.0
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable copy (arrays become lists, joint ids stay ints)."""
+        def conv(v):
+            if isinstance(v, np.ndarray):
+                return v.tolist()
+            if isinstance(v, dict):
+                return {(int(k) if isinstance(k, (int, np.integer)) else k): conv(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple)):
+                return [conv(x) for x in v]
+            if isinstance(v, np.generic):
+                return v.item()
+            return v
+        return {k: conv(v) for k, v in self.__dict__.items()}
+
+
+class _Programme:
+    """Sparse LP data of a block model.
+
+    Unknowns ``x = (n_0, s_0, m_0, n_1, ..., extra)`` with one extra scalar (the load factor or the deficit).
+    Forces are scaled by ``fref`` (the total dead weight) so that the unknowns are O(1).
+    """
+
+    def __init__(self, model: BlockModel):
+        self.model = model
+        nb, nj = model.n_blocks, model.n_joints
+        t, c, tang, nrm = model.frames()
+        self.t = t
+        self.fref = float(np.abs(model.dead[:, :2]).sum()) or 1.0
+        rows, cols, vals = [], [], []
+        for blocks, sign in ((model.joint_right, 1.0), (model.joint_left, -1.0)):
+            j = np.nonzero(blocks >= 0)[0]
+            k = blocks[j]
+            arm = c[j] - model.ref[k]
+            rows.append(3 * k[:, None] + np.array([0, 0, 1, 1, 2, 2, 2]))
+            cols.append(3 * j[:, None] + np.array([0, 1, 0, 1, 0, 1, 2]))
+            vals.append(sign * np.column_stack([
+                nrm[j, 0], tang[j, 0], nrm[j, 1], tang[j, 1],
+                arm[:, 0] * nrm[j, 1] - arm[:, 1] * nrm[j, 0],    # moment of n N about r_k
+                arm[:, 0] * tang[j, 1] - arm[:, 1] * tang[j, 0],  # moment of s T about r_k
+                -np.ones(len(j))]))
+        self.A = sp.csr_matrix((np.concatenate(vals).ravel(),
+                                (np.concatenate(rows).ravel(), np.concatenate(cols).ravel())),
+                               shape=(3 * nb, 3 * nj))
+        self.b_eq = -model.dead.ravel() / self.fref
+        lo = np.append(np.tile([0.0, -np.inf, -np.inf], nj), 0.0)
+        self.bounds = np.column_stack([lo, np.full(3 * nj + 1, np.inf)])
+
+    def yield_rows(self, mu: np.ndarray, extra: np.ndarray) -> sp.csr_matrix:
+        """Rows ``+-m - n t/2`` and ``+-s - mu n`` of every joint (4 per joint), then column ``extra`` (4 nj,)."""
+        nj = self.model.n_joints
+        j = np.arange(nj)[:, None]
+        rows = 4 * j + np.array([0, 0, 1, 1, 2, 2, 3, 3])
+        cols = 3 * j + np.array([2, 0, 2, 0, 1, 0, 1, 0])
+        one, half = np.ones(nj), self.t / 2
+        vals = np.column_stack([one, -half, -one, -half, one, -mu, -one, -mu])
+        g = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(4 * nj, 3 * nj))
+        return sp.hstack([g, sp.csr_matrix(extra[:, None])], format="csr")
+
+    def rhs(self, cohesion: np.ndarray) -> np.ndarray:
+        h = np.zeros((self.model.n_joints, 4))
+        h[:, 2] = h[:, 3] = cohesion / self.fref
+        return h.ravel()
+
+    def solve(self, mu: np.ndarray, cohesion: np.ndarray, deficit: bool):
+        """One LP; the extra unknown is lambda (maximised) or, if ``deficit``, tau (minimised).
+
+        load:    max lambda   s.t. A q + lambda l = -d,  |m| <= n t/2,  |s| <= mu n + c
+        deficit: min tau >= 0 s.t. A q = -d,  |m| <= (n + tau) t/2,  |s| <= mu n + c + tau
+        ``tau`` is the smallest tensile strength at the joint edges and cohesion (a force, uniform over the
+        joints) that equilibrium under the dead load needs: zero when the dead load alone can be carried.
+        """
+        nj = self.model.n_joints
+        if deficit:
+            extra_col = sp.csr_matrix((self.A.shape[0], 1))
+            extra_ub = -np.column_stack([self.t / 2, self.t / 2, np.ones(nj), np.ones(nj)]).ravel()
+            cost_extra = 1.0
+        else:
+            extra_col = sp.csr_matrix(self.model.live.ravel()[:, None])
+            extra_ub = np.zeros(4 * nj)
+            cost_extra = -1.0
+        cost = np.zeros(3 * nj + 1)
+        cost[-1] = cost_extra
+        return linprog(cost, A_ub=self.yield_rows(mu, extra_ub), b_ub=self.rhs(cohesion),
+                       A_eq=sp.hstack([self.A, extra_col], format="csr"), b_eq=self.b_eq,
+                       bounds=self.bounds, method="highs")
+
+
+def _relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative rotation [omega] and slip T.[v] of the right block with respect to the left one at each joint."""
+    _, c, tang, _ = model.frames()
+    padded = np.vstack([vel, np.zeros(3)])  # index -1: the ground, at rest
+    ref = np.vstack([model.ref, np.zeros(2)])
+
+    def at_centre(blocks):
+        u = padded[blocks]
+        arm = c - ref[blocks]
+        return np.column_stack([u[:, 0] - u[:, 2] * arm[:, 1], u[:, 1] + u[:, 2] * arm[:, 0]]), u[:, 2]
+
+    v_r, w_r = at_centre(model.joint_right)
+    v_l, w_l = at_centre(model.joint_left)
+    return w_r - w_l, np.einsum("ij,ij->i", v_r - v_l, tang)
+
+
+def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesion: np.ndarray) -> None:
+    """Joint forces, mechanism (from the equilibrium duals) and work terms of an optimal LP."""
+    nj = model.n_joints
+    q = sol.x[:3 * nj].reshape(nj, 3) * prog.fref
+    res.joint_forces = {"n": q[:, 0], "s": q[:, 1], "m": q[:, 2]}
+    vel = -np.asarray(sol.eqlin.marginals).reshape(-1, 3)
+    if res.load_factor is None:  # dead load only: largest block speed = 1
+        speed = np.hypot(vel[:, 0], vel[:, 1]).max()
+        vel = vel / speed if speed > 0 else vel
+    rot, slip = _relative_motion(model, vel)
+    span = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()
+    scale = max(np.abs(rot).max() * span, np.abs(slip).max(), 1e-300)
+    hinge = np.abs(rot) * span > _MECH_TOL * scale
+    res.block_velocities, res.joint_rotation, res.joint_slip = vel, rot, slip
+    res.hinges = [int(j) for j in np.nonzero(hinge)[0]]
+    res.hinge_positions = {j: ("extrados" if rot[j] > 0 else "intrados") for j in res.hinges}
+    res.sliding = [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]
+    res.work_dead = float(model.dead.ravel() @ vel.ravel())
+    res.work_live = float(model.live.ravel() @ vel.ravel())
+    z = np.asarray(sol.ineqlin.marginals)
+    res.dissipation = float(-(prog.rhs(cohesion) @ z) * prog.fref) if res.load_factor is not None else 0.0
+
+
+def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LPResult:
+    """An LPResult carrying the outcome of a load-factor LP (forces and mechanism still empty)."""
+    if sol.status == 2:
+        return LPResult(None, None, "unstable under self-weight", friction_model)
+    if sol.status == 3 or not np.any(model.live):
+        return LPResult(None, None, "no collapse (unbounded)", friction_model)
+    if sol.status != 0:
+        raise RuntimeError(f"rigid-block LP failed: {sol.message}")
+    lam = float(sol.x[-1] * prog.fref)
+    return LPResult(lam * float(np.hypot(model.live[:, 0], model.live[:, 1]).sum()), lam, "limit load found", friction_model)
+
+
+def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alpha: float = 0.01,
+                 beta: float = 0.6, rtol: float = 1e-5, max_iterations: int = 200) -> LPResult:
+    """Collapse load factor of a block model (see the module docstring for the programme).
+
+    friction_model: "associative" (one LP, an upper bound when joints slide) or "non-associative" (the
+    iterative LP of Gilbert, Casapulla & Ahmed 2006 with friction share ``alpha`` kept on the current normal force
+    and under-relaxation ``beta`` of the normal forces; stops when lambda and n change by less than ``rtol``).
+    """
+    if friction_model not in FRICTION_MODELS:
+        raise ValueError(f"friction_model = {friction_model!r}: allowed are {', '.join(FRICTION_MODELS)}")
+    start = time.perf_counter()
+    prog = _Programme(model)
+    mu = np.asarray(model.friction, float)
+    cohesion = np.zeros(model.n_joints)
+    sol = prog.solve(mu, cohesion, deficit=False)
+    iterations = 1
+    res = _status(sol, model, prog, friction_model)
+    if res.load_factor is None:
+        res.iterations, res.time_s = iterations, time.perf_counter() - start
+        return res
+    res.load_factor_associative = res.load_factor
+    if friction_model == "non-associative":
+        lam_prev, n_tilde = res.load_factor, sol.x[0:-1:3].copy()
+        for _ in range(max_iterations):
+            cohesion = (1 - alpha) * mu * n_tilde * prog.fref
+            sol = prog.solve(alpha * mu, cohesion, deficit=False)
+            iterations += 1
+            if sol.status != 0:
+                break
+            n = sol.x[0:-1:3]
+            lam = sol.x[-1] * prog.fref
+            change_n = np.abs(n - n_tilde).max() / max(np.abs(n).max(), 1e-300)
+            n_tilde = n_tilde + beta * (n - n_tilde)
+            if abs(lam - lam_prev) <= rtol * abs(lam) and change_n <= rtol:
+                break
+            lam_prev = lam
+        assoc = res.load_factor_associative
+        res = _status(sol, model, prog, friction_model)
+        res.load_factor_associative = assoc
+    if sol.status == 0:
+        _fill_result(res, model, prog, sol, cohesion)
+    res.iterations, res.time_s = iterations, time.perf_counter() - start
+    return res
+
+
+def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str = "split",
+               live: bool = True) -> BlockModel:
+    """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
+
+    Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
+    vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
+    uniform per horizontal metre over its x-range. A point load exactly above a joint is carried by the block on
+    its ``load_at_joint`` side ("left" | "right"), or half by each ("split"). ``thickness`` overrides the scene's;
+    ``live=False`` drops the live loads.
+    """
+    if load_at_joint not in LOAD_AT_JOINT:
+        raise ValueError(f"load_at_joint = {load_at_joint!r}: allowed are {', '.join(LOAD_AT_JOINT)}")
+    a = scene.arch
+    ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
+                      scene.load_edges_x(), a.joint_at_loads)
+    area, centroid = zip(*(polygon_area_centroid(v.polygon) for v in ring.voussoirs))
+    ref = np.array(centroid)
+    nb = len(ref)
+    weight = scene.masonry.density * scene.gravity * a.width * np.array(area)
+    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
+    ext = np.vstack([v.extrados for v in ring.voussoirs])
+    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
+    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
+    blocks, xs, fy = [], [], []
+    for ld in scene.loads if live else ():
+        lo, hi = ld.x_range(a.span)
+        if ld.kind == "point":
+            j = np.argmin(np.abs(x0[1:] - lo)) + 1  # nearest interior joint (between blocks j-1 and j)
+            if abs(x0[j] - lo) <= _AT_JOINT_TOL * a.span:  # on the joint's extrados corner
+                on = {"left": [j - 1], "right": [j], "split": [j - 1, j]}[load_at_joint]
+                x = x0[j]
+            else:
+                on, x = np.nonzero((x0 <= lo) & (lo <= x1))[0][:1], lo
+            blocks.append(np.array(on))
+            xs.append(np.full(len(on), x))
+            fy.append(np.full(len(on), -ld.factor / len(on)))
+        else:
+            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
+            on = np.nonzero(right > left)[0]
+            blocks.append(on)
+            xs.append(0.5 * (left[on] + right[on]))
+            fy.append(-ld.factor * (right[on] - left[on]) / (hi - lo))
+    if blocks:
+        b, x = np.concatenate(blocks), np.concatenate(xs)
+        f = np.column_stack([np.zeros(len(x)), np.concatenate(fy)])
+        live_loads = generalised_loads(ref, b, np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]), f)
+    else:
+        live_loads = np.zeros((nb, 3))
+    nj = len(ring.joints)
+    return BlockModel(
+        ref=ref, dead=dead, live=live_loads,
+        joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
+        joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
+        joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
+        friction=np.full(nj, scene.joints.friction))
+
+
+def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = "split",
+                  **options) -> LPResult:
+    """Rigid-block collapse load of a scene's ring; ``options`` go to :func:`solve_blocks`."""
+    return solve_blocks(ring_model(scene, load_at_joint=load_at_joint), friction_model, **options)
+
+
+@dataclass
+class ThicknessResult:
+    """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
+    shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
+    ``bracket``: (unstable, stable) thicknesses; ``evaluations``: LPs solved."""
+
+    thickness: float
+    ratio: float | None
+    radius: float | None
+    mechanism: LPResult
+    bracket: tuple[float, float]
+    evaluations: int
+
+    def to_dict(self) -> dict:
+        return {"thickness": self.thickness, "ratio": self.ratio, "radius": self.radius,
+                "mechanism": self.mechanism.to_dict(), "bracket": list(self.bracket),
+                "evaluations": self.evaluations}
+
+
+def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, alpha: float = 0.01,
+                      beta: float = 0.6, rtol: float = 1e-6, max_iterations: int = 200) -> tuple[float, LPResult]:
+    """Smallest uniform joint tensile strength and cohesion tau (N) the dead load needs, and the LP outcome.
+
+    ``tau = 0``: the blocks stand under their dead load; ``tau > 0``: they do not, and the mechanism (equilibrium
+    duals, dead-load work > 0) is how they fail. The non-associative option iterates the friction rows as in
+    :func:`solve_blocks`.
+    """
+    start = time.perf_counter()
+    prog = _Programme(model)
+    mu = np.asarray(model.friction, float)
+    cohesion = np.zeros(model.n_joints)
+    sol = prog.solve(mu, cohesion, deficit=True)
+    iterations = 1
+    if friction_model == "non-associative":
+        tau_prev, n_tilde = sol.x[-1], sol.x[0:-1:3].copy()
+        for _ in range(max_iterations):
+            cohesion = (1 - alpha) * mu * n_tilde * prog.fref
+            sol = prog.solve(alpha * mu, cohesion, deficit=True)
+            iterations += 1
+            n = sol.x[0:-1:3]
+            change_n = np.abs(n - n_tilde).max() / max(np.abs(n).max(), 1e-300)
+            n_tilde = n_tilde + beta * (n - n_tilde)
+            if abs(sol.x[-1] - tau_prev) <= rtol and change_n <= rtol:
+                break
+            tau_prev = sol.x[-1]
+    if sol.status != 0:
+        raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
+    tau = float(sol.x[-1] * prog.fref)
+    res = LPResult(None, None, "unstable under self-weight" if tau > 1e-9 * prog.fref else "stable under self-weight",
+                   friction_model)
+    _fill_result(res, model, prog, sol, cohesion)
+    res.iterations, res.time_s = iterations, time.perf_counter() - start
+    return tau, res
+
+
+def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",
+                  **options) -> ThicknessResult:
+    """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.
+
+    A thickness is stable when :func:`dead_load_deficit` is zero; the bracket starts at (1e-4, 0.999) x span and
+    is halved until its width is below ``rtol`` x thickness. For circular shapes the centreline radius is
+    ``R = R_intrados + t/2`` and ``ratio = t/R``.
+    """
+    span = scene.arch.span
+    evals = 0
+
+    def deficit(t):
+        nonlocal evals
+        evals += 1
+        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)
+
+    lo, hi = 1e-4 * span, 0.999 * span
+    if deficit(hi)[0] > 0:
+        raise ValueError(f"the ring cannot carry its self-weight at any thickness below the span ({hi:g} m)")
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        if deficit(mid)[0] > 0:
+            lo = mid
+        else:
+            hi = mid
+    mechanism = deficit(lo)[1]
+    radius = ratio = None
+    if scene.arch.shape in ("semicircular", "segmental"):
+        a = scene.arch
+        radius = (a.span ** 2 / 4 + a.rise ** 2) / (2 * a.rise) + hi / 2
+        ratio = hi / radius
+    return ThicknessResult(hi, ratio, radius, mechanism, (lo, hi), evals)

@@ -1,0 +1,302 @@
+"""Semismooth Newton (primal-dual active set) for elasticity with joint contact and friction.
+
+Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
+
+    K u - G^T lam = f                                   (equilibrium, N)
+    open pair:   lam_n = 0,             lam_t = 0
+    stick pair:  c G_n u = 0,           c G_t u = c d_t(ref)          (closed, no slip this step)
+    slip pair:   c G_n u = 0,           lam_t - s mu lam_n = 0         (closed, sliding in direction -s)
+
+with G the relative displacement operator of :mod:`bridgefem.contact`. Each Newton iteration solves this
+system, then re-derives the active set from the Alart-Curnier functions; a step has converged when the
+active set no longer changes and the scaled equilibrium residual is small. The system lives in one PETSc
+AIJ matrix whose sparsity pattern never changes (entries of inactive laws are explicit zeros), so the
+direct solver's symbolic factorisation is reused; the matrix is refactorised only when the active set
+changed. Every stop decision is collective over MPI.
+
+Pairs whose state cycles between Newton iterations (with large friction the discrete Coulomb law can have no
+consistent slip direction at a pair next to a crack tip) are frozen to stick for the rest of the step; the
+count is reported as ``frozen`` and the friction law is not checked at those pairs.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, classify,
+                      complementarity_residual)
+
+PETSC_PREFIX = "bridgefem_"
+DEFAULT_PETSC_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 200,
+}
+EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
+DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
+
+
+@dataclass
+class Iterate:
+    """A (possibly converged) solution: combined vector x = [u; lam] and the active set it satisfies."""
+
+    x: PETSc.Vec
+    active: ContactState
+    slip_ref: np.ndarray
+
+
+@dataclass
+class StepOutcome:
+    """Result of one load step; ``reason`` is empty when converged. A failure with ``mechanism`` set showed
+    a singular or unbounded response (no equilibrium); other failures are non-convergence."""
+
+    converged: bool
+    reason: str
+    iterations: int
+    residual: float
+    factorisations: int
+    iterate: Iterate | None = None
+    counts: dict = field(default_factory=dict)
+    mechanism: bool = False
+
+
+class ContactSolver:
+    """Builds the combined system once and solves load steps with the active-set Newton method."""
+
+    def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs, friction: float,
+                 c: np.ndarray, force_tol: float, max_iterations: int, petsc_options: dict):
+        self.comm = K.getComm().tompi4py()
+        self.pairs, self.mu, self.c = pairs, friction, c
+        self.force_tol, self.max_iterations = force_tol, max_iterations
+        self.f_dead, self.f_live = f_dead, f_live
+        self.u_cap = np.inf
+        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
+        self._layout(K)
+        self._build(K)
+        self._ksp(petsc_options)
+        self._matrix_key: bytes | None = None
+
+    # ----------------------------------------------------------------- layout
+    def _layout(self, K: PETSc.Mat) -> None:
+        """Combined numbering: rank r owns [its u rows, its 2 m_r lam rows]."""
+        comm = self.comm
+        u0, u1 = K.getOwnershipRange()
+        self.n_u, self.n_lam = u1 - u0, 2 * len(self.pairs)
+        ranges = np.array(comm.allgather((u0, u1, self.n_lam)))
+        self.u_starts, self.u_ends = ranges[:, 0], ranges[:, 1]
+        counts = (ranges[:, 1] - ranges[:, 0]) + ranges[:, 2]
+        self.starts = np.concatenate([[0], np.cumsum(counts)])
+        self.lam_starts = np.concatenate([[0], np.cumsum(ranges[:, 2])])
+        self.n_u_all = ranges[:, 1] - ranges[:, 0]
+        self.N = int(self.starts[-1])
+        self.n_local = self.n_u + self.n_lam
+
+    def comb_u(self, g: np.ndarray) -> np.ndarray:
+        q = np.searchsorted(self.u_ends, g, side="right")
+        return self.starts[q] + g - self.u_starts[q]
+
+    def comb_lam(self, g: np.ndarray) -> np.ndarray:
+        q = np.searchsorted(self.lam_starts[1:], g, side="right")
+        return self.starts[q] + self.n_u_all[q] + g - self.lam_starts[q]
+
+    # ----------------------------------------------------------------- assembly
+    def _g_entries(self):
+        """Entries of G for the local pairs: (row in 0..2m-1, global u dof, value)."""
+        p = self.pairs
+        k = np.arange(len(p))
+        rows, cols, vals = [], [], []
+        for node, sign in ((p.right, 1.0), (p.left, -1.0)):
+            has = node != GROUND
+            for comp in (0, 1):
+                for kind, vec in ((0, p.normal), (1, p.tangent)):
+                    rows.append(2 * k[has] + kind)
+                    cols.append(2 * node[has] + comp)
+                    vals.append(sign * vec[has, comp])
+        return np.concatenate(rows), np.concatenate(cols).astype(np.int64), np.concatenate(vals)
+
+    def _build(self, K: PETSc.Mat) -> None:
+        comm, p = self.comm, self.pairs
+        g_rows, g_cols, g_vals = self._g_entries()
+        m2 = self.n_lam
+        n_u_global = K.getSize()[0]
+        g_local = sp.csr_matrix((g_vals, (g_rows, g_cols)), shape=(m2, n_u_global))
+        G = PETSc.Mat().createAIJ(size=((m2, 2 * p.total), (self.n_u, n_u_global)),
+                                  csr=(g_local.indptr.astype(PETSc.IntType),
+                                       g_local.indices.astype(PETSc.IntType), g_local.data), comm=comm)
+        G.assemble()
+        Gt = G.transpose()
+        ki, kj, kv = K.getValuesCSR()
+        ti, tj, tv = Gt.getValuesCSR()
+        k_rows = np.repeat(np.arange(self.n_u), np.diff(ki))
+        t_rows = np.repeat(np.arange(self.n_u), np.diff(ti))
+        lam_g = 2 * p.offset + np.arange(m2)
+        k = np.arange(len(p))
+        diag_rows = np.concatenate([2 * k, 2 * k + 1, 2 * k + 1])
+        diag_cols = np.concatenate([lam_g[2 * k], lam_g[2 * k + 1], lam_g[2 * k]])
+        rows = np.concatenate([k_rows, t_rows, self.n_u + g_rows, self.n_u + diag_rows])
+        cols = np.concatenate([self.comb_u(kj.astype(np.int64)), self.comb_lam(tj.astype(np.int64)),
+                               self.comb_u(g_cols), self.comb_lam(diag_cols)])
+        self._const = np.concatenate([kv, -tv])
+        self._g_rows, self._g_vals = g_rows, g_vals
+        self._n_diag = len(k)
+        slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
+        slots.sort_indices()
+        self._perm = slots.data.astype(np.int64) - 1
+        self._indptr = slots.indptr.astype(PETSc.IntType)
+        self._indices = slots.indices.astype(PETSc.IntType)
+        values = self._values(ContactState.all_stick(len(p)))
+        self.A = PETSc.Mat().createAIJ(size=((self.n_local, self.N), (self.n_local, self.N)),
+                                       csr=(self._indptr, self._indices, values), comm=comm)
+        self.A.assemble()
+        self._G = PETSc.Mat().createAIJ(size=((m2, 2 * p.total), (self.n_local, self.N)),
+                                        csr=(g_local.indptr.astype(PETSc.IntType),
+                                             self.comb_u(g_local.indices.astype(np.int64)).astype(PETSc.IntType),
+                                             g_local.data), comm=comm)
+        self._G.assemble()
+        self.b = self.A.createVecLeft()
+        self.d = self._G.createVecLeft()
+        G.destroy()
+        Gt.destroy()
+
+    def _values(self, active: ContactState) -> np.ndarray:
+        """Matrix values (CSR order) of the linear system of an active set."""
+        st, mu = active.state, self.mu
+        closed, stick, slip = st != OPEN, st == STICK, st == SLIP
+        pair = self._g_rows // 2
+        law_active = np.where(self._g_rows % 2 == 0, closed[pair], stick[pair])
+        g_part = self._g_vals * self.c[pair] * law_active
+        diag = np.concatenate([(~closed).astype(float), (~stick).astype(float), -mu * active.sign * slip])
+        return np.concatenate([self._const, g_part, diag])[self._perm]
+
+    def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray) -> None:
+        b = self.b.array
+        b[:self.n_u] = self.f_dead.array + level * self.f_live.array
+        lam_rhs = np.zeros(self.n_lam)
+        lam_rhs[1::2] = np.where(active.state == STICK, self.c * slip_ref, 0.0)
+        b[self.n_u:] = lam_rhs
+
+    def _ksp(self, options: dict) -> None:
+        opts = PETSc.Options()
+        merged = {**DEFAULT_PETSC_OPTIONS, **options}
+        for key, value in merged.items():
+            opts[PETSC_PREFIX + key] = value
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOptionsPrefix(PETSC_PREFIX)
+        self.ksp.setOperators(self.A)
+        self.ksp.setFromOptions()
+        for key in merged:
+            opts.delValue(PETSC_PREFIX + key)
+        self.petsc_options = {k: str(v) for k, v in merged.items()}
+
+    # ----------------------------------------------------------------- Newton
+    def initial_iterate(self) -> Iterate:
+        """Every joint closed and sticking, zero state: the start of the self-weight step."""
+        return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)))
+
+    def split(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Local owned u, lam (m, 2) and relative displacements d (m, 2) of an iterate vector."""
+        self._G.mult(x, self.d)
+        return x.array[:self.n_u], x.array[self.n_u:].reshape(-1, 2), self.d.array.reshape(-1, 2)
+
+    def _counts(self, active: ContactState) -> dict:
+        local = np.bincount(active.state, minlength=3)
+        total = self.comm.allreduce(local)
+        return {"open": int(total[OPEN]), "stick": int(total[STICK]), "slip": int(total[SLIP])}
+
+    def _any(self, flag: bool) -> bool:
+        return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
+
+    def solve_step(self, level: float, start: Iterate) -> StepOutcome:
+        """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``."""
+        active, slip_ref = start.active.copy(), start.slip_ref
+        x = self.A.createVecRight()
+        start.x.copy(x)
+        seen = {self._global_key(active)}
+        frozen = np.zeros(len(self.pairs), dtype=bool)
+        f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
+        residual, factorisations = np.inf, 0
+        for it in range(1, self.max_iterations + 1):
+            key = active.key()
+            if self._any(key != self._matrix_key):
+                self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
+                self.A.assemble()
+                self.ksp.setOperators(self.A)
+                self._matrix_key = key
+                factorisations += 1
+                self.stats["factorisations"] += 1
+            self._rhs(level, active, slip_ref)
+            t0 = time.perf_counter()
+            self.ksp.solve(self.b, x)
+            self.stats["time_factorise_solve"] += time.perf_counter() - t0
+            self.stats["solves"] += 1
+            reason = self.ksp.getConvergedReason()
+            if reason < 0:
+                return StepOutcome(False, _linear_failure(self.ksp, reason), it, residual, factorisations,
+                                   mechanism=True)
+            u, lam, d = self.split(x)
+            if self._any(not np.all(np.isfinite(x.array))):
+                return StepOutcome(False, "NaN in the solution", it, residual, factorisations)
+            u_max = self._norm_inf(u)
+            if not np.isfinite(self.u_cap) and u_max > 0:
+                self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
+            if u_max > self.u_cap:
+                return StepOutcome(False, f"diverged: displacement {u_max:.3g} m exceeds the cap "
+                                          f"{self.u_cap:.3g} m (no equilibrium: mechanism)", it, residual,
+                                   factorisations, mechanism=True)
+            new = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
+            new.state[frozen], new.sign[frozen] = STICK, 0
+            changed = self.comm.allreduce(int(np.count_nonzero((new.state != active.state)
+                                                               | (new.sign != active.sign))))
+            residual = self._equilibrium_residual(x, f_scale)
+            if changed == 0:
+                comp = self._norm_inf(complementarity_residual(lam, d, slip_ref, self.mu, self.c)[~frozen].ravel())
+                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
+                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
+                    return StepOutcome(True, "", it, residual, factorisations, Iterate(x, active, slip_ref), counts)
+                return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
+                                          f"complementarity residual {comp:.2e} N (singular system)",
+                                   it, residual, factorisations, mechanism=True)
+            gkey = self._global_key(new)
+            if gkey in seen:
+                cycling = (new.state != active.state) | (new.sign != active.sign)
+                if self.comm.allreduce(int(np.count_nonzero(cycling & frozen))):
+                    return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
+                                       factorisations)
+                frozen |= cycling
+                new.state[frozen], new.sign[frozen] = STICK, 0
+                gkey = self._global_key(new)
+            seen.add(gkey)
+            active = new
+        return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
+                                  "changing", self.max_iterations, residual, factorisations)
+
+    def converged_slip_reference(self, it: Iterate) -> Iterate:
+        """The converged state becomes the reference for the incremental slip of the next step."""
+        _, _, d = self.split(it.x)
+        return Iterate(it.x, it.active, d[:, 1].copy())
+
+    def _global_key(self, active: ContactState) -> int:
+        return hash(tuple(self.comm.allgather(active.key())))
+
+    def _norm_inf(self, a: np.ndarray) -> float:
+        return float(self.comm.allreduce(np.abs(a).max() if a.size else 0.0, op=MPI.MAX))
+
+    def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
+        r = self.A.createVecLeft()
+        self.A.mult(x, r)
+        res = self._norm_inf(r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
+        r.destroy()
+        return res
+
+
+def _linear_failure(ksp: PETSc.KSP, reason: int) -> str:
+    pc_reason = ksp.getPC().getFailedReason() if hasattr(ksp.getPC(), "getFailedReason") else None
+    names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
+    detail = f", PC failed reason {pc_reason}" if pc_reason else ""
+    return f"linear solver failed: {names.get(reason, reason)}{detail} (singular system: mechanism)"
