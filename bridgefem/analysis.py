@@ -20,7 +20,7 @@ from .geometry import ArchRing, build_ring
 from .mesh import BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .scene import Scene
+from .scene import Scene, SceneError
 from .solver import ContactSolver, Iterate
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length
@@ -77,7 +77,10 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         t = now
 
     a = scene.arch
-    ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
+    try:
+        ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
+    except ValueError as err:
+        raise SceneError(f"[arch] voussoirs = {a.voussoirs}: {err}") from None
     lap("geometry")
     bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm)
     lap("mesh")

@@ -1,0 +1,128 @@
+"""Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
+
+Exit codes: 0 computed (whatever the structural status), 1 solver failure, 2 bad input (nothing written).
+PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (they override the
+scene's ``[solver.petsc]`` table, which overrides the defaults).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from .scene import Scene, SceneError, load_scene
+
+PETSC_PREFIX = "-bridgefem_"
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="bridgefem", description="Limit loads of masonry arch bridges.")
+    sub = p.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
+    run.add_argument("scene", type=Path)
+    run.add_argument("--out", type=Path, help="output folder (default results/<scene name>)")
+    run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
+                     help="PETSc option for the contact solver, without the prefix (repeatable)")
+    run.add_argument("--quiet", action="store_true", help="no per-step progress")
+    check = sub.add_parser("check", help="validate a scene file and print it")
+    check.add_argument("scene", type=Path)
+    lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
+    lp.add_argument("scene", type=Path)
+    lp.add_argument("--json", action="store_true", help="print one JSON object")
+    lp.add_argument("--friction-model", choices=["associative", "non-associative"], default="associative")
+    mt = sub.add_parser("min-thickness", help="least ring thickness in equilibrium under self-weight (LP)")
+    mt.add_argument("scene", type=Path)
+    mt.add_argument("--json", action="store_true", help="print one JSON object")
+    mt.add_argument("--friction-model", choices=["associative", "non-associative"], default="associative")
+    return p
+
+
+def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+    out = {}
+    for item in pairs:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise SceneError(f"--petsc {item!r}: expected KEY=VALUE, e.g. --petsc ksp_type=preonly")
+        out[key.lstrip("-")] = value
+    i = 0
+    while i < len(raw):
+        arg = raw[i]
+        if not arg.startswith(PETSC_PREFIX):
+            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {PETSC_PREFIX}")
+        has_value = i + 1 < len(raw) and not raw[i + 1].startswith("-")
+        out[arg[len(PETSC_PREFIX):]] = raw[i + 1] if has_value else ""
+        i += 2 if has_value else 1
+    return out
+
+
+def _progress(total: float):
+    from mpi4py import MPI
+
+    def report(step) -> None:
+        if MPI.COMM_WORLD.rank != 0:
+            return
+        c = step.counts
+        pairs = f"open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else step.reason
+        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  "
+              f"{'converged' if step.converged else 'FAILED   '}  newton {step.iterations:2d}  "
+              f"residual {step.residual:.1e}  {pairs}  ({step.seconds:.2f} s)", flush=True)
+
+    return report
+
+
+def _run(args, petsc: dict) -> int:
+    scene = load_scene(args.scene)
+    out = args.out or Path("results") / scene.name
+    from mpi4py import MPI
+
+    from .analysis import run_analysis
+    from .results import write_results
+
+    comm = MPI.COMM_WORLD
+    total = sum(ld.factor for ld in scene.loads)
+    an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total))
+    extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+                        "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
+    data = write_results(an, out, extra)
+    if comm.rank == 0:
+        lim = data["limit_load"]
+        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.2f}"
+        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.2f}, {upper}] kN "
+              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        if data["failure_reason"]:
+            print(f"  last failed step: {data['failure_reason']}")
+        print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+        print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
+    return 1 if data["status"].startswith("solver failure") else 0
+
+
+def _check(args) -> int:
+    scene: Scene = load_scene(args.scene)
+    print(json.dumps({"scene": scene.name, "valid": True}, indent=2))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    logging.getLogger().setLevel(logging.WARNING)
+    argv = sys.argv[1:] if argv is None else argv
+    args, raw = _parser().parse_known_args(argv)
+    try:
+        petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
+        if raw and args.command != "run":
+            raise SceneError(f"unknown argument {raw[0]!r}")
+        if args.command == "run":
+            return _run(args, petsc)
+        if args.command == "check":
+            return _check(args)
+        from .rigid_block import cli_lp, cli_min_thickness
+
+        return (cli_lp if args.command == "lp" else cli_min_thickness)(args)
+    except SceneError as err:
+        print(f"bridgefem: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,172 @@
+"""Results of a run: results.json, XDMF fields for ParaView and PNG plots, written atomically.
+
+Everything goes to a temporary folder beside the target, which replaces the target only when complete,
+so an interrupted or failed run never leaves a half-written folder and never overwrites earlier results.
+Loads are in N (for the scene's width), lengths in m.
+"""
+from __future__ import annotations
+
+import json
+import platform
+import shutil
+import tempfile
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+from dolfinx import fem, io
+from petsc4py import PETSc
+
+from .analysis import Analysis
+from .contact import OPEN, SLIP
+
+JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
+
+
+def versions() -> dict:
+    """Versions of the software that produced a result."""
+    import dolfinx
+    import gmsh
+    import scipy
+
+    out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
+           "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
+           "numpy": np.__version__, "scipy": scipy.__version__}
+    try:
+        out["bridgefem"] = metadata.version("bridgefem")
+    except metadata.PackageNotFoundError:
+        out["bridgefem"] = "source tree"
+    return out
+
+
+def summary(an: Analysis, extra: dict | None = None) -> dict:
+    """The JSON-ready summary of an analysis (identical on every rank)."""
+    s, total = an.search, an.load_total
+    hinges = [j for j in an.joints if j.hinge]
+    steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
+              "newton_iterations": st.iterations, "factorisations": st.factorisations,
+              "residual": st.residual if np.isfinite(st.residual) else None,
+              "deflection": st.deflection, "pairs": st.counts, "seconds": st.seconds} for st in s.steps]
+    return {
+        "scene": an.scene.name,
+        "status": s.status,
+        "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
+                       "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
+        "failure_reason": s.failure,
+        "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
+                      "sliding": [j.id for j in an.joints if j.sliding]},
+        "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
+                    **({"normal_force": js.normal_force, "shear_force": js.shear_force,
+                        "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
+                        "hinge": js.hinge, "sliding": js.sliding} if js else {})}
+                   for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
+        "self_weight": an.model.dead_weight,
+        "history": steps,
+        "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
+                  "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
+                  "element_size": an.block_mesh.element_size, "degree": an.scene.mesh.degree,
+                  "plane": an.scene.model.plane},
+        "solver": {**an.solver.stats, "load_steps": len(s.steps),
+                   "newton_iterations": sum(st.iterations for st in s.steps),
+                   "petsc_options": an.solver.petsc_options},
+        "timings": an.timings,
+        "mpi_ranks": an.solver.comm.size,
+        "versions": versions(),
+        **(extra or {}),
+    }
+
+
+def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
+    """Write results.json, fields.xdmf and the PNGs into ``out`` atomically (collective); returns the summary."""
+    comm = an.solver.comm
+    out = Path(out)
+    tmp = Path(comm.bcast(tempfile.mkdtemp(prefix=f".{out.name}.", dir=_parent(out)) if comm.rank == 0 else None))
+    try:
+        data = summary(an, extra)
+        if an.search.last is not None:
+            _write_fields(an, tmp / "fields.xdmf")
+        motion = _voussoir_motion(an) if an.search.last is not None else None
+        if comm.rank == 0:
+            (tmp / "results.json").write_text(json.dumps(data, indent=2))
+            from .plots import plot_load_deflection, plot_mechanism
+
+            plot_load_deflection(data, tmp / "load_deflection.png")
+            plot_mechanism(an.ring, data, motion, tmp / "mechanism.png")
+        comm.barrier()
+    except BaseException:
+        if comm.rank == 0:
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if comm.rank == 0:
+        old = out.with_name(f".{out.name}.old")
+        if out.exists():
+            out.rename(old)
+        tmp.rename(out)
+        shutil.rmtree(old, ignore_errors=True)
+    comm.barrier()
+    return data
+
+
+def _parent(out: Path) -> Path:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return out.parent
+
+
+def _write_fields(an: Analysis, path: Path) -> None:
+    """Displacement (m) and joint state (0 none, 1 stick, 2 slip, 3 open) at the last converged step, on P1."""
+    V, it, solver, pairs = an.model.V, an.search.last, an.solver, an.pairs
+    mesh = V.mesh
+    u = fem.Function(V, name="displacement")
+    n_u = solver.n_u
+    u.x.array[:n_u] = it.x.array[:n_u]
+    u.x.scatter_forward()
+    Q, q_to_v = V.sub(0).collapse()
+    state = fem.Function(Q, name="joint_state")
+    code = np.where(it.active.state == OPEN, JOINT_STATE_CODES["open"],
+                    np.where(it.active.state == SLIP, JOINT_STATE_CODES["slip"], JOINT_STATE_CODES["stick"]))
+    table = np.vstack(mesh.comm.allgather(np.column_stack([np.concatenate([pairs.left, pairs.right]),
+                                                           np.concatenate([code, code])])))
+    table = table[table[:, 0] >= 0]
+    order = np.argsort(table[:, 0])
+    keys, vals = table[order, 0], table[order, 1]
+    imap = V.dofmap.index_map
+    nodes_global = imap.local_to_global(np.asarray(q_to_v, dtype=np.int32) // 2)
+    pos = np.clip(np.searchsorted(keys, nodes_global), 0, max(len(keys) - 1, 0))
+    hit = (keys[pos] == nodes_global) if len(keys) else np.zeros(len(nodes_global), bool)
+    state.x.array[:] = np.where(hit, vals[pos] if len(keys) else 0, 0)
+    if an.scene.mesh.degree != 1:
+        V1 = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
+        Q1 = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        u1, s1 = fem.Function(V1, name="displacement"), fem.Function(Q1, name="joint_state")
+        u1.interpolate(u)
+        s1.interpolate(state)
+        u, state = u1, s1
+    with io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        xdmf.write_function(u)
+        xdmf.write_function(state)
+
+
+def _voussoir_motion(an: Analysis) -> np.ndarray:
+    """Least-squares rigid motion (ux, uy, rotation) of each voussoir at the last converged step (collective)."""
+    V, bm = an.model.V, an.block_mesh
+    n_owned = V.dofmap.index_map.size_local
+    n_blocks = an.ring.n_voussoirs
+    node_block = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1)
+    cells = bm.cell_tags.indices
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    node_block[dofs[cells].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
+    blk = node_block[:n_owned]
+    x = V.tabulate_dof_coordinates()[:n_owned, :2]
+    u = an.search.last.x.array[:2 * n_owned].reshape(-1, 2)
+    comm = V.mesh.comm
+
+    def total(w):
+        return comm.allreduce(np.bincount(blk, weights=w, minlength=n_blocks))
+
+    count = total(np.ones(len(blk)))
+    xc = np.column_stack([total(x[:, 0]), total(x[:, 1])]) / count[:, None]
+    r = x - xc[blk]
+    theta = total(r[:, 0] * u[:, 1] - r[:, 1] * u[:, 0]) / total((r ** 2).sum(axis=1))
+    mean_u = np.column_stack([total(u[:, 0]), total(u[:, 1])]) / count[:, None]
+    return np.column_stack([mean_u - np.column_stack([-theta * xc[:, 1], theta * xc[:, 0]]), theta])
