@@ -56,8 +56,8 @@ class Analysis:
 
     @property
     def load_total(self) -> float:
-        """Total live load (N) per unit load level."""
-        return sum(ld.factor for ld in self.scene.loads)
+        """Total live load (N) per unit load level (1 without live loads)."""
+        return sum(ld.factor for ld in self.scene.loads) or 1.0
 
     @property
     def n_dofs(self) -> int:
@@ -96,7 +96,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     s = scene.solver
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
-                             max_load=s.max_load or 100 * model.dead_weight, max_steps=s.max_steps, report=report)
+                             max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
+                             max_steps=s.max_steps, report=report)
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)
@@ -108,7 +109,7 @@ def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: I
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign])
     table = np.vstack(solver.comm.allgather(local))
     states = []
-    for jt in ring.joints:
+    for jt in (j for j in ring.joints if not j.free):
         rows = table[table[:, 0] == jt.id]
         lam_n, lam_t, pos, length, st, sign = rows[:, 1], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6]
         n_force = lam_n.sum()
@@ -120,6 +121,21 @@ def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: I
                                  float(length[~closed].sum() / length.sum()), sliding))
     _mark_hinges(states, ring)
     return states
+
+
+def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
+    """Force (N; x, y) of the ground on the ring at each springing joint, rows in joint order.
+
+    A joint's resultant (normal force along its normal, shear along its tangent) acts on its right face, so
+    the ground pushes the ring with +resultant where the ground is the left block and -resultant otherwise.
+    """
+    out = []
+    for js in joints:
+        jt = ring.joints[js.id]
+        if jt.left is None or jt.right is None:
+            force = js.normal_force * jt.normal + js.shear_force * jt.tangent
+            out.append(force if jt.left is None else -force)
+    return np.array(out)
 
 
 def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:

@@ -90,7 +90,7 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
     table = np.vstack(comm.allgather(mine))
 
     cols = {k: [] for k in ("joint", "left", "right", "normal", "tangent", "length", "position")}
-    for jt in ring.joints:
+    for jt in (j for j in ring.joints if not j.free):
         faces = []
         for side in (0, 1):
             sel = table[table[:, 0] == joint_face_tag(jt.id, side)]
@@ -136,10 +136,10 @@ class ContactState:
 
 
 def classify(prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
-             mu: float, c: np.ndarray, force_tol: float) -> ContactState:
+             mu: float, c: np.ndarray, force_tol: float) -> tuple[ContactState, np.ndarray]:
     """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` (N) so that pairs
     carrying no force do not chatter between states. ``lam``, ``d``: (m, 2) arrays; ``slip_ref``: d_t at the
-    last converged step."""
+    last converged step. Also returns each pair's violation (N), which ranks changes for damping."""
     sig_n = lam[:, 0] - c * d[:, 0]
     sig_t = lam[:, 1] - c * (d[:, 1] - slip_ref)
     was_closed = prev.state != OPEN
@@ -151,7 +151,8 @@ def classify(prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.nd
     reversed_slip = was_slip & (sign != prev.sign)
     slip = np.where(was_slip & ~reversed_slip, excess > -force_tol, excess > force_tol)
     state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
-    return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8))
+    violation = np.maximum(np.abs(sig_n), np.abs(excess))
+    return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8)), violation
 
 
 def complementarity_residual(lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray, mu: float,

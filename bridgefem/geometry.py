@@ -131,13 +131,15 @@ def make_shape(shape: str, span: float, rise: float) -> _Shape:
 
 @dataclass(frozen=True)
 class Joint:
-    """A potential crack between two blocks; ``left``/``right`` are voussoir ids or None for the ground."""
+    """A potential crack between two blocks; ``left``/``right`` are voussoir ids or None for the ground
+    (or, with ``free``, for nothing: an unloaded free face)."""
 
     id: int
     intrados: np.ndarray
     extrados: np.ndarray
     left: int | None
     right: int | None
+    free: bool = False  # a free face (no ground behind the missing block), e.g. the top of a standing block
 
     @property
     def length(self) -> float:

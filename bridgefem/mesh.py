@@ -145,6 +145,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
         xs, cs, copy = split_blocks(x, cells, blocks)
         facets, values = [], []
         for j, seg in segments.items():
+            if ring.joints[j].free:
+                continue
             for side, block in enumerate((ring.joints[j].left, ring.joints[j].right)):
                 if block is not None:
                     facets.append(copy(np.full(seg.shape, block), seg))

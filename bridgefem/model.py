@@ -24,7 +24,7 @@ POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the 
 @dataclass
 class ElasticModel:
     """Assembled operators; ``monitor`` holds the owned node indices (blocked) whose mean vertical
-    displacement is the deflection under the (first) load."""
+    displacement is the deflection under the first load (at the crown without live load)."""
 
     V: fem.FunctionSpace
     K: PETSc.Mat
@@ -91,9 +91,8 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
                 loc.array[2 * nodes + 1] -= ld.factor / count
     live = -f_live.sum()
 
-    first = scene.loads[0]
-    a, b = first.x_range(scene.arch.span)
-    monitor = _owned_nodes_at(V, ring.extrados_point(0.5 * (a + b)), _monitor_tol(V, ring, 0.5 * (a + b)))
+    x_mon = 0.5 * sum(scene.loads[0].x_range(scene.arch.span)) if scene.loads else 0.0
+    monitor = _owned_nodes_at(V, ring.extrados_point(x_mon), _monitor_tol(V, ring, x_mon))
     return ElasticModel(V, K, f_dead, f_live, monitor, dead_weight, live)
 
 

@@ -6,7 +6,7 @@ bracket [last converged, first failed] once the failing step is within ``toleran
 level: a failure reached by a large step proves nothing, so it is never used as a bound. Failed steps are
 discarded (incremental friction makes the response path dependent).
 
-Statuses: "limit load found", "unstable under self-weight", "no collapse up to the maximum load (locked)",
+Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load), "no collapse up to the maximum load (locked)",
 "solver failure: <reason>" (the bracket did not close within the step budget).
 """
 from __future__ import annotations
@@ -22,6 +22,7 @@ from .solver import ContactSolver, Iterate, StepOutcome
 LIMIT_FOUND = "limit load found"
 UNSTABLE = "unstable under self-weight"
 LOCKED = "no collapse up to the maximum load (locked)"
+STABLE = "stable under self-weight"
 
 
 @dataclass
@@ -73,6 +74,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     if not first.converged:
         return LimitSearch(UNSTABLE, 0.0, 0.0, tolerance, steps, None, first.reason)
     state = solver.converged_slip_reference(first.iterate)
+    if max_load <= 0:
+        return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)
     lower, step, recent_failure = 0.0, initial_step, False
     while len(steps) < max_steps:
         if lower >= max_load:

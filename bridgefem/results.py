@@ -17,7 +17,7 @@ import numpy as np
 from dolfinx import fem, io
 from petsc4py import PETSc
 
-from .analysis import Analysis
+from .analysis import Analysis, springing_reactions
 from .contact import OPEN, SLIP
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
@@ -61,6 +61,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
                         "hinge": js.hinge, "sliding": js.sliding} if js else {})}
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
         "self_weight": an.model.dead_weight,
+        "springing_reactions": springing_reactions(an.joints, an.ring).tolist() if an.joints else [],
         "history": steps,
         "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
                   "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,

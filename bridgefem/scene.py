@@ -246,8 +246,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     if a["thickness"] >= a["span"]:
         raise SceneError(f"[arch] thickness = {a['thickness']!r}: allowed is 0 < thickness < span = {a['span']:g} m")
     raw_loads = data.get("load", [])
-    if not isinstance(raw_loads, list) or not raw_loads:
-        raise SceneError(f"[[load]] = {raw_loads!r}: expected at least one [[load]] table")
+    if not isinstance(raw_loads, list):
+        raise SceneError(f"[[load]] = {raw_loads!r}: expected [[load]] tables (none: self-weight only)")
     loads = []
     for i, raw in enumerate(raw_loads):
         label = f"[[load]] #{i + 1}"

@@ -14,9 +14,11 @@ AIJ matrix whose sparsity pattern never changes (entries of inactive laws are ex
 direct solver's symbolic factorisation is reused; the matrix is refactorised only when the active set
 changed. Every stop decision is collective over MPI.
 
-Pairs whose state cycles between Newton iterations (with large friction the discrete Coulomb law can have no
-consistent slip direction at a pair next to a crack tip) are frozen to stick for the rest of the step; the
-count is reported as ``frozen`` and the friction law is not checked at those pairs.
+Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
+discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
+for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
+friction law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular
+proposal after damping, non-convergence otherwise.
 """
 from __future__ import annotations
 
@@ -80,7 +82,6 @@ class ContactSolver:
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
-        self._matrix_key: bytes | None = None
 
     # ----------------------------------------------------------------- layout
     def _layout(self, K: PETSc.Mat) -> None:
@@ -190,6 +191,8 @@ class ContactSolver:
         self.ksp.setOptionsPrefix(PETSC_PREFIX)
         self.ksp.setOperators(self.A)
         self.ksp.setFromOptions()
+        self.ksp.setUp()  # the factorisation reads its options (e.g. MUMPS ICNTL) now
+        self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
         for key in merged:
             opts.delValue(PETSC_PREFIX + key)
         self.petsc_options = {k: str(v) for k, v in merged.items()}
@@ -212,50 +215,81 @@ class ContactSolver:
     def _any(self, flag: bool) -> bool:
         return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
 
+    def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec):
+        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism)."""
+        key = active.key()
+        if self._any(key != self._matrix_key):
+            self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
+            self.A.assemble()
+            self.ksp.setOperators(self.A)
+            self._matrix_key = key
+            self.stats["factorisations"] += 1
+        self._rhs(level, active, slip_ref)
+        t0 = time.perf_counter()
+        self.ksp.solve(self.b, x)
+        self.stats["time_factorise_solve"] += time.perf_counter() - t0
+        self.stats["solves"] += 1
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            return _linear_failure(self.ksp, reason)
+        if self._any(not np.all(np.isfinite(x.array))):
+            return "NaN in the solution", False
+        u_max = self._norm_inf(x.array[:self.n_u])
+        if not np.isfinite(self.u_cap) and u_max > 0:
+            self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
+        if u_max > self.u_cap:
+            return (f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m "
+                    "(no equilibrium: mechanism)"), True
+        return None
+
+    def _damp(self, base: ContactState, proposal: ContactState, pending: np.ndarray, violation: np.ndarray):
+        """Keep the half of the pending changes with the largest violations (at least one)."""
+        ranked = np.concatenate(self.comm.allgather(violation[pending]))
+        if len(ranked) <= 1:
+            return None
+        threshold = np.sort(ranked)[::-1][max(len(ranked) // 2, 1) - 1]
+        keep = pending & (violation >= threshold)
+        damped = base.copy()
+        damped.state[keep], damped.sign[keep] = proposal.state[keep], proposal.sign[keep]
+        return damped, keep
+
     def solve_step(self, level: float, start: Iterate) -> StepOutcome:
-        """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``."""
+        """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
+
+        Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
+        the last good iterate and applies only the half of the proposed changes with the largest violations,
+        down to a single change; only then is the failure reported.
+        """
         active, slip_ref = start.active.copy(), start.slip_ref
         x = self.A.createVecRight()
         start.x.copy(x)
         seen = {self._global_key(active)}
         frozen = np.zeros(len(self.pairs), dtype=bool)
         f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
-        residual, factorisations = np.inf, 0
+        residual, factorisations0 = np.inf, self.stats["factorisations"]
+        base = None  # (good active set, its proposal, pending changes, violations)
+        singular = None  # the last singular proposal of this step
         for it in range(1, self.max_iterations + 1):
-            key = active.key()
-            if self._any(key != self._matrix_key):
-                self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
-                self.A.assemble()
-                self.ksp.setOperators(self.A)
-                self._matrix_key = key
-                factorisations += 1
-                self.stats["factorisations"] += 1
-            self._rhs(level, active, slip_ref)
-            t0 = time.perf_counter()
-            self.ksp.solve(self.b, x)
-            self.stats["time_factorise_solve"] += time.perf_counter() - t0
-            self.stats["solves"] += 1
-            reason = self.ksp.getConvergedReason()
-            if reason < 0:
-                return StepOutcome(False, _linear_failure(self.ksp, reason), it, residual, factorisations,
-                                   mechanism=True)
-            u, lam, d = self.split(x)
-            if self._any(not np.all(np.isfinite(x.array))):
-                return StepOutcome(False, "NaN in the solution", it, residual, factorisations)
-            u_max = self._norm_inf(u)
-            if not np.isfinite(self.u_cap) and u_max > 0:
-                self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
-            if u_max > self.u_cap:
-                return StepOutcome(False, f"diverged: displacement {u_max:.3g} m exceeds the cap "
-                                          f"{self.u_cap:.3g} m (no equilibrium: mechanism)", it, residual,
-                                   factorisations, mechanism=True)
-            new = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
-            new.state[frozen], new.sign[frozen] = STICK, 0
-            changed = self.comm.allreduce(int(np.count_nonzero((new.state != active.state)
-                                                               | (new.sign != active.sign))))
+            failure = self._solve_active(level, active, slip_ref, x)
+            if failure is not None:
+                singular = failure if failure[1] else singular
+                damped = self._damp(*base) if base is not None else None
+                if damped is None:
+                    return StepOutcome(False, failure[0], it, residual,
+                                       self.stats["factorisations"] - factorisations0, mechanism=failure[1])
+                active, base = damped[0], (base[0], base[1], damped[1], base[3])
+                continue
+            _, lam, d = self.split(x)
+            new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
+            _stick(new, frozen)
+            pending = (new.state != active.state) | (new.sign != active.sign)
+            changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             residual = self._equilibrium_residual(x, f_scale)
+            factorisations = self.stats["factorisations"] - factorisations0
             if changed == 0:
-                comp = self._norm_inf(complementarity_residual(lam, d, slip_ref, self.mu, self.c)[~frozen].ravel())
+                ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
+                ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
+                comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations, Iterate(x, active, slip_ref), counts)
@@ -264,17 +298,22 @@ class ContactSolver:
                                    it, residual, factorisations, mechanism=True)
             gkey = self._global_key(new)
             if gkey in seen:
-                cycling = (new.state != active.state) | (new.sign != active.sign)
-                if self.comm.allreduce(int(np.count_nonzero(cycling & frozen))):
+                if singular is not None:
+                    return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
+                                       residual, factorisations, mechanism=True)
+                flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
+                if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
                     return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
                                        factorisations)
-                frozen |= cycling
-                new.state[frozen], new.sign[frozen] = STICK, 0
+                frozen |= flips
+                _stick(new, frozen)
                 gkey = self._global_key(new)
             seen.add(gkey)
+            base = (active, new, pending, violation)
             active = new
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
-                                  "changing", self.max_iterations, residual, factorisations)
+                                  "changing", self.max_iterations, residual,
+                           self.stats["factorisations"] - factorisations0)
 
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
@@ -295,8 +334,21 @@ class ContactSolver:
         return res
 
 
-def _linear_failure(ksp: PETSc.KSP, reason: int) -> str:
-    pc_reason = ksp.getPC().getFailedReason() if hasattr(ksp.getPC(), "getFailedReason") else None
+def _stick(active: ContactState, frozen: np.ndarray) -> None:
+    """Frozen pairs that are closed stick (their slip direction cycled); open ones stay open."""
+    fix = frozen & (active.state != OPEN)
+    active.state[fix], active.sign[fix] = STICK, 0
+
+
+def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:
+    """Describe a failed linear solve; the flag says whether it proves a singular system (a mechanism)."""
     names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
-    detail = f", PC failed reason {pc_reason}" if pc_reason else ""
-    return f"linear solver failed: {names.get(reason, reason)}{detail} (singular system: mechanism)"
+    pc = ksp.getPC()
+    text = f"linear solver failed: {names.get(reason, reason)}"
+    if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
+        infog = pc.getFactorMatrix().getMumpsInfog(1)
+        singular = infog == -10
+        detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
+                  "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
+        return f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular
+    return f"{text} (treated as a singular system: mechanism)", True

@@ -1,0 +1,65 @@
+"""Shared helpers: reference scenes as dictionaries, and running the command line (serial or mpirun -n 2)."""
+from __future__ import annotations
+
+import copy
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+REFERENCE_ARCH = {
+    "arch": {"shape": "semicircular", "span": 9.0, "rise": 4.5, "thickness": 1.0, "width": 1.0, "voussoirs": 16},
+    "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
+    "joints": {"friction": 0.6},
+    "load": [{"kind": "point", "position": 0.22222}],
+}
+
+
+def scene_dict(**sections) -> dict:
+    """The issue's reference arch (centreline radius 5 m, t = 1 m) with sections updated key by key."""
+    d = copy.deepcopy(REFERENCE_ARCH)
+    for name, values in sections.items():
+        if isinstance(values, dict):
+            d.setdefault(name, {}).update(values)
+        else:
+            d[name] = values
+    return d
+
+
+def write_toml(path: Path, d: dict) -> Path:
+    """A minimal TOML writer for scene dictionaries (tables, arrays of tables, scalars)."""
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return f'"{v}"'
+        return repr(v)
+
+    lines = []
+    for name, sec in d.items():
+        for table in (sec if isinstance(sec, list) else [sec]):
+            lines.append(f"[[{name}]]" if isinstance(sec, list) else f"[{name}]")
+            lines += [f"{k} = {value(v)}" for k, v in table.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def bridgefem(*args, ranks: int = 1, timeout: int = 600) -> subprocess.CompletedProcess:
+    """Run the installed command line, optionally under mpirun."""
+    cmd = [sys.executable, "-m", "bridgefem.cli", *map(str, args)]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
+
+
+@pytest.fixture
+def tmp_scene(tmp_path):
+    def make(d: dict, name: str = "scene") -> Path:
+        return write_toml(tmp_path / f"{name}.toml", d)
+    return make
