@@ -72,7 +72,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
 
     first = attempt(0.0, solver.initial_iterate())
     if not first.converged:
-        return LimitSearch(UNSTABLE, 0.0, 0.0, tolerance, steps, None, first.reason)
+        status = UNSTABLE if first.mechanism else f"solver failure: {first.reason}"
+        return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason)
     state = solver.converged_slip_reference(first.iterate)
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)

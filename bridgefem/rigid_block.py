@@ -38,7 +38,14 @@ associative programme, hence ``d . u = -lambda``).
 friction lets sliding joints dilate and overestimates the collapse load. The iterative scheme starts from the
 associative solution and replaces the Coulomb line of every joint by ``|s| <= alpha mu n + (1 - alpha) mu n~``
 with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <- n~ + beta (n - n~)``), so that
-the shear capacity no longer grows with dilatancy; it repeats until the load factor and the normal forces settle.
+the shear capacity no longer grows with dilatancy; it repeats until the load factor settles. At a fixed point
+(``n = n~``) the state obeys ``|s| <= mu n``, so the non-associative load factor does not exceed the associative
+one; where the collapse state is statically determinate (e.g. an arch mechanism of two hinges and two sliding
+joints, or hinges plus a sliding springing) the two coincide.
+
+**Dead load only** (least thickness): the *deficit* programme minimises ``tau >= 0``, a uniform tensile strength
+at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``). The
+blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load work > 0).
 """
 from __future__ import annotations
 
@@ -118,7 +125,7 @@ class LPResult:
     block_velocities: (nb, 3) u, v (m/s-like) and omega (rad) at the reference points, live-load work = 1
     (dead-load-only problems: largest block speed = 1); joint_rotation, joint_slip: relative motions;
     work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
-    iterations: LPs solved; time_s: wall time.
+    iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s).
     """
 
     load: float | None
@@ -137,6 +144,7 @@ class LPResult:
     work_live: float | None = None
     dissipation: float = 0.0
     iterations: int = 0
+    converged: bool = True
     time_s: float = 0.0
 
     def to_dict(self) -> dict:
@@ -274,20 +282,23 @@ def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LP
     if sol.status != 0:
         raise RuntimeError(f"rigid-block LP failed: {sol.message}")
     lam = float(sol.x[-1] * prog.fref)
-    return LPResult(lam * float(np.hypot(model.live[:, 0], model.live[:, 1]).sum()), lam, "limit load found", friction_model)
+    total_live = float(np.hypot(model.live[:, 0], model.live[:, 1]).sum())
+    return LPResult(lam * total_live, lam, "limit load found", friction_model)
 
 
 def _solve(prog: _Programme, deficit: bool, friction_model: str, alpha: float, beta: float, rtol: float,
            max_iterations: int):
     """Solve the associative LP, then (non-associative) iterate the friction rows.
 
-    Returns the last solution, its cohesions (N), the number of LPs and the associative extra unknown (or None).
+    Returns the last solution, its cohesions (N), the number of LPs, whether the iteration converged and the
+    associative value of the extra unknown (unscaled; None if that LP has no optimum).
 
     Iteration k replaces ``|s| <= mu n`` by ``|s| <= alpha mu n + (1 - alpha) mu n~`` and relaxes
     ``n~ <- n~ + beta (n - n~)``, from ``n~`` = the associative normal forces, until the extra unknown (lambda or
     tau, scaled by the dead weight) varies by less than ``rtol`` over the last ``_WINDOW`` LPs. (The LP optimum is
     often degenerate, so the normal forces of joints off the mechanism may keep changing; the load factor is
     what converges. The first iterations may repeat the associative value before the normal forces drift.)
+    An iteration LP without optimum ends the iteration and is reported as such.
     """
     if friction_model not in FRICTION_MODELS:
         raise ValueError(f"friction_model = {friction_model!r}: allowed are {', '.join(FRICTION_MODELS)}")
@@ -297,7 +308,7 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, alpha: float, b
     iterations = 1
     first = sol.x[-1] * prog.fref if sol.status == 0 else None
     if friction_model == "associative" or sol.status != 0:
-        return sol, cohesion, iterations, first
+        return sol, cohesion, iterations, True, first
     history, n_tilde = [sol.x[-1]], sol.x[0:-1:3].copy()
     for _ in range(max_iterations):
         cohesion = (1 - alpha) * mu * n_tilde * prog.fref
@@ -309,8 +320,8 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, alpha: float, b
         history.append(sol.x[-1])
         last = history[-_WINDOW:]
         if len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0):
-            break
-    return sol, cohesion, iterations, first
+            return sol, cohesion, iterations, True, first
+    return sol, cohesion, iterations, False, first
 
 
 def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alpha: float = 0.01,
@@ -319,16 +330,18 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alph
 
     friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the iterative
     LP of Gilbert, Casapulla & Ahmed 2006: ``alpha`` is the share of friction kept on the current normal force,
-    ``beta`` the under-relaxation of the normal forces, ``rtol`` the convergence tolerance on lambda and n).
+    ``beta`` the under-relaxation of the normal forces, ``rtol`` the tolerance on lambda, ``max_iterations`` the
+    number of iteration LPs after the associative one).
     """
     start = time.perf_counter()
     prog = _Programme(model)
-    sol, cohesion, iterations, first = _solve(prog, False, friction_model, alpha, beta, rtol, max_iterations)
+    sol, cohesion, iterations, converged, first = _solve(prog, False, friction_model, alpha, beta, rtol,
+                                                         max_iterations)
     res = _status(sol, model, prog, friction_model)
     res.load_factor_associative = first if res.load_factor is not None else None
     if res.load_factor is not None:
         _fill_result(res, model, prog, sol, cohesion)
-    res.iterations, res.time_s = iterations, time.perf_counter() - start
+    res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
     return res
 
 
@@ -401,7 +414,7 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
 class ThicknessResult:
     """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
     shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
-    ``bracket``: (unstable, stable) thicknesses; ``evaluations``: LPs solved."""
+    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed."""
 
     thickness: float
     ratio: float | None
@@ -426,14 +439,14 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     """
     start = time.perf_counter()
     prog = _Programme(model)
-    sol, cohesion, iterations, _ = _solve(prog, True, friction_model, alpha, beta, rtol, max_iterations)
+    sol, cohesion, iterations, converged, _ = _solve(prog, True, friction_model, alpha, beta, rtol, max_iterations)
     if sol.status != 0:
         raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
     tau = float(sol.x[-1] * prog.fref)
     res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > 1e-9 else "stable under self-weight",
                    friction_model)
     _fill_result(res, model, prog, sol, cohesion)
-    res.iterations, res.time_s = iterations, time.perf_counter() - start
+    res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
     return tau, res
 
 
@@ -448,21 +461,21 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
     span = scene.arch.span
     evals = 0
 
-    def deficit(t):
+    def analyse(t) -> LPResult:
         nonlocal evals
         evals += 1
-        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)
+        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)[1]
 
     lo, hi = 1e-4 * span, 0.999 * span
-    if deficit(hi)[0] > 0:
+    if analyse(hi).status != "stable under self-weight":
         raise ValueError(f"the ring cannot carry its self-weight at any thickness below the span ({hi:g} m)")
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
-        if deficit(mid)[0] > 0:
-            lo = mid
-        else:
+        if analyse(mid).status == "stable under self-weight":
             hi = mid
-    mechanism = deficit(lo)[1]
+        else:
+            lo = mid
+    mechanism = analyse(lo)
     radius = ratio = None
     if scene.arch.shape in ("semicircular", "segmental"):
         a = scene.arch

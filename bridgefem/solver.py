@@ -351,4 +351,4 @@ def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:
         detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
                   "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
         return f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular
-    return f"{text} (treated as a singular system: mechanism)", True
+    return f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False

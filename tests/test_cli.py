@@ -1,0 +1,78 @@
+"""The command line end to end: results files, bad input (exit 2, nothing written), the same answer under
+mpirun -n 2, and the demo scene."""
+import json
+
+import pytest
+
+from conftest import ROOT, bridgefem, scene_dict, write_toml
+
+
+def test_bad_scene_exits_2_and_writes_nothing(tmp_path):
+    scene = write_toml(tmp_path / "bad.toml", scene_dict(arch={"thickness": -1.0}))
+    out = tmp_path / "out"
+    proc = bridgefem("run", scene, "--out", out)
+    assert proc.returncode == 2
+    assert "[arch] thickness = -1.0" in proc.stderr
+    assert not out.exists()
+
+
+def test_failed_run_keeps_earlier_results(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.json").write_text("{\"earlier\": true}")
+    scene = write_toml(tmp_path / "bad.toml", scene_dict(joints={"friction": -1.0}))
+    assert bridgefem("run", scene, "--out", out).returncode == 2
+    assert json.loads((out / "results.json").read_text()) == {"earlier": True}
+
+
+@pytest.fixture(scope="module")
+def demo_serial(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial") / "bare_arch"
+    proc = bridgefem("run", ROOT / "demos" / "bare_arch.toml", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "results.json").read_text()), out, proc.stdout
+
+
+def test_demo_writes_results_and_reports_progress(demo_serial):
+    data, out, stdout = demo_serial
+    for name in ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png"):
+        assert (out / name).is_file(), name
+    assert data["status"] == "limit load found"
+    lim = data["limit_load"]
+    assert lim["unit"] == "N" and lim["lower"] < lim["upper"] <= lim["lower"] * (1 + lim["tolerance"])
+    assert len(data["joints"]) == 17 and data["joints"][0]["intrados"] == [-4.5, 0.0]
+    assert "step   1" in stdout and "limit load in [" in stdout
+    assert set(data["timings"]) >= {"mesh", "assembly", "limit search"}
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_same_bracket_and_mechanism(demo_serial, tmp_path):
+    serial = demo_serial[0]
+    out = tmp_path / "mpi"
+    proc = bridgefem("run", ROOT / "demos" / "bare_arch.toml", "--out", out, "--quiet", ranks=2)
+    assert proc.returncode == 0, proc.stderr
+    parallel = json.loads((out / "results.json").read_text())
+    assert parallel["mpi_ranks"] == 2
+    # the same active sets and load steps: only round-off differs
+    assert parallel["limit_load"]["lower"] == pytest.approx(serial["limit_load"]["lower"], rel=1e-9)
+    assert parallel["limit_load"]["upper"] == pytest.approx(serial["limit_load"]["upper"], rel=1e-9)
+    assert parallel["mechanism"] == serial["mechanism"]
+
+
+@pytest.mark.parametrize("options,recorded,status", [
+    # MUMPS with another ordering (AMF) and a pivoting threshold: the same limit load
+    (["--petsc", "mat_mumps_icntl_7=2", "-bridgefem_mat_mumps_cntl_1", "0.1"],
+     {"mat_mumps_icntl_7": "2", "mat_mumps_cntl_1": "0.1"}, "limit load found"),
+    # PETSc's own LU does not pivot: it cannot factor the contact system, which must be reported as a
+    # solver failure (exit 1), never as a collapse or instability
+    (["--petsc", "pc_factor_mat_solver_type=petsc"], {"pc_factor_mat_solver_type": "petsc"}, "solver failure"),
+])
+def test_petsc_options_from_the_command_line(tmp_path, demo_serial, options, recorded, status):
+    out = tmp_path / "petsc"
+    proc = bridgefem("run", ROOT / "demos" / "bare_arch.toml", "--out", out, "--quiet", *options)
+    data = json.loads((out / "results.json").read_text())
+    assert data["status"].startswith(status)
+    assert proc.returncode == (0 if status == "limit load found" else 1)
+    assert recorded.items() <= data["solver"]["petsc_options"].items()
+    if status == "limit load found":
+        assert data["limit_load"]["lower"] == pytest.approx(demo_serial[0]["limit_load"]["lower"], rel=1e-6)

@@ -1,0 +1,49 @@
+"""Scene validation: every bad value gives one message naming the key, the value and what is allowed."""
+import pytest
+
+from bridgefem.scene import SceneError, scene_from_dict
+
+from conftest import scene_dict
+
+
+@pytest.mark.parametrize("sections,expected", [
+    ({"arch": {"thickness": -1.0}}, ["[arch] thickness", "-1.0", "positive"]),
+    ({"arch": {"voussoirs": 1}}, ["[arch] voussoirs", "1", "2 to 4096"]),
+    ({"arch": {"voussoirs": 16.5}}, ["[arch] voussoirs", "16.5", "int"]),
+    ({"arch": {"shape": "gothic"}}, ["[arch] shape", "gothic", "semicircular"]),
+    ({"arch": {"shape": "segmental", "rise": 5.0}}, ["[arch] rise", "5.0", "span/2"]),
+    ({"arch": {"rise": 3.0}}, ["[arch] rise", "3.0", "semicircular"]),
+    ({"arch": {"colour": "red"}}, ["[arch]", "colour", "allowed keys"]),
+    ({"joints": {"friction": -0.1}}, ["[joints] friction", "-0.1", ">= 0"]),
+    ({"masonry": {"poisson": 0.5}}, ["[masonry] poisson", "0.5", "< 0.5"]),
+    ({"masonry": {"young": "stiff"}}, ["[masonry] young", "stiff", "float"]),
+    ({"load": [{"kind": "point", "position": 1.2}]}, ["[[load]] #1 position", "1.2", "0 to 1"]),
+    ({"load": [{"kind": "patch", "position": 0.99, "length": 1.0}]}, ["[[load]] #1", "outside the span"]),
+    ({"load": [{"kind": "point", "position": 0.5, "length": 1.0}]}, ["[[load]] #1 length", "point load"]),
+    ({"solver": {"tolerance": 0.0}}, ["[solver] tolerance", "0.0"]),
+    ({"mesh": {"degree": 3}}, ["[mesh] degree", "3", "1 or 2"]),
+    ({"bridge": {}}, ["[bridge]", "unknown section"]),
+])
+def test_bad_scene_values_are_named(sections, expected):
+    with pytest.raises(SceneError) as err:
+        scene_from_dict(scene_dict(**sections))
+    for text in expected:
+        assert text in str(err.value)
+
+
+def test_missing_key_and_section_are_named():
+    d = scene_dict()
+    del d["arch"]["span"]
+    with pytest.raises(SceneError, match=r"\[arch\] span: missing"):
+        scene_from_dict(d)
+    d = scene_dict()
+    del d["masonry"]
+    with pytest.raises(SceneError, match=r"\[masonry\]: missing section"):
+        scene_from_dict(d)
+
+
+def test_defaults_and_units():
+    s = scene_from_dict(scene_dict())
+    assert (s.gravity, s.arch.width, s.arch.joint_at_loads, s.mesh.degree, s.model.plane) == (9.81, 1.0, True, 1,
+                                                                                              "strain")
+    assert s.loads[0].x_range(9.0) == pytest.approx((-2.5, -2.5), abs=1e-4)
