@@ -94,6 +94,12 @@ def _run(args, petsc: dict) -> int:
         if data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
         print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+        lp = data["lp"]
+        if lp["load"]:
+            print(f"  rigid-block LP check: {lp['load'] / 1e3:.2f} kN, hinges {lp['mechanism']['hinges']}, "
+                  f"FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else "")
+        for warning in data["warnings"]:
+            print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
     return 1 if data["status"].startswith("solver failure") else 0
 
@@ -101,6 +107,35 @@ def _run(args, petsc: dict) -> int:
 def _check(args) -> int:
     scene: Scene = load_scene(args.scene)
     print(json.dumps({"scene": scene.name, "valid": True}, indent=2))
+    return 0
+
+
+def _lp(args) -> int:
+    from .rigid_block import collapse_load
+
+    res = collapse_load(load_scene(args.scene), friction_model=args.friction_model)
+    if args.json:
+        print(json.dumps({"load": res.load, "unit": "N", "status": res.status, "friction_model": res.friction_model,
+                          "mechanism": {"hinges": sorted(res.hinges),
+                                        "hinge_positions": {str(k): v for k, v in res.hinge_positions.items()},
+                                        "sliding": sorted(res.sliding)},
+                          "seconds": res.time_s}))
+    else:
+        load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
+        print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
+              f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+    return 0
+
+
+def _min_thickness(args) -> int:
+    from .rigid_block import min_thickness
+
+    res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
+    if args.json:
+        print(json.dumps(res.to_dict()))
+    else:
+        ratio = "" if res.ratio is None else f", t/R = {res.ratio:.5f}"
+        print(f"minimum thickness under self-weight ({args.friction_model} friction): {res.thickness:.5f} m{ratio}")
     return 0
 
 
@@ -116,9 +151,7 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args, petsc)
         if args.command == "check":
             return _check(args)
-        from .rigid_block import cli_lp, cli_min_thickness
-
-        return (cli_lp if args.command == "lp" else cli_min_thickness)(args)
+        return _lp(args) if args.command == "lp" else _min_thickness(args)
     except SceneError as err:
         print(f"bridgefem: error: {err}", file=sys.stderr)
         return 2

@@ -77,6 +77,34 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
     }
 
 
+LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP outside this on a case without sliding is flagged
+
+
+def lp_check(scene, data: dict) -> dict:
+    """The rigid-block LP on the same joints (associative friction) and its ratio to the FE bracket midpoint.
+
+    Returns the ``lp``, ``fe_lp_ratio`` and ``warnings`` entries of results.json.
+    """
+    from .rigid_block import collapse_load
+
+    lp = collapse_load(scene)
+    out = {"lp": {"load": lp.load, "status": lp.status, "friction_model": lp.friction_model,
+                  "mechanism": {"hinges": sorted(lp.hinges),
+                                "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
+                                "sliding": sorted(lp.sliding)},
+                  "seconds": lp.time_s},
+           "fe_lp_ratio": None, "warnings": []}
+    lim = data["limit_load"]
+    if lp.load and lim["upper"]:
+        ratio = 0.5 * (lim["lower"] + lim["upper"]) / lp.load
+        out["fe_lp_ratio"] = ratio
+        no_sliding = not lp.sliding and not data["mechanism"]["sliding"]
+        if no_sliding and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
+            out["warnings"].append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a "
+                                   "case without sliding: check the mesh, the tolerance and the mechanism")
+    return out
+
+
 def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
     """Write results.json, fields.xdmf and the PNGs into ``out`` atomically (collective); returns the summary."""
     comm = an.solver.comm
@@ -84,6 +112,7 @@ def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
     tmp = Path(comm.bcast(tempfile.mkdtemp(prefix=f".{out.name}.", dir=_parent(out)) if comm.rank == 0 else None))
     try:
         data = summary(an, extra)
+        data.update(lp_check(an.scene, data))
         if an.search.last is not None:
             _write_fields(an, tmp / "fields.xdmf")
         motion = _voussoir_motion(an) if an.search.last is not None else None
