@@ -75,9 +75,9 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
     comm = bm.mesh.comm
     imap = V.dofmap.index_map
     n_owned = imap.size_local
-    face_tags = sorted(int(t) for t in np.unique(bm.facet_tags.values) if t != EXTRADOS_TAG)
-    all_tags = comm.allreduce(face_tags)
-    weights = _tributary_lengths(V, bm, sorted(set(all_tags)))
+    local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t != EXTRADOS_TAG]
+    face_tags = sorted(set(comm.allreduce(local_tags)))  # locate_dofs_topological is collective: every rank
+    weights = _tributary_lengths(V, bm, face_tags)        # calls it for every tag, with or without facets
     coords = V.tabulate_dof_coordinates()[:, :2]
     rows = []
     for tag in face_tags:

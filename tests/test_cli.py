@@ -76,3 +76,17 @@ def test_petsc_options_from_the_command_line(tmp_path, demo_serial, options, rec
     assert recorded.items() <= data["solver"]["petsc_options"].items()
     if status == "limit load found":
         assert data["limit_load"]["lower"] == pytest.approx(demo_serial[0]["limit_load"]["lower"], rel=1e-6)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("voussoirs", [2, 3])
+def test_two_ranks_with_few_voussoirs_do_not_deadlock(tmp_path, voussoirs):
+    """Ranks then own different numbers of joint faces; every collective call must still be made by all."""
+    scene = write_toml(tmp_path / "few.toml", scene_dict(arch={"voussoirs": voussoirs}))
+    serial = bridgefem("run", scene, "--out", tmp_path / "serial", "--quiet", timeout=300)
+    parallel = bridgefem("run", scene, "--out", tmp_path / "mpi", "--quiet", ranks=2, timeout=300)
+    assert serial.returncode == parallel.returncode == 0, parallel.stderr
+    a, b = (json.loads((tmp_path / d / "results.json").read_text()) for d in ("serial", "mpi"))
+    assert a["status"] == b["status"]
+    for bound in ("lower", "upper"):
+        assert b["limit_load"][bound] == pytest.approx(a["limit_load"][bound], rel=1e-9)
