@@ -115,11 +115,9 @@ def _lp(args) -> int:
 
     res = collapse_load(load_scene(args.scene), friction_model=args.friction_model)
     if args.json:
-        print(json.dumps({"load": res.load, "unit": "N", "status": res.status, "friction_model": res.friction_model,
-                          "mechanism": {"hinges": sorted(res.hinges),
-                                        "hinge_positions": {str(k): v for k, v in res.hinge_positions.items()},
-                                        "sliding": sorted(res.sliding)},
-                          "seconds": res.time_s}))
+        from .results import lp_summary
+
+        print(json.dumps(lp_summary(res)))
     else:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
         print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "

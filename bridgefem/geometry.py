@@ -269,13 +269,11 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def s_of_p(q):
         return np.interp(q, p, s)
 
+    load_params = [_extrados_x_to_param(curve, thickness, x) for x in load_x]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
     if joint_at_loads and len(load_x):
-        params = _place_joints_at_loads(params, s_of_p,
-                                        [_extrados_x_to_param(curve, thickness, x) for x in load_x])
-
-    load_params = [_extrados_x_to_param(curve, thickness, x) for x in load_x]
+        params = _place_joints_at_loads(params, s_of_p, load_params)
 
     def voussoir(i):
         pa, pb = params[i], params[i + 1]

@@ -42,10 +42,14 @@ def lame(young: float, poisson: float, plane: str) -> tuple[float, float]:
     return (2 * lam * mu / (lam + 2 * mu) if plane == "stress" else lam), mu
 
 
-def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.ndarray:
+def _owned_distances(V: fem.FunctionSpace, point: np.ndarray) -> np.ndarray:
+    """Distance (m) from ``point`` to every owned node of V."""
     n_owned = V.dofmap.index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n_owned, :2]
-    return np.flatnonzero(np.linalg.norm(x - point, axis=1) < tol)
+    return np.linalg.norm(V.tabulate_dof_coordinates()[:n_owned, :2] - point, axis=1)
+
+
+def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.ndarray:
+    return np.flatnonzero(_owned_distances(V, point) < tol)
 
 
 def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticModel:
@@ -98,8 +102,5 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
 
 def _monitor_tol(V: fem.FunctionSpace, ring: ArchRing, x: float) -> float:
     """Distance to the extrados node nearest to x (all ranks), padded, so that coincident copies are all found."""
-    comm = V.mesh.comm
-    n_owned = V.dofmap.index_map.size_local
-    xy = V.tabulate_dof_coordinates()[:n_owned, :2]
-    d = np.linalg.norm(xy - ring.extrados_point(x), axis=1)
-    return comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
+    d = _owned_distances(V, ring.extrados_point(x))
+    return V.mesh.comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL

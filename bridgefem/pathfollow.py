@@ -6,8 +6,9 @@ bracket [last converged, first failed] once the failing step is within ``toleran
 level: a failure reached by a large step proves nothing, so it is never used as a bound. Failed steps are
 discarded (incremental friction makes the response path dependent).
 
-Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load), "no collapse up to the maximum load (locked)",
-"solver failure: <reason>" (the bracket did not close within the step budget).
+Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
+"no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
+or a bracket not closed within the step budget).
 """
 from __future__ import annotations
 

@@ -80,6 +80,15 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
 LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP outside this on a case without sliding is flagged
 
 
+def lp_summary(lp) -> dict:
+    """The JSON form of a rigid-block result: load (N), status, friction model, mechanism, seconds."""
+    return {"load": lp.load, "unit": "N", "status": lp.status, "friction_model": lp.friction_model,
+            "mechanism": {"hinges": sorted(lp.hinges),
+                          "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
+                          "sliding": sorted(lp.sliding)},
+            "seconds": lp.time_s}
+
+
 def lp_check(scene, data: dict) -> dict:
     """The rigid-block LP on the same joints (associative friction) and its ratio to the FE bracket midpoint.
 
@@ -88,12 +97,7 @@ def lp_check(scene, data: dict) -> dict:
     from .rigid_block import collapse_load
 
     lp = collapse_load(scene)
-    out = {"lp": {"load": lp.load, "status": lp.status, "friction_model": lp.friction_model,
-                  "mechanism": {"hinges": sorted(lp.hinges),
-                                "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-                                "sliding": sorted(lp.sliding)},
-                  "seconds": lp.time_s},
-           "fe_lp_ratio": None, "warnings": []}
+    out = {"lp": lp_summary(lp), "fe_lp_ratio": None, "warnings": []}
     lim = data["limit_load"]
     if lp.load and lim["upper"]:
         ratio = 0.5 * (lim["lower"] + lim["upper"]) / lp.load

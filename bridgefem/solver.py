@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -66,6 +67,15 @@ class StepOutcome:
     iterate: Iterate | None = None
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
+
+
+class _Proposal(NamedTuple):
+    """A solved (good) active set, the set it proposed, the proposed changes still applied, the violations (N)."""
+
+    good: ContactState
+    proposal: ContactState
+    pending: np.ndarray
+    violation: np.ndarray
 
 
 class ContactSolver:
@@ -161,6 +171,7 @@ class ContactSolver:
                                              g_local.data), comm=comm)
         self._G.assemble()
         self.b = self.A.createVecLeft()
+        self.r = self.A.createVecLeft()
         self.d = self._G.createVecLeft()
         G.destroy()
         Gt.destroy()
@@ -242,16 +253,17 @@ class ContactSolver:
                     "(no equilibrium: mechanism)"), True
         return None
 
-    def _damp(self, base: ContactState, proposal: ContactState, pending: np.ndarray, violation: np.ndarray):
-        """Keep the half of the pending changes with the largest violations (at least one)."""
-        ranked = np.concatenate(self.comm.allgather(violation[pending]))
+    def _damp(self, base: "_Proposal") -> "tuple[ContactState, _Proposal] | None":
+        """Keep the half of the pending changes with the largest violations (at least one): the damped active
+        set and the proposal with its pending changes reduced; None when a single change is left."""
+        ranked = np.concatenate(self.comm.allgather(base.violation[base.pending]))
         if len(ranked) <= 1:
             return None
         threshold = np.sort(ranked)[::-1][max(len(ranked) // 2, 1) - 1]
-        keep = pending & (violation >= threshold)
-        damped = base.copy()
-        damped.state[keep], damped.sign[keep] = proposal.state[keep], proposal.sign[keep]
-        return damped, keep
+        keep = base.pending & (base.violation >= threshold)
+        damped = base.good.copy()
+        damped.state[keep], damped.sign[keep] = base.proposal.state[keep], base.proposal.sign[keep]
+        return damped, base._replace(pending=keep)
 
     def solve_step(self, level: float, start: Iterate) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
@@ -266,18 +278,21 @@ class ContactSolver:
         seen = {self._global_key(active)}
         frozen = np.zeros(len(self.pairs), dtype=bool)
         f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
-        residual, factorisations0 = np.inf, self.stats["factorisations"]
-        base = None  # (good active set, its proposal, pending changes, violations)
+        residual, first_factorisation = np.inf, self.stats["factorisations"]
+
+        def factorisations() -> int:
+            return self.stats["factorisations"] - first_factorisation
+
+        base: _Proposal | None = None  # the last good active set and what it proposed
         singular = None  # the last singular proposal of this step
         for it in range(1, self.max_iterations + 1):
             failure = self._solve_active(level, active, slip_ref, x)
             if failure is not None:
                 singular = failure if failure[1] else singular
-                damped = self._damp(*base) if base is not None else None
+                damped = self._damp(base) if base is not None else None
                 if damped is None:
-                    return StepOutcome(False, failure[0], it, residual,
-                                       self.stats["factorisations"] - factorisations0, mechanism=failure[1])
-                active, base = damped[0], (base[0], base[1], damped[1], base[3])
+                    return StepOutcome(False, failure[0], it, residual, factorisations(), mechanism=failure[1])
+                active, base = damped
                 continue
             _, lam, d = self.split(x)
             new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
@@ -285,35 +300,35 @@ class ContactSolver:
             pending = (new.state != active.state) | (new.sign != active.sign)
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             residual = self._equilibrium_residual(x, f_scale)
-            factorisations = self.stats["factorisations"] - factorisations0
             if changed == 0:
                 ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
                 ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
-                    return StepOutcome(True, "", it, residual, factorisations, Iterate(x, active, slip_ref), counts)
+                    return StepOutcome(True, "", it, residual, factorisations(), Iterate(x, active, slip_ref),
+                                       counts)
                 return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
                                           f"complementarity residual {comp:.2e} N (singular system)",
-                                   it, residual, factorisations, mechanism=True)
+                                   it, residual, factorisations(), mechanism=True)
             gkey = self._global_key(new)
             if gkey in seen:
                 if singular is not None:
                     return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
-                                       residual, factorisations, mechanism=True)
+                                       residual, factorisations(), mechanism=True)
                 flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
                     return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
-                                       factorisations)
+                                       factorisations())
                 frozen |= flips
                 _stick(new, frozen)
                 gkey = self._global_key(new)
             seen.add(gkey)
-            base = (active, new, pending, violation)
+            base = _Proposal(active, new, pending, violation)
             active = new
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
-                           self.stats["factorisations"] - factorisations0)
+                           factorisations())
 
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
@@ -327,11 +342,8 @@ class ContactSolver:
         return float(self.comm.allreduce(np.abs(a).max() if a.size else 0.0, op=MPI.MAX))
 
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
-        r = self.A.createVecLeft()
-        self.A.mult(x, r)
-        res = self._norm_inf(r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
-        r.destroy()
-        return res
+        self.A.mult(x, self.r)
+        return self._norm_inf(self.r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
 
 
 def _stick(active: ContactState, frozen: np.ndarray) -> None:
