@@ -86,7 +86,8 @@ class SolverOptions:
     tolerance: relative width of the limit-load bracket; max_iterations: active-set iterations per step;
     max_load: live load (N) at which the search stops as "locked" (0: 100 x ring weight);
     initial_step: first live-load step (N; 0: ring weight / 4); max_steps: load steps in all;
-    petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"}.
+    petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"};
+    preset: the speed-accuracy preset (:data:`PRESETS`) that supplied the mesh and tolerance defaults.
     """
 
     tolerance: float = 0.005
@@ -95,6 +96,7 @@ class SolverOptions:
     initial_step: float = 0.0
     max_steps: int = 200
     petsc: dict = field(default_factory=dict)
+    preset: str = "default"
 
 
 @dataclass(frozen=True)
@@ -119,6 +121,14 @@ class Scene:
             xs.extend([a] if ld.kind == "point" else [a, b])
         return xs
 
+
+PRESETS: dict[str, dict[tuple[str, str], Any]] = {
+    "fast": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.01},
+    "default": {("mesh", "elements_through_thickness"): 4, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.005},
+    "accurate": {("mesh", "elements_through_thickness"): 8, ("mesh", "degree"): 2, ("solver", "tolerance"): 0.001},
+}
+"""Speed-accuracy presets (``[solver] preset``): the mesh and bracket settings they imply, chosen on the
+Pareto front of ``demos/speed_accuracy.py``. A key given explicitly in the scene overrides its preset value."""
 
 _REQUIRED = object()
 
@@ -177,6 +187,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
         "initial_step": _Key(float, 0.0, lambda v: v >= 0, "a load >= 0 in N (0: automatic)"),
         "max_steps": _Key(int, 200, lambda v: 1 <= v <= 100000, "an integer from 1 to 100000"),
         "petsc": _Key(dict, {}),
+        "preset": _Key(str, "default", lambda v: v in PRESETS, "one of " + ", ".join(f'"{p}"' for p in PRESETS)),
     },
 }
 _REQUIRED_SECTIONS = ("arch", "masonry", "joints")
@@ -241,6 +252,9 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         if name not in data:
             raise SceneError(f"[{name}]: missing section")
     sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in _SCHEMA if name != "load"}
+    for (name, key), value in PRESETS[sec["solver"]["preset"]].items():
+        if key not in data.get(name, {}):
+            sec[name][key] = value
     a = sec["arch"]
     a["rise"] = _check_rise(a)
     if a["thickness"] >= a["span"]:
