@@ -15,8 +15,9 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
-from .contact import OPEN, SLIP, JointPairs, build_pairs
-from .geometry import ArchRing, build_ring
+from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs
+from .fill import PlasticFill
+from .geometry import ArchRing, build_ring, fill_outline
 from .mesh import BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
@@ -81,17 +82,23 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
     except ValueError as err:
         raise SceneError(f"[arch] voussoirs = {a.voussoirs}: {err}") from None
+    fill = scene.fill
+    outline = (fill_outline(ring, fill.depth, fill.extension, scene.load_edges_x()) if fill is not None else None)
     lap("geometry")
-    bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm)
+    bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm, outline,
+                          fill.element_size if fill is not None else 0.0)
     lap("mesh")
     model = build_elastic_model(bm, ring, scene)
     lap("assembly")
     pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
     lap("pairing")
-    c = scene.masonry.young * a.width * pairs.length / bm.element_size
-    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.friction, c,
+    young = np.where(pairs.joint == ARCH_FILL, fill.young if fill else 0.0, scene.masonry.young)
+    c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness
+    friction = np.where(pairs.joint == ARCH_FILL, fill.interface_friction if fill else 0.0, scene.joints.friction)
+    material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
+    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, friction, c,
                            FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
-                           {**scene.solver.petsc, **(petsc_options or {})})
+                           {**scene.solver.petsc, **(petsc_options or {})}, material)
     lap("solver setup")
     s = scene.solver
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,

@@ -96,8 +96,9 @@ def _run(args, petsc: dict) -> int:
         print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
         lp = data["lp"]
         if lp["load"]:
-            print(f"  rigid-block LP check: {lp['load'] / 1e3:.2f} kN, hinges {lp['mechanism']['hinges']}, "
-                  f"FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else "")
+            ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
+            print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
+                  f"{lp['mechanism']['hinges']}{ratio}")
         for warning in data["warnings"]:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")

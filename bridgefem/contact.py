@@ -25,13 +25,15 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
 from petsc4py import PETSc
+from scipy.spatial import cKDTree
 
 from .geometry import ArchRing
-from .mesh import EXTRADOS_TAG, BlockMesh, joint_face_tag
+from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag
 
 OPEN, STICK, SLIP = 0, 1, 2
 STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
 GROUND = -1
+ARCH_FILL = -2  # joint id of the arch-fill interface pairs
 
 
 @dataclass
@@ -40,7 +42,7 @@ class JointPairs:
 
     ``left``/``right`` are global blocked node indices of the vector space (``GROUND`` for the rigid ground);
     ``length`` is the tributary length (m) of the pair along its joint; ``position`` its distance from the
-    intrados (m).
+    intrados (m), or its x (m) on the arch-fill interface (joint id ``ARCH_FILL``).
     """
 
     joint: np.ndarray
@@ -66,28 +68,57 @@ def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
     return vec.array[0::2].copy()
 
 
+def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
+    """Rows (tag, global blocked node, x, y, tributary length) of the owned nodes on each facet tag, gathered
+    from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
+    comm = bm.mesh.comm
+    imap = V.dofmap.index_map
+    weights = _tributary_lengths(V, bm, tags)
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    rows = []
+    for tag in tags:
+        facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
+        nodes = fem.locate_dofs_topological(V, 1, facets)
+        nodes = nodes[nodes < imap.size_local]
+        g = imap.local_to_global(nodes.astype(np.int32))
+        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes]]))
+    return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 5))))
+
+
+def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:
+    """Pairs of the arch-fill interface: each fill node on the extrados (except those on the fixed base) with
+    the ring node at its place (of the two at a joint's extrados corner, the one of lower global index).
+    Normal from the ring into the fill, from the neighbouring interface nodes (central differences)."""
+    table = _gather_face_nodes(V, bm, [EXTRADOS_TAG, FILL_INTERFACE_TAG, FILL_BASE_TAG])
+    ring_rows = table[table[:, 0] == EXTRADOS_TAG]
+    fill_rows = table[table[:, 0] == FILL_INTERFACE_TAG]
+    fill_rows = fill_rows[~np.isin(fill_rows[:, 1], table[table[:, 0] == FILL_BASE_TAG][:, 1])]
+    fill_rows = fill_rows[np.argsort(fill_rows[:, 2])]
+    dist, idx = cKDTree(ring_rows[:, 2:4]).query(fill_rows[:, 2:4], k=2)
+    if np.any(dist[:, 0] > match_tol):
+        raise RuntimeError("arch-fill interface: fill nodes without a ring node at their place")
+    candidates = np.where(dist <= match_tol, ring_rows[idx, 1], np.inf)
+    x = fill_rows[:, 2:4]
+    tangent = np.gradient(x, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    n = len(fill_rows)
+    return {"joint": np.full(n, ARCH_FILL), "left": candidates.min(axis=1).astype(np.int64),
+            "right": fill_rows[:, 1].astype(np.int64), "normal": normal,
+            "tangent": np.column_stack([-normal[:, 1], normal[:, 0]]), "length": fill_rows[:, 4],
+            "position": x[:, 0]}
+
+
 def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: float) -> JointPairs:
-    """Pair the nodes of both faces of every joint by position along the joint (any degree, any partition).
+    """Pair the nodes of both faces of every joint by position along the joint (any degree, any partition),
+    and, with a fill, the ring and fill nodes of the extrados (joint id ``ARCH_FILL``).
 
     Owned face nodes of all ranks are gathered (only joint nodes: small), paired identically on every rank,
     then split evenly over the ranks. ``match_tol`` (m) is the largest allowed distance within a pair.
     """
     comm = bm.mesh.comm
-    imap = V.dofmap.index_map
-    n_owned = imap.size_local
-    local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t != EXTRADOS_TAG]
-    face_tags = sorted(set(comm.allreduce(local_tags)))  # locate_dofs_topological is collective: every rank
-    weights = _tributary_lengths(V, bm, face_tags)        # calls it for every tag, with or without facets
-    coords = V.tabulate_dof_coordinates()[:, :2]
-    rows = []
-    for tag in face_tags:
-        facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
-        nodes = fem.locate_dofs_topological(V, 1, facets)
-        nodes = nodes[nodes < n_owned]
-        g = imap.local_to_global(nodes.astype(np.int32))
-        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes]]))
-    mine = np.vstack(rows) if rows else np.zeros((0, 5))
-    table = np.vstack(comm.allgather(mine))
+    local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t not in BOUNDARY_TAGS]
+    table = _gather_face_nodes(V, bm, sorted(set(comm.allreduce(local_tags))))
 
     cols = {k: [] for k in ("joint", "left", "right", "normal", "tangent", "length", "position")}
     for jt in (j for j in ring.joints if not j.free):
@@ -111,6 +142,9 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
         cols["tangent"].append(np.tile(jt.tangent, (n, 1)))
         cols["length"].append(np.mean([f[0][:, 4] for f in present], axis=0))
         cols["position"].append(s)
+    if bm.fill_block is not None:
+        for k, v in _interface_pairs(V, bm, match_tol).items():
+            cols[k].append(v)
     total = sum(len(c) for c in cols["joint"])
     share = np.array_split(np.arange(total), comm.size)[comm.rank]
     lo, hi = (int(share[0]), int(share[-1]) + 1) if len(share) else (0, 0)

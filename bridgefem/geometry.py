@@ -219,10 +219,38 @@ class ArchRing:
     def n_voussoirs(self) -> int:
         return len(self.voussoirs)
 
+    @property
+    def crown_extrados(self) -> float:
+        """Height (m) of the highest extrados point."""
+        return max(float(v.extrados[:, 1].max()) for v in self.voussoirs)
+
     def extrados_point(self, x: float) -> np.ndarray:
         """The extrados point above horizontal position x (m)."""
         ext = np.vstack([v.extrados for v in self.voussoirs])
         return np.array([x, np.interp(x, ext[:, 0], ext[:, 1])])
+
+
+@dataclass(frozen=True)
+class FillOutline:
+    """The backfill region (m): vertical ends at ``x_left``/``x_right``, base at ``y_base`` (the level of the
+    springings' extrados corners; the rigid abutments below are not modelled), road at ``y_road``. The region
+    is bounded below by the base lines and the ring's extrados; ``road_x`` are the road points that must be
+    mesh nodes (point loads and patch edges)."""
+
+    x_left: float
+    x_right: float
+    y_base: float
+    y_road: float
+    road_x: tuple[float, ...]
+
+
+def fill_outline(ring: ArchRing, depth: float, extension: float, road_x: list[float] = ()) -> FillOutline:
+    """The fill over ``ring`` with the road ``depth`` (m) above the crown's extrados, reaching ``extension`` (m)
+    beyond each springing's extrados corner."""
+    left, right = ring.joints[0].extrados, ring.joints[-1].extrados
+    return FillOutline(float(left[0]) - extension, float(right[0]) + extension, float(left[1]),
+                       ring.crown_extrados + depth,
+                       tuple(sorted(set(float(x) for x in road_x))))
 
 
 def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray:

@@ -6,9 +6,11 @@ belongs to, so that a joint becomes a set of coincident node pairs (one copy per
 have a single face, which meets the rigid ground.
 
 Tags on the DOLFINx mesh:
-- cell tag = voussoir id;
+- cell tag = voussoir id, or ``fill_block`` (= number of voussoirs) for the fill;
 - facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
-  ``EXTRADOS_TAG`` = extrados of the ring (where live loads act).
+  ``EXTRADOS_TAG`` = extrados of the ring (where live loads act on a bare arch); with a fill, its side of the
+  extrados ``FILL_INTERFACE_TAG`` (the extrados becomes an interface like a joint: its nodes are duplicated),
+  the road ``ROAD_TAG``, its vertical ends ``FILL_END_TAG`` and its base ``FILL_BASE_TAG``.
 """
 from __future__ import annotations
 
@@ -20,9 +22,14 @@ from dolfinx import cpp as _cpp
 from dolfinx.mesh import Mesh, MeshTagsMetaClass, create_mesh, meshtags_from_entities
 from mpi4py import MPI
 
-from .geometry import ArchRing
+from .geometry import ArchRing, FillOutline
 
-EXTRADOS_TAG = 1_000_000
+EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
+FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
+ROAD_TAG = 1_000_002
+FILL_END_TAG = 1_000_003  # vertical ends of the fill (rollers)
+FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
+BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG)
 
 
 def joint_face_tag(joint: int, side: int) -> int:
@@ -32,7 +39,8 @@ def joint_face_tag(joint: int, side: int) -> int:
 
 @dataclass
 class BlockMesh:
-    """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh."""
+    """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh;
+    ``fill_block`` is the cell tag of the fill (None without fill)."""
 
     mesh: Mesh
     cell_tags: MeshTagsMetaClass
@@ -40,6 +48,7 @@ class BlockMesh:
     element_size: float
     n_cells: int
     n_nodes: int
+    fill_block: int | None = None
 
 
 def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
@@ -56,14 +65,28 @@ def _segment_counts(lengths: list[float], total: int) -> list[int]:
     return [int(v) for v in raw]
 
 
-def _gmsh_ring(ring: ArchRing, per_thickness: int):
-    """Mesh the ring with Gmsh (rank 0); returns node coordinates, triangles, cell block ids, joint segments."""
+@dataclass
+class _RawMesh:
+    """The conformal Gmsh mesh before splitting: node coordinates, triangles and their block ids, and boundary
+    segments (pairs of node ids): per joint, on the extrados, and per fill boundary tag."""
+
+    x: np.ndarray
+    cells: np.ndarray
+    blocks: np.ndarray
+    joints: dict
+    extrados: np.ndarray
+    fill: dict
+    h: float
+
+
+def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float) -> _RawMesh:
+    """Mesh the ring, and the fill over it when ``outline`` is given, with Gmsh (rank 0 only)."""
     import gmsh
 
     gmsh.initialize([], readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("ring")
+        gmsh.model.add("bridge")
         geo = gmsh.model.geo
         h = ring.thickness / per_thickness
         inner = [geo.addPoint(*j.intrados, 0.0) for j in ring.joints]
@@ -77,6 +100,7 @@ def _gmsh_ring(ring: ArchRing, per_thickness: int):
             loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
             surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
             extrados_curves += extra
+        fill_curves = _add_fill(geo, outline, outer, extrados_curves, h_fill) if outline is not None else {}
         geo.synchronize()
         mesh = gmsh.model.mesh
         for c in joint_curves:
@@ -88,30 +112,41 @@ def _gmsh_ring(ring: ArchRing, per_thickness: int):
                 for c, n in zip(side, _segment_counts([_curve_length(c) for c in side], n_along)):
                     mesh.setTransfiniteCurve(c, n + 1)
             mesh.setTransfiniteSurface(s, "Alternate", [inner[i], inner[i + 1], outer[i + 1], outer[i]])
-            gmsh.model.addPhysicalGroup(2, [s], i)
-        for j, c in enumerate(joint_curves):
-            gmsh.model.addPhysicalGroup(1, [c], joint_face_tag(j, 0))
-        gmsh.model.addPhysicalGroup(1, extrados_curves, EXTRADOS_TAG)
         mesh.generate(2)
         tags, xyz, _ = mesh.getNodes()
         order = np.zeros(int(tags.max()) + 1, dtype=np.int64)
         order[tags.astype(np.int64)] = np.arange(len(tags))
-        x = xyz.reshape(-1, 3)[:, :2]
-        cells, blocks = [], []
-        for s, _, _, i in surfaces:
-            _, _, nodes = mesh.getElements(2, s)
-            tri = order[np.asarray(nodes[0], dtype=np.int64)].reshape(-1, 3)
-            cells.append(tri)
-            blocks.append(np.full(len(tri), i, dtype=np.int32))
-        segments = {}
-        for j, c in enumerate(joint_curves):
-            _, _, nodes = mesh.getElements(1, c)
-            segments[j] = order[np.asarray(nodes[0], dtype=np.int64)].reshape(-1, 2)
-        ext = np.vstack([order[np.asarray(mesh.getElements(1, c)[2][0], dtype=np.int64)].reshape(-1, 2)
-                         for c in extrados_curves])
-        return x, np.vstack(cells), np.concatenate(blocks), segments, ext, h
+
+        def elements(dim, entity, nodes_per):
+            return order[np.asarray(mesh.getElements(dim, entity)[2][0], dtype=np.int64)].reshape(-1, nodes_per)
+
+        block_surfaces = [(s, i) for s, _, _, i in surfaces]
+        if outline is not None:
+            block_surfaces.append((fill_curves.pop("surface"), ring.n_voussoirs))
+        cells = [elements(2, s, 3) for s, _ in block_surfaces]
+        blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
+        return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
+                        {j: elements(1, c, 2) for j, c in enumerate(joint_curves)},
+                        np.vstack([elements(1, c, 2) for c in extrados_curves]),
+                        {tag: np.vstack([elements(1, c, 2) for c in curves]) for tag, curves in fill_curves.items()},
+                        h)
     finally:
         gmsh.finalize()
+
+
+def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float) -> dict:
+    """The fill surface over the extrados: its Gmsh surface and its boundary curves per facet tag."""
+    o = outline
+    base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
+                                                                                         h_fill)
+    road_x = [o.x_right, *sorted((x for x in o.road_x if o.x_left < x < o.x_right), reverse=True), o.x_left]
+    road = [geo.addPoint(x, o.y_road, 0.0, h_fill) for x in road_x]
+    bases = [geo.addLine(base_left, outer[0]), geo.addLine(outer[-1], base_right)]
+    ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
+    road_lines = [geo.addLine(a, b) for a, b in zip(road[:-1], road[1:])]
+    loop = geo.addCurveLoop([bases[0], *extrados_curves, bases[1], ends[0], *road_lines, ends[1]])
+    return {"surface": geo.addPlaneSurface([loop]), FILL_BASE_TAG: bases, FILL_END_TAG: ends,
+            ROAD_TAG: road_lines, FILL_INTERFACE_TAG: extrados_curves}
 
 
 def _curve_length(curve: int) -> float:
@@ -137,26 +172,34 @@ def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
     return x[unique % n_old], inverse.reshape(cells.shape), copy
 
 
-def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD) -> BlockMesh:
-    """Mesh the ring on rank 0, split it at the joints and distribute it over ``comm``."""
+def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD,
+                     fill: FillOutline | None = None, fill_element_size: float = 0.0) -> BlockMesh:
+    """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
+
+    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size).
+    """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    fill_block = ring.n_voussoirs if fill is not None else None
     if comm.rank == 0:
-        x, cells, blocks, segments, ext, h = _gmsh_ring(ring, per_thickness)
-        xs, cs, copy = split_blocks(x, cells, blocks)
+        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness)
+        xs, cs, copy = split_blocks(raw.x, raw.cells, raw.blocks)
         facets, values = [], []
-        for j, seg in segments.items():
+        for j, seg in raw.joints.items():
             if ring.joints[j].free:
                 continue
             for side, block in enumerate((ring.joints[j].left, ring.joints[j].right)):
                 if block is not None:
                     facets.append(copy(np.full(seg.shape, block), seg))
                     values.append(np.full(len(seg), joint_face_tag(j, side), dtype=np.int32))
-        ext_block = blocks[_owning_cell(cells, ext)]
-        facets.append(copy(np.stack([ext_block, ext_block], axis=1), ext))
-        values.append(np.full(len(ext), EXTRADOS_TAG, dtype=np.int32))
+        ext_block = raw.blocks[_owning_cell(raw.cells, raw.extrados)]
+        facets.append(copy(np.stack([ext_block, ext_block], axis=1), raw.extrados))
+        values.append(np.full(len(raw.extrados), EXTRADOS_TAG, dtype=np.int32))
+        for tag, seg in raw.fill.items():
+            facets.append(copy(np.full(seg.shape, fill_block), seg))
+            values.append(np.full(len(seg), tag, dtype=np.int32))
         facets, values = np.vstack(facets).astype(np.int64), np.concatenate(values)
-        cell_values = blocks
-        info = comm.bcast((h, len(cs), len(xs)), root=0)
+        cell_values = raw.blocks
+        info = comm.bcast((raw.h, len(cs), len(xs)), root=0)
     else:
         xs, cs = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
         facets, values = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
@@ -167,7 +210,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     ct = _tags(mesh, tdim, cs, cell_values)
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
-    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2])
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block)
 
 
 def _owning_cell(cells: np.ndarray, segments: np.ndarray) -> np.ndarray:

@@ -5,17 +5,17 @@ vector is for a unit load level (1 N times each load's ``factor``); loads point 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_matrix, assemble_vector
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from .geometry import ArchRing
-from .mesh import EXTRADOS_TAG, BlockMesh
+from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh
 from .scene import Scene
 
 POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the load
@@ -23,8 +23,9 @@ POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the 
 
 @dataclass
 class ElasticModel:
-    """Assembled operators; ``monitor`` holds the owned node indices (blocked) whose mean vertical
-    displacement is the deflection under the first load (at the crown without live load)."""
+    """Assembled operators; ``monitor`` holds the owned node indices (blocked) of the ring's extrados whose mean
+    vertical displacement is the deflection under the first load (at the crown without live load).
+    ``dead_weight`` is the ring's weight and ``fill_weight`` the fill's (N); ``bcs`` the fill's supports."""
 
     V: fem.FunctionSpace
     K: PETSc.Mat
@@ -33,6 +34,8 @@ class ElasticModel:
     monitor: np.ndarray
     dead_weight: float
     live_per_level: float
+    fill_weight: float = 0.0
+    bcs: list = field(default_factory=list)
 
 
 def lame(young: float, poisson: float, plane: str) -> tuple[float, float]:
@@ -52,27 +55,60 @@ def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.n
     return np.flatnonzero(_owned_distances(V, point) < tol)
 
 
+def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0) -> fem.Function:
+    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill."""
+    Q = fem.FunctionSpace(bm.mesh, ("DG", 0))
+    q = fem.Function(Q)
+    tags = bm.cell_tags
+    is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
+    q.x.array[Q.dofmap.list.array[tags.indices]] = np.where(is_fill, fill_value, arch_value)
+    q.x.scatter_forward()
+    return q
+
+
+def fill_supports(V: fem.FunctionSpace, bm: BlockMesh) -> list[fem.DirichletBCMetaClass]:
+    """The fill's supports: its base fixed, its vertical ends on rollers (u_x = 0); none without fill."""
+    if bm.fill_block is None:
+        return []
+    tags = bm.facet_tags
+    zero = PETSc.ScalarType(0.0)
+    base = fem.locate_dofs_topological(V, 1, tags.indices[tags.values == FILL_BASE_TAG])
+    ends = fem.locate_dofs_topological(V.sub(0), 1, tags.indices[tags.values == FILL_END_TAG])
+    return [fem.dirichletbc(np.zeros(2, dtype=PETSc.ScalarType), base, V),
+            fem.dirichletbc(zero, ends, V.sub(0))]
+
+
+def strain(w):
+    return ufl.sym(ufl.grad(w))
+
+
 def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticModel:
     """Assemble K, the self-weight vector and the unit live-load vector (point loads as nodal forces shared
-    equally by the nodes at the load point — both faces of a joint placed under it)."""
+    equally by the nodes at the load point — both faces of a joint placed under it). Live loads act on the
+    extrados of a bare arch and on the road over a fill; the fill's supports are built into K and the loads."""
     mesh, comm = bm.mesh, bm.mesh.comm
+    fill = scene.fill
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    lam, mu = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
+    arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
+    fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
+    lam, mu = (cell_constant(bm, a, f) for a, f in zip(arch_lame, fill_lame))
     width = scene.arch.width
+    bcs = fill_supports(V, bm)
 
-    def eps(w):
-        return ufl.sym(ufl.grad(w))
-
-    sigma = 2 * mu * eps(u) + lam * ufl.tr(eps(u)) * ufl.Identity(2)
-    K = assemble_matrix(fem.form(width * ufl.inner(sigma, eps(v)) * ufl.dx))
+    sigma = 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
+    K = assemble_matrix(fem.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
     K.assemble()
 
     rho_g = scene.masonry.density * scene.gravity
-    f_dead = assemble_vector(fem.form(-width * rho_g * v[1] * ufl.dx))
-    f_dead.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    dead_weight = comm.allreduce(fem.assemble_scalar(fem.form(width * rho_g * ufl.dx(domain=mesh))))
+    weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0)
+    f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=bm.cell_tags)
+    dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx)))
+    fill_weight = (comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(bm.fill_block))))
+                   if fill is not None else 0.0)
 
+    surface = ROAD_TAG if fill is not None else EXTRADOS_TAG
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=bm.facet_tags)
     x = ufl.SpatialCoordinate(mesh)
     n = ufl.FacetNormal(mesh)
@@ -81,12 +117,11 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
         if ld.kind == "patch":
             a, b = ld.x_range(scene.arch.span)
             inside = ufl.conditional(ufl.And(ufl.ge(x[0], a), ufl.le(x[0], b)), 1.0, 0.0)
-            patch = patch - ld.factor / ld.length * inside * abs(n[1]) * v[1] * ds(EXTRADOS_TAG)
-    f_live = assemble_vector(fem.form(patch))
-    f_live.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            patch = patch - ld.factor / ld.length * inside * abs(n[1]) * v[1] * ds(surface)
+    f_live = _load_vector(patch, bcs)
     for ld in scene.loads:
         if ld.kind == "point":
-            point = ring.extrados_point(ld.x_range(scene.arch.span)[0])
+            point = load_point(ring, scene, ld.x_range(scene.arch.span)[0])
             nodes = _owned_nodes_at(V, point, POINT_TOL)
             count = comm.allreduce(len(nodes))
             if count == 0:
@@ -96,11 +131,31 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     live = -f_live.sum()
 
     x_mon = 0.5 * sum(scene.loads[0].x_range(scene.arch.span)) if scene.loads else 0.0
-    monitor = _owned_nodes_at(V, ring.extrados_point(x_mon), _monitor_tol(V, ring, x_mon))
-    return ElasticModel(V, K, f_dead, f_live, monitor, dead_weight, live)
+    ring_nodes = _ring_nodes(V, bm)
+    point = ring.extrados_point(x_mon)
+    d = _owned_distances(V, point)[ring_nodes]
+    tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
+    monitor = ring_nodes[d < tol]
+    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight, live, fill_weight, bcs)
 
 
-def _monitor_tol(V: fem.FunctionSpace, ring: ArchRing, x: float) -> float:
-    """Distance to the extrados node nearest to x (all ranks), padded, so that coincident copies are all found."""
-    d = _owned_distances(V, ring.extrados_point(x))
-    return V.mesh.comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
+def load_point(ring: ArchRing, scene: Scene, x: float) -> np.ndarray:
+    """Where a point load at horizontal position x (m) acts: on the road over a fill, else on the extrados."""
+    if scene.fill is None:
+        return ring.extrados_point(x)
+    return np.array([x, ring.crown_extrados + scene.fill.depth])
+
+
+def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
+    """Owned (blocked) node indices of the voussoirs' extrados faces."""
+    facets = bm.facet_tags.indices[bm.facet_tags.values == EXTRADOS_TAG]
+    nodes = fem.locate_dofs_topological(V, 1, facets)
+    return nodes[nodes < V.dofmap.index_map.size_local]
+
+
+def _load_vector(form, bcs) -> PETSc.Vec:
+    """Assemble a load vector (N), add ghost contributions and zero it on supported dofs."""
+    vec = assemble_vector(fem.form(form))
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    set_bc(vec, bcs)
+    return vec

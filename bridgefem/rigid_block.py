@@ -353,7 +353,7 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
     uniform per horizontal metre over its x-range. A point load exactly above a joint is carried by the block on
     its ``load_at_joint`` side ("left" | "right"), or half by each ("split"). ``thickness`` overrides the scene's;
-    ``live=False`` drops the live loads.
+    ``live=False`` drops the live loads. A scene's fill enters as dead load only (:func:`_overburden`).
     """
     if load_at_joint not in LOAD_AT_JOINT:
         raise ValueError(f"load_at_joint = {load_at_joint!r}: allowed are {', '.join(LOAD_AT_JOINT)}")
@@ -365,6 +365,8 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     nb = len(ref)
     weight = scene.masonry.density * scene.gravity * a.width * np.array(area)
     dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
+    if scene.fill is not None:
+        dead = dead + _overburden(ring, scene, ref)
     ext = np.vstack([v.extrados for v in ring.voussoirs])
     x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
     x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
@@ -402,6 +404,22 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
         friction=np.full(nj, scene.joints.friction))
+
+
+def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
+    """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
+    the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
+    spreading are ignored (live loads still act on the extrados below them)."""
+    road = ring.crown_extrados + scene.fill.depth
+    w = scene.fill.unit_weight * scene.arch.width
+    points, forces = [], []
+    for v in ring.voussoirs:
+        x, h = v.extrados[:, 0], road - v.extrados[:, 1]
+        area = np.trapz(h, x)
+        xc = np.trapz(x * h, x) / area
+        points.append(ring.extrados_point(xc))
+        forces.append((0.0, -w * area))
+    return generalised_loads(ref, np.arange(len(ref)), np.array(points), np.array(forces))
 
 
 def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = "split",

@@ -48,10 +48,35 @@ class JointProperties:
 
 
 @dataclass(frozen=True)
+class Fill:
+    """Backfill over the ring, in plane strain, between vertical ends and a base at the level of the springings'
+    extrados corners (the rigid abutments below it are not meshed).
+
+    unit_weight (N/m^3); young (Pa), poisson; depth (m): road level above the crown's extrados; extension (m):
+    horizontal reach beyond each springing's extrados corner; material: "elastic" or "mohr-coulomb" (Drucker-Prager
+    cone matched to Mohr-Coulomb in plane strain, see :mod:`bridgefem.plasticity`) with friction_angle (degrees),
+    cohesion (Pa) and tension_cutoff (Pa, limit of the mean stress); interface_friction: Coulomb coefficient of
+    the arch-fill interface (the extrados); element_size (m): mesh size away from the ring.
+    """
+
+    unit_weight: float
+    young: float
+    depth: float
+    extension: float
+    poisson: float = 0.3
+    material: str = "elastic"
+    friction_angle: float = 30.0
+    cohesion: float = 0.0
+    tension_cutoff: float = 0.0
+    interface_friction: float = 0.5
+    element_size: float = 0.0
+
+
+@dataclass(frozen=True)
 class Load:
-    """A vertical live load on the extrados; ``position`` is the fraction of the span from the left springing
-    (the centre of a patch), ``length`` the patch length along the span (m), ``factor`` its share of the
-    load pattern (the live load is factor x load level, N)."""
+    """A vertical live load on the extrados, or on the road surface when the scene has a fill; ``position`` is the
+    fraction of the span from the left springing (the centre of a patch), ``length`` the patch length along the
+    span (m), ``factor`` its share of the load pattern (the live load is factor x load level, N)."""
 
     kind: str
     position: float
@@ -109,6 +134,7 @@ class Scene:
     joints: JointProperties
     loads: tuple[Load, ...]
     gravity: float = 9.81
+    fill: Fill | None = None
     mesh: MeshOptions = MeshOptions()
     model: ModelOptions = ModelOptions()
     solver: SolverOptions = SolverOptions()
@@ -145,6 +171,8 @@ def _positive(v):
     return v > 0 and math.isfinite(v)
 
 
+FILL_MATERIALS = ("elastic", "mohr-coulomb")
+
 _SCHEMA: dict[str, dict[str, _Key]] = {
     "scene": {
         "name": _Key(str, None, lambda v: bool(v.strip()), "a non-empty string"),
@@ -173,6 +201,19 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
         "length": _Key(float, 0.0, lambda v: v >= 0, "a length >= 0 in m (patch loads only)"),
         "factor": _Key(float, 1.0, _positive, "a positive share of the load pattern"),
     },
+    "fill": {
+        "unit_weight": _Key(float, check=_positive, allowed="a positive weight density in N/m^3"),
+        "young": _Key(float, check=_positive, allowed="a positive modulus in Pa"),
+        "depth": _Key(float, check=_positive, allowed="a positive depth in m of the road above the crown extrados"),
+        "extension": _Key(float, check=_positive, allowed="a positive length in m beyond each springing"),
+        "poisson": _Key(float, 0.3, lambda v: 0 <= v < 0.5, "0 <= poisson < 0.5"),
+        "material": _Key(str, "elastic", lambda v: v in FILL_MATERIALS, " or ".join(FILL_MATERIALS)),
+        "friction_angle": _Key(float, 30.0, lambda v: 0 <= v <= 60, "an angle from 0 to 60 degrees"),
+        "cohesion": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
+        "tension_cutoff": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
+        "interface_friction": _Key(float, 0.5, lambda v: 0 <= v < math.inf, "a number >= 0"),
+        "element_size": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a length >= 0 in m (0: automatic)"),
+    },
     "mesh": {
         "elements_through_thickness": _Key(int, 4, lambda v: 1 <= v <= 64, "an integer from 1 to 64"),
         "degree": _Key(int, 1, lambda v: v in (1, 2), "1 or 2"),
@@ -191,6 +232,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
     },
 }
 _REQUIRED_SECTIONS = ("arch", "masonry", "joints")
+_OPTIONAL_SECTIONS = ("fill",)
 
 
 def _typed(where: str, value: Any, key: _Key) -> Any:
@@ -251,7 +293,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     for name in _REQUIRED_SECTIONS:
         if name not in data:
             raise SceneError(f"[{name}]: missing section")
-    sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in _SCHEMA if name != "load"}
+    sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in _SCHEMA
+           if name != "load" and (name in data or name not in _OPTIONAL_SECTIONS)}
     for (name, key), value in PRESETS[sec["solver"]["preset"]].items():
         if key not in data.get(name, {}):
             sec[name][key] = value
@@ -277,7 +320,10 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         loads.append(ld)
     solver = dict(sec["solver"])
     solver["petsc"] = {str(k): v for k, v in solver["petsc"].items()}
-    return Scene(name=sec["scene"]["name"] or default_name, gravity=sec["scene"]["gravity"],
+    fill = Fill(**sec["fill"]) if "fill" in sec else None
+    if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
+        raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
+    return Scene(name=sec["scene"]["name"] or default_name, gravity=sec["scene"]["gravity"], fill=fill,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
                  solver=SolverOptions(**solver))

@@ -14,6 +14,14 @@ AIJ matrix whose sparsity pattern never changes (entries of inactive laws are ex
 direct solver's symbolic factorisation is reused; the matrix is refactorised only when the active set
 changed. Every stop decision is collective over MPI.
 
+With a Mohr-Coulomb fill (:mod:`bridgefem.fill`) the stiffness block is the fill's consistent tangent at the
+current displacements and the right-hand side carries ``K_t u - f_int(u)``: each iteration is then a Newton
+step for the fill and an active-set step for the joints at once, and a step has converged when the active
+set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is small. Newton iterations whose
+out-of-balance force ends larger than the largest applied nodal force have diverged: no equilibrium at that
+load (the classical sign of collapse in incremental plasticity; the search accepts it only as the upper end of
+a bracket closed to the tolerance).
+
 Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
 for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
@@ -24,7 +32,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,6 +41,9 @@ from petsc4py import PETSc
 
 from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, classify,
                       complementarity_residual)
+
+if TYPE_CHECKING:
+    from .fill import PlasticFill
 
 PETSC_PREFIX = "bridgefem_"
 DEFAULT_PETSC_OPTIONS = {
@@ -47,11 +58,13 @@ DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight re
 
 @dataclass
 class Iterate:
-    """A (possibly converged) solution: combined vector x = [u; lam] and the active set it satisfies."""
+    """A (possibly converged) solution: combined vector x = [u; lam], the active set it satisfies and, with a
+    plastic fill, the fill's plastic strain at its quadrature points."""
 
     x: PETSc.Vec
     active: ContactState
     slip_ref: np.ndarray
+    plastic_strain: np.ndarray | None = None
 
 
 @dataclass
@@ -81,12 +94,16 @@ class _Proposal(NamedTuple):
 class ContactSolver:
     """Builds the combined system once and solves load steps with the active-set Newton method."""
 
-    def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs, friction: float,
-                 c: np.ndarray, force_tol: float, max_iterations: int, petsc_options: dict):
+    def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs,
+                 friction: float | np.ndarray, c: np.ndarray, force_tol: float, max_iterations: int,
+                 petsc_options: dict, material: "PlasticFill | None" = None):
         self.comm = K.getComm().tompi4py()
-        self.pairs, self.mu, self.c = pairs, friction, c
+        self.pairs, self.c = pairs, c
+        self.mu = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))
         self.force_tol, self.max_iterations = force_tol, max_iterations
         self.f_dead, self.f_live = f_dead, f_live
+        self.material = material
+        self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
         self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._layout(K)
@@ -153,7 +170,10 @@ class ContactSolver:
         rows = np.concatenate([k_rows, t_rows, self.n_u + g_rows, self.n_u + diag_rows])
         cols = np.concatenate([self.comb_u(kj.astype(np.int64)), self.comb_lam(tj.astype(np.int64)),
                                self.comb_u(g_cols), self.comb_lam(diag_cols)])
+        if self.material is not None and not _same_pattern(K, self.material.K):
+            raise RuntimeError("the fill's tangent matrix does not have the sparsity of the elastic K")
         self._const = np.concatenate([kv, -tv])
+        self._n_k = len(kv)
         self._g_rows, self._g_vals = g_rows, g_vals
         self._n_diag = len(k)
         slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
@@ -173,6 +193,7 @@ class ContactSolver:
         self.b = self.A.createVecLeft()
         self.r = self.A.createVecLeft()
         self.d = self._G.createVecLeft()
+        self._lam = self._G.createVecLeft()
         G.destroy()
         Gt.destroy()
 
@@ -188,7 +209,7 @@ class ContactSolver:
 
     def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray) -> None:
         b = self.b.array
-        b[:self.n_u] = self.f_dead.array + level * self.f_live.array
+        b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
         lam_rhs = np.zeros(self.n_lam)
         lam_rhs[1::2] = np.where(active.state == STICK, self.c * slip_ref, 0.0)
         b[self.n_u:] = lam_rhs
@@ -211,7 +232,18 @@ class ContactSolver:
     # ----------------------------------------------------------------- Newton
     def initial_iterate(self) -> Iterate:
         """Every joint closed and sticking, zero state: the start of the self-weight step."""
-        return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)))
+        plastic = self.material.initial_plastic_strain() if self.material is not None else None
+        return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)),
+                       plastic)
+
+    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Evaluate the fill at the displacements of x: the tangent goes into the system matrix and K_t u - f_int
+        into the right-hand side. Returns the internal force (owned, N) and the trial plastic strain."""
+        response = self.material.evaluate(x.array[:self.n_u], plastic_strain)
+        self._const[:self._n_k] = response.tangent_values
+        self._correction = response.correction
+        self._matrix_key = None
+        return response.f_int, response.plastic_strain
 
     def split(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Local owned u, lam (m, 2) and relative displacements d (m, 2) of an iterate vector."""
@@ -229,7 +261,7 @@ class ContactSolver:
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec):
         """Solve the linear system of an active set into x; returns None or (failure message, is mechanism)."""
         key = active.key()
-        if self._any(key != self._matrix_key):
+        if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
             self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
             self.A.assemble()
             self.ksp.setOperators(self.A)
@@ -285,6 +317,9 @@ class ContactSolver:
 
         base: _Proposal | None = None  # the last good active set and what it proposed
         singular = None  # the last singular proposal of this step
+        plastic = start.plastic_strain
+        if self.material is not None:
+            self._linearise(x, start.plastic_strain)
         for it in range(1, self.max_iterations + 1):
             failure = self._solve_active(level, active, slip_ref, x)
             if failure is not None:
@@ -299,20 +334,28 @@ class ContactSolver:
             _stick(new, frozen)
             pending = (new.state != active.state) | (new.sign != active.sign)
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
-            residual = self._equilibrium_residual(x, f_scale)
+            if self.material is not None:
+                f_int, plastic = self._linearise(x, start.plastic_strain)
+                residual = self._material_residual(x, f_int, level, f_scale)
+            else:
+                residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
                 ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
                 ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
-                    return StepOutcome(True, "", it, residual, factorisations(), Iterate(x, active, slip_ref),
-                                       counts)
+                    return StepOutcome(True, "", it, residual, factorisations(),
+                                       Iterate(x, active, slip_ref, plastic), counts)
+                if self.material is not None:
+                    continue  # same active set, fill not yet in equilibrium: next Newton iteration
                 return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
                                           f"complementarity residual {comp:.2e} N (singular system)",
                                    it, residual, factorisations(), mechanism=True)
             gkey = self._global_key(new)
-            if gkey in seen:
+            if gkey in seen and self.material is not None:
+                seen.clear()  # the fill's state moves between visits: a revisit is no cycle (max_iterations bounds it)
+            elif gkey in seen:
                 if singular is not None:
                     return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
@@ -326,6 +369,10 @@ class ContactSolver:
             seen.add(gkey)
             base = _Proposal(active, new, pending, violation)
             active = new
+        if self.material is not None and residual > 1.0:
+            return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied nodal "
+                                      f"force after {self.max_iterations} iterations (no equilibrium: collapse)",
+                               self.max_iterations, residual, factorisations(), mechanism=True)
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
                            factorisations())
@@ -333,7 +380,7 @@ class ContactSolver:
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
         _, _, d = self.split(it.x)
-        return Iterate(it.x, it.active, d[:, 1].copy())
+        return Iterate(it.x, it.active, d[:, 1].copy(), it.plastic_strain)
 
     def _global_key(self, active: ContactState) -> int:
         return hash(tuple(self.comm.allgather(active.key())))
@@ -341,9 +388,22 @@ class ContactSolver:
     def _norm_inf(self, a: np.ndarray) -> float:
         return float(self.comm.allreduce(np.abs(a).max() if a.size else 0.0, op=MPI.MAX))
 
+    def _material_residual(self, x: PETSc.Vec, f_int: np.ndarray, level: float, f_scale: float) -> float:
+        """Scaled out-of-balance force |f + G^T lam - f_int(u)|_inf / f_scale with the fill's true stresses."""
+        self._lam.array[:] = x.array[self.n_u:]
+        self._G.multTranspose(self._lam, self.r)
+        out = self.f_dead.array + level * self.f_live.array + self.r.array[:self.n_u] - f_int
+        return self._norm_inf(out) / f_scale
+
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
         self.A.mult(x, self.r)
         return self._norm_inf(self.r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
+
+
+def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
+    (ia, ja, _), (ib, jb, _) = a.getValuesCSR(), b.getValuesCSR()
+    return bool(a.getComm().tompi4py().allreduce(int(np.array_equal(ia, ib) and np.array_equal(ja, jb)),
+                                                  op=MPI.MIN))
 
 
 def _stick(active: ContactState, frozen: np.ndarray) -> None:

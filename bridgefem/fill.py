@@ -1,0 +1,116 @@
+"""The Mohr-Coulomb backfill in the FE model: internal force and consistent tangent at the quadrature points.
+
+The whole body (voussoirs and fill) is integrated at the same quadrature points: the voussoirs with their
+elastic matrix, the fill with the return map of :mod:`bridgefem.plasticity` from the plastic strain of the
+last converged load step. :meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force
+f_int(u) (N) and the tangent K_t(u) (N/m, same sparsity and supports as the elastic K of
+:mod:`bridgefem.model`), so that the contact solver's Newton step solves
+``K_t du - G^T lam = f - f_int(u) + K_t u`` (the linearisation in total form). Ring and fill share one
+quadrature rule: one point per triangle for P1, three for P2 (exact for the elastic stiffness).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import basix
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
+from petsc4py import PETSc
+
+from .mesh import BlockMesh
+from .model import lame, strain
+from .plasticity import MohrCoulomb, return_map
+from .scene import Scene
+
+APEX_STIFFNESS = 1e-6  # fraction of the elastic matrix kept in the tangent (points at the cone apex have none)
+
+
+@dataclass
+class FillResponse:
+    """Internal force (owned entries, N), the tangent's CSR values, the right-hand side correction
+    ``K_t u - f_int`` (owned, N), the trial plastic strain (n, 4) and the count of yielding points (all ranks)."""
+
+    f_int: np.ndarray
+    tangent_values: np.ndarray
+    correction: np.ndarray
+    plastic_strain: np.ndarray
+    yielding: int
+
+
+def _voigt(w):
+    e = strain(w)
+    return ufl.as_vector([e[0, 0], e[1, 1], 2 * e[0, 1]])
+
+
+def _elastic_matrix(lmbda: float, mu: float) -> np.ndarray:
+    return np.array([[lmbda + 2 * mu, lmbda, 0.0], [lmbda, lmbda + 2 * mu, 0.0], [0.0, 0.0, mu]])
+
+
+class PlasticFill:
+    """Quadrature-point state of the model with a Mohr-Coulomb fill (see the module docstring)."""
+
+    def __init__(self, V: fem.FunctionSpace, bm: BlockMesh, scene: Scene, bcs: list):
+        mesh = bm.mesh
+        f = scene.fill
+        self.material = MohrCoulomb(f.young, f.poisson, f.friction_angle, f.cohesion, f.tension_cutoff)
+        self.bcs = bcs
+        degree = max(1, 2 * (scene.mesh.degree - 1))
+        points, _ = basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.triangle, degree)
+        n_qp = len(points)
+        cell = mesh.ufl_cell()
+        stress_space = fem.FunctionSpace(mesh, ufl.VectorElement("Quadrature", cell, degree, dim=3,
+                                                                 quad_scheme="default"))
+        tangent_space = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, degree, shape=(3, 3),
+                                                                  quad_scheme="default"))
+        self.stress, self.tangent = fem.Function(stress_space), fem.Function(tangent_space)
+        self.u = fem.Function(V)
+        n_cells = mesh.topology.index_map(2).size_local + mesh.topology.index_map(2).num_ghosts
+        cells = np.arange(n_cells, dtype=np.int32)
+        self._cells = cells
+        self._dofs = stress_space.dofmap.list.array.reshape(n_cells, n_qp).ravel()
+        self._strain = fem.Expression(_voigt(self.u), points)
+        block = np.full(n_cells, -1)
+        block[bm.cell_tags.indices] = bm.cell_tags.values
+        self._fill = np.repeat(block == bm.fill_block, n_qp)
+        self._ring_matrix = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
+        self._apex = APEX_STIFFNESS * _elastic_matrix(*lame(f.young, f.poisson, "strain"))
+        width = scene.arch.width
+        dxq = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree, "quadrature_scheme": "default"})
+        v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
+        self._f_form = fem.form(width * ufl.dot(self.stress, _voigt(v)) * dxq)
+        self._k_form = fem.form(width * ufl.dot(ufl.dot(self.tangent, _voigt(du)), _voigt(v)) * dxq)
+        self.K = assemble_matrix(self._k_form, bcs=bcs)
+        self.K.assemble()
+        self.n_owned = V.dofmap.index_map.size_local * 2
+        self._u_vec = self.K.createVecRight()
+        self._ku = self.K.createVecLeft()
+
+    def initial_plastic_strain(self) -> np.ndarray:
+        return np.zeros((int(self._fill.sum()), 4))
+
+    def evaluate(self, u_owned: np.ndarray, plastic_strain: np.ndarray) -> FillResponse:
+        """Stress, internal force and tangent at displacement ``u_owned`` (m) from the converged plastic strain."""
+        self.u.x.array[:self.n_owned] = u_owned
+        self.u.x.scatter_forward()
+        eps = self._strain.eval(self._cells).reshape(-1, 3)
+        stress = eps @ self._ring_matrix.T
+        tangent = np.broadcast_to(self._ring_matrix, (len(eps), 3, 3)).copy()
+        fill_eps = np.column_stack([eps[self._fill, :2], np.zeros(len(plastic_strain)), eps[self._fill, 2]])
+        sig, d_alg, new_plastic = return_map(self.material, fill_eps, plastic_strain)
+        stress[self._fill] = sig[:, [0, 1, 3]]
+        tangent[self._fill] = d_alg + self._apex
+        self.stress.x.array.reshape(-1, 3)[self._dofs] = stress
+        self.tangent.x.array.reshape(-1, 9)[self._dofs] = tangent.reshape(-1, 9)
+        f_int = assemble_vector(self._f_form)
+        f_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(f_int, self.bcs)
+        self.K.zeroEntries()
+        assemble_matrix(self.K, self._k_form, bcs=self.bcs)
+        self.K.assemble()
+        self._u_vec.array[:] = u_owned
+        self.K.mult(self._u_vec, self._ku)
+        yielding = np.count_nonzero(np.any(new_plastic != plastic_strain, axis=1))
+        return FillResponse(f_int.array.copy(), self.K.getValuesCSR()[2].copy(), self._ku.array - f_int.array,
+                            new_plastic, int(self.K.getComm().tompi4py().allreduce(yielding)))

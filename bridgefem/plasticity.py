@@ -1,0 +1,177 @@
+"""Elastic-perfectly-plastic backfill soil at quadrature points (plane strain, pure numpy, vectorised).
+
+Material: isotropic linear elasticity (Young's modulus E, Poisson's ratio nu) with a Drucker-Prager cone
+(Drucker & Prager 1952) matched to Mohr-Coulomb in plane strain, plus a tension cut-off on the mean stress:
+
+- cone: ``f = sqrt(J2) + alpha I1 - k <= 0`` with ``alpha = tan(phi) / sqrt(9 + 12 tan^2 phi)`` and
+  ``k = 3 c / sqrt(9 + 12 tan^2 phi)``; in the notation of de Souza Neto, Peric & Owen, *Computational
+  Methods for Plasticity* (Wiley 2008), chapter 6 (Drucker-Prager approximations of Mohr-Coulomb,
+  "plane strain match") this is ``sqrt(J2) + eta p - xi c`` with ``eta = 3 alpha``, ``xi c = k``;
+- cut-off: ``p = I1 / 3 <= sigma_t`` (``tension_cutoff``; 0 = no-tension soil).
+
+Associated flow on both surfaces, no hardening. Why the cone is *the* plane-strain match: with associated
+flow, plane-strain collapse has zero plastic out-of-plane strain rate, ``s_zz = -2 alpha sqrt(J2)``. Writing
+the in-plane principal stresses ``s1 >= s3`` with centre ``m = (s1 + s3)/2`` and radius ``R = (s1 - s3)/2``,
+that gives ``J2 = R^2 / (1 - 3 alpha^2)`` and ``f = 0`` becomes ``R sqrt(1 - 3 alpha^2) + 3 alpha m = k``,
+i.e. with the constants above exactly the Mohr-Coulomb criterion ``R = c cos(phi) - m sin(phi)``; so the
+matched cone gives the Mohr-Coulomb plane-strain collapse loads (associated flow, dilatancy angle = phi).
+phi = 0 is the plane-strain match of Tresca (von Mises with ``sqrt(J2) <= c``); c = 0 a cohesionless soil.
+
+Conventions: SI units (Pa, strain dimensionless), tension positive (soil under self-weight has negative
+stresses). Stresses and strains are 4-vectors ``[xx, yy, zz, xy]``; the strain vector carries the
+*engineering* shear strain ``gamma_xy = 2 eps_xy`` and ``eps_zz = 0`` in plane strain, while ``sigma_zz`` is
+tracked. Tangents are 3x3 on the in-plane Voigt components ``[xx, yy, xy]`` with engineering shear, so that
+``d sigma = D d strain``.
+
+The return map is the closest-point projection in the energy norm, integrated by backward Euler in one step
+(exact for perfect plasticity with a linear flow vector): elastic, return to the smooth cone, to the
+cap ``p = sigma_t`` (deviator kept), or to the corner where the cap meets the cone (deviator scaled to the
+cone radius). If ``sigma_t`` is at or beyond the cone apex ``p = c cot(phi)``, the corner is the apex itself
+(zero deviator), the usual Drucker-Prager apex return (de Souza Neto et al. 2008, chapter 8).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import isfinite, radians, sqrt, tan
+
+import numpy as np
+
+_M = np.array([1.0, 1.0, 1.0, 0.0])  # second-order identity as a stress-like 4-vector
+_TENSOR_SHEAR = np.array([1.0, 1.0, 1.0, 0.5])  # engineering -> tensor strain components
+# Tensor -> engineering strain components; also the weights of a:b = sum(w a b) for tensor 4-vectors.
+_ENGINEERING = np.array([1.0, 1.0, 1.0, 2.0])
+_IN_PLANE = [0, 1, 3]
+# Deviatoric projector mapping an engineering strain 4-vector to the tensor deviatoric strain components.
+_DEV = np.diag(_TENSOR_SHEAR) - np.outer(_M, _M) / 3.0
+
+
+@dataclass(frozen=True)
+class MohrCoulomb:
+    """Backfill soil: elasticity, plane-strain matched Drucker-Prager cone and mean-stress cut-off.
+
+    ``young`` (Pa), ``poisson`` (-), ``friction_angle`` phi (degrees, 0 <= phi < 90), ``cohesion`` c (Pa),
+    ``tension_cutoff`` sigma_t >= 0 (Pa), the limit of the mean stress ``p = tr(sigma)/3`` (tension positive).
+    """
+
+    young: float
+    poisson: float
+    friction_angle: float
+    cohesion: float
+    tension_cutoff: float = 0.0
+
+    def __post_init__(self):
+        values = (self.young, self.poisson, self.friction_angle, self.cohesion, self.tension_cutoff)
+        if not all(isfinite(v) for v in values):
+            raise ValueError(f"material parameters must be finite, got {values}")
+        if self.young <= 0 or not -1.0 < self.poisson < 0.5:
+            raise ValueError(f"need young > 0 and -1 < poisson < 0.5, got {self.young}, {self.poisson}")
+        if not 0.0 <= self.friction_angle < 90.0:
+            raise ValueError(f"need 0 <= friction_angle < 90 degrees, got {self.friction_angle}")
+        if self.cohesion < 0 or self.tension_cutoff < 0:
+            raise ValueError(f"need cohesion >= 0 and tension_cutoff >= 0, got {self.cohesion}, "
+                             f"{self.tension_cutoff}")
+
+    @property
+    def shear_modulus(self) -> float:
+        """G = E / (2 (1 + nu)) (Pa)."""
+        return self.young / (2.0 * (1.0 + self.poisson))
+
+    @property
+    def bulk_modulus(self) -> float:
+        """K = E / (3 (1 - 2 nu)) (Pa)."""
+        return self.young / (3.0 * (1.0 - 2.0 * self.poisson))
+
+    @property
+    def lame_lambda(self) -> float:
+        """lambda = K - 2 G / 3 (Pa)."""
+        return self.bulk_modulus - 2.0 * self.shear_modulus / 3.0
+
+    @property
+    def alpha(self) -> float:
+        """Cone slope alpha = tan(phi) / sqrt(9 + 12 tan^2 phi) (-), multiplying I1 = tr(sigma)."""
+        t = tan(radians(self.friction_angle))
+        return t / sqrt(9.0 + 12.0 * t * t)
+
+    @property
+    def k(self) -> float:
+        """Cone intercept k = 3 c / sqrt(9 + 12 tan^2 phi) (Pa), the limit of sqrt(J2) at I1 = 0."""
+        t = tan(radians(self.friction_angle))
+        return 3.0 * self.cohesion / sqrt(9.0 + 12.0 * t * t)
+
+    @property
+    def mean_stress_limit(self) -> float:
+        """Largest admissible mean stress (Pa): the cut-off sigma_t or the cone apex c cot(phi) if smaller."""
+        if self.alpha == 0.0:
+            return self.tension_cutoff
+        return min(self.tension_cutoff, self.k / (3.0 * self.alpha))
+
+
+def elastic_tangent(material: MohrCoulomb) -> np.ndarray:
+    """Plane-strain Hooke matrix (3, 3) (Pa) on ``[xx, yy, xy]`` with engineering shear strain."""
+    lam, g = material.lame_lambda, material.shear_modulus
+    return np.array([[lam + 2 * g, lam, 0.0], [lam, lam + 2 * g, 0.0], [0.0, 0.0, g]])
+
+
+def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stress, consistent tangent and plastic strain after one backward-Euler step at n points.
+
+    ``strain``: total strain (n, 4) ``[exx, eyy, ezz (= 0 in plane strain), gamma_xy]`` (engineering shear);
+    ``plastic_strain``: (n, 4) converged plastic strain of the last load step, same layout. Returns the
+    stress (n, 4) ``[sxx, syy, szz, sxy]`` (Pa, tension positive), the consistent (algorithmic) tangent
+    (n, 3, 3) ``d[sxx, syy, sxy] / d[exx, eyy, gamma_xy]`` (Pa) and the updated plastic strain (n, 4).
+    The tangent is singular off the smooth cone: no bulk stiffness on the cut-off, zero at the apex (a
+    stress held at a fixed vertex of the elastic domain); a global solver needs elastic neighbours or
+    regularisation where whole regions sit there.
+    """
+    strain = np.asarray(strain, dtype=float)
+    plastic_strain = np.asarray(plastic_strain, dtype=float)
+    if strain.ndim != 2 or strain.shape[1] != 4 or plastic_strain.shape != strain.shape:
+        raise ValueError(f"strain and plastic_strain must both be (n, 4), got {strain.shape} and "
+                         f"{plastic_strain.shape}")
+    g, bulk, alpha, k = material.shear_modulus, material.bulk_modulus, material.alpha, material.k
+    p_max = material.mean_stress_limit
+    r_corner = k - 3.0 * alpha * p_max  # sqrt(J2) where the cap meets the cone (0 at the apex)
+
+    # Elastic predictor: trial deviator s_tr, mean stress p_tr and q_tr = sqrt(J2_tr).
+    elastic = (strain - plastic_strain) * _TENSOR_SHEAR
+    volumetric = elastic[:, :3].sum(axis=1)
+    p_tr = bulk * volumetric
+    s_tr = 2.0 * g * (elastic - volumetric[:, None] / 3.0 * _M)
+    q_tr = np.sqrt(0.5 * (_ENGINEERING * s_tr * s_tr).sum(axis=1))
+    f_tr = q_tr + 3.0 * alpha * p_tr - k
+
+    # Regime selection: disjoint regions of the trial state (normal cones of the closest-point projection).
+    h_cone = g + 9.0 * bulk * alpha * alpha
+    d_gamma = np.maximum(f_tr, 0.0) / h_cone  # cone multiplier (valid where the cone return applies)
+    p_cone = p_tr - 3.0 * bulk * alpha * d_gamma
+    cone = (f_tr > 0.0) & (p_cone <= p_max)
+    cap = ~cone & (p_tr > p_max) & (q_tr <= r_corner)
+    corner = ~cone & ~cap & ((f_tr > 0.0) | (p_tr > p_max))
+
+    q_safe = np.where(q_tr > 0.0, q_tr, 1.0)
+    beta = np.where(cone, g * d_gamma / q_safe, 0.0)  # fraction of the trial deviator removed on the cone
+    rho = np.where(q_tr > 0.0, r_corner / q_safe, 0.0)  # corner: deviator scaled to the corner radius
+    scale = np.select([cone, corner], [1.0 - beta, rho], 1.0)
+    p = np.select([cone, cap | corner], [p_cone, p_max], p_tr)
+    stress = scale[:, None] * s_tr + p[:, None] * _M
+
+    # Plastic strain increment = elastic compliance applied to (trial stress - stress); exactly 0 if elastic.
+    d_plastic = ((1.0 - scale)[:, None] * s_tr / (2.0 * g) + ((p_tr - p) / (3.0 * bulk))[:, None] * _M)
+    new_plastic = plastic_strain + d_plastic * _ENGINEERING
+
+    # Consistent tangent D = a 2G Idev + b N N + c h h + d K m m with the unit trial direction N, in which
+    #   cone:   a = 1 - beta, b = 2G beta, c = -1/(G + 9 K alpha^2), h = sqrt(2) G N + 3 alpha K m, d = 1;
+    #   cap:    a = 1, d = 0 (p fixed);   corner: a = rho, b = -2G rho, d = 0;   elastic: a = 1, d = 1.
+    unit = s_tr / (np.sqrt(2.0) * q_safe)[:, None]
+    h = np.sqrt(2.0) * g * unit + 3.0 * alpha * bulk * _M
+    b = np.select([cone, corner], [2.0 * g * beta, -2.0 * g * rho], 0.0)
+    c = np.where(cone, -1.0 / h_cone, 0.0)
+    d = np.where(cap | corner, 0.0, 1.0)
+    ip = _IN_PLANE
+    unit, h = unit[:, ip], h[:, ip]
+    tangent = (scale[:, None, None] * (2.0 * g * _DEV[np.ix_(ip, ip)])  # a = scale
+               + b[:, None, None] * unit[:, :, None] * unit[:, None, :]
+               + c[:, None, None] * h[:, :, None] * h[:, None, :]
+               + d[:, None, None] * (bulk * np.outer(_M[ip], _M[ip])))
+    return stress, tangent, new_plastic
