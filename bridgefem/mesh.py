@@ -102,6 +102,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             extrados_curves += extra
         fill_curves = _add_fill(geo, outline, outer, extrados_curves, h_fill) if outline is not None else {}
         geo.synchronize()
+        if outline is not None:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", h_fill)
         mesh = gmsh.model.mesh
         for c in joint_curves:
             mesh.setTransfiniteCurve(c, per_thickness + 1)

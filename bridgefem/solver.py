@@ -173,7 +173,8 @@ class ContactSolver:
         if self.material is not None and not _same_pattern(K, self.material.K):
             raise RuntimeError("the fill's tangent matrix does not have the sparsity of the elastic K")
         self._const = np.concatenate([kv, -tv])
-        self._n_k = len(kv)
+        self._n_k, self._k_elastic, self._K = len(kv), kv.copy(), K
+        self._u_work, self._ku = K.createVecRight(), K.createVecLeft()
         self._g_rows, self._g_vals = g_rows, g_vals
         self._n_diag = len(k)
         slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
@@ -236,12 +237,20 @@ class ContactSolver:
         return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)),
                        plastic)
 
-    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Evaluate the fill at the displacements of x: the tangent goes into the system matrix and K_t u - f_int
-        into the right-hand side. Returns the internal force (owned, N) and the trial plastic strain."""
+    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray, elastic: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Evaluate the fill at the displacements of x: the tangent (the elastic K if ``elastic``) goes into the
+        system matrix and K_t u - f_int into the right-hand side. Returns the internal force (owned, N) and the
+        trial plastic strain."""
         response = self.material.evaluate(x.array[:self.n_u], plastic_strain)
-        self._const[:self._n_k] = response.tangent_values
-        self._correction = response.correction
+        if elastic:
+            self._u_work.array[:] = x.array[:self.n_u]
+            self._K.mult(self._u_work, self._ku)
+            self._const[:self._n_k] = self._k_elastic
+            self._correction = self._ku.array - response.f_int
+        else:
+            self._const[:self._n_k] = response.tangent_values
+            self._correction = response.correction
         self._matrix_key = None
         return response.f_int, response.plastic_strain
 
@@ -319,7 +328,7 @@ class ContactSolver:
         singular = None  # the last singular proposal of this step
         plastic = start.plastic_strain
         if self.material is not None:
-            self._linearise(x, start.plastic_strain)
+            self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
         for it in range(1, self.max_iterations + 1):
             failure = self._solve_active(level, active, slip_ref, x)
             if failure is not None:
