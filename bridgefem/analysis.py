@@ -2,8 +2,9 @@
 
 Also reads the collapse mechanism off the last converged state: per joint the resultant normal force N (N,
 compression positive), shear V (N), eccentricity e (m, from the joint centre, positive towards the extrados)
-and the open part of its length. A *hinge* is a joint cracked over at least half its length whose |e| is the
-largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
+and the open part of its length. A *hinge* is a cracked joint (open over at least half its length, or with
+its thrust within 1 % of the length from a face: with one element through the thickness a joint has only two
+pairs) whose |e| is the largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
 intrados when e < 0 and at the extrados when e > 0. A *sliding* joint has every closed pair slipping one way.
 """
 from __future__ import annotations
@@ -24,7 +25,8 @@ from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflecti
 from .scene import Scene, SceneError
 from .solver import ContactSolver, Iterate
 
-HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length
+HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
+HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
 
 
@@ -146,7 +148,8 @@ def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
 
 
 def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
-    cracked = [s.open_fraction >= HINGE_OPEN_FRACTION for s in states]
+    cracked = [s.open_fraction >= HINGE_OPEN_FRACTION
+               or abs(s.eccentricity) >= HINGE_ECCENTRICITY * ring.joints[s.id].length for s in states]
     run: list[JointState] = []
     for s, c in zip(states + [None], cracked + [False]):
         if c and run and np.sign(s.eccentricity) == np.sign(run[-1].eccentricity):

@@ -86,11 +86,10 @@ def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
 
 
 def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:
-    """Pairs of the arch-fill interface: each fill node on the extrados with the ring node at its place. Fill
-    nodes on the fixed base and at joints' extrados corners are left out: at a corner two voussoir faces meet,
-    so a node-to-node pair has no single gap (pairing both would over-constrain a closed joint, pairing one
-    makes the pair chatter when the joint opens). Normal from the ring into the fill, from the neighbouring
-    interface nodes (central differences)."""
+    """Pairs of the arch-fill interface: each fill node on the extrados (except those on the fixed base) with
+    the ring node at its place. At a joint's extrados corner two voussoir faces meet: the fill node is paired
+    with one of them (lower global index), since pairing both would over-constrain a closed joint. Normal from
+    the ring into the fill, from the neighbouring interface nodes (central differences)."""
     table = _gather_face_nodes(V, bm, [EXTRADOS_TAG, FILL_INTERFACE_TAG, FILL_BASE_TAG])
     ring_rows = table[table[:, 0] == EXTRADOS_TAG]
     fill_rows = table[table[:, 0] == FILL_INTERFACE_TAG]
@@ -99,8 +98,7 @@ def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> d
     dist, idx = cKDTree(ring_rows[:, 2:4]).query(fill_rows[:, 2:4], k=2)
     if np.any(dist[:, 0] > match_tol):
         raise RuntimeError("arch-fill interface: fill nodes without a ring node at their place")
-    corner = dist[:, 1] <= match_tol  # two voussoir faces meet there: no single gap to the fill
-    fill_rows, ring_node = fill_rows[~corner], ring_rows[idx[~corner, 0], 1]
+    ring_node = np.where(dist <= match_tol, ring_rows[idx, 1], np.inf).min(axis=1)
     x = fill_rows[:, 2:4]
     tangent = np.gradient(x, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1)[:, None]

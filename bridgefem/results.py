@@ -103,14 +103,19 @@ def lp_check(scene, data: dict) -> dict:
     lp = collapse_load(scene)
     out = {"lp": {**lp_summary(lp), "model": LP_FILL_LABEL if scene.fill else "bare ring"},
            "fe_lp_ratio": None, "warnings": []}
+    mid = np.array([0.5 * (np.array(j["intrados"]) + np.array(j["extrados"])) for j in data["joints"]])
+    shortest = float(np.linalg.norm(np.diff(mid, axis=0), axis=1).min())
+    if shortest < data["model"]["element_size"]:
+        out["warnings"].append(f"voussoirs as short as {shortest:.3g} m are shorter than one element "
+                               f"({data['model']['element_size']:.3g} m): the FE can stop below the limit load; "
+                               "raise [mesh] elements_through_thickness or use fewer voussoirs")
     lim = data["limit_load"]
     if lp.load and lim["upper"]:
         ratio = 0.5 * (lim["lower"] + lim["upper"]) / lp.load
         out["fe_lp_ratio"] = ratio
-        no_sliding = not lp.sliding and not data["mechanism"]["sliding"]
-        if no_sliding and scene.fill is None and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
+        if not data["mechanism"]["sliding"] and scene.fill is None and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
             out["warnings"].append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a "
-                                   "case without sliding: check the mesh, the tolerance and the mechanism")
+                                   "case without FE sliding: check the mesh, the tolerance and the mechanism")
     return out
 
 
