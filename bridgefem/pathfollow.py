@@ -1,10 +1,29 @@
 """Load incrementation to the limit load: self-weight first, then the live load until no equilibrium exists.
 
-The live-load level grows with adaptive steps from the last converged state: a failed step is halved and
-retried from there, a converged one keeps its size (doubled after an easy step). The limit load is the
-bracket [last converged, first failed] once the failing step is within ``tolerance`` of the last converged
-level: a failure reached by a large step proves nothing, so it is never used as a bound. Failed steps are
-discarded (incremental friction makes the response path dependent).
+Levels are live-load levels in N per unit load factor. Every trial is solved from the last converged state
+``lower``; a failed trial is discarded (incremental friction makes the response path dependent).
+
+**Bracket rule.** The limit load is [lower, upper] once a trial ``upper`` started from ``lower`` fails with
+``upper - lower <= tolerance * lower`` (the *width*). A failure reached by a larger step proves nothing (the
+response is path dependent, and the active-set Newton method can fail on a large step below the limit): it is
+a *soft* bound. Later trials bisect [lower, soft] and retry the soft bound itself once it is within the width
+of ``lower``, where its failure is decisive. A trial that converges at or above the soft bound discards it.
+
+**Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
+approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
+that would stop within ``LANDING * T`` of T goes to T. The step after T is the width, so that a limit in
+[T, g] is bracketed by two trials. A failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is
+*suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
+converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
+of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
+was reached by a larger step, the search backtracks to the converged state before it and goes on with a
+quarter of that step. A wrong guess therefore costs steps, never the bracket rule.
+
+**Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
+Newton iterations and halved after one of at least ``HARD_ITERATIONS`` (at least as many as the self-weight step
+took, and twice that: a plastic fill needs a few Newton iterations on every step); a soft failure halves it; arriving at
+T sets it to the width. It is the step away from T (beyond T, or without a guess) and bounds every approach
+step (first: ``initial_step``), which bounds the cost of a guess that is too high.
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
@@ -12,18 +31,31 @@ or a bracket not closed within the step budget).
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from .solver import ContactSolver, Iterate, StepOutcome
 
+if TYPE_CHECKING:
+    from .scene import Scene
+
 LIMIT_FOUND = "limit load found"
 UNSTABLE = "unstable under self-weight"
 LOCKED = "no collapse up to the maximum load (locked)"
 STABLE = "stable under self-weight"
+
+APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
+LANDING = 0.04  # an approach step that would stop within this fraction of T goes to T
+PLAUSIBLE = 0.02  # failures below (1 - PLAUSIBLE) T contradict the guess (suspect)
+SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most this many widths ...
+SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
+EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
+HARD_ITERATIONS = 8  # a converged step with at least this many Newton iterations halves the step
+CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
 @dataclass
@@ -44,7 +76,8 @@ class LoadStep:
 
 @dataclass
 class LimitSearch:
-    """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor)."""
+    """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
+    the estimate of the limit level the search used (N per unit load factor; None: none)."""
 
     status: str
     lower: float
@@ -53,12 +86,30 @@ class LimitSearch:
     steps: list[LoadStep] = field(default_factory=list)
     last: Iterate | None = None
     failure: str = ""
+    guess: float | None = None
+
+
+def rigid_block_level(scene: Scene) -> float | None:
+    """The rigid-block LP collapse level of a scene (N per unit load factor; :func:`bridgefem.rigid_block.
+    collapse_load`), or None when the LP finds no limit load or fails: an estimate, never a bound."""
+    from .rigid_block import collapse_load
+
+    try:
+        lp = collapse_load(scene)
+    except Exception:  # noqa: BLE001 - the estimate is optional: the FE search goes on without it
+        return None
+    return lp.load_factor if lp.status == LIMIT_FOUND else None
 
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
-                    initial_step: float, max_load: float, max_steps: int,
+                    initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
+                    guess_scene: Scene | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
-    """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``)."""
+    """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
+
+    ``guess``: an estimate of the limit level (N per unit load factor); when None, the rigid-block level of
+    ``guess_scene`` (computed on rank 0 and broadcast) if given; no estimate when both are None. Collective.
+    """
     steps: list[LoadStep] = []
 
     def attempt(level: float, start: Iterate) -> StepOutcome:
@@ -78,24 +129,61 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     state = solver.converged_slip_reference(first.iterate)
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)
-    lower, step, recent_failure = 0.0, initial_step, False
+    if guess is None and guess_scene is not None and solver.comm.rank == 0:
+        guess = rigid_block_level(guess_scene)
+    guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
+    target = math.inf if guess is None else (1.0 - tolerance) * guess
+
+    def plausible(level: float) -> bool:
+        return level >= (1.0 - PLAUSIBLE) * target if target < math.inf else True
+
+    lower, taken, step = 0.0, 0.0, initial_step  # taken: the step that reached lower
+    history: list[tuple[float, Iterate, float]] = []  # earlier converged (level, state, taken), for backtracking
+    soft = math.inf  # lowest failed level above lower
+    retry = False  # the next trial retries the soft bound
     while len(steps) < max_steps:
         if lower >= max_load:
-            return LimitSearch(LOCKED, lower, None, tolerance, steps, state)
-        trial = min(lower + step, max_load)
+            return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess)
+        width = tolerance * max(lower, 1e-9 * initial_step)
+        if retry or soft - lower <= (width if plausible(soft) else SUSPECT * width):
+            trial = soft
+        elif lower < target < soft:
+            trial = min(target - APPROACH * (target - lower), lower + step)
+            trial = target if target - trial <= LANDING * target else trial
+        elif soft < math.inf:
+            trial = 0.5 * (lower + soft)
+        else:
+            trial = lower + step
+        trial = min(trial, max_load)
         out = attempt(trial, state)
         if out.converged:
+            history.append((lower, state, taken))
+            taken, arrived = trial - lower, lower < target <= trial
             lower, state = trial, solver.converged_slip_reference(out.iterate)
-            if out.iterations <= 4 and not recent_failure:
-                step *= 2.0
-            recent_failure = False
-        elif trial - lower <= tolerance * max(lower, 1e-9 * initial_step):
+            if lower >= soft:
+                soft = math.inf
+            retry = soft - lower > tolerance * lower and not plausible(soft)
+            if arrived:
+                step = CLOSE * tolerance * lower
+            elif out.iterations <= max(EASY_ITERATIONS, first.iterations):
+                step = 2.0 * taken
+            elif out.iterations >= max(HARD_ITERATIONS, 2 * first.iterations):
+                step = 0.5 * taken
+            else:
+                step = taken
+            continue
+        suspect = not plausible(trial)
+        if suspect and trial - lower <= width and taken > SETTLED * width and history:
+            step = 0.25 * taken
+            lower, state, taken = history.pop()
+            soft, retry = math.inf, False
+        elif trial - lower <= (SUSPECT * width if suspect else width):
             status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
-            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason)
+            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess)
         else:
-            step, recent_failure = 0.5 * (trial - lower), True
+            soft, step, retry = trial, 0.5 * (trial - lower), False
     status = f"solver failure: bracket not closed within {max_steps} load steps"
-    return LimitSearch(status, lower, None, tolerance, steps, state)
+    return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess)
 
 
 def monitor_deflection(solver: ContactSolver, monitor: np.ndarray) -> Callable[[Iterate], float]:
