@@ -16,14 +16,14 @@ that would stop within ``LANDING * T`` of T goes to T. The step after T is the w
 *suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
 of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
-was reached by a larger step, the search backtracks to the converged state before it and goes on with a
-quarter of that step. A wrong guess therefore costs steps, never the bracket rule.
+was reached by a larger step, the search backtracks to the converged state before it (of the last
+``BACKTRACK``) and goes on with a quarter of that step. A wrong guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
-Newton iterations and halved after one of at least ``HARD_ITERATIONS`` (at least as many as the self-weight step
-took, and twice that: a plastic fill needs a few Newton iterations on every step); a soft failure halves it; arriving at
-T sets it to the width. It is the step away from T (beyond T, or without a guess) and bounds every approach
-step (first: ``initial_step``), which bounds the cost of a guess that is too high.
+Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
+never shrinks after a converged step (that would stall where every step needs many iterations), a soft failure
+halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
+and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high.
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
@@ -54,7 +55,7 @@ PLAUSIBLE = 0.02  # failures below (1 - PLAUSIBLE) T contradict the guess (suspe
 SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most this many widths ...
 SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
-HARD_ITERATIONS = 8  # a converged step with at least this many Newton iterations halves the step
+BACKTRACK = 4  # converged states kept for backtracking
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -96,7 +97,7 @@ def rigid_block_level(scene: Scene) -> float | None:
 
     try:
         lp = collapse_load(scene)
-    except Exception:  # noqa: BLE001 - the estimate is optional: the FE search goes on without it
+    except Exception:  # the estimate is optional: the FE search goes on without it
         return None
     return lp.load_factor if lp.status == LIMIT_FOUND else None
 
@@ -135,10 +136,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     target = math.inf if guess is None else (1.0 - tolerance) * guess
 
     def plausible(level: float) -> bool:
-        return level >= (1.0 - PLAUSIBLE) * target if target < math.inf else True
+        return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
 
     lower, taken, step = 0.0, 0.0, initial_step  # taken: the step that reached lower
-    history: list[tuple[float, Iterate, float]] = []  # earlier converged (level, state, taken), for backtracking
+    history: deque[tuple[float, Iterate, float]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken)
     soft = math.inf  # lowest failed level above lower
     retry = False  # the next trial retries the soft bound
     while len(steps) < max_steps:
@@ -165,12 +166,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             retry = soft - lower > tolerance * lower and not plausible(soft)
             if arrived:
                 step = CLOSE * tolerance * lower
-            elif out.iterations <= max(EASY_ITERATIONS, first.iterations):
-                step = 2.0 * taken
-            elif out.iterations >= max(HARD_ITERATIONS, 2 * first.iterations):
-                step = 0.5 * taken
             else:
-                step = taken
+                step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
             continue
         suspect = not plausible(trial)
         if suspect and trial - lower <= width and taken > SETTLED * width and history:
