@@ -21,7 +21,7 @@ from petsc4py import PETSc
 
 from .mesh import BlockMesh
 from .model import lame, strain
-from .plasticity import MohrCoulomb, return_map
+from .plasticity import MohrCoulomb, elastic_tangent, return_map
 from .scene import Scene
 
 APEX_STIFFNESS = 1e-6  # fraction of the elastic matrix kept in the tangent (points at the cone apex have none)
@@ -29,14 +29,13 @@ APEX_STIFFNESS = 1e-6  # fraction of the elastic matrix kept in the tangent (poi
 
 @dataclass
 class FillResponse:
-    """Internal force (owned entries, N), the tangent's CSR values, the right-hand side correction
-    ``K_t u - f_int`` (owned, N), the trial plastic strain (n, 4) and the count of yielding points (all ranks)."""
+    """Internal force (owned entries, N), the trial plastic strain (n, 4) and, when the tangent was asked for,
+    its CSR values and the right-hand side correction ``K_t u - f_int`` (owned, N)."""
 
     f_int: np.ndarray
-    tangent_values: np.ndarray
-    correction: np.ndarray
     plastic_strain: np.ndarray
-    yielding: int
+    tangent_values: np.ndarray | None = None
+    correction: np.ndarray | None = None
 
 
 def _voigt(w):
@@ -67,15 +66,14 @@ class PlasticFill:
         self.stress, self.tangent = fem.Function(stress_space), fem.Function(tangent_space)
         self.u = fem.Function(V)
         n_cells = mesh.topology.index_map(2).size_local + mesh.topology.index_map(2).num_ghosts
-        cells = np.arange(n_cells, dtype=np.int32)
-        self._cells = cells
+        self._cells = np.arange(n_cells, dtype=np.int32)
         self._dofs = stress_space.dofmap.list.array.reshape(n_cells, n_qp).ravel()
         self._strain = fem.Expression(_voigt(self.u), points)
         block = np.full(n_cells, -1)
         block[bm.cell_tags.indices] = bm.cell_tags.values
         self._fill = np.repeat(block == bm.fill_block, n_qp)
         self._ring_matrix = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
-        self._apex = APEX_STIFFNESS * _elastic_matrix(*lame(f.young, f.poisson, "strain"))
+        self._apex = APEX_STIFFNESS * elastic_tangent(self.material)
         width = scene.arch.width
         dxq = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree, "quadrature_scheme": "default"})
         v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
@@ -90,27 +88,29 @@ class PlasticFill:
     def initial_plastic_strain(self) -> np.ndarray:
         return np.zeros((int(self._fill.sum()), 4))
 
-    def evaluate(self, u_owned: np.ndarray, plastic_strain: np.ndarray) -> FillResponse:
-        """Stress, internal force and tangent at displacement ``u_owned`` (m) from the converged plastic strain."""
+    def evaluate(self, u_owned: np.ndarray, plastic_strain: np.ndarray, tangent: bool = True) -> FillResponse:
+        """Stress and internal force at displacement ``u_owned`` (m) from the converged plastic strain, and the
+        tangent unless ``tangent`` is False."""
         self.u.x.array[:self.n_owned] = u_owned
         self.u.x.scatter_forward()
         eps = self._strain.eval(self._cells).reshape(-1, 3)
         stress = eps @ self._ring_matrix.T
-        tangent = np.broadcast_to(self._ring_matrix, (len(eps), 3, 3)).copy()
         fill_eps = np.column_stack([eps[self._fill, :2], np.zeros(len(plastic_strain)), eps[self._fill, 2]])
         sig, d_alg, new_plastic = return_map(self.material, fill_eps, plastic_strain)
         stress[self._fill] = sig[:, [0, 1, 3]]
-        tangent[self._fill] = d_alg + self._apex
         self.stress.x.array.reshape(-1, 3)[self._dofs] = stress
-        self.tangent.x.array.reshape(-1, 9)[self._dofs] = tangent.reshape(-1, 9)
         f_int = assemble_vector(self._f_form)
         f_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         set_bc(f_int, self.bcs)
+        if not tangent:
+            return FillResponse(f_int.array.copy(), new_plastic)
+        d = np.broadcast_to(self._ring_matrix, (len(eps), 3, 3)).copy()
+        d[self._fill] = d_alg + self._apex
+        self.tangent.x.array.reshape(-1, 9)[self._dofs] = d.reshape(-1, 9)
         self.K.zeroEntries()
         assemble_matrix(self.K, self._k_form, bcs=self.bcs)
         self.K.assemble()
         self._u_vec.array[:] = u_owned
         self.K.mult(self._u_vec, self._ku)
-        yielding = np.count_nonzero(np.any(new_plastic != plastic_strain, axis=1))
-        return FillResponse(f_int.array.copy(), self.K.getValuesCSR()[2].copy(), self._ku.array - f_int.array,
-                            new_plastic, int(self.K.getComm().tompi4py().allreduce(yielding)))
+        return FillResponse(f_int.array.copy(), new_plastic, self.K.getValuesCSR()[2].copy(),
+                            self._ku.array - f_int.array)

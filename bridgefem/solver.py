@@ -242,7 +242,7 @@ class ContactSolver:
         """Evaluate the fill at the displacements of x: the tangent (the elastic K if ``elastic``) goes into the
         system matrix and K_t u - f_int into the right-hand side. Returns the internal force (owned, N) and the
         trial plastic strain."""
-        response = self.material.evaluate(x.array[:self.n_u], plastic_strain)
+        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=not elastic)
         if elastic:
             self._u_work.array[:] = x.array[:self.n_u]
             self._K.mult(self._u_work, self._ku)
