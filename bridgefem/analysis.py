@@ -106,7 +106,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
-                             max_steps=s.max_steps, guess_scene=scene, report=report)
+                             max_steps=s.max_steps, guess_scene=scene,
+                             stiffness_drop=s.stiffness_drop if fill is not None else 0.0, report=report)
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)

@@ -193,7 +193,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
                 if block is not None:
                     facets.append(copy(np.full(seg.shape, block), seg))
                     values.append(np.full(len(seg), joint_face_tag(j, side), dtype=np.int32))
-        ext_block = raw.blocks[_owning_cell(raw.cells, raw.extrados)]
+        ring_cells = np.flatnonzero(raw.blocks != fill_block)  # the fill's cells share the extrados edges
+        ext_block = raw.blocks[ring_cells[_owning_cell(raw.cells[ring_cells], raw.extrados)]]
         facets.append(copy(np.stack([ext_block, ext_block], axis=1), raw.extrados))
         values.append(np.full(len(raw.extrados), EXTRADOS_TAG, dtype=np.int32))
         for tag, seg in raw.fill.items():

@@ -25,6 +25,16 @@ never shrinks after a converged step (that would stall where every step needs ma
 halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
 and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high.
 
+**Flat curve.** A structure whose mechanism is restrained by a soft or yielding fill never loses equilibrium
+exactly: its load-deflection curve flattens. With ``stiffness_drop`` set, a converged trial whose secant stiffness
+from ``lower`` is below that fraction of the tangent stiffness after self-weight counts as failed (a mechanism).
+On a softening (concave) curve the secant over a step exceeds the tangent at its end, so such a failure is as
+decisive as a lost equilibrium, and the bracket rule is unchanged.
+
+**Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
+decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
+failure.
+
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
 or a bracket not closed within the step budget).
@@ -56,6 +66,7 @@ SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most th
 SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
+SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -104,18 +115,30 @@ def rigid_block_level(scene: Scene) -> float | None:
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    guess_scene: Scene | None = None,
+                    guess_scene: Scene | None = None, stiffness_drop: float = 0.0,
                     report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
 
     ``guess``: an estimate of the limit level (N per unit load factor); when None, the rigid-block level of
-    ``guess_scene`` (computed on rank 0 and broadcast) if given; no estimate when both are None. Collective.
+    ``guess_scene`` (computed on rank 0 and broadcast) if given; no estimate when both are None.
+    ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m) is
+    below this fraction of the tangent stiffness after self-weight counts as failed, like a step without
+    equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
+    fill, which never becomes exactly singular). Collective.
     """
     steps: list[LoadStep] = []
+    k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
 
-    def attempt(level: float, start: Iterate) -> StepOutcome:
+    def attempt(level: float, start: Iterate, start_level: float = 0.0) -> StepOutcome:
         t0 = time.perf_counter()
         out = solver.solve_step(level, start)
+        if out.converged and k_initial < math.inf:
+            rise = deflection(out.iterate) - deflection(start)
+            secant = (level - start_level) / rise if rise > 0 else math.inf
+            if secant < stiffness_drop * k_initial:
+                out = StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m below "
+                                         f"{stiffness_drop:g} x the initial {k_initial:.3g} N/m (collapse)",
+                                  out.iterations, out.residual, out.factorisations, mechanism=True)
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, deflection(out.iterate) if out.converged else None, out.counts,
                         time.perf_counter() - t0)
@@ -130,6 +153,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     state = solver.converged_slip_reference(first.iterate)
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)
+    if stiffness_drop > 0:
+        k_initial = _initial_stiffness(solver, deflection, state)
     if guess is None and guess_scene is not None and solver.comm.rank == 0:
         guess = rigid_block_level(guess_scene)
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
@@ -142,11 +167,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     history: deque[tuple[float, Iterate, float]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken)
     soft = math.inf  # lowest failed level above lower
     retry = False  # the next trial retries the soft bound
+    stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess)
         width = tolerance * max(lower, 1e-9 * initial_step)
-        if retry or soft - lower <= (width if plausible(soft) else SUSPECT * width):
+        if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
             trial = soft
         elif lower < target < soft:
             trial = min(target - APPROACH * (target - lower), lower + step)
@@ -156,11 +182,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             trial = lower + step
         trial = min(trial, max_load)
-        out = attempt(trial, state)
+        out = attempt(trial, state, lower)
         if out.converged:
             history.append((lower, state, taken))
             taken, arrived = trial - lower, lower < target <= trial
-            lower, state = trial, solver.converged_slip_reference(out.iterate)
+            lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False
             if lower >= soft:
                 soft = math.inf
             retry = soft - lower > tolerance * lower and not plausible(soft)
@@ -174,6 +200,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             step = 0.25 * taken
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
+        elif not out.mechanism and not suspect and trial - lower > SUBSTEP * width:
+            soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
         elif trial - lower <= (SUSPECT * width if suspect else width):
             status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
             return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess)
@@ -181,6 +209,14 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry = trial, 0.5 * (trial - lower), False
     status = f"solver failure: bracket not closed within {max_steps} load steps"
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess)
+
+
+def _initial_stiffness(solver: ContactSolver, deflection: Callable[[Iterate], float], state: Iterate) -> float:
+    """Tangent stiffness (N/m) of the load-deflection curve at the self-weight state; inf when it cannot be
+    computed (then no step counts as flat)."""
+    tangent = solver.live_load_tangent(state)
+    compliance = deflection(tangent) if tangent is not None else 0.0
+    return 1.0 / compliance if compliance > 0 else math.inf
 
 
 def monitor_deflection(solver: ContactSolver, monitor: np.ndarray) -> Callable[[Iterate], float]:

@@ -112,7 +112,9 @@ class SolverOptions:
     max_load: live load (N) at which the search stops as "locked" (0: 100 x ring weight);
     initial_step: first live-load step (N; 0: ring weight / 4); max_steps: load steps in all;
     petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"};
-    preset: the speed-accuracy preset (:data:`PRESETS`) that supplied the mesh and tolerance defaults.
+    preset: the speed-accuracy preset (:data:`PRESETS`) that supplied the mesh and tolerance defaults;
+    stiffness_drop: with a fill, a load step whose secant stiffness falls below this fraction of the tangent
+    stiffness after self-weight marks the limit (the load-deflection curve is flat; 0: only a lost equilibrium).
     """
 
     tolerance: float = 0.005
@@ -122,6 +124,7 @@ class SolverOptions:
     max_steps: int = 200
     petsc: dict = field(default_factory=dict)
     preset: str = "default"
+    stiffness_drop: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -229,6 +232,8 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
         "max_steps": _Key(int, 200, lambda v: 1 <= v <= 100000, "an integer from 1 to 100000"),
         "petsc": _Key(dict, {}),
         "preset": _Key(str, "default", lambda v: v in PRESETS, "one of " + ", ".join(f'"{p}"' for p in PRESETS)),
+        "stiffness_drop": _Key(float, 0.02, lambda v: 0 <= v < 1, "a fraction from 0 (off) to below 1 of the "
+                               "initial stiffness (used only with a fill)"),
     },
 }
 _REQUIRED_SECTIONS = ("arch", "masonry", "joints")

@@ -17,16 +17,17 @@ changed. Every stop decision is collective over MPI.
 With a Mohr-Coulomb fill (:mod:`bridgefem.fill`) the stiffness block is the fill's consistent tangent at the
 current displacements and the right-hand side carries ``K_t u - f_int(u)``: each iteration is then a Newton
 step for the fill and an active-set step for the joints at once, and a step has converged when the active
-set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is small. Newton iterations whose
-out-of-balance force ends larger than the largest applied nodal force have diverged: no equilibrium at that
-load (the classical sign of collapse in incremental plasticity; the search accepts it only as the upper end of
-a bracket closed to the tolerance).
+set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is below ``MATERIAL_RTOL`` of the
+largest applied nodal force. Newton iterations whose out-of-balance force ends larger than the largest applied
+nodal force are reported as diverged, but not as proof of collapse: a smaller step may converge, and a yielding
+fill's limit is where the load-deflection curve becomes flat (:mod:`bridgefem.pathfollow`).
 
 Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
-for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
-friction law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular
-proposal after damping, non-convergence otherwise.
+for the rest of the step; they still open under tension. Closed pairs whose state goes from slip to stick and
+back are held in slip (:func:`_slip_cycles`). The count of both is reported as ``frozen``, and only the friction
+law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular proposal
+after damping, non-convergence otherwise.
 """
 from __future__ import annotations
 
@@ -53,6 +54,7 @@ DEFAULT_PETSC_OPTIONS = {
     "mat_mumps_icntl_14": 200,
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
+MATERIAL_RTOL = 1e-5  # the same with a plastic fill: Newton on the return map converges to about this
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 
 
@@ -269,6 +271,21 @@ class ContactSolver:
 
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec):
         """Solve the linear system of an active set into x; returns None or (failure message, is mechanism)."""
+        self._rhs(level, active, slip_ref)
+        failure = self._solve(active, x)
+        if failure is not None:
+            return failure
+        u_max = self._norm_inf(x.array[:self.n_u])
+        if not np.isfinite(self.u_cap) and u_max > 0:
+            self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
+        if u_max > self.u_cap:
+            return (f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m "
+                    "(no equilibrium: mechanism)"), True
+        return None
+
+    def _solve(self, active: ContactState, x: PETSc.Vec):
+        """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
+        active set or the fill's tangent changed); returns None or (failure message, is mechanism)."""
         key = active.key()
         if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
             self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
@@ -276,7 +293,6 @@ class ContactSolver:
             self.ksp.setOperators(self.A)
             self._matrix_key = key
             self.stats["factorisations"] += 1
-        self._rhs(level, active, slip_ref)
         t0 = time.perf_counter()
         self.ksp.solve(self.b, x)
         self.stats["time_factorise_solve"] += time.perf_counter() - t0
@@ -286,13 +302,20 @@ class ContactSolver:
             return _linear_failure(self.ksp, reason)
         if self._any(not np.all(np.isfinite(x.array))):
             return "NaN in the solution", False
-        u_max = self._norm_inf(x.array[:self.n_u])
-        if not np.isfinite(self.u_cap) and u_max > 0:
-            self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
-        if u_max > self.u_cap:
-            return (f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m "
-                    "(no equilibrium: mechanism)"), True
         return None
+
+    def live_load_tangent(self, it: Iterate) -> Iterate | None:
+        """The response to a unit increment of the live-load level at the converged ``it`` with its active set
+        held (open pairs open, closed pairs keep their gap, stick pairs their slip, slip pairs their friction
+        law) and, with a plastic fill, the fill's tangent of the last Newton iteration (call it right after the
+        step that converged to ``it``): displacements in m per N of live load, the tangent of the
+        load-deflection curve. None when that system cannot be solved."""
+        self.b.array[:self.n_u] = self.f_live.array
+        self.b.array[self.n_u:] = 0.0
+        dx = self.A.createVecRight()
+        if self._solve(it.active, dx) is not None:
+            return None
+        return Iterate(dx, it.active, it.slip_ref, it.plastic_strain)
 
     def _damp(self, base: "_Proposal") -> "tuple[ContactState, _Proposal] | None":
         """Keep the half of the pending changes with the largest violations (at least one): the damped active
@@ -317,7 +340,9 @@ class ContactSolver:
         x = self.A.createVecRight()
         start.x.copy(x)
         seen = {self._global_key(active)}
-        frozen = np.zeros(len(self.pairs), dtype=bool)
+        frozen = np.zeros(len(self.pairs), dtype=bool)  # slip direction cycled: held in stick
+        slip_frozen = np.zeros(len(self.pairs), dtype=np.int8)  # stick/slip cycled: held in slip (this sign)
+        toggles = np.zeros(len(self.pairs), dtype=np.int64)
         f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
         residual, first_factorisation = np.inf, self.stats["factorisations"]
 
@@ -341,6 +366,7 @@ class ContactSolver:
             _, lam, d = self.split(x)
             new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
             _stick(new, frozen)
+            slip_frozen = _slip_cycles(active, new, toggles, slip_frozen)
             pending = (new.state != active.state) | (new.sign != active.sign)
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             if self.material is not None:
@@ -350,10 +376,12 @@ class ContactSolver:
                 residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
                 ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
-                ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
+                held = frozen | (slip_frozen != 0)
+                ncp[held, 1] = 0.0  # friction state fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
-                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
-                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
+                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(held.sum()))}
+                rtol = EQUILIBRIUM_RTOL if self.material is None else MATERIAL_RTOL
+                if residual < rtol and comp <= 10 * self.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
                 if self.material is not None:
@@ -380,8 +408,8 @@ class ContactSolver:
             active = new
         if self.material is not None and residual > 1.0:
             return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied nodal "
-                                      f"force after {self.max_iterations} iterations (no equilibrium: collapse)",
-                               self.max_iterations, residual, factorisations(), mechanism=True)
+                                      f"force after {self.max_iterations} iterations", self.max_iterations, residual,
+                               factorisations())
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
                            factorisations())
@@ -419,6 +447,23 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
     """Frozen pairs that are closed stick (their slip direction cycled); open ones stay open."""
     fix = frozen & (active.state != OPEN)
     active.state[fix], active.sign[fix] = STICK, 0
+
+
+def _slip_cycles(active: ContactState, new: ContactState, toggles: np.ndarray, slip_frozen: np.ndarray
+                 ) -> np.ndarray:
+    """Hold in slip the closed pairs whose stick/slip state went back and forth in this step.
+
+    Such a pair sticks with ``|lam_t| > mu lam_n`` but, set to slip, slips against its friction force: the
+    discrete law has no consistent state there. Held in slip (at the last slip sign) the joint forces stay
+    within the Coulomb cone, so the converged state remains statically admissible; only the sign of that
+    pair's slip increment is waived. Updates ``toggles`` and ``new`` in place; returns the held signs."""
+    toggle = (((active.state == SLIP) & (new.state == STICK)) | ((active.state == STICK) & (new.state == SLIP)))
+    toggles += toggle
+    sign = np.where(active.state == SLIP, active.sign, new.sign).astype(np.int8)
+    held = np.where((toggles >= 2) & (slip_frozen == 0), sign, slip_frozen).astype(np.int8)
+    fix = (held != 0) & (new.state != OPEN)
+    new.state[fix], new.sign[fix] = SLIP, held[fix]
+    return held
 
 
 def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:

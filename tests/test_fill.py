@@ -1,5 +1,7 @@
 """Backfill: equilibrium under self-weight against hand values, the fill's effect on the limit load against the
 rigid-block LP (fill as dead load only)."""
+import json
+
 import numpy as np
 import pytest
 import ufl
@@ -14,7 +16,7 @@ from bridgefem.model import cell_constant, lame, strain
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
-from conftest import scene_dict
+from conftest import ROOT, bridgefem, scene_dict
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.5, "extension": 2.0, "interface_friction": 0.5}
 
@@ -84,3 +86,35 @@ def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     an = run_analysis(scene)
     lp = collapse_load(scene)
     assert an.search.lower * an.load_total > 1.05 * lp.load
+
+
+@pytest.fixture(scope="module")
+def prestwood(tmp_path_factory):
+    out = tmp_path_factory.mktemp("prestwood")
+    proc = bridgefem("run", ROOT / "demos/prestwood.toml", "--quiet", "--out", out / "serial")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return out, json.loads((out / "serial/results.json").read_text())
+
+
+def test_prestwood_limit_load_against_the_collapse_test(prestwood):
+    """TRRL RR110: 228 kN. The Mohr-Coulomb fill must give a limit load within 15 % of the test (the fill's
+    stiffness, depth and extent are assumed, see demos/prestwood.toml) and well above the LP with the fill as
+    dead load only (the fill's strength is what carries the rest); the test's mechanism had four hinges."""
+    _, data = prestwood
+    lim = data["limit_load"]
+    assert data["status"] == "limit load found", data["failure_reason"]
+    assert 0.5 * (lim["lower"] + lim["upper"]) == pytest.approx(228e3, rel=0.15)
+    assert lim["lower"] > 1.5 * data["lp"]["load"]
+    assert len(data["mechanism"]["hinges"]) == 4
+
+
+def test_prestwood_same_bracket_under_mpi(prestwood):
+    """Two ranks round differently, so a plastic fill's path can close the bracket one trial apart: the
+    brackets' midpoints agree within one bracket width (the tolerance)."""
+    out, serial = prestwood
+    proc = bridgefem("run", ROOT / "demos/prestwood.toml", "--quiet", "--out", out / "mpi", ranks=2)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    mpi = json.loads((out / "mpi/results.json").read_text())
+    assert mpi["status"] == serial["status"]
+    s, m = serial["limit_load"], mpi["limit_load"]
+    assert 0.5 * (m["lower"] + m["upper"]) == pytest.approx(0.5 * (s["lower"] + s["upper"]), rel=s["tolerance"])
