@@ -2,11 +2,12 @@
 
 The whole body (voussoirs, elastic abutments and fill) is integrated at the same quadrature points: the
 voussoirs and abutments with their elastic matrices, the fill with the return map of
-:mod:`bridgefem.plasticity` from the plastic strain of the last converged load step. :meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force
-f_int(u) (N) and the tangent K_t(u) (N/m, same sparsity and supports as the elastic K of
-:mod:`bridgefem.model`), so that the contact solver's Newton step solves
-``K_t du - G^T lam = f - f_int(u) + K_t u`` (the linearisation in total form). Ring and fill share one
-quadrature rule: one point per triangle for P1, three for P2 (exact for the elastic stiffness).
+:mod:`bridgefem.plasticity` from the plastic strain of the last converged load step.
+:meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force f_int(u) (N) and the tangent
+K_t(u) (N/m, same sparsity and supports as the elastic K of :mod:`bridgefem.model`), so that the contact
+solver's Newton step solves ``K_t du - G^T lam = f - f_int(u) + K_t u`` (the linearisation in total form). Ring
+and fill share one quadrature rule: one point per triangle for P1, three for P2 (exact for the elastic
+stiffness).
 """
 from __future__ import annotations
 

@@ -267,9 +267,9 @@ class ArchRing:
 @dataclass(frozen=True)
 class FillOutline:
     """The backfill region (m): vertical ends at ``x_left``/``x_right``, base at ``y_base`` (the level of the
-    springings' extrados corners, fixed: elastic abutments below it are not connected to it), road at ``y_road``. The region
-    is bounded below by the base lines and the ring's extrados; ``road_x`` are the road points that must be
-    mesh nodes (point loads and patch edges)."""
+    springings' extrados corners, fixed: elastic abutments below it are not connected to it), road at
+    ``y_road``. The region is bounded below by the base lines and the ring's extrados; ``road_x`` are the road
+    points that must be mesh nodes (point loads and patch edges)."""
 
     x_left: float
     x_right: float

@@ -207,7 +207,7 @@ def _voussoir_motion(an: Analysis) -> np.ndarray:
     """Least-squares rigid motion (ux, uy, rotation) of each voussoir at the last converged step (collective)."""
     V, bm = an.model.V, an.block_mesh
     n_owned = V.dofmap.index_map.size_local
-    n_blocks = an.ring.n_blocks + 1  # voussoirs, abutments and (when present) the fill: the same on every rank
+    n_blocks = an.ring.n_blocks + (an.block_mesh.fill_block is not None)  # the same on every rank
     node_block = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1)
     cells = bm.cell_tags.indices
     dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
