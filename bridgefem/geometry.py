@@ -166,8 +166,22 @@ class Joint:
         return 0.5 * (self.intrados + self.extrados)
 
 
+class _Polygonal:
+    """Area (m^2) and centroid (m) of a block from its counter-clockwise ``polygon``."""
+
+    polygon: np.ndarray
+
+    @property
+    def area(self) -> float:
+        return polygon_area_centroid(self.polygon)[0]
+
+    @property
+    def centroid(self) -> np.ndarray:
+        return polygon_area_centroid(self.polygon)[1]
+
+
 @dataclass(frozen=True)
-class Voussoir:
+class Voussoir(_Polygonal):
     """A block of the ring: intrados and extrados edges as polylines (left to right), m.
 
     ``*_splits`` are indices of interior polyline points where the edge has a corner (pointed crown) or
@@ -185,14 +199,6 @@ class Voussoir:
         """Counter-clockwise boundary: intrados left to right, then extrados right to left."""
         return np.vstack([self.intrados, self.extrados[::-1]])
 
-    @property
-    def area(self) -> float:
-        return polygon_area_centroid(self.polygon)[0]
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return polygon_area_centroid(self.polygon)[1]
-
 
 def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
     """Area (m^2) and centroid (m) of a simple counter-clockwise polygon (shoelace formula)."""
@@ -206,20 +212,12 @@ def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class Abutment:
+class Abutment(_Polygonal):
     """An elastic block below a springing: ``polygon`` counter-clockwise (m), ``side`` "left" or "right"."""
 
     id: int
     polygon: np.ndarray
     side: str
-
-    @property
-    def area(self) -> float:
-        return polygon_area_centroid(self.polygon)[0]
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return polygon_area_centroid(self.polygon)[1]
 
 
 @dataclass(frozen=True)

@@ -87,12 +87,12 @@ class Abutments:
     """
 
     model: str = "rigid"
-    height: float = 0.0
-    length: float = 0.0
-    young: float = 0.0
-    poisson: float = 0.0
-    unit_weight: float = 0.0
-    friction: float = 0.0
+    height: float | None = None  # this key and the next five: elastic abutments only (None when rigid)
+    length: float | None = None
+    young: float | None = None
+    poisson: float | None = None
+    unit_weight: float | None = None
+    friction: float | None = None
     movement_springing: str = ""
     movement_horizontal: float = 0.0
     movement_vertical: float = 0.0
@@ -399,30 +399,27 @@ def springing_reach(arch: dict[str, Any]) -> float:
 
 def _abutments(ab: dict[str, Any], given: dict[str, Any], sec: dict[str, dict[str, Any]]) -> Abutments:
     """Check the [abutments] keys against each other and fill in the defaults taken from the masonry and joints."""
+    if (ab["movement_horizontal"] or ab["movement_vertical"]) and ab["movement_springing"] is None:
+        raise SceneError("[abutments] movement_springing: missing; required with a support movement "
+                         "(" + " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS) + ")")
     if ab["model"] == "rigid":
         extra = [k for k in _ELASTIC_ONLY if k in given]
         if extra:
             raise SceneError(f"[abutments] {extra[0]} = {given[extra[0]]!r}: only for model = \"elastic\" "
                              "(rigid abutments are the ground itself)")
-    else:
-        if ab["height"] is None:
-            raise SceneError("[abutments] height: missing; required for model = \"elastic\" "
-                             "(a positive depth in m of the base below the springing line)")
-        reach = springing_reach(sec["arch"])
-        if ab["length"] is None:
-            ab["length"] = reach
-        elif ab["length"] < reach * (1 - 1e-9):
-            raise SceneError(f"[abutments] length = {ab['length']!r}: allowed is a length >= {reach:g} m, the "
-                             "springing joint's horizontal reach (the joint must rest on the abutment)")
-    moves = ab["movement_horizontal"] or ab["movement_vertical"]
-    if moves and ab["movement_springing"] is None:
-        raise SceneError("[abutments] movement_springing: missing; required with a support movement "
-                         "(" + " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS) + ")")
-    m, j = sec["masonry"], sec["joints"]
-    defaults = {"height": 0.0, "length": 0.0, "young": m["young"], "poisson": m["poisson"],
-                "unit_weight": m["density"] * sec["scene"]["gravity"], "friction": j["friction"],
-                "movement_springing": ""}
-    return Abutments(**{k: defaults[k] if v is None else v for k, v in ab.items()})
+        return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
+    if ab["height"] is None:
+        raise SceneError("[abutments] height: missing; required for model = \"elastic\" "
+                         "(a positive depth in m of the base below the springing line)")
+    reach = springing_reach(sec["arch"])
+    if ab["length"] is not None and ab["length"] < reach * (1 - 1e-9):
+        raise SceneError(f"[abutments] length = {ab['length']!r}: allowed is a length >= {reach:g} m, the "
+                         "springing joint's horizontal reach (the joint must rest on the abutment)")
+    m = sec["masonry"]
+    defaults = {"length": reach, "young": m["young"], "poisson": m["poisson"],
+                "unit_weight": m["density"] * sec["scene"]["gravity"], "friction": sec["joints"]["friction"]}
+    ab.update({k: v for k, v in defaults.items() if ab[k] is None})
+    return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
 
 
 def load_scene(path: str | Path) -> Scene:
