@@ -5,7 +5,8 @@ compression positive), shear V (N), eccentricity e (m, from the joint centre, po
 and the open part of its length. A *hinge* is a cracked joint (open over at least half its length, or with
 its thrust within 1 % of the length from a face: with one element through the thickness a joint has only two
 pairs) whose |e| is the largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
-intrados when e < 0 and at the extrados when e > 0. A *sliding* joint has every closed pair slipping one way.
+intrados when e < 0 and at the extrados when e > 0 (for an abutment's base: at its inner and outer edge); a run
+only continues through joints that share a block. A *sliding* joint has every closed pair slipping one way.
 """
 from __future__ import annotations
 
@@ -16,9 +17,10 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
-from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs
+from .abutments import scene_ring, support_motion
+from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
-from .geometry import ArchRing, build_ring, fill_outline
+from .geometry import ArchRing, fill_outline
 from .mesh import BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
@@ -69,7 +71,8 @@ class Analysis:
 
 def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None,
                  report: Callable[[LoadStep], None] = lambda s: None) -> Analysis:
-    """Compute the limit load of a bare arch on rigid springings (collective over ``comm``)."""
+    """Compute the limit load of a scene: the ring, with its fill and elastic abutments when the scene has them,
+    after the support movement it imposes (collective over ``comm``)."""
     timings = {}
     t = time.perf_counter()
 
@@ -81,7 +84,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
 
     a = scene.arch
     try:
-        ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
+        ring = scene_ring(scene)
     except ValueError as err:
         raise SceneError(f"[arch] voussoirs = {a.voussoirs}: {err}") from None
     fill = scene.fill
@@ -94,23 +97,41 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     lap("assembly")
     pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
     lap("pairing")
-    young = np.where(pairs.joint == ARCH_FILL, fill.young if fill else 0.0, scene.masonry.young)
+    young, friction = pair_properties(scene, ring, pairs)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness
-    friction = np.where(pairs.joint == ARCH_FILL, fill.interface_friction if fill else 0.0, scene.joints.friction)
     material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
+    motion = support_motion(scene, ring)
     solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, friction, c,
                            FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
-                           {**scene.solver.petsc, **(petsc_options or {})}, material)
+                           {**scene.solver.petsc, **(petsc_options or {})}, material, ground_offsets(pairs, motion))
     lap("solver setup")
     s = scene.solver
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
                              max_steps=s.max_steps, guess_scene=scene,
-                             stiffness_drop=s.stiffness_drop if fill is not None else 0.0, report=report)
+                             stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
+                             movement_steps=scene.abutments.movement_steps if motion else 0, report=report)
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)
+
+
+def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:
+    """Per local pair: the Young's modulus (Pa) of the softer side and the Coulomb coefficient. Ring joints:
+    the masonry's and the joints' mu; on elastic abutments the springing and base joints take the softer of
+    masonry and abutment, and the bases the abutments' mu; the arch-fill interface: the fill's."""
+    young = np.full(len(pairs), scene.masonry.young)
+    friction = np.full(len(pairs), scene.joints.friction)
+    ab, fill = scene.abutments, scene.fill
+    if ab.elastic:
+        bases = [j.id for j in ring.joints[ring.n_voussoirs + 1:]]
+        young[np.isin(pairs.joint, [j.id for j in ring.springings] + bases)] = min(ab.young, scene.masonry.young)
+        friction[np.isin(pairs.joint, bases)] = ab.friction
+    if fill is not None:
+        interface = pairs.joint == ARCH_FILL
+        young[interface], friction[interface] = fill.young, fill.interface_friction
+    return young, friction
 
 
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
@@ -134,7 +155,8 @@ def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: I
 
 
 def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
-    """Force (N; x, y) of the ground on the ring at each springing joint, rows in joint order.
+    """Force (N; x, y) of the ground on the structure at each joint on the ground, rows in joint order: the
+    springings on rigid abutments, the abutments' bases on elastic ones.
 
     A joint's resultant (normal force along its normal, shear along its tangent) acts on its right face, so
     the ground pushes the ring with +resultant where the ground is the left block and -resultant otherwise.
@@ -151,9 +173,13 @@ def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
 def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
     cracked = [s.open_fraction >= HINGE_OPEN_FRACTION
                or abs(s.eccentricity) >= HINGE_ECCENTRICITY * ring.joints[s.id].length for s in states]
+    def adjacent(a: JointState, b: JointState) -> bool:
+        blocks = {ring.joints[a.id].left, ring.joints[a.id].right} & {ring.joints[b.id].left, ring.joints[b.id].right}
+        return bool(blocks - {None})
+
     run: list[JointState] = []
     for s, c in zip(states + [None], cracked + [False]):
-        if c and run and np.sign(s.eccentricity) == np.sign(run[-1].eccentricity):
+        if c and run and adjacent(s, run[-1]) and np.sign(s.eccentricity) == np.sign(run[-1].eccentricity):
             run.append(s)
             continue
         if run:

@@ -5,7 +5,8 @@ with the rigid ground). Per pair k, with unit normal n from the left face into t
 tau = n rotated +90 degrees:
 
 - relative displacement ``d = [(u_R - u_L).n, (u_R - u_L).tau]`` (m); ``d_n >= 0`` is opening
-  (eq. 1 with zero initial gap: ``h = -d_n <= 0``);
+  (eq. 1 with zero initial gap: ``h = -d_n <= 0``); on the ground side u is the imposed ground movement
+  (zero, or a support movement: :func:`ground_offsets`);
 - joint force on the right face ``lam = [lam_n, lam_t]`` (N, whole width); ``lam_n >= 0`` is compression
   (eq. 2) and ``lam_n d_n = 0`` (eq. 3);
 - Coulomb friction (eqs. 4-6): ``|lam_t| <= mu lam_n``; stick (``Delta d_t = 0``) while strictly inside the
@@ -150,6 +151,16 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
     share = np.array_split(np.arange(total), comm.size)[comm.rank]
     lo, hi = (int(share[0]), int(share[-1]) + 1) if len(share) else (0, 0)
     return JointPairs(**{k: np.concatenate(v)[lo:hi] for k, v in cols.items()}, offset=lo, total=total)
+
+
+def ground_offsets(pairs: JointPairs, motion: dict[int, np.ndarray]) -> np.ndarray:
+    """What a ground movement adds to the relative displacement of each local pair, (m, 2) in m (normal,
+    tangential): ``d = G u + offset``. ``motion``: joint id -> ground displacement (m; x, y) under that joint."""
+    delta = np.zeros((len(pairs), 2))
+    for joint, vector in motion.items():  # a few supports, not pairs
+        delta[pairs.joint == joint] = vector
+    side = np.where(pairs.right == GROUND, 1.0, np.where(pairs.left == GROUND, -1.0, 0.0))  # ground is R / L
+    return side[:, None] * np.column_stack([(delta * pairs.normal).sum(axis=1), (delta * pairs.tangent).sum(axis=1)])
 
 
 @dataclass

@@ -1,12 +1,13 @@
 """The Mohr-Coulomb backfill in the FE model: internal force and consistent tangent at the quadrature points.
 
-The whole body (voussoirs and fill) is integrated at the same quadrature points: the voussoirs with their
-elastic matrix, the fill with the return map of :mod:`bridgefem.plasticity` from the plastic strain of the
-last converged load step. :meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force
-f_int(u) (N) and the tangent K_t(u) (N/m, same sparsity and supports as the elastic K of
-:mod:`bridgefem.model`), so that the contact solver's Newton step solves
-``K_t du - G^T lam = f - f_int(u) + K_t u`` (the linearisation in total form). Ring and fill share one
-quadrature rule: one point per triangle for P1, three for P2 (exact for the elastic stiffness).
+The whole body (voussoirs, elastic abutments and fill) is integrated at the same quadrature points: the
+voussoirs and abutments with their elastic matrices, the fill with the return map of
+:mod:`bridgefem.plasticity` from the plastic strain of the last converged load step.
+:meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force f_int(u) (N) and the tangent
+K_t(u) (N/m, same sparsity and supports as the elastic K of :mod:`bridgefem.model`), so that the contact
+solver's Newton step solves ``K_t du - G^T lam = f - f_int(u) + K_t u`` (the linearisation in total form). Ring
+and fill share one quadrature rule: one point per triangle for P1, three for P2 (exact for the elastic
+stiffness).
 """
 from __future__ import annotations
 
@@ -73,6 +74,9 @@ class PlasticFill:
         block[bm.cell_tags.indices] = bm.cell_tags.values
         self._fill = np.repeat(block == bm.fill_block, n_qp)
         self._ring_matrix = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
+        ab = scene.abutments
+        self._abutment = np.repeat(np.isin(block, bm.abutment_blocks), n_qp)
+        self._abutment_matrix = _elastic_matrix(*lame(ab.young, ab.poisson, scene.model.plane)) if ab.elastic else None
         self._apex = APEX_STIFFNESS * elastic_tangent(self.material)
         width = scene.arch.width
         dxq = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree, "quadrature_scheme": "default"})
@@ -95,6 +99,8 @@ class PlasticFill:
         self.u.x.scatter_forward()
         eps = self._strain.eval(self._cells).reshape(-1, 3)
         stress = eps @ self._ring_matrix.T
+        if self._abutment_matrix is not None:
+            stress[self._abutment] = eps[self._abutment] @ self._abutment_matrix.T
         fill_eps = np.column_stack([eps[self._fill, :2], np.zeros(len(plastic_strain)), eps[self._fill, 2]])
         sig, d_alg, new_plastic = return_map(self.material, fill_eps, plastic_strain)
         stress[self._fill] = sig[:, [0, 1, 3]]
@@ -106,6 +112,8 @@ class PlasticFill:
             return FillResponse(f_int.array.copy(), new_plastic)
         d = np.broadcast_to(self._ring_matrix, (len(eps), 3, 3)).copy()
         d[self._fill] = d_alg + self._apex
+        if self._abutment_matrix is not None:
+            d[self._abutment] = self._abutment_matrix
         self.tangent.x.array.reshape(-1, 9)[self._dofs] = d.reshape(-1, 9)
         self.K.zeroEntries()
         assemble_matrix(self.K, self._k_form, bcs=self.bcs)

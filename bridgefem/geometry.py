@@ -14,6 +14,11 @@ Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir `
 joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
 normal points from its left block into its right block (the centreline tangent); its unit tangent is
 the normal rotated +90 degrees, which points from the intrados towards the extrados at the left springing.
+
+On elastic abutments (:func:`add_abutments`) blocks N (left) and N + 1 (right) stand below the springings:
+joints 0 and N then separate the ring from an abutment, and joints N + 1 (left) and N + 2 (right) are the
+abutments' bases on the ground, drawn from the inner base corner (their "intrados", on the span side) to
+the outer one (their "extrados").
 """
 from __future__ import annotations
 
@@ -161,8 +166,22 @@ class Joint:
         return 0.5 * (self.intrados + self.extrados)
 
 
+class _Polygonal:
+    """Area (m^2) and centroid (m) of a block from its counter-clockwise ``polygon``."""
+
+    polygon: np.ndarray
+
+    @property
+    def area(self) -> float:
+        return polygon_area_centroid(self.polygon)[0]
+
+    @property
+    def centroid(self) -> np.ndarray:
+        return polygon_area_centroid(self.polygon)[1]
+
+
 @dataclass(frozen=True)
-class Voussoir:
+class Voussoir(_Polygonal):
     """A block of the ring: intrados and extrados edges as polylines (left to right), m.
 
     ``*_splits`` are indices of interior polyline points where the edge has a corner (pointed crown) or
@@ -180,14 +199,6 @@ class Voussoir:
         """Counter-clockwise boundary: intrados left to right, then extrados right to left."""
         return np.vstack([self.intrados, self.extrados[::-1]])
 
-    @property
-    def area(self) -> float:
-        return polygon_area_centroid(self.polygon)[0]
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return polygon_area_centroid(self.polygon)[1]
-
 
 def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
     """Area (m^2) and centroid (m) of a simple counter-clockwise polygon (shoelace formula)."""
@@ -201,10 +212,20 @@ def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class ArchRing:
-    """The geometry of a ring of voussoirs on two springings.
+class Abutment(_Polygonal):
+    """An elastic block below a springing: ``polygon`` counter-clockwise (m), ``side`` "left" or "right"."""
 
-    ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings).
+    id: int
+    polygon: np.ndarray
+    side: str
+
+
+@dataclass(frozen=True)
+class ArchRing:
+    """The geometry of a ring of voussoirs on two springings, and its abutments when they are elastic.
+
+    ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings); ``joints`` are the ring's
+    joints 0..N followed by the abutments' base joints.
     """
 
     shape: str
@@ -214,10 +235,21 @@ class ArchRing:
     params: np.ndarray
     joints: list[Joint] = field(repr=False)
     voussoirs: list[Voussoir] = field(repr=False)
+    abutments: list[Abutment] = field(default_factory=list, repr=False)
 
     @property
     def n_voussoirs(self) -> int:
         return len(self.voussoirs)
+
+    @property
+    def n_blocks(self) -> int:
+        """Voussoirs and abutments: the block ids 0 .. n_blocks - 1 (the next id is the fill's)."""
+        return len(self.voussoirs) + len(self.abutments)
+
+    @property
+    def springings(self) -> tuple[Joint, Joint]:
+        """The left and right springing joints (0 and N)."""
+        return self.joints[0], self.joints[self.n_voussoirs]
 
     @property
     def crown_extrados(self) -> float:
@@ -233,9 +265,9 @@ class ArchRing:
 @dataclass(frozen=True)
 class FillOutline:
     """The backfill region (m): vertical ends at ``x_left``/``x_right``, base at ``y_base`` (the level of the
-    springings' extrados corners; the rigid abutments below are not modelled), road at ``y_road``. The region
-    is bounded below by the base lines and the ring's extrados; ``road_x`` are the road points that must be
-    mesh nodes (point loads and patch edges)."""
+    springings' extrados corners, fixed: elastic abutments below it are not connected to it), road at
+    ``y_road``. The region is bounded below by the base lines and the ring's extrados; ``road_x`` are the road
+    points that must be mesh nodes (point loads and patch edges)."""
 
     x_left: float
     x_right: float
@@ -247,7 +279,7 @@ class FillOutline:
 def fill_outline(ring: ArchRing, depth: float, extension: float, road_x: list[float] = ()) -> FillOutline:
     """The fill over ``ring`` with the road ``depth`` (m) above the crown's extrados, reaching ``extension`` (m)
     beyond each springing's extrados corner."""
-    left, right = ring.joints[0].extrados, ring.joints[-1].extrados
+    left, right = (j.extrados for j in ring.springings)
     return FillOutline(float(left[0]) - extension, float(right[0]) + extension, float(left[1]),
                        ring.crown_extrados + depth,
                        tuple(sorted(set(float(x) for x in road_x))))
@@ -319,3 +351,30 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
         b = _ring_point(curve, thickness, pj, 1.0)
         joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
     return ArchRing(shape, span, rise, thickness, params, joints, voussoirs)
+
+
+def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
+    """The ring on elastic abutments: below each springing a block from the springing line (y = 0) down to
+    y = -height (m), reaching ``length`` (m) outwards from the springing's intrados corner (at least to its
+    extrados corner). Its top is the springing joint, then a free face at the extrados corner's level; its
+    base is a new joint to the ground. Block and joint ids as in the module docstring."""
+    n = ring.n_voussoirs
+    joints = list(ring.joints)
+    abutments = []
+    for k, (joint, outward) in enumerate(zip(ring.springings, (-1.0, 1.0))):
+        inner, outer = joint.intrados, joint.extrados
+        x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
+        base = (np.array([inner[0], -height]), np.array([x_out, -height]))
+        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
+        polygon = np.array(corners + [base[1]])
+        if polygon_area_centroid(polygon)[0] < 0:
+            polygon = polygon[::-1]
+        block = n + k
+        abutments.append(Abutment(block, polygon, ("left", "right")[k]))
+        joints[joint.id] = Joint(joint.id, inner, outer, block if joint.left is None else joint.left,
+                                 block if joint.right is None else joint.right)
+        base_joint = Joint(n + 1 + k, *base, None, None)
+        ground_left = base_joint.normal[1] > 0  # the normal points up: from the ground into the block
+        joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
+    return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
+                    abutments)

@@ -5,8 +5,12 @@ Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is co
 belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
 have a single face, which meets the rigid ground.
 
+Elastic abutments (:func:`bridgefem.geometry.add_abutments`) are meshed with unstructured triangles of twice the
+ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
+single face, like a springing on rigid ground. Without them no abutment is meshed.
+
 Tags on the DOLFINx mesh:
-- cell tag = voussoir id, or ``fill_block`` (= number of voussoirs) for the fill;
+- cell tag = voussoir id, abutment id, or ``fill_block`` (= number of voussoirs and abutments) for the fill;
 - facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
   ``EXTRADOS_TAG`` = extrados of the ring (where live loads act on a bare arch); with a fill, its side of the
   extrados ``FILL_INTERFACE_TAG`` (the extrados becomes an interface like a joint: its nodes are duplicated),
@@ -22,7 +26,7 @@ from dolfinx import cpp as _cpp
 from dolfinx.mesh import Mesh, MeshTagsMetaClass, create_mesh, meshtags_from_entities
 from mpi4py import MPI
 
-from .geometry import ArchRing, FillOutline
+from .geometry import Abutment, ArchRing, FillOutline
 
 EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
 FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
@@ -40,7 +44,7 @@ def joint_face_tag(joint: int, side: int) -> int:
 @dataclass
 class BlockMesh:
     """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh;
-    ``fill_block`` is the cell tag of the fill (None without fill)."""
+    ``fill_block`` is the cell tag of the fill (None without fill), ``abutment_blocks`` those of the abutments."""
 
     mesh: Mesh
     cell_tags: MeshTagsMetaClass
@@ -49,6 +53,7 @@ class BlockMesh:
     n_cells: int
     n_nodes: int
     fill_block: int | None = None
+    abutment_blocks: tuple[int, ...] = ()
 
 
 def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
@@ -89,8 +94,9 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.model.add("bridge")
         geo = gmsh.model.geo
         h = ring.thickness / per_thickness
-        inner = [geo.addPoint(*j.intrados, 0.0) for j in ring.joints]
-        outer = [geo.addPoint(*j.extrados, 0.0) for j in ring.joints]
+        arch_joints = ring.joints[:ring.n_voussoirs + 1]
+        inner = [geo.addPoint(*j.intrados, 0.0) for j in arch_joints]
+        outer = [geo.addPoint(*j.extrados, 0.0) for j in arch_joints]
         joint_curves = [geo.addLine(a, b) for a, b in zip(inner, outer)]
         surfaces, extrados_curves = [], []
         for v in ring.voussoirs:
@@ -100,12 +106,14 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
             surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
             extrados_curves += extra
+        abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
+                             for ab in ring.abutments]
         fill_curves = _add_fill(geo, outline, outer, extrados_curves, h_fill) if outline is not None else {}
         geo.synchronize()
-        if outline is not None:
-            gmsh.option.setNumber("Mesh.MeshSizeMax", h_fill)
+        if outline is not None or ring.abutments:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
         mesh = gmsh.model.mesh
-        for c in joint_curves:
+        for c in joint_curves[:len(arch_joints)]:
             mesh.setTransfiniteCurve(c, per_thickness + 1)
         for s, intra, extra, i in surfaces:
             centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
@@ -122,9 +130,9 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         def elements(dim, entity, nodes_per):
             return order[np.asarray(mesh.getElements(dim, entity)[2][0], dtype=np.int64)].reshape(-1, nodes_per)
 
-        block_surfaces = [(s, i) for s, _, _, i in surfaces]
+        block_surfaces = [(s, i) for s, _, _, i in surfaces] + abutment_surfaces
         if outline is not None:
-            block_surfaces.append((fill_curves.pop("surface"), ring.n_voussoirs))
+            block_surfaces.append((fill_curves.pop("surface"), ring.n_blocks))
         cells = [elements(2, s, 3) for s, _ in block_surfaces]
         blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
         return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
@@ -149,6 +157,32 @@ def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list
     loop = geo.addCurveLoop([bases[0], *extrados_curves, bases[1], ends[0], *road_lines, ends[1]])
     return {"surface": geo.addPlaneSurface([loop]), FILL_BASE_TAG: bases, FILL_END_TAG: ends,
             ROAD_TAG: road_lines, FILL_INTERFACE_TAG: extrados_curves}
+
+
+def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], outer: list[int],
+                  joint_curves: list[int], size: float) -> int:
+    """The Gmsh surface of an abutment. Its top uses the springing joint's points and curve; its base line is
+    appended to ``joint_curves`` (at the base joint's id). ``size`` (m): mesh size at its other corners."""
+    side = 0 if abutment.side == "left" else 1
+    springing, base = ring.springings[side], ring.joints[ring.n_voussoirs + 1 + side]
+
+    def key(p):
+        return tuple(float(v) for v in p)
+
+    tag = {key(springing.intrados): inner[springing.id], key(springing.extrados): outer[springing.id]}
+    points = [tag.get(key(p)) or geo.addPoint(*p, 0.0, size) for p in abutment.polygon]
+    tag.update(zip(map(key, abutment.polygon), points))
+    joint_curves.append(geo.addLine(tag[key(base.intrados)], tag[key(base.extrados)]))
+    directed = {(tag[key(j.intrados)], tag[key(j.extrados)]): joint_curves[j.id] for j in (springing, base)}
+    curves = []
+    for a, b in zip(points, points[1:] + points[:1]):
+        if (a, b) in directed:
+            curves.append(directed[a, b])
+        elif (b, a) in directed:
+            curves.append(-directed[b, a])
+        else:
+            curves.append(geo.addLine(a, b))
+    return geo.addPlaneSurface([geo.addCurveLoop(curves)])
 
 
 def _curve_length(curve: int) -> float:
@@ -181,7 +215,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
-    fill_block = ring.n_voussoirs if fill is not None else None
+    fill_block = ring.n_blocks if fill is not None else None
     if comm.rank == 0:
         raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness)
         xs, cs, copy = split_blocks(raw.x, raw.cells, raw.blocks)
@@ -213,7 +247,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     ct = _tags(mesh, tdim, cs, cell_values)
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
-    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block)
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments))
 
 
 def _owning_cell(cells: np.ndarray, segments: np.ndarray) -> np.ndarray:

@@ -25,7 +25,8 @@ POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the 
 class ElasticModel:
     """Assembled operators; ``monitor`` holds the owned node indices (blocked) of the ring's extrados whose mean
     vertical displacement is the deflection under the first load (at the crown without live load).
-    ``dead_weight`` is the ring's weight and ``fill_weight`` the fill's (N); ``bcs`` the fill's supports."""
+    ``dead_weight`` is the ring's weight, ``fill_weight`` the fill's and ``abutment_weight`` that of the elastic
+    abutments (N); ``bcs`` the fill's supports."""
 
     V: fem.FunctionSpace
     K: PETSc.Mat
@@ -36,6 +37,7 @@ class ElasticModel:
     live_per_level: float
     fill_weight: float = 0.0
     bcs: list = field(default_factory=list)
+    abutment_weight: float = 0.0
 
 
 def lame(young: float, poisson: float, plane: str) -> tuple[float, float]:
@@ -55,13 +57,18 @@ def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.n
     return np.flatnonzero(_owned_distances(V, point) < tol)
 
 
-def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0) -> fem.Function:
-    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill."""
+def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
+                  abutment_value: float | None = None) -> fem.Function:
+    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill and
+    ``abutment_value`` on elastic abutments (default: ``arch_value``)."""
     Q = fem.FunctionSpace(bm.mesh, ("DG", 0))
     q = fem.Function(Q)
     tags = bm.cell_tags
     is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
-    q.x.array[Q.dofmap.list.array[tags.indices]] = np.where(is_fill, fill_value, arch_value)
+    value = np.where(is_fill, fill_value, arch_value)
+    if abutment_value is not None:
+        value[np.isin(tags.values, bm.abutment_blocks)] = abutment_value
+    q.x.array[Q.dofmap.list.array[tags.indices]] = value
     q.x.scatter_forward()
     return q
 
@@ -90,9 +97,11 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     fill = scene.fill
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    ab = scene.abutments
     arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
     fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
-    lam, mu = (cell_constant(bm, a, f) for a, f in zip(arch_lame, fill_lame))
+    abutment_lame = lame(ab.young, ab.poisson, scene.model.plane) if ab.elastic else (None, None)
+    lam, mu = (cell_constant(bm, a, f, b) for a, f, b in zip(arch_lame, fill_lame, abutment_lame))
     width = scene.arch.width
     bcs = fill_supports(V, bm)
 
@@ -101,12 +110,18 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     K.assemble()
 
     rho_g = scene.masonry.density * scene.gravity
-    weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0)
+    weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
+                           ab.unit_weight if ab.elastic else None)
     f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=bm.cell_tags)
+
+    def weight_of(blocks: tuple[int, ...]) -> float:
+        """Weight (N) of the cells with these tags."""
+        return comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(blocks)))) if blocks else 0.0
+
     dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx)))
-    fill_weight = (comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(bm.fill_block))))
-                   if fill is not None else 0.0)
+    fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
+    abutment_weight = weight_of(bm.abutment_blocks)
 
     surface = ROAD_TAG if fill is not None else EXTRADOS_TAG
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=bm.facet_tags)
@@ -136,7 +151,8 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     d = _owned_distances(V, point)[ring_nodes]
     tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
     monitor = ring_nodes[d < tol]
-    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight, live, fill_weight, bcs)
+    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight - abutment_weight, live, fill_weight,
+                        bcs, abutment_weight)
 
 
 def load_point(ring: ArchRing, scene: Scene, x: float) -> np.ndarray:

@@ -35,6 +35,10 @@ decisive as a lost equilibrium, and the bracket rule is unchanged.
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure.
 
+**Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
+at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
+stays for the live load.
+
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
 or a bracket not closed within the step budget).
@@ -67,12 +71,14 @@ SETTLED = 4.0  # ... from a state reached by a step of at most this many widths 
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
+MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
 @dataclass
 class LoadStep:
-    """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load."""
+    """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load;
+    ``movement`` the fraction of the imposed support movement applied."""
 
     index: int
     level: float
@@ -84,6 +90,7 @@ class LoadStep:
     deflection: float | None
     counts: dict
     seconds: float
+    movement: float = 0.0
 
 
 @dataclass
@@ -115,7 +122,7 @@ def rigid_block_level(scene: Scene) -> float | None:
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    guess_scene: Scene | None = None, stiffness_drop: float = 0.0,
+                    guess_scene: Scene | None = None, stiffness_drop: float = 0.0, movement_steps: int = 0,
                     report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
 
@@ -141,7 +148,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                   out.iterations, out.residual, out.factorisations, mechanism=True)
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, deflection(out.iterate) if out.converged else None, out.counts,
-                        time.perf_counter() - t0)
+                        time.perf_counter() - t0, solver.movement)
         steps.append(step)
         report(step)
         return out
@@ -151,6 +158,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         status = UNSTABLE if first.mechanism else f"solver failure: {first.reason}"
         return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason)
     state = solver.converged_slip_reference(first.iterate)
+    if movement_steps:
+        state, failed = _impose_support_movement(solver, attempt, state, movement_steps)
+        if failed is not None:
+            status = UNSTABLE if failed.mechanism else f"solver failure: {failed.reason}"
+            return LimitSearch(status, 0.0, 0.0 if failed.mechanism else None, tolerance, steps, state,
+                               f"support movement {solver.movement:.4g} of the whole: {failed.reason}")
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)
     if stiffness_drop > 0:
@@ -217,6 +230,26 @@ def _initial_stiffness(solver: ContactSolver, deflection: Callable[[Iterate], fl
     tangent = solver.live_load_tangent(state)
     compliance = deflection(tangent) if tangent is not None else 0.0
     return 1.0 / compliance if compliance > 0 else math.inf
+
+
+def _impose_support_movement(solver: ContactSolver, attempt: Callable[[float, Iterate], StepOutcome], state: Iterate,
+                             steps: int) -> tuple[Iterate, StepOutcome | None]:
+    """Impose the support movement at live load 0 in ``steps`` equal increments from the converged ``state``; a
+    failed increment is halved and retried from the last converged state, down to ``MOVEMENT_HALVINGS`` times.
+    Returns the last converged state and the failed outcome (None when the whole movement is imposed)."""
+    done, step = 0.0, 1.0 / steps
+    while done < 1.0:
+        trial = min(1.0, done + step)
+        solver.set_support_movement(trial)
+        out = attempt(0.0, state)
+        if out.converged:
+            done, state = trial, solver.converged_slip_reference(out.iterate)
+            continue
+        step /= 2
+        if step < 0.5 ** MOVEMENT_HALVINGS / steps:
+            solver.set_support_movement(done)
+            return state, out
+    return state, None
 
 
 def monitor_deflection(solver: ContactSolver, monitor: np.ndarray) -> Callable[[Iterate], float]:

@@ -42,17 +42,18 @@ def _hinge_point(ring: ArchRing, joint: int, where: str) -> np.ndarray:
 
 
 def plot_mechanism(ring: ArchRing, data: dict, motion: np.ndarray | None, path: Path) -> None:
-    """Undeformed ring (grey), ring displaced by the voussoir rigid motions (amplified), FE hinges (red dots),
-    sliding joints (blue) and, when present, the LP hinges (black rings)."""
+    """Undeformed ring and elastic abutments (grey), displaced by the blocks' rigid motions (amplified), FE
+    hinges (red dots), sliding joints (blue) and, when present, the LP hinges (black rings)."""
     fig, ax = plt.subplots(figsize=(8, 4.8))
-    for v in ring.voussoirs:
+    blocks = ring.voussoirs + ring.abutments
+    for v in blocks:
         p = np.vstack([v.polygon, v.polygon[:1]])
         ax.plot(p[:, 0], p[:, 1], color="0.75", lw=0.8)
     scale = 0.0
     if motion is not None:
         disp = np.abs(motion[:, :2]).max() + np.abs(motion[:, 2]).max() * ring.span
         scale = 0.04 * ring.span / disp if disp > 0 else 0.0
-        for v, (ax_, ay_, th) in zip(ring.voussoirs, motion):
+        for v, (ax_, ay_, th) in zip(blocks, motion):
             p = np.vstack([v.polygon, v.polygon[:1]])
             q = p + scale * (np.array([ax_, ay_]) + th * np.column_stack([-p[:, 1], p[:, 0]]))
             ax.fill(q[:, 0], q[:, 1], color="tan", alpha=0.6, lw=0)

@@ -46,7 +46,8 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
     steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
               "newton_iterations": st.iterations, "factorisations": st.factorisations,
               "residual": st.residual if np.isfinite(st.residual) else None,
-              "deflection": st.deflection, "pairs": st.counts, "seconds": st.seconds} for st in s.steps]
+              "deflection": st.deflection, "pairs": st.counts, "support_movement": st.movement,
+              "seconds": st.seconds} for st in s.steps]
     return {
         "scene": an.scene.name,
         "status": s.status,
@@ -91,6 +92,17 @@ def lp_summary(lp) -> dict:
             "seconds": lp.time_s}
 
 
+def lp_label(scene) -> str:
+    """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
+    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
+    label = LP_FILL_LABEL if scene.fill else "bare ring"
+    if scene.abutments.elastic:
+        label += ", abutments as rigid blocks"
+    if scene.abutments.moves:
+        label += ", support movement not modelled (no effect on the rigid-block collapse load)"
+    return label
+
+
 def lp_check(scene, data: dict) -> dict:
     """The rigid-block LP on the same joints (associative friction) and its ratio to the FE bracket midpoint.
     With a fill the LP carries it as dead load only, so the ratio measures the fill's strength and stiffness
@@ -101,9 +113,9 @@ def lp_check(scene, data: dict) -> dict:
     from .rigid_block import collapse_load
 
     lp = collapse_load(scene)
-    out = {"lp": {**lp_summary(lp), "model": LP_FILL_LABEL if scene.fill else "bare ring"},
-           "fe_lp_ratio": None, "warnings": []}
-    mid = np.array([0.5 * (np.array(j["intrados"]) + np.array(j["extrados"])) for j in data["joints"]])
+    out = {"lp": {**lp_summary(lp), "model": lp_label(scene)}, "fe_lp_ratio": None, "warnings": []}
+    ring_joints = data["joints"][:scene.arch.voussoirs + 1]
+    mid = np.array([0.5 * (np.array(j["intrados"]) + np.array(j["extrados"])) for j in ring_joints])
     shortest = float(np.linalg.norm(np.diff(mid, axis=0), axis=1).min())
     if shortest < data["model"]["element_size"]:
         out["warnings"].append(f"voussoirs as short as {shortest:.3g} m are shorter than one element "
@@ -195,7 +207,7 @@ def _voussoir_motion(an: Analysis) -> np.ndarray:
     """Least-squares rigid motion (ux, uy, rotation) of each voussoir at the last converged step (collective)."""
     V, bm = an.model.V, an.block_mesh
     n_owned = V.dofmap.index_map.size_local
-    n_blocks = an.ring.n_voussoirs
+    n_blocks = an.ring.n_blocks + (an.block_mesh.fill_block is not None)  # the same on every rank
     node_block = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1)
     cells = bm.cell_tags.indices
     dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)

@@ -56,7 +56,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from .geometry import build_ring, polygon_area_centroid
+from .abutments import scene_ring
+from .geometry import polygon_area_centroid
 from .scene import Scene
 
 FRICTION_MODELS = ("associative", "non-associative")
@@ -353,17 +354,22 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
     uniform per horizontal metre over its x-range. A point load exactly above a joint is carried by the block on
     its ``load_at_joint`` side ("left" | "right"), or half by each ("split"). ``thickness`` overrides the scene's;
-    ``live=False`` drops the live loads. A scene's fill enters as dead load only (:func:`_overburden`).
+    ``live=False`` drops the live loads. A scene's fill enters as dead load only (:func:`_overburden`). Elastic
+    abutments are two more rigid blocks (``unit_weight area width`` at their centroids) with their base joints on
+    the ground (the abutments' friction); a support movement is not modelled (it does not change the collapse
+    load of rigid blocks).
     """
     if load_at_joint not in LOAD_AT_JOINT:
         raise ValueError(f"load_at_joint = {load_at_joint!r}: allowed are {', '.join(LOAD_AT_JOINT)}")
     a = scene.arch
-    ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
-                      scene.load_edges_x(), a.joint_at_loads)
-    area, centroid = zip(*(polygon_area_centroid(v.polygon) for v in ring.voussoirs))
+    ring = scene_ring(scene, thickness)
+    blocks = ring.voussoirs + ring.abutments
+    area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
     ref = np.array(centroid)
     nb = len(ref)
-    weight = scene.masonry.density * scene.gravity * a.width * np.array(area)
+    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
+                           + [scene.abutments.unit_weight] * len(ring.abutments))
+    weight = unit_weight * a.width * np.array(area)
     dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
     if scene.fill is not None:
         dead = dead + _overburden(ring, scene, ref)
@@ -397,13 +403,15 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         live_loads = generalised_loads(ref, b, np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]), f)
     else:
         live_loads = np.zeros((nb, 3))
-    nj = len(ring.joints)
+    friction = np.full(len(ring.joints), scene.joints.friction)
+    if ring.abutments:
+        friction[ring.n_voussoirs + 1:] = scene.abutments.friction  # the abutments' base joints
     return BlockModel(
         ref=ref, dead=dead, live=live_loads,
         joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
-        friction=np.full(nj, scene.joints.friction))
+        friction=friction)
 
 
 def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
@@ -419,7 +427,7 @@ def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
         xc = np.trapz(x * h, x) / area
         points.append(ring.extrados_point(xc))
         forces.append((0.0, -w * area))
-    return generalised_loads(ref, np.arange(len(ref)), np.array(points), np.array(forces))
+    return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
 
 
 def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = "split",

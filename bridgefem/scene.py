@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from .geometry import SHAPES
+from .geometry import SHAPES, make_shape
 
 
 class SceneError(ValueError):
@@ -70,6 +70,44 @@ class Fill:
     tension_cutoff: float = 0.0
     interface_friction: float = 0.5
     element_size: float = 0.0
+
+
+@dataclass(frozen=True)
+class Abutments:
+    """What carries the ring at its springings, and an optional imposed support movement.
+
+    model: "rigid" (the springing joints bear on the rigid ground; no abutment mesh) or "elastic" (a block below
+    each springing, from the springing line y = 0 down to y = -height (m), reaching ``length`` (m) outwards from
+    the springing's intrados corner, with its own joints: the springing joint to the ring and its base to the
+    rigid ground); young (Pa), poisson, unit_weight (N/m^3) of the blocks; friction: Coulomb coefficient of the
+    base joints. Movement of the ground under ``movement_springing`` ("left", "right" or "both": under the
+    springing joint, or under the abutment's base): movement_horizontal (m, positive = spreading, away from the
+    span), movement_vertical (m, positive = up; a settlement is negative), imposed after the self-weight and
+    before the live load in ``movement_steps`` equal increments.
+    """
+
+    model: str = "rigid"
+    height: float | None = None  # this key and the next five: elastic abutments only (None when rigid)
+    length: float | None = None
+    young: float | None = None
+    poisson: float | None = None
+    unit_weight: float | None = None
+    friction: float | None = None
+    movement_springing: str = ""
+    movement_horizontal: float = 0.0
+    movement_vertical: float = 0.0
+    movement_steps: int = 4
+
+    @property
+    def elastic(self) -> bool:
+        return self.model == "elastic"
+
+    @property
+    def moves(self) -> bool:
+        return bool(self.movement_horizontal or self.movement_vertical)
+
+
+RIGID_ABUTMENTS = Abutments()
 
 
 @dataclass(frozen=True)
@@ -138,6 +176,7 @@ class Scene:
     loads: tuple[Load, ...]
     gravity: float = 9.81
     fill: Fill | None = None
+    abutments: Abutments = RIGID_ABUTMENTS
     mesh: MeshOptions = MeshOptions()
     model: ModelOptions = ModelOptions()
     solver: SolverOptions = SolverOptions()
@@ -174,7 +213,14 @@ def _positive(v):
     return v > 0 and math.isfinite(v)
 
 
+def _finite(v):
+    return math.isfinite(v)
+
+
 FILL_MATERIALS = ("elastic", "mohr-coulomb")
+ABUTMENT_MODELS = ("rigid", "elastic")
+MOVING_SPRINGINGS = ("left", "right", "both")
+_ELASTIC_ONLY = ("height", "length", "young", "poisson", "unit_weight", "friction")  # [abutments] keys
 
 _SCHEMA: dict[str, dict[str, _Key]] = {
     "scene": {
@@ -217,6 +263,20 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
         "interface_friction": _Key(float, 0.5, lambda v: 0 <= v < math.inf, "a number >= 0"),
         "element_size": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a length >= 0 in m (0: automatic)"),
     },
+    "abutments": {
+        "model": _Key(str, "rigid", lambda v: v in ABUTMENT_MODELS, " or ".join(f'"{m}"' for m in ABUTMENT_MODELS)),
+        "height": _Key(float, None, _positive, "a positive depth in m of the base below the springing line"),
+        "length": _Key(float, None, _positive, "a positive length in m outwards from the springing's intrados"),
+        "young": _Key(float, None, _positive, "a positive modulus in Pa (default: the masonry's)"),
+        "poisson": _Key(float, None, lambda v: 0 <= v < 0.5, "0 <= poisson < 0.5 (default: the masonry's)"),
+        "unit_weight": _Key(float, None, _positive, "a positive weight density in N/m^3 (default: the masonry's)"),
+        "friction": _Key(float, None, lambda v: 0 <= v < math.inf, "a number >= 0 (default: the joints')"),
+        "movement_springing": _Key(str, None, lambda v: v in MOVING_SPRINGINGS,
+                                   " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS)),
+        "movement_horizontal": _Key(float, 0.0, _finite, "a length in m (positive: spreading, away from the span)"),
+        "movement_vertical": _Key(float, 0.0, _finite, "a length in m (positive: up; settlement negative)"),
+        "movement_steps": _Key(int, 4, lambda v: 1 <= v <= 1000, "an integer from 1 to 1000"),
+    },
     "mesh": {
         "elements_through_thickness": _Key(int, 4, lambda v: 1 <= v <= 64, "an integer from 1 to 64"),
         "degree": _Key(int, 1, lambda v: v in (1, 2), "1 or 2"),
@@ -237,7 +297,7 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
     },
 }
 _REQUIRED_SECTIONS = ("arch", "masonry", "joints")
-_OPTIONAL_SECTIONS = ("fill",)
+_OPTIONAL_SECTIONS = ("fill", "abutments")
 
 
 def _typed(where: str, value: Any, key: _Key) -> Any:
@@ -328,10 +388,43 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     fill = Fill(**sec["fill"]) if "fill" in sec else None
     if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
         raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
+    abutments = _abutments(sec["abutments"], data["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
     return Scene(name=sec["scene"]["name"] or default_name, gravity=sec["scene"]["gravity"], fill=fill,
+                 abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
                  solver=SolverOptions(**solver))
+
+
+def springing_reach(arch: dict[str, Any]) -> float:
+    """Horizontal distance (m) from a springing's intrados corner to its extrados corner."""
+    shape = make_shape(arch["shape"], arch["span"], arch["rise"])
+    return float(abs(arch["thickness"] * shape.normal(0.0)[0]))
+
+
+def _abutments(ab: dict[str, Any], given: dict[str, Any], sec: dict[str, dict[str, Any]]) -> Abutments:
+    """Check the [abutments] keys against each other and fill in the defaults taken from the masonry and joints."""
+    if (ab["movement_horizontal"] or ab["movement_vertical"]) and ab["movement_springing"] is None:
+        raise SceneError("[abutments] movement_springing: missing; required with a support movement "
+                         "(" + " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS) + ")")
+    if ab["model"] == "rigid":
+        extra = [k for k in _ELASTIC_ONLY if k in given]
+        if extra:
+            raise SceneError(f"[abutments] {extra[0]} = {given[extra[0]]!r}: only for model = \"elastic\" "
+                             "(rigid abutments are the ground itself)")
+        return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
+    if ab["height"] is None:
+        raise SceneError("[abutments] height: missing; required for model = \"elastic\" "
+                         "(a positive depth in m of the base below the springing line)")
+    reach = springing_reach(sec["arch"])
+    if ab["length"] is not None and ab["length"] < reach * (1 - 1e-9):
+        raise SceneError(f"[abutments] length = {ab['length']!r}: allowed is a length >= {reach:g} m, the "
+                         "springing joint's horizontal reach (the joint must rest on the abutment)")
+    m = sec["masonry"]
+    defaults = {"length": reach, "young": m["young"], "poisson": m["poisson"],
+                "unit_weight": m["density"] * sec["scene"]["gravity"], "friction": sec["joints"]["friction"]}
+    ab.update({k: v for k, v in defaults.items() if ab[k] is None})
+    return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
 
 
 def load_scene(path: str | Path) -> Scene:

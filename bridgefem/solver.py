@@ -7,7 +7,10 @@ Unknowns: displacements u (m) and joint forces lam (N). For a given active set t
     stick pair:  c G_n u = 0,           c G_t u = c d_t(ref)          (closed, no slip this step)
     slip pair:   c G_n u = 0,           lam_t - s mu lam_n = 0         (closed, sliding in direction -s)
 
-with G the relative displacement operator of :mod:`bridgefem.contact`. Each Newton iteration solves this
+with G the relative displacement operator of :mod:`bridgefem.contact`. An imposed support movement adds a known
+offset g to the relative displacements of the pairs on the moving ground, d = G u + g
+(:func:`bridgefem.contact.ground_offsets`, scaled by :meth:`ContactSolver.set_support_movement`): the closed and
+stick laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). Each Newton iteration solves this
 system, then re-derives the active set from the Alart-Curnier functions; a step has converged when the
 active set no longer changes and the scaled equilibrium residual is small. The system lives in one PETSc
 AIJ matrix whose sparsity pattern never changes (entries of inactive laws are explicit zeros), so the
@@ -98,9 +101,12 @@ class ContactSolver:
 
     def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs,
                  friction: float | np.ndarray, c: np.ndarray, force_tol: float, max_iterations: int,
-                 petsc_options: dict, material: "PlasticFill | None" = None):
+                 petsc_options: dict, material: "PlasticFill | None" = None,
+                 support_motion: np.ndarray | None = None):
         self.comm = K.getComm().tompi4py()
         self.pairs, self.c = pairs, c
+        self.support_motion = np.zeros((len(pairs), 2)) if support_motion is None else support_motion
+        self.set_support_movement(0.0)
         self.mu = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))
         self.force_tol, self.max_iterations = force_tol, max_iterations
         self.f_dead, self.f_live = f_dead, f_live
@@ -210,11 +216,17 @@ class ContactSolver:
         diag = np.concatenate([(~closed).astype(float), (~stick).astype(float), -mu * active.sign * slip])
         return np.concatenate([self._const, g_part, diag])[self._perm]
 
+    def set_support_movement(self, fraction: float) -> None:
+        """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
+        self.movement = fraction
+        self._ground = fraction * self.support_motion
+
     def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray) -> None:
         b = self.b.array
         b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
         lam_rhs = np.zeros(self.n_lam)
-        lam_rhs[1::2] = np.where(active.state == STICK, self.c * slip_ref, 0.0)
+        lam_rhs[0::2] = np.where(active.state != OPEN, -self.c * self._ground[:, 0], 0.0)
+        lam_rhs[1::2] = np.where(active.state == STICK, self.c * (slip_ref - self._ground[:, 1]), 0.0)
         b[self.n_u:] = lam_rhs
 
     def _ksp(self, options: dict) -> None:
@@ -259,7 +271,7 @@ class ContactSolver:
     def split(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Local owned u, lam (m, 2) and relative displacements d (m, 2) of an iterate vector."""
         self._G.mult(x, self.d)
-        return x.array[:self.n_u], x.array[self.n_u:].reshape(-1, 2), self.d.array.reshape(-1, 2)
+        return x.array[:self.n_u], x.array[self.n_u:].reshape(-1, 2), self.d.array.reshape(-1, 2) + self._ground
 
     def _counts(self, active: ContactState) -> dict:
         local = np.bincount(active.state, minlength=3)
