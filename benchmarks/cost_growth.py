@@ -1,6 +1,6 @@
 """Cost growth of the FE limit analysis with the mesh, in units of one linear elastic solve of the same mesh.
 
-For the cases of demos/speed_accuracy.py (the reference semicircular arch and the segmental arch, 16 voussoirs,
+For the cases of benchmarks/harness.py (the reference semicircular arch and the segmental arch, 16 voussoirs,
 the default preset's bracket tolerance), refined through the thickness from about 1k to 200k dofs (P1 by default;
 the voussoirs stay many elements long), each size runs in a fresh process, after a warm-up run that loads Gmsh and
 compiles the forms, and measures:
@@ -30,25 +30,23 @@ results/cost_growth.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import os
-import shutil
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "demos"))
-from speed_accuracy import builtin_cases, git_state, measure, run_jobs, scene_variant  # noqa: E402  (shared harness)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import (bracket_kn, builtin_cases, fmt, machine_line, run_jobs, scene_variant, worker,  # noqa: E402
+                     write_outputs)
 
 RATIO_TARGET = 20.0  # whole limit analysis <= this many linear elastic solves of the same mesh
 SHARE_TARGET = 0.10  # meshing + assembly <= this share of a limit analysis
 LP_BLOCKS = 1000
-DEFAULT_SIZES = ("P1:2,4,8,16,32,64",)
+DEFAULT_SIZES = {"semicircular": ("P1:2,4,8,16,32",), "segmental": ("P1:2,4,8,16,32,64",)}  # t/64: 135k, 206k
 QUICK_SIZES = ("P1:2,4,8,16",)
+DOF_RANGE = (1_000, 210_000)  # the sizes of the ratio target: 1k to about 200k dofs
 
 
 def bonded_solve_times(solver, repeats: int = 7, budget: float = 2.0) -> dict:
@@ -93,25 +91,6 @@ def bonded_solve_times(solver, repeats: int = 7, budget: float = 2.0) -> dict:
             "refactor_counted": f"{counted['factorisations']} factorisation(s), {counted['solves']} solve(s)"}
 
 
-def worker(payload: dict) -> None:
-    """Measure each job (scene dictionary, repeat budget) and its bonded solve; print ``RESULT {json}`` lines."""
-    from mpi4py import MPI
-
-    jobs = payload["jobs"]
-    t0 = time.perf_counter()
-    import gmsh  # noqa: F401
-    gmsh_import = time.perf_counter() - t0
-    for job in jobs:
-        try:
-            an, rec = measure(job["scene"], job["repeat_budget"])
-            rec.update(bonded_solve_times(an.solver))
-            rec["gmsh_import_s"] = gmsh_import
-        except Exception as err:
-            rec = {"error": f"{type(err).__name__}: {err}"}
-        if MPI.COMM_WORLD.rank == 0:
-            print("RESULT " + json.dumps(rec), flush=True)
-
-
 def parse_sizes(specs) -> list[tuple[int, int]]:
     out = []
     for spec in specs:
@@ -146,10 +125,6 @@ def lp_timing(base: dict, blocks: int = LP_BLOCKS, repeats: int = 3) -> dict:
             "load_kN": lp.load / 1e3}
 
 
-def _f(v, fmt):
-    return "-" if v is None else format(v, fmt)
-
-
 def markdown_table(rows: list[dict]) -> str:
     head = ["case", "deg", "elements", "dofs", "pairs", "status", "FE bracket kN", "limit analysis s",
             "elastic solve s", "refactor+solve s", "ratio (target <= 20)", "CPU ratio", "ratio to refactor",
@@ -160,14 +135,13 @@ def markdown_table(rows: list[dict]) -> str:
             lines.append(f"| {r['case']} | P{r['degree']} | t/{r['ett']} | - | - | {r['error']} |"
                          + " - |" * (len(head) - 6))
             continue
-        kn = r["load_total"] / 1e3
-        up = None if r["upper_N"] is None else r["upper_N"] * kn
+        lower, upper = bracket_kn(r)
         cells = [r["case"], f"P{r['degree']}", f"t/{r['ett']}", str(r["dofs"]), str(r["pairs"]), r["status"],
-                 f"[{r['lower_N'] * kn:.2f}, {_f(up, '.2f')}]", f"{r['time_s']:.2f}", f"{r['elastic_solve_s']:.3f}",
+                 f"[{lower:.2f}, {fmt(upper, '.2f')}]", f"{r['time_s']:.2f}", f"{r['elastic_solve_s']:.3f}",
                  f"{r['refactor_solve_s']:.3f}", f"{r['ratio']:.0f}", f"{r['ratio_cpu']:.0f}",
                  f"{r['ratio_refactor']:.0f}",
                  str(r["factorisations"]), str(r["linear_solves"]), f"{100 * r['share_mesh_assembly']:.1f}",
-                 f"{100 * r['share_preprocessing']:.1f}", _f(r.get("peak_mb"), ".0f")]
+                 f"{100 * r['share_preprocessing']:.1f}", fmt(r.get("peak_mb"), ".0f")]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -193,10 +167,10 @@ def plot(rows: list[dict], slopes: dict, title: str, path: Path) -> None:
         n = [r["dofs"] for r in sel]
         s = slopes.get(key, {})
         line, = ax1.loglog(n, [r["time_s"] for r in sel], marker + "-", label=f"{name}: limit analysis "
-                           f"(slope {_f(s.get('time_s'), '.2f')})")
+                           f"(slope {fmt(s.get('time_s'), '.2f')})")
         c = line.get_color()
         ax1.loglog(n, [r["elastic_solve_s"] for r in sel], marker + "--", mfc="none", color=c,
-                   label=f"{name}: one elastic solve (slope {_f(s.get('elastic_solve_s'), '.2f')})")
+                   label=f"{name}: one elastic solve (slope {fmt(s.get('elastic_solve_s'), '.2f')})")
         ax1.loglog(n, [RATIO_TARGET * r["elastic_solve_s"] for r in sel], ":", color=c, lw=1)
         ax2.loglog(n, [r["ratio"] for r in sel], marker + "-", color=c, label=f"{name}: limit / elastic solve (wall)")
         ax2.loglog(n, [r["ratio_cpu"] for r in sel], marker + "--", mfc="none", color=c, label=f"{name}: CPU time")
@@ -222,90 +196,86 @@ def plot(rows: list[dict], slopes: dict, title: str, path: Path) -> None:
     plt.close(fig)
 
 
+def measure_size(case: str, base: dict, degree: int, ett: int) -> dict:
+    """One size of one case in a fresh process (default preset's tolerance): the record with its ratios."""
+    scene = scene_variant(base, preset="default", ett=ett, degree=degree)
+    rec = run_jobs([{"scene": scene, "repeat_budget": 8.0}], script=Path(__file__).resolve())[0]
+    row = {"case": case, "degree": degree, "ett": ett, **rec}
+    if "error" in rec:
+        print(f"{case} P{degree} t/{ett}: {rec['error']}", flush=True)
+        return row
+    pre = sum(rec[f"time_{k}_s"] for k in ("geometry", "mesh", "assembly", "pairing", "solver_setup"))
+    row.update(ratio=rec["time_s"] / rec["elastic_solve_s"], ratio_cpu=rec["cpu_s"] / rec["elastic_solve_cpu_s"],
+               ratio_refactor=rec["time_s"] / rec["refactor_solve_s"],
+               share_mesh_assembly=(rec["time_mesh_s"] + rec["time_assembly_s"]) / rec["time_s"],
+               share_preprocessing=pre / rec["time_s"])
+    print(f"{case} P{degree} t/{ett}: {rec['dofs']} dofs, {rec['status']}, analysis {rec['time_s']:.2f} s "
+          f"({rec['linear_solves']} solves), elastic solve {rec['elastic_solve_s']:.3f} s, ratio {row['ratio']:.0f}, "
+          f"refactor check: {rec['refactor_counted']}", flush=True)
+    return row
+
+
+def summary(rows: list[dict], slopes: dict, lp: dict) -> str:
+    """The slopes and the verdicts on the targets (ratio over DOF_RANGE, meshing + assembly share, LP time)."""
+    good = [r for r in rows if "error" not in r]
+    in_range = [r for r in good if DOF_RANGE[0] <= r["dofs"] <= DOF_RANGE[1]]
+    worst_ratio = max((r["ratio"] for r in in_range), default=None)
+    best_ratio = min((r["ratio"] for r in in_range), default=None)
+    worst_share = max((r["share_mesh_assembly"] for r in good), default=None)
+    slope_lines = "".join(f"- {k[0]} P{k[1]} (>= 900 dofs): limit analysis {fmt(v['time_s'], '.2f')} (CPU "
+                          f"{fmt(v['cpu_s'], '.2f')}), elastic solve {fmt(v['elastic_solve_s'], '.2f')}, refactor + "
+                          f"solve {fmt(v['refactor_solve_s'], '.2f')}, linear solves per analysis "
+                          f"{fmt(v['linear_solves'], '.2f')}\n" for k, v in slopes.items())
+    return (f"\nSlopes of log time against log dofs:\n\n{slope_lines}\n"
+            f"Ratio limit analysis / elastic solve, {DOF_RANGE[0]:,}-{DOF_RANGE[1]:,} dofs: "
+            f"{fmt(best_ratio, '.0f')} to {fmt(worst_ratio, '.0f')} (target <= {RATIO_TARGET:g}); worst meshing + "
+            f"assembly share: {fmt(worst_share and 100 * worst_share, '.1f')} % (target <= {100 * SHARE_TARGET:g} %; "
+            f"warm process: the one-off `import gmsh` and the first-use form compilation are excluded).\n\n"
+            f"Rigid-block LP with {lp['blocks']} voussoirs: {lp['time_s']:.3f} s, fastest of 3 (ring model + LP; "
+            f"LP alone {lp['solve_blocks_s']:.3f} s; the first call in the process, which loads the LP solver: "
+            f"{lp['first_s']:.3f} s; target < 1 s), collapse load {lp['load_kN']:.2f} kN.\n")
+
+
+def bonded_extra(an) -> dict:
+    """The worker's extra measurement: the bonded solve of the analysis's mesh."""
+    return bonded_solve_times(an.solver)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sizes", nargs="+", default=None, metavar="Pd:e1,e2",
-                   help=f"degree and elements through the thickness (default: {' '.join(DEFAULT_SIZES)})")
+                   help=f"degree and elements through the thickness (default: {DEFAULT_SIZES})")
     p.add_argument("--quick", action="store_true", help=f"sizes {' '.join(QUICK_SIZES)}")
     p.add_argument("--cases", nargs="+", default=["semicircular", "segmental"], metavar="CASE",
-                   help="built-in cases of demos/speed_accuracy.py (default: semicircular segmental)")
+                   help="built-in cases of benchmarks/harness.py (default: semicircular segmental)")
     p.add_argument("--out", type=Path, default=Path("results/cost_growth"))
     p.add_argument("--figures", type=Path, help="also copy cost_growth.png and .md into this folder")
     p.add_argument("--worker", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.worker is not None:
-        worker(json.loads(args.worker))
+        worker(json.loads(args.worker), extra=bonded_extra)
         return 0
     from bridgefem.scene import PRESETS
 
-    try:
-        sizes = parse_sizes(args.sizes or (QUICK_SIZES if args.quick else DEFAULT_SIZES))
-    except ValueError as err:
-        p.error(str(err))
     builtin = builtin_cases()
     unknown = [c for c in args.cases if c not in builtin]
     if unknown:
         p.error(f"--cases: unknown case {unknown[0]!r}; built-in cases are {', '.join(builtin)}")
+    try:
+        sizes = {c: parse_sizes(args.sizes or (QUICK_SIZES if args.quick else DEFAULT_SIZES[c])) for c in args.cases}
+    except ValueError as err:
+        p.error(str(err))
     start = time.perf_counter()
-    rows = []
-    for case in args.cases:
-        for deg, ett in sizes:
-            scene = scene_variant(builtin[case], preset="default", ett=ett, degree=deg)  # the default tolerance
-            rec = run_jobs(Path(__file__).resolve(), [{"scene": scene, "repeat_budget": 8.0}])[0]
-            row = {"case": case, "degree": deg, "ett": ett, **rec}
-            if "error" not in rec:
-                pre = sum(rec[f"time_{k}_s"] for k in ("geometry", "mesh", "assembly", "pairing", "solver_setup"))
-                row.update(ratio=rec["time_s"] / rec["elastic_solve_s"],
-                           ratio_cpu=rec["cpu_s"] / rec["elastic_solve_cpu_s"],
-                           ratio_refactor=rec["time_s"] / rec["refactor_solve_s"],
-                           share_mesh_assembly=(rec["time_mesh_s"] + rec["time_assembly_s"]) / rec["time_s"],
-                           share_preprocessing=pre / rec["time_s"])
-                print(f"{case} P{deg} t/{ett}: {rec['dofs']} dofs, {rec['status']}, analysis {rec['time_s']:.2f} s "
-                      f"({rec['linear_solves']} solves), elastic solve {rec['elastic_solve_s']:.3f} s, ratio "
-                      f"{row['ratio']:.0f}, refactor check: {rec['refactor_counted']}", flush=True)
-            else:
-                print(f"{case} P{deg} t/{ett}: {rec['error']}", flush=True)
-            rows.append(row)
+    rows = [measure_size(c, builtin[c], deg, ett) for c in args.cases for deg, ett in sizes[c]]
     good = [r for r in rows if "error" not in r]
     keys = ("time_s", "cpu_s", "elastic_solve_s", "refactor_solve_s", "linear_solves")
     slopes = {key: {k: slope([r for r in good if (r["case"], r["degree"]) == key], k) for k in keys}
               for key in series_keys(good)}
     lp = lp_timing(builtin[args.cases[0]])
-    elapsed = time.perf_counter() - start
-    load = os.getloadavg()
-    degrees = "/".join(f"P{d}" for d in sorted({d for d, _ in sizes}))
-    title = (f"Cost growth: {', '.join(args.cases)}, {degrees}, tolerance "
-             f"{PRESETS['default'][('solver', 'tolerance')]:g}, serial")
-    slope_lines = "".join(f"- {k[0]} P{k[1]} (>= 900 dofs): limit analysis {_f(v['time_s'], '.2f')} (CPU "
-                          f"{_f(v['cpu_s'], '.2f')}), elastic solve {_f(v['elastic_solve_s'], '.2f')}, refactor + "
-                          f"solve {_f(v['refactor_solve_s'], '.2f')}, linear solves per analysis "
-                          f"{_f(v['linear_solves'], '.2f')}\n" for k, v in slopes.items())
-    worst_ratio = max((r["ratio"] for r in good), default=None)
-    worst_share = max((r["share_mesh_assembly"] for r in good), default=None)
-    gm = min((r["gmsh_import_s"] for r in good), default=None)
-    summary = (f"\nSlopes of log time against log dofs:\n\n{slope_lines}\n"
-               f"Worst ratio limit analysis / elastic solve: {_f(worst_ratio, '.0f')} (target <= {RATIO_TARGET:g}); "
-               f"worst meshing + assembly share: {_f(worst_share and 100 * worst_share, '.1f')} % (target <= "
-               f"{100 * SHARE_TARGET:g} %; warm process: the one-off `import gmsh`, at least {_f(gm, '.2f')} s, and "
-               f"the first-use form compilation are excluded).\n\n"
-               f"Rigid-block LP with {lp['blocks']} voussoirs: {lp['time_s']:.3f} s, fastest of 3 (ring model + LP; "
-               f"LP alone {lp['solve_blocks_s']:.3f} s; the first call in the process, which loads the LP solver: "
-               f"{lp['first_s']:.3f} s; target < 1 s), collapse load {lp['load_kN']:.2f} kN.\n")
-    md = (f"# {title}\n\nCode: {git_state()}; {os.cpu_count()} CPU(s), load average {load[0]:.1f} at the end; "
-          f"benchmark wall time {elapsed:.0f} s.\n\n" + markdown_table(rows) + summary)
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "cost_growth.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
-        writer.writeheader()
-        writer.writerows(rows)
-    (args.out / "cost_growth.md").write_text(md)
-    plot(rows, slopes, title, args.out / "cost_growth.png")
-    if args.figures:
-        args.figures.mkdir(parents=True, exist_ok=True)
-        for name in ("cost_growth.png", "cost_growth.md"):
-            shutil.copy(args.out / name, args.figures / name)
-    print(md)
-    print(f"written to {args.out}/ (cost_growth.csv, .md, .png)")
+    title = f"Cost growth: {', '.join(args.cases)}, tolerance {PRESETS['default'][('solver', 'tolerance')]:g}, serial"
+    md = (f"# {title}\n\n{machine_line()} at the end; benchmark wall time {time.perf_counter() - start:.0f} s.\n\n"
+          + markdown_table(rows) + summary(rows, slopes, lp))
+    write_outputs(args.out, "cost_growth", rows, md, lambda path: plot(rows, slopes, title, path), args.figures)
     return 0
 
 

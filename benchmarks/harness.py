@@ -296,7 +296,7 @@ def git_state() -> str:
 def write_outputs(out: Path, stem: str, rows: list[dict], markdown: str, plot=None,
                   figures: Path | None = None) -> None:
     """Write OUT/STEM.csv (every key of every row), OUT/STEM.md and, with ``plot(path)``, OUT/STEM.png; copy the
-    .md and .png into ``figures`` when given."""
+    .md and .png into ``figures`` when given; print the markdown and where the files went."""
     out.mkdir(parents=True, exist_ok=True)
     with open(out / f"{stem}.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
@@ -311,6 +311,8 @@ def write_outputs(out: Path, stem: str, rows: list[dict], markdown: str, plot=No
         figures.mkdir(parents=True, exist_ok=True)
         for name in made:
             shutil.copy(out / name, figures / name)
+    print(markdown)
+    print(f"written to {out}/ ({stem}.csv, " + ", ".join(made) + ")")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 """MPI speed-up of the FE limit analysis: the same scene of at least 100k dofs serial and on ``mpirun -n 2``.
 
-Each run is a fresh process (serial: ``python``; parallel: ``mpirun -n 2 python``) that first does a warm-up run
+The machine's load average is printed before and after: on a shared 2-core machine another job running at the
+same time slows the 2-rank run most, so the ratio is only meaningful when both load averages are low. Each run is
+a fresh process (serial: ``python``; parallel: ``mpirun -n 2 python``) that first does a warm-up run
 (Gmsh loaded, forms compiled) and then times :func:`bridgefem.analysis.run_analysis`, per phase (the slowest
 rank). The speed-up is serial time / parallel time, measured in one invocation so that machine noise is shared;
 with ``--repeat`` the runs alternate and the fastest of each is kept. The brackets must match (same status, and
@@ -19,18 +21,15 @@ Target: speed-up >= 1.5 with 2 ranks at >= 100k dofs, same bracket.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import sys
 import time
 import tomllib
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "demos"))
-from speed_accuracy import PHASES, builtin_cases, git_state, run_jobs, scene_variant  # noqa: E402  (shared harness)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import PHASES, bracket_kn, builtin_cases, machine_line, run_jobs, scene_variant, write_outputs  # noqa: E402
 
-HARNESS = ROOT / "demos" / "speed_accuracy.py"  # its --worker runs one measured analysis (under MPI too)
 TARGET = 1.5
 
 
@@ -46,7 +45,7 @@ def same_bracket(a: dict, b: dict) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--case", default="segmental", help="a built-in case of demos/speed_accuracy.py (default "
+    p.add_argument("--case", default="segmental", help="a built-in case of benchmarks/harness.py (default "
                    "segmental: few load steps, so the serial parts weigh most)")
     p.add_argument("--scene", type=Path, help="a scene file instead of --case")
     p.add_argument("--ett", type=int, default=48, help="elements through the thickness (default 48: ~120k dofs)")
@@ -68,11 +67,13 @@ def main(argv: list[str] | None = None) -> int:
 
         args.tolerance = PRESETS["default"][("solver", "tolerance")]
     job = {"scene": scene, "repeat_budget": 0.0}
+    load_before = os.getloadavg()
+    print(f"load average before: {load_before[0]:.2f} {load_before[1]:.2f} {load_before[2]:.2f}", flush=True)
     start = time.perf_counter()
     best: dict[int, dict] = {}
     for rep in range(args.repeat):
         for ranks in [1, *args.ranks]:
-            rec = run_jobs(HARNESS, [job], ranks=ranks)[0]
+            rec = run_jobs([job], ranks=ranks)[0]
             rec["ranks"] = ranks
             took = rec.get("time_s")
             print(f"repeat {rep + 1}, {ranks} rank(s): " + (rec["error"] if "error" in rec else
@@ -89,32 +90,28 @@ def main(argv: list[str] | None = None) -> int:
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     rows = []
     for ranks, r in sorted(best.items()):
-        kn = r["load_total"] / 1e3
-        up = "-" if r["upper_N"] is None else f"{r['upper_N'] * kn:.2f}"
+        lower, upper = bracket_kn(r)
+        up = "-" if upper is None else f"{upper:.2f}"
         r["speedup"] = serial["time_s"] / r["time_s"]
         r["speedup_search"] = serial["time_limit_search_s"] / r["time_limit_search_s"]
         r["same_bracket"] = same_bracket(serial, r)
-        cells = [str(ranks), str(r["dofs"]), r["status"], f"[{r['lower_N'] * kn:.2f}, {up}]", f"{r['time_s']:.1f}",
+        cells = [str(ranks), str(r["dofs"]), r["status"], f"[{lower:.2f}, {up}]", f"{r['time_s']:.1f}",
                  *[f"{r['time_' + ph.replace(' ', '_') + '_s']:.2f}" for ph in PHASES], str(r["factorisations"]),
                  f"{r['speedup']:.2f}", f"{r['speedup_search']:.2f}", "yes" if r["same_bracket"] else "**no**"]
         lines.append("| " + " | ".join(cells) + " |")
         rows.append(r)
     elapsed = time.perf_counter() - start
-    load = os.getloadavg()
+    load_after = os.getloadavg()
+    print(f"load average after: {load_after[0]:.2f} {load_after[1]:.2f} {load_after[2]:.2f}", flush=True)
     verdict = [f"{ranks} ranks: speed-up {r['speedup']:.2f} (target >= {TARGET:g}: "
                f"{'met' if r['speedup'] >= TARGET else 'NOT met'}), bracket "
                f"{'identical' if r['same_bracket'] else 'DIFFERENT'}" for ranks, r in sorted(best.items()) if ranks > 1]
     md = (f"# MPI speed-up: {name}, t/{args.ett}, P{args.degree}, tolerance {args.tolerance:g}\n\n"
-          f"Code: {git_state()}; {os.cpu_count()} CPU(s), load average {load[0]:.1f} at the end; fastest of "
+          f"{machine_line()} at the end; load average (1 min) {load_before[0]:.2f} before and {load_after[0]:.2f} "
+          f"after ({os.cpu_count()} CPUs: other jobs on the machine make the ratio unreliable); fastest of "
           f"{args.repeat} alternating run(s) per rank count; benchmark wall time {elapsed:.0f} s.\n\n"
           + "\n".join(lines) + "\n\n" + "\n".join(f"- {v}" for v in verdict) + "\n")
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "mpi_speedup.md").write_text(md)
-    with open(args.out / "mpi_speedup.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
-        writer.writeheader()
-        writer.writerows(rows)
-    print(md)
+    write_outputs(args.out, "mpi_speedup", rows, md)
     return 0
 
 

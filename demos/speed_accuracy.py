@@ -356,8 +356,8 @@ def plot_voussoirs(ax, rows: list[dict], cases: list[str]) -> None:
     ax.legend(fontsize=7)
 
 
-def report(rows: list[dict], cases: list[str], quick: bool, elapsed: float) -> tuple[str, list[dict], dict]:
-    """The markdown of the study, the configurations on every case and the recommended presets."""
+def report(rows: list[dict], cases: list[str], quick: bool, elapsed: float) -> str:
+    """The markdown of the study: references, every run, the configurations on every case with the presets."""
     from bridgefem.scene import PRESETS
 
     configs = configurations(rows, cases)
@@ -369,7 +369,7 @@ def report(rows: list[dict], cases: list[str], quick: bool, elapsed: float) -> t
           f"{machine_line()} at the end; sweep wall time {elapsed:.0f} s.\n\n## References\n\n{refs}\n"
           "## Every run\n\n" + markdown_table(rows) + "\n## Configurations on every case\n\n"
           + configurations_table(configs, PRESETS, recommended))
-    return md, configs, recommended
+    return md
 
 
 def study(case_dicts: dict[str, dict], quick: bool) -> list[dict]:
@@ -407,10 +407,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--cases: unknown case {unknown[0]!r}; built-in cases are {', '.join(builtin)}")
     start = time.perf_counter()
     rows = study({c: builtin[c] for c in names}, args.quick)
-    md, configs, recommended = report(rows, names, args.quick, time.perf_counter() - start)
+    md = report(rows, names, args.quick, time.perf_counter() - start)
     write_outputs(args.out, "speed_accuracy", rows, md, lambda path: plot(rows, names, PRESETS, path), args.figures)
-    print(md)
-    print(f"written to {args.out}/ (speed_accuracy.csv, .md, .png)")
     return 0
 
 
