@@ -5,7 +5,7 @@ the default preset's bracket tolerance), refined through the thickness from abou
 the voussoirs stay many elements long), each size runs in a fresh process, after a warm-up run that loads Gmsh and
 compiles the forms, and measures:
 
-- the whole limit analysis (:func:`bridgefem.analysis.run_analysis`, all phases; fastest of up to 3 repeats
+- the whole limit analysis (:func:`bridgefem.analysis.run_analysis`, all phases; fastest of up to 5 repeats
   for the small sizes) and its phases;
 - one linear elastic solve of the same mesh: the bonded system (every joint pair stuck, i.e. the stiffness
   matrix with the joints glued, the first system of every analysis) factorised by a fresh MUMPS LU — symbolic
