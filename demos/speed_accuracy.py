@@ -371,7 +371,8 @@ def plot_voussoirs(ax, rows: list[dict], cases: list[str]) -> None:
         line, = ax.loglog(n, [100 * r["err_inf"] for r in sel], "o-", label=f"{case}: vs LP, N = {LP_MANY_JOINTS}")
         ax.loglog(n, [max(100 * r["err_lp"], 1e-4) for r in sel], "s--", mfc="none", color=line.get_color(),
                   label=f"{case}: vs LP, same joints")
-    ax.set(xlabel="voussoirs N", ylabel="midpoint error (%)", title=f"tol {DISCRETISATION_TOLERANCE:g}, P1")
+    ax.set(xlabel="voussoirs N", ylabel="midpoint error (%)",
+           title=f"number of voussoirs (P1, >= t/4, tol {DISCRETISATION_TOLERANCE:g})")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
 
