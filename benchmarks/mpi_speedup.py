@@ -54,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--ranks", type=int, nargs="+", default=[2], help="parallel rank counts (default 2)")
     p.add_argument("--repeat", type=int, default=1, help="alternating repeats; the fastest run is kept")
     p.add_argument("--out", type=Path, default=Path("results/mpi_speedup"))
+    p.add_argument("--figures", type=Path, help="also copy mpi_speedup.md into this folder")
     args = p.parse_args(argv)
     if args.scene is not None:
         base, name = tomllib.loads(args.scene.read_text()), args.scene.stem
@@ -111,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
           f"after ({os.cpu_count()} CPUs: other jobs on the machine make the ratio unreliable); fastest of "
           f"{args.repeat} alternating run(s) per rank count; benchmark wall time {elapsed:.0f} s.\n\n"
           + "\n".join(lines) + "\n\n" + "\n".join(f"- {v}" for v in verdict) + "\n")
-    write_outputs(args.out, "mpi_speedup", rows, md)
+    write_outputs(args.out, "mpi_speedup", rows, md, figures=args.figures)
     return 0
 
 

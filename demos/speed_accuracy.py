@@ -281,24 +281,42 @@ def _pct(v) -> str:
     return fmt(None if v is None else 100 * v, ".3f")
 
 
-def row_cells(r: dict) -> list[str]:
-    """The table cells of a row."""
-    bracket = "-" if r.get("fe_upper_kN") is None else f"[{r['fe_lower_kN']:.3f}, {r['fe_upper_kN']:.3f}]"
-    front = "**front**" if r.get("on_front") else fmt(r.get("front_excess"), "+.0%")
-    return [r["case"], r["kind"], r["label"], str(r["voussoirs"]), f"{r['tolerance']:g}", r["seed"],
-            str(r.get("dofs", "-")), bracket, fmt(r["lp_kN"], ".3f"), _pct(r.get("err_lp")), _pct(r.get("err_ref")),
-            _pct(r.get("half")), _pct(r.get("err_bound")), _pct(r.get("err_inf")), fmt(r.get("cpu_s"), ".2f"),
-            fmt(r.get("time_s"), ".2f"), fmt(r.get("peak_mb"), ".0f"), str(r.get("linear_solves", "-")), front,
-            r["status"]]
+def _bracket(r: dict) -> str:
+    return "-" if r.get("fe_upper_kN") is None else f"[{r['fe_lower_kN']:.3f}, {r['fe_upper_kN']:.3f}]"
 
 
-def markdown_table(rows: list[dict]) -> str:
-    head = ["case", "kind", "configuration", "N", "tol", "seed", "dofs", "FE bracket kN", "LP kN", "err vs LP %",
-            "err vs fine FE %", "half-width %", "err bound %", "err vs LP(N=4096) %", "CPU s", "wall s",
-            "peak MB", "solves", "front", "status"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    lines += ["| " + " | ".join(row_cells(r)) + " |" for r in rows]
+def _front(r: dict) -> str:
+    mark = "**front**" if r.get("on_front") else fmt(r.get("front_excess"), "+.0%")
+    return mark + (f", preset {r['preset']}" if r.get("preset") else "")
+
+
+COLUMNS = {  # header -> cell of a row
+    "case": lambda r: r["case"], "kind": lambda r: r["kind"], "configuration": lambda r: r["label"],
+    "N": lambda r: str(r["voussoirs"]), "tol": lambda r: f"{r['tolerance']:g}", "seed": lambda r: r["seed"],
+    "dofs": lambda r: str(r.get("dofs", "-")), "FE bracket kN": _bracket, "LP kN": lambda r: fmt(r["lp_kN"], ".3f"),
+    "err vs LP %": lambda r: _pct(r.get("err_lp")), "err vs fine FE %": lambda r: _pct(r.get("err_ref")),
+    "half-width %": lambda r: _pct(r.get("half")), "err bound %": lambda r: _pct(r.get("err_bound")),
+    f"err vs LP(N={LP_MANY_JOINTS}) %": lambda r: _pct(r.get("err_inf")),
+    "CPU s": lambda r: fmt(r.get("cpu_s"), ".2f"), "wall s": lambda r: fmt(r.get("time_s"), ".2f"),
+    "peak MB": lambda r: fmt(r.get("peak_mb"), ".0f"), "solves": lambda r: str(r.get("linear_solves", "-")),
+    "front": _front, "status": lambda r: r["status"],
+}
+COMPACT = ("case", "kind", "configuration", "tol", "seed", "N", "FE bracket kN", "err vs LP %", "err vs fine FE %",
+           "half-width %", f"err vs LP(N={LP_MANY_JOINTS}) %", "CPU s", "wall s", "peak MB", "solves", "front")
+
+
+def markdown_table(rows: list[dict], columns=tuple(COLUMNS)) -> str:
+    """A markdown table of rows with the given COLUMNS."""
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(COLUMNS[c](r) for c in columns) + " |" for r in rows]
     return "\n".join(lines) + "\n"
+
+
+def compact_rows(rows: list[dict]) -> list[dict]:
+    """The rows of the README table: each case's front, the presets, the reference, the seed check, the other
+    solvers, the voussoirs."""
+    return [r for r in rows if r.get("on_front") or r.get("preset") or r["kind"] in ("reference", "seed", "solver",
+                                                                                      "voussoirs")]
 
 
 def configurations_table(configs: list[dict], presets: dict, recommended: dict) -> str:
@@ -390,16 +408,21 @@ def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: 
                    f"kN\n" for c in cases for r in rows if r["case"] == c and r["kind"] == "reference")
     md = (f"# Speed-accuracy map: {', '.join(cases)}" + (" (quick)" if quick else "") + "\n\n"
           f"{machine_line()} at the end; sweep wall time {elapsed:.0f} s.\n\n## References\n\n{refs}\n"
-          "## Every run\n\n" + markdown_table(rows) + "\n## Configurations on every case\n\n"
+          "## Front, presets, references, seed check, solvers, voussoirs\n\n"
+          + markdown_table(compact_rows(rows), COMPACT) + "\n## Configurations on every case\n\n"
           f"Presets need at least {min_elements} element(s) through the thickness (one element along the shortest "
           f"voussoir); fast: the most accurate within {1 + COST_NOISE:g} x the cheapest CPU time; accurate: the "
           f"cheapest within {100 * ACCURATE_ERROR:g} %; default candidate: the cheapest within "
-          f"{100 * DEFAULT_ERROR:g} %.\n\n" + configurations_table(configs, PRESETS, recommended))
+          f"{100 * DEFAULT_ERROR:g} %.\n\n" + configurations_table(configs, PRESETS, recommended)
+          + "\n## Every run\n\n" + markdown_table(rows))
     return md
 
 
 def study(case_dicts: dict[str, dict], quick: bool) -> list[dict]:
-    """Run every case and return the table rows with their errors and front marks."""
+    """Run every case and return the table rows with their errors, front and preset marks."""
+    from bridgefem.scene import PRESETS
+
+    named = {preset_config(v): name for name, v in PRESETS.items()}
     rows = []
     for case, base in case_dicts.items():
         jobs = case_jobs(base, quick)
@@ -413,6 +436,7 @@ def study(case_dicts: dict[str, dict], quick: bool) -> list[dict]:
         for r in case_rows:
             r["on_front"] = id(r) in front
             r["front_excess"] = front_excess(r, pts) if r in pts else None
+            r["preset"] = named.get((r["ett"], r["degree"], r["tolerance"])) if r in pts else None
         rows += case_rows
     return rows
 
