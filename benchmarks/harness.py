@@ -207,7 +207,8 @@ def _keep_fastest(rec: dict, again: dict) -> dict:
     return out
 
 
-def measure(scene_dict: dict, repeat_budget: float = REPEAT_BUDGET_S, comm=None, guess_factor: float | None = 1.0):
+def measure(scene_dict: dict, repeat_budget: float = REPEAT_BUDGET_S, comm=None,
+            guess_factor: float | None = 1.0):
     """Warm up, then run the FE limit analysis of a scene dictionary up to MAX_RUNS times (while the runs so far took
     less than ``repeat_budget`` s), the search seeded with ``guess_factor`` x the LP level (1: as a user runs
     it; None: no guess): the first Analysis and the merged record (fastest times)."""

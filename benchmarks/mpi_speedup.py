@@ -28,7 +28,8 @@ import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import PHASES, bracket_kn, builtin_cases, machine_line, run_jobs, scene_variant, write_outputs  # noqa: E402
+from harness import (PHASES, bracket_kn, builtin_cases, machine_line, run_jobs, scene_variant,  # noqa: E402
+                     write_outputs)
 
 TARGET = 1.5
 

@@ -144,9 +144,8 @@ def case_jobs(base: dict, quick: bool) -> list[dict]:
 
 def measure_case(jobs: list[dict], quick: bool) -> list[dict]:
     """The records of a case's jobs, measured in one fresh process (--quick: one run each)."""
-    budget = 0.0 if quick else 2.0
-    return run_jobs([{"scene": j["scene"], "guess_factor": j["guess_factor"], "repeat_budget": budget}
-                     for j in jobs])
+    budget = {"repeat_budget": 0.0} if quick else {}  # the harness's default: repeats within REPEAT_BUDGET_S
+    return run_jobs([{"scene": j["scene"], "guess_factor": j["guess_factor"], **budget} for j in jobs])
 
 
 # ------------------------------------------------------------------------------------------------ errors
@@ -188,10 +187,9 @@ def make_row(case: str, j: dict, rec: dict, lp_cache: dict) -> dict:
     return row
 
 
-def add_errors(rows: list[dict], lp_many: float | None) -> float | None:
+def add_errors(rows: list[dict], lp_many: float | None) -> None:
     """Set err_ref and err_bound (against the case's fine-FE reference midpoint, for the rows with its number of
-    voussoirs) and err_inf (against the LP with many joints) of every row; return the reference midpoint (kN),
-    None when the reference run failed."""
+    voussoirs; None when the reference run failed) and err_inf (against the LP with many joints) of every row."""
     reference = next(r for r in rows if r["kind"] == "reference")
     ref = reference.get("fe_mid_kN")
     for r in rows:
@@ -200,7 +198,6 @@ def add_errors(rows: list[dict], lp_many: float | None) -> float | None:
         r["err_ref"] = relative(r.get("fe_mid_kN"), ref) if same_joints else None
         r["err_bound"] = None if r["err_ref"] is None else r["err_ref"] + r["half"] * r["fe_mid_kN"] / ref
         r["err_inf"] = relative(r.get("fe_mid_kN"), lp_many) if r["kind"] == "voussoirs" else None
-    return ref
 
 
 # ------------------------------------------------------------------------------------------------ the front
@@ -209,23 +206,26 @@ def _err_key(err: float) -> float:
     return float(f"{err:.2g}")
 
 
-def pareto(points: list[dict], cost: str = "cpu_s", err: str = "err_bound") -> list[dict]:
-    """The points not dominated in (cost, err): none other is at least as cheap and as accurate and better in one
-    of them. Returned by increasing cost."""
+def pareto(points: list[dict]) -> list[dict]:
+    """The points (rows or configurations) not dominated in (cpu_s, err_bound): none other is at least as cheap
+    and as accurate and better in one of them. Returned by increasing cost."""
     front, best = [], math.inf
-    for p in sorted((p for p in points if p.get(err) is not None), key=lambda p: (p[cost], _err_key(p[err]))):
-        if _err_key(p[err]) < best:
+    for p in sorted((p for p in points if p.get("err_bound") is not None),
+                    key=lambda p: (p["cpu_s"], _err_key(p["err_bound"]))):
+        if _err_key(p["err_bound"]) < best:
             front.append(p)
-            best = _err_key(p[err])
+            best = _err_key(p["err_bound"])
     return front
 
 
-def front_excess(point: dict, points: list[dict], cost: str = "cpu_s", err: str = "err_bound") -> float | None:
-    """How much costlier (fraction) a point is than the cheapest point at least as accurate: 0 on the front."""
-    if point.get(err) is None:
+def front_excess(point: dict, points: list[dict]) -> float | None:
+    """How much more CPU time (fraction) a point takes than the cheapest point at least as accurate: 0 on the
+    front."""
+    if point.get("err_bound") is None:
         return None
-    rivals = [p[cost] for p in points if p.get(err) is not None and _err_key(p[err]) <= _err_key(point[err])]
-    return point[cost] / min(rivals) - 1.0
+    key = _err_key(point["err_bound"])
+    rivals = [p["cpu_s"] for p in points if p.get("err_bound") is not None and _err_key(p["err_bound"]) <= key]
+    return point["cpu_s"] / min(rivals) - 1.0
 
 
 def map_points(rows: list[dict]) -> list[dict]:

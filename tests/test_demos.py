@@ -39,9 +39,9 @@ def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the
             assert 0 < upper - lower <= tol * lower * (1 + 1e-9), r  # the bracket rule at the tight tolerance
         mesh = sorted(_rows_by_kind(rows, case, "mesh"), key=lambda r: int(r["ett"]))
         errors = [float(r["err_lp"]) for r in mesh]
-        # refining the mesh moves the elastic-block FE limit towards the rigid-block LP on the same joints (the
-        # hinges' lever arms grow with the contact pairs nearer the joint edges); the bracket is 1e-4 wide, far
-        # narrower than the t/1 error, so this is the discretisation error, not the bracket tolerance
+        # refining the mesh moves the elastic-block FE limit towards the rigid-block LP on the same joints; the
+        # bracket is 1e-4 wide, far narrower than the t/1 error, so this is the discretisation error, not the
+        # bracket tolerance
         assert all(b <= a + 1e-4 for a, b in zip(errors, errors[1:])), errors
         assert errors[-1] < 0.5 * errors[0], errors
         reference = _rows_by_kind(rows, case, "reference")[0]
