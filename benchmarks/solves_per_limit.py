@@ -20,15 +20,17 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import logging
-from contextlib import contextmanager
+import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
 from bridgefem import analysis
-from bridgefem.pathfollow import rigid_block_level
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import Scene, load_scene
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import scaled_guess  # noqa: E402
 
 TARGET_SOLVES = 25
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
@@ -65,22 +67,6 @@ def cases(base: Scene, fill: Scene) -> list[tuple[str, Scene, float | None]]:
         ("segmental, guess x10", segmental, 10.0),
         ("Prestwood (fill; the LP takes it as dead load)", fill, 1.0),
     ]
-
-
-@contextmanager
-def scaled_guess(factor: float | None):
-    """Within the block run_analysis seeds the search with ``factor`` x the LP level (None: no guess)."""
-    original = analysis.find_limit_load
-
-    def search(*args, guess_scene=None, **kwargs):
-        level = rigid_block_level(guess_scene) if guess_scene is not None and factor is not None else None
-        return original(*args, guess=None if level is None else factor * level, **kwargs)
-
-    analysis.find_limit_load = search
-    try:
-        yield
-    finally:
-        analysis.find_limit_load = original
 
 
 def measure(name: str, scene: Scene, factor: float | None, comm: MPI.Comm) -> dict:

@@ -6,18 +6,50 @@ import sys
 from conftest import ROOT
 
 
-def test_interface_study_fe_matches_lp_without_sliding(tmp_path):
-    out = tmp_path / "study"
-    proc = subprocess.run([sys.executable, "demos/interface_study.py", "--voussoirs", "8", "16", "32", "64",
-                           "--friction", "10", "--out", str(out)],
+def run_demo(name: str, args: list[str], out) -> list[dict]:
+    """Run demos/NAME.py with ``args`` and ``--out OUT``; check it wrote NAME.csv, .md and .png; its CSV rows."""
+    proc = subprocess.run([sys.executable, f"demos/{name}.py", *args, "--out", str(out)],
                           cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    for name in ("interface_study.csv", "interface_study.md", "interface_study.png"):
-        assert (out / name).is_file()
-    with open(out / "interface_study.csv") as f:
-        rows = list(csv.DictReader(f))
+    for suffix in ("csv", "md", "png"):
+        assert (out / f"{name}.{suffix}").is_file()
+    with open(out / f"{name}.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def test_interface_study_fe_matches_lp_without_sliding(tmp_path):
+    rows = run_demo("interface_study", ["--voussoirs", "8", "16", "32", "64", "--friction", "10"], tmp_path)
     assert [int(r["voussoirs"]) for r in rows] == [8, 16, 32, 64]
     for r in rows:
         # mu = 10: a pure hinge mechanism, so the FE bracket must sit within 1 % of the rigid-block LP
         assert 0.99 <= float(r["fe_lp_ratio"]) <= 1.01, r
         assert r["hinges_match"] == "True", r
+
+
+def _rows_by_kind(rows, case, kind):
+    return [r for r in rows if r["case"] == case and r["kind"] == kind]
+
+
+def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the_seed(tmp_path):
+    rows = run_demo("speed_accuracy", ["--quick"], tmp_path)
+    for case in ("semicircular", "segmental"):
+        for r in _rows_by_kind(rows, case, "mesh") + _rows_by_kind(rows, case, "seed"):
+            assert r["status"] == "limit load found", r
+            lower, upper, tol = float(r["fe_lower_kN"]), float(r["fe_upper_kN"]), float(r["tolerance"])
+            assert 0 < upper - lower <= tol * lower * (1 + 1e-9), r  # the bracket rule at the tight tolerance
+        mesh = sorted(_rows_by_kind(rows, case, "mesh"), key=lambda r: int(r["ett"]))
+        errors = [float(r["err_lp"]) for r in mesh]
+        # refining the mesh moves the elastic-block FE limit towards the rigid-block LP on the same joints; the
+        # bracket is 1e-4 wide, far narrower than the t/1 error, so this is the discretisation error, not the
+        # bracket tolerance
+        assert all(b <= a + 1e-4 for a, b in zip(errors, errors[1:])), errors
+        assert errors[-1] < 0.5 * errors[0], errors
+        reference = _rows_by_kind(rows, case, "reference")[0]
+        assert abs(float(reference["fe_mid_kN"]) / float(reference["lp_kN"]) - 1) < 1e-3, reference
+        # the same configuration seeded with 0.5 x and 2 x the LP and without a seed: the same limit load within
+        # the bracket tolerance (the seed only changes the load path)
+        seeded = _rows_by_kind(rows, case, "seed")
+        assert sorted(r["seed"] for r in seeded) == ["none", "x0.5", "x2"]
+        for r in seeded:
+            same = next(m for m in mesh if (m["ett"], m["degree"]) == (r["ett"], r["degree"]))  # seeded x1
+            assert abs(float(r["fe_mid_kN"]) / float(same["fe_mid_kN"]) - 1) <= float(same["tolerance"]), (r, same)
