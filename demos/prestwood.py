@@ -114,7 +114,10 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.axhline(lp[0]["lower_kN"], color="grey", ls=":", lw=1, label="LP, fill as dead load only")
     ax.set_xlabel("arch deflection under the load (mm)")
     ax.set_ylabel("live load (kN, full width)")
-    ax.set_ylim(0, 1.6 * TEST_LOAD_KN)
+    top = 1.6 * TEST_LOAD_KN
+    reach = [1e3 * d for r in rows for d, p in r["curve"] if p <= top]  # the elastic fill runs far beyond
+    ax.set_ylim(0, top)
+    ax.set_xlim(0, 1.1 * max(reach, default=1.0))
     ax.set_title("Prestwood bridge: live load against deflection")
     ax.legend(fontsize=8)
     fig.tight_layout()

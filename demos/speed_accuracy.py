@@ -386,7 +386,8 @@ def plot_voussoirs(ax, rows: list[dict], cases: list[str]) -> None:
     for case in cases:
         sel = sorted((r for r in rows if r["case"] == case), key=lambda r: r["voussoirs"])
         n = [r["voussoirs"] for r in sel]
-        line, = ax.loglog(n, [100 * r["err_inf"] for r in sel], "o-", label=f"{case}: vs LP, N = {LP_MANY_JOINTS}")
+        line, = ax.loglog(n, [max(100 * r["err_inf"], 1e-4) for r in sel], "o-",
+                          label=f"{case}: vs LP, N = {LP_MANY_JOINTS}")
         ax.loglog(n, [max(100 * r["err_lp"], 1e-4) for r in sel], "s--", mfc="none", color=line.get_color(),
                   label=f"{case}: vs LP, same joints")
     ax.set(xlabel="voussoirs N", ylabel="midpoint error (%)",
