@@ -125,7 +125,7 @@ def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np
     friction = np.full(len(pairs), scene.joints.friction)
     ab, fill = scene.abutments, scene.fill
     if ab.elastic:
-        bases = [j.id for j in ring.joints[ring.n_voussoirs + 1:]]
+        bases = [j.id for j in ring.bases]
         young[np.isin(pairs.joint, [j.id for j in ring.springings] + bases)] = min(ab.young, scene.masonry.young)
         friction[np.isin(pairs.joint, bases)] = ab.friction
     if fill is not None:
@@ -173,6 +173,7 @@ def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
 def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
     cracked = [s.open_fraction >= HINGE_OPEN_FRACTION
                or abs(s.eccentricity) >= HINGE_ECCENTRICITY * ring.joints[s.id].length for s in states]
+
     def adjacent(a: JointState, b: JointState) -> bool:
         blocks = {ring.joints[a.id].left, ring.joints[a.id].right} & {ring.joints[b.id].left, ring.joints[b.id].right}
         return bool(blocks - {None})

@@ -73,10 +73,12 @@ class PlasticFill:
         block = np.full(n_cells, -1)
         block[bm.cell_tags.indices] = bm.cell_tags.values
         self._fill = np.repeat(block == bm.fill_block, n_qp)
-        self._ring_matrix = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
+        ring = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
+        self._elastic = np.broadcast_to(ring, (len(self._fill), 3, 3)).copy()  # per point; the fill's is unused
         ab = scene.abutments
-        self._abutment = np.repeat(np.isin(block, bm.abutment_blocks), n_qp)
-        self._abutment_matrix = _elastic_matrix(*lame(ab.young, ab.poisson, scene.model.plane)) if ab.elastic else None
+        if ab.elastic:
+            self._elastic[np.repeat(np.isin(block, bm.abutment_blocks), n_qp)] = _elastic_matrix(
+                *lame(ab.young, ab.poisson, scene.model.plane))
         self._apex = APEX_STIFFNESS * elastic_tangent(self.material)
         width = scene.arch.width
         dxq = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree, "quadrature_scheme": "default"})
@@ -98,9 +100,7 @@ class PlasticFill:
         self.u.x.array[:self.n_owned] = u_owned
         self.u.x.scatter_forward()
         eps = self._strain.eval(self._cells).reshape(-1, 3)
-        stress = eps @ self._ring_matrix.T
-        if self._abutment_matrix is not None:
-            stress[self._abutment] = eps[self._abutment] @ self._abutment_matrix.T
+        stress = np.einsum("qij,qj->qi", self._elastic, eps)
         fill_eps = np.column_stack([eps[self._fill, :2], np.zeros(len(plastic_strain)), eps[self._fill, 2]])
         sig, d_alg, new_plastic = return_map(self.material, fill_eps, plastic_strain)
         stress[self._fill] = sig[:, [0, 1, 3]]
@@ -110,10 +110,8 @@ class PlasticFill:
         set_bc(f_int, self.bcs)
         if not tangent:
             return FillResponse(f_int.array.copy(), new_plastic)
-        d = np.broadcast_to(self._ring_matrix, (len(eps), 3, 3)).copy()
+        d = self._elastic.copy()
         d[self._fill] = d_alg + self._apex
-        if self._abutment_matrix is not None:
-            d[self._abutment] = self._abutment_matrix
         self.tangent.x.array.reshape(-1, 9)[self._dofs] = d.reshape(-1, 9)
         self.K.zeroEntries()
         assemble_matrix(self.K, self._k_form, bcs=self.bcs)

@@ -252,6 +252,11 @@ class ArchRing:
         return self.joints[0], self.joints[self.n_voussoirs]
 
     @property
+    def bases(self) -> list[Joint]:
+        """The elastic abutments' base joints on the ground (N + 1, N + 2; none on rigid springings)."""
+        return self.joints[self.n_voussoirs + 1:]
+
+    @property
     def crown_extrados(self) -> float:
         """Height (m) of the highest extrados point."""
         return max(float(v.extrados[:, 1].max()) for v in self.voussoirs)

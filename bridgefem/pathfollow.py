@@ -139,16 +139,17 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     def attempt(level: float, start: Iterate, start_level: float = 0.0) -> StepOutcome:
         t0 = time.perf_counter()
         out = solver.solve_step(level, start)
-        if out.converged and k_initial < math.inf:
-            rise = deflection(out.iterate) - deflection(start)
+        reached = deflection(out.iterate) if out.converged else None
+        if reached is not None and k_initial < math.inf:
+            rise = reached - deflection(start)
             secant = (level - start_level) / rise if rise > 0 else math.inf
             if secant < stiffness_drop * k_initial:
-                out = StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m below "
-                                         f"{stiffness_drop:g} x the initial {k_initial:.3g} N/m (collapse)",
-                                  out.iterations, out.residual, out.factorisations, mechanism=True)
+                out, reached = StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m "
+                                                  f"below {stiffness_drop:g} x the initial {k_initial:.3g} N/m "
+                                                  "(collapse)", out.iterations, out.residual, out.factorisations,
+                                           mechanism=True), None
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
-                        out.residual, deflection(out.iterate) if out.converged else None, out.counts,
-                        time.perf_counter() - t0, solver.movement)
+                        out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement)
         steps.append(step)
         report(step)
         return out
@@ -213,13 +214,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             step = 0.25 * taken
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
-        elif not out.mechanism and not suspect and trial - lower > SUBSTEP * width:
-            soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
-        elif trial - lower <= (SUSPECT * width if suspect else width):
+        elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
+                and trial - lower <= (SUSPECT * width if suspect else width):
             status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
             return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess)
         else:
-            soft, step, retry = trial, 0.5 * (trial - lower), False
+            soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = f"solver failure: bracket not closed within {max_steps} load steps"
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess)
 

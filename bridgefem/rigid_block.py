@@ -404,8 +404,8 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     else:
         live_loads = np.zeros((nb, 3))
     friction = np.full(len(ring.joints), scene.joints.friction)
-    if ring.abutments:
-        friction[ring.n_voussoirs + 1:] = scene.abutments.friction  # the abutments' base joints
+    if ring.bases:
+        friction[[j.id for j in ring.bases]] = scene.abutments.friction
     return BlockModel(
         ref=ref, dead=dead, live=live_loads,
         joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),

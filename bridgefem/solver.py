@@ -20,17 +20,16 @@ changed. Every stop decision is collective over MPI.
 With a Mohr-Coulomb fill (:mod:`bridgefem.fill`) the stiffness block is the fill's consistent tangent at the
 current displacements and the right-hand side carries ``K_t u - f_int(u)``: each iteration is then a Newton
 step for the fill and an active-set step for the joints at once, and a step has converged when the active
-set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is below ``MATERIAL_RTOL`` of the
-largest applied nodal force. Newton iterations whose out-of-balance force ends larger than the largest applied
+set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is below ``EQUILIBRIUM_RTOL`` of
+the largest applied nodal force. Newton iterations whose out-of-balance force ends larger than the largest applied
 nodal force are reported as diverged, but not as proof of collapse: a smaller step may converge, and a yielding
 fill's limit is where the load-deflection curve becomes flat (:mod:`bridgefem.pathfollow`).
 
 Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
-for the rest of the step; they still open under tension. Closed pairs whose state goes from slip to stick and
-back are held in slip (:func:`_slip_cycles`). The count of both is reported as ``frozen``, and only the friction
-law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular proposal
-after damping, non-convergence otherwise.
+for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
+friction law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular
+proposal after damping, non-convergence otherwise.
 """
 from __future__ import annotations
 
@@ -57,7 +56,6 @@ DEFAULT_PETSC_OPTIONS = {
     "mat_mumps_icntl_14": 200,
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
-MATERIAL_RTOL = 1e-5  # the same with a plastic fill: Newton on the return map converges to about this
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 
 
@@ -352,9 +350,7 @@ class ContactSolver:
         x = self.A.createVecRight()
         start.x.copy(x)
         seen = {self._global_key(active)}
-        frozen = np.zeros(len(self.pairs), dtype=bool)  # slip direction cycled: held in stick
-        slip_frozen = np.zeros(len(self.pairs), dtype=np.int8)  # stick/slip cycled: held in slip (this sign)
-        toggles = np.zeros(len(self.pairs), dtype=np.int64)
+        frozen = np.zeros(len(self.pairs), dtype=bool)
         f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
         residual, first_factorisation = np.inf, self.stats["factorisations"]
 
@@ -378,7 +374,6 @@ class ContactSolver:
             _, lam, d = self.split(x)
             new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
             _stick(new, frozen)
-            slip_frozen = _slip_cycles(active, new, toggles, slip_frozen)
             pending = (new.state != active.state) | (new.sign != active.sign)
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             if self.material is not None:
@@ -388,12 +383,10 @@ class ContactSolver:
                 residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
                 ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
-                held = frozen | (slip_frozen != 0)
-                ncp[held, 1] = 0.0  # friction state fixed by hand there; the normal law is still checked
+                ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
-                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(held.sum()))}
-                rtol = EQUILIBRIUM_RTOL if self.material is None else MATERIAL_RTOL
-                if residual < rtol and comp <= 10 * self.force_tol:
+                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
+                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
                 if self.material is not None:
@@ -459,23 +452,6 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
     """Frozen pairs that are closed stick (their slip direction cycled); open ones stay open."""
     fix = frozen & (active.state != OPEN)
     active.state[fix], active.sign[fix] = STICK, 0
-
-
-def _slip_cycles(active: ContactState, new: ContactState, toggles: np.ndarray, slip_frozen: np.ndarray
-                 ) -> np.ndarray:
-    """Hold in slip the closed pairs whose stick/slip state went back and forth in this step.
-
-    Such a pair sticks with ``|lam_t| > mu lam_n`` but, set to slip, slips against its friction force: the
-    discrete law has no consistent state there. Held in slip (at the last slip sign) the joint forces stay
-    within the Coulomb cone, so the converged state remains statically admissible; only the sign of that
-    pair's slip increment is waived. Updates ``toggles`` and ``new`` in place; returns the held signs."""
-    toggle = (((active.state == SLIP) & (new.state == STICK)) | ((active.state == STICK) & (new.state == SLIP)))
-    toggles += toggle
-    sign = np.where(active.state == SLIP, active.sign, new.sign).astype(np.int8)
-    held = np.where((toggles >= 2) & (slip_frozen == 0), sign, slip_frozen).astype(np.int8)
-    fix = (held != 0) & (new.state != OPEN)
-    new.state[fix], new.sign[fix] = SLIP, held[fix]
-    return held
 
 
 def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:

@@ -65,7 +65,7 @@ def fe_row(label: str, scene: Scene, out: Path, comm: MPI.Comm) -> dict:
     seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     lim = data["limit_load"]
     lower, upper = lim["lower"] / 1e3, None if lim["upper"] is None else lim["upper"] / 1e3
-    mid = 0.5 * (lower + upper) if upper is not None else None
+    mid = 0.5 * (lower + upper) if data["status"] == "limit load found" else None  # a bracket only then
     return {"case": label, "status": data["status"], "lower_kN": lower, "upper_kN": upper,
             "ratio_to_test": mid / TEST_LOAD_KN if mid else None,
             "hinges": " ".join(f"{j}{p[0]}" for j, p in sorted(data["mechanism"]["hinge_positions"].items(),
