@@ -239,7 +239,8 @@ def transmitted_load_check(an: Analysis, friction_model: str = "associative") ->
     dead, live = interface_forces(an, s.settled), interface_forces(an, s.last)
     out = None
     if an.solver.comm.rank == 0:
-        model = ring_under_forces(an.scene, dead.blocks, dead.points, dead.forces, (live.forces - dead.forces) / s.lower)
+        increment = (live.forces - dead.forces) / s.lower  # N per unit load level
+        model = ring_under_forces(an.scene, dead.blocks, dead.points, dead.forces, increment)
         try:
             lp = solve_blocks(model, friction_model)
         except RuntimeError as err:  # a check, never the reason a run fails: report it

@@ -80,8 +80,8 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
     }
 
 
-RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by the forces the fill transmits across the "
-                    "arch-fill interface: dead load = ring weight + interface forces after self-weight, live load = "
+RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by the forces the fill transmits across "
+                    "the arch-fill interface: dead load = ring weight + interface forces after self-weight, live load = "
                     "their change up to the FE's last converged load, scaled with it; a lower-bound check: ratio >= 1, "
                     "close to 1 when the FE limit is a mechanism of the ring, above 1 when the fill restrains it")
 
