@@ -7,6 +7,9 @@ its thrust within 1 % of the length from a face: with one element through the th
 pairs) whose |e| is the largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
 intrados when e < 0 and at the extrados when e > 0 (for an abutment's base: at its inner and outer edge); a run
 only continues through joints that share a block. A *sliding* joint has every closed pair slipping one way.
+
+With a fill, the forces the fill exerts on the ring across the arch-fill interface (:func:`interface_forces`) load
+the ring's rigid-block LP in :func:`transmitted_load_check`: the ring under the loads the fill transmits.
 """
 from __future__ import annotations
 
@@ -15,15 +18,17 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from dolfinx import fem
 from mpi4py import MPI
 
 from .abutments import scene_ring, support_motion
 from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline
-from .mesh import BlockMesh, build_block_mesh
+from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
+from .rigid_block import LPResult, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
 from .solver import ContactSolver, Iterate
 
@@ -152,6 +157,97 @@ def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: I
                                  float(length[~closed].sum() / length.sum()), sliding))
     _mark_hinges(states, ring)
     return states
+
+
+@dataclass
+class InterfaceForces:
+    """What the fill exerts on the ring across the arch-fill interface at one converged state: one row per interface
+    pair, identical on every rank, sorted by x. ``points`` (k, 2): the ring-side node (m); ``blocks`` (k,): the
+    voussoir it belongs to; ``forces`` (k, 2): the force on that node (N, x and y, whole width); ``normal`` (k,):
+    the interface's compression lam_n (N, >= 0); ``shear`` (k,): lam_t (N), the force on the fill along the pair's
+    tangent (its normal, from the ring into the fill, turned +90 degrees). The ring receives
+    ``-(lam_n n + lam_t tau)``: the multipliers are nodal forces, so these rows balance the ring's nodes exactly."""
+
+    points: np.ndarray
+    blocks: np.ndarray
+    forces: np.ndarray
+    normal: np.ndarray
+    shear: np.ndarray
+
+
+def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
+    """The arch-fill interface forces on the ring at a converged iterate (collective; empty without a fill)."""
+    solver, pairs, V, bm = an.solver, an.pairs, an.model.V, an.block_mesh
+    comm = solver.comm
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    facets = bm.facet_tags.indices[bm.facet_tags.values == EXTRADOS_TAG]
+    nodes = fem.locate_dofs_topological(V, 1, facets)
+    nodes = nodes[nodes < n_owned]
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    node_block = np.full(n_owned + imap.num_ghosts, -1)
+    node_block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    table = np.vstack(comm.allgather(np.column_stack([imap.local_to_global(nodes.astype(np.int32)), coords[nodes],
+                                                      node_block[nodes]])))
+    table = table[np.argsort(table[:, 0])]
+    _, lam, _ = solver.split(it.x)
+    on = pairs.joint == ARCH_FILL
+    local = np.column_stack([pairs.left[on], pairs.normal[on], pairs.tangent[on], lam[on]])
+    rows = np.vstack(comm.allgather(local))
+    at = np.searchsorted(table[:, 0], rows[:, 0]) if len(table) else np.zeros(0, int)
+    if len(rows) and not np.array_equal(table[np.minimum(at, len(table) - 1), 0], rows[:, 0]):
+        raise RuntimeError("arch-fill interface: a ring-side node is not on the extrados")
+    ring_rows = table[at]
+    forces = -(rows[:, 5:6] * rows[:, 1:3] + rows[:, 6:7] * rows[:, 3:5])
+    order = np.argsort(ring_rows[:, 1], kind="stable")
+    return InterfaceForces(ring_rows[order, 1:3], ring_rows[order, 3].astype(int), forces[order],
+                           rows[order, 5], rows[order, 6])
+
+
+@dataclass
+class TransmittedLoadCheck:
+    """The ring's rigid-block LP under the loads the fill transmits (:func:`transmitted_load_check`).
+
+    ``level``: the FE's last converged live-load level P_L (N per unit load factor); ``load_factor``: the LP's
+    collapse level lambda (same unit) under dead load = ring weight + interface forces after self-weight and live
+    load = (interface forces at P_L - those after self-weight) / P_L; ``ratio`` = lambda / P_L (None when the LP
+    finds no limit load); ``lp``: the LP result (its mechanism)."""
+
+    level: float
+    load_factor: float | None
+    ratio: float | None
+    lp: LPResult
+
+
+def transmitted_load_check(an: Analysis, friction_model: str = "associative") -> TransmittedLoadCheck | None:
+    """The ring under the loads the fill transmits: a lower-bound check of the FE limit with a fill.
+
+    The FE state at the last converged level P_L balances every voussoir (self-weight, the interface forces, the
+    joint forces) with joint forces that obey no tension and Coulomb friction pair by pair, so it is statically
+    admissible for the ring's rigid-block LP (:func:`bridgefem.rigid_block.ring_under_forces`) with the dead load
+    F_S (interface forces after self-weight) and the live load (F_L - F_S) / P_L: the LP's lambda >= P_L (up to
+    the LP's polygonal voussoirs against the mesh). When the FE limit is a mechanism of the ring (the fill only
+    passes loads on), the ring under F_L is itself at collapse and lambda ~ P_L; lambda well above P_L means the
+    fill carried the rest by changing how it loads the ring (its stiffness or strength restrains the mechanism).
+    Computed on rank 0 and broadcast; None without a fill, a live load or a converged live-load step above 0; an LP
+    that fails is reported in ``lp.status`` ("LP failed: ...").
+    """
+    s = an.search
+    if an.scene.fill is None or not an.scene.loads or s.settled is None or s.last is None or not s.lower > 0:
+        return None
+    dead, live = interface_forces(an, s.settled), interface_forces(an, s.last)
+    out = None
+    if an.solver.comm.rank == 0:
+        increment = (live.forces - dead.forces) / s.lower  # N per unit load level
+        model = ring_under_forces(an.scene, dead.blocks, dead.points, dead.forces, increment)
+        try:
+            lp = solve_blocks(model, friction_model)
+        except RuntimeError as err:  # a check, never the reason a run fails: report it
+            lp = LPResult(None, None, f"LP failed: {err}", friction_model)
+        ratio = lp.load_factor / s.lower if lp.load_factor is not None else None
+        out = TransmittedLoadCheck(s.lower, lp.load_factor, ratio, lp)
+    return an.solver.comm.bcast(out, root=0)
 
 
 def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:

@@ -99,6 +99,10 @@ def _run(args, petsc: dict) -> int:
             ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
             print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
                   f"{lp['mechanism']['hinges']}{ratio}")
+        ring = data["ring_under_transmitted_loads"]
+        if ring and ring["load"]:
+            print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
+                  f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
         for warning in data["warnings"]:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")

@@ -96,7 +96,9 @@ class LoadStep:
 @dataclass
 class LimitSearch:
     """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
-    the estimate of the limit level the search used (N per unit load factor; None: none)."""
+    the estimate of the limit level the search used (N per unit load factor; None: none); ``last`` is the last
+    converged state, ``settled`` the converged state at live load 0 (after self-weight and any support movement)
+    from which the live-load search started (None when it was not reached)."""
 
     status: str
     lower: float
@@ -106,6 +108,7 @@ class LimitSearch:
     last: Iterate | None = None
     failure: str = ""
     guess: float | None = None
+    settled: Iterate | None = None
 
 
 def rigid_block_level(scene: Scene) -> float | None:
@@ -165,8 +168,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             status = UNSTABLE if failed.mechanism else f"solver failure: {failed.reason}"
             return LimitSearch(status, 0.0, 0.0 if failed.mechanism else None, tolerance, steps, state,
                                f"support movement {solver.movement:.4g} of the whole: {failed.reason}")
+    settled = state
     if max_load <= 0:
-        return LimitSearch(STABLE, 0.0, None, tolerance, steps, state)
+        return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if stiffness_drop > 0:
         k_initial = _initial_stiffness(solver, deflection, state)
     if guess is None and guess_scene is not None and solver.comm.rank == 0:
@@ -184,7 +188,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     while len(steps) < max_steps:
         if lower >= max_load:
-            return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess)
+            return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
         width = tolerance * max(lower, 1e-9 * initial_step)
         if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
             trial = soft
@@ -217,11 +221,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
                 and trial - lower <= (SUSPECT * width if suspect else width):
             status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
-            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess)
+            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess, settled)
         else:
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = f"solver failure: bracket not closed within {max_steps} load steps"
-    return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess)
+    return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
 
 
 def _initial_stiffness(solver: ContactSolver, deflection: Callable[[Iterate], float], state: Iterate) -> float:

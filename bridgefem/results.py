@@ -17,7 +17,7 @@ import numpy as np
 from dolfinx import fem, io
 from petsc4py import PETSc
 
-from .analysis import Analysis, springing_reactions
+from .analysis import Analysis, springing_reactions, transmitted_load_check
 from .contact import OPEN, SLIP
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
@@ -64,6 +64,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
         "springing_reactions": springing_reactions(an.joints, an.ring).tolist() if an.joints else [],
+        "ring_under_transmitted_loads": ring_check_summary(an),
         "history": steps,
         "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
                   "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
@@ -77,6 +78,28 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "versions": versions(),
         **(extra or {}),
     }
+
+
+RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by the forces the fill transmits across "
+                    "the arch-fill interface: dead load = ring weight + interface forces after self-weight, live load = "
+                    "their change up to the FE's last converged load, scaled with it; a lower-bound check: ratio >= 1, "
+                    "close to 1 when the FE limit is a mechanism of the ring, above 1 when the fill restrains it")
+
+
+def ring_check_summary(an: Analysis) -> dict | None:
+    """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
+    ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
+    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
+    check = transmitted_load_check(an)
+    if check is None:
+        return None
+    lp, total = check.lp, an.load_total
+    return {"model": RING_CHECK_MODEL, "fe_load": check.level * total,
+            "load": None if check.load_factor is None else check.load_factor * total, "unit": "N",
+            "ratio": check.ratio, "status": lp.status,
+            "mechanism": {"hinges": sorted(lp.hinges),
+                          "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
+                          "sliding": sorted(lp.sliding)}}
 
 
 LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP outside this on a case without sliding is flagged

@@ -49,6 +49,7 @@ blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -412,6 +413,22 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
         friction=friction)
+
+
+def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:
+    """The scene's ring (the joints and blocks of :func:`ring_model`, its self-weight; without the fill's overburden
+    and without the scene's live loads) loaded by given nodal forces instead of a fill.
+
+    ``blocks`` (k,): the voussoir each force acts on; ``points`` (k, 2): where (m); ``dead_forces`` (k, 2): forces
+    (N, x and y, whole width) added to the dead load; ``live_forces`` (k, 2): the live load for a unit load factor
+    (N per unit factor). With the forces a fill transmits across the arch-fill interface at two states of an FE
+    analysis (:func:`bridgefem.analysis.transmitted_load_check`) this is the ring as the FE sees it: the fill then
+    needs no model of its own, whatever its stiffness or strength.
+    """
+    model = ring_model(dataclasses.replace(scene, fill=None), live=False)
+    blocks = np.asarray(blocks, int)
+    return dataclasses.replace(model, dead=model.dead + generalised_loads(model.ref, blocks, points, dead_forces),
+                               live=generalised_loads(model.ref, blocks, points, live_forces))
 
 
 def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 
-from bridgefem.analysis import Analysis, run_analysis
+from bridgefem.analysis import Analysis, run_analysis, transmitted_load_check
 from bridgefem.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
 from bridgefem.results import lp_check, summary
 from bridgefem.rigid_block import collapse_load, min_thickness
@@ -293,6 +293,16 @@ def expect_soft_fill(an):
     s = an.search
     assert s.status == LIMIT_FOUND and s.failure.startswith("load-deflection curve flat"), s.failure
     assert s.lower * an.load_total >= (1 - FE_LP_REL) * collapse_load(an.scene).load
+    # The soft fill only passes loads on: the ring's LP under the loads it transmits across the interface (after
+    # self-weight, and their change up to the last converged level P_L) collapses near P_L, with the FE's hinges. It
+    # cannot be below P_L (the FE state is statically admissible for it; 1e-3 for the LP's polygonal voussoirs). The
+    # default stiffness_drop 0.02 counts the curve flat while the fourth hinge is still forming (joint 1's thrust at
+    # e/t = -0.49, not yet on the edge pair), so the ring keeps a small reserve: measured 1.0064 here, 1.026 with
+    # nu = 0 and a smooth interface, 1.019 with a bracket tolerance of 1e-3; 3 % covers these. With stiffness_drop
+    # 0.005 the hinges complete first and the reserve is within the bracket (tests/test_fill.py).
+    check = transmitted_load_check(an)
+    assert 1 - 1e-3 <= check.ratio <= 1.03, check.ratio
+    assert set(check.lp.hinges) == fe_hinges(an)
 
 
 EXPECT = {

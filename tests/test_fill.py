@@ -1,5 +1,7 @@
 """Backfill: equilibrium under self-weight against hand values, the fill's effect on the limit load against the
-rigid-block LP (fill as dead load only)."""
+rigid-block LP (fill as dead load only), and the ring under the loads the fill transmits (a very soft fill only
+passes loads on: the ring's LP under them collapses at the FE limit)."""
+import functools
 import json
 
 import numpy as np
@@ -10,13 +12,14 @@ from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.analysis import run_analysis, springing_reactions
+from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.mesh import FILL_BASE_TAG
 from bridgefem.model import cell_constant, lame, strain
+from bridgefem.pathfollow import LIMIT_FOUND
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
-from conftest import ROOT, bridgefem, scene_dict
+from conftest import ROOT, bridgefem, scene_dict, write_toml
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.5, "extension": 2.0, "interface_friction": 0.5}
 
@@ -86,6 +89,93 @@ def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     an = run_analysis(scene)
     lp = collapse_load(scene)
     assert an.search.lower * an.load_total > 1.05 * lp.load
+    # The ring under the loads this fill transmits at the last converged level is far from collapse (lambda / P_L
+    # measured 3.98; an unbounded LP would mean the transmitted increments cannot collapse the ring at all): the
+    # fill carries the rest by restraining the ring, unlike a very soft fill, where the same check gives 1.000-1.001
+    # (test_very_soft_fill_only_passes_loads_to_the_ring).
+    check = transmitted_load_check(an)
+    assert check.lp.status == "no collapse (unbounded)" or check.ratio > 1.5, check.ratio
+
+
+# A fill 1e-5 as stiff as the masonry (as the extremes' case "fill young=1e-5 masonry"), with and without Poisson
+# effect and interface friction. stiffness_drop 0.005 instead of the default 0.02: with 0.02 the load-deflection curve
+# counts as flat while the fourth hinge is still forming (joint 1's thrust at e/t = -0.49 and -0.45, not yet on the
+# edge pair), so the ring under the transmitted loads keeps a reserve of 0.6 % and 2.6 %; with 0.005 the four hinges
+# are complete first. (Much lower, 0.001, is no better: with nu = 0.3 the soft fill's own elastic restraint of the
+# mechanism is then above the threshold and the FE climbs to 2.5 MN on metres of geometrically linear deflection.)
+SOFT_VARIANTS = {"nu=0.3, mu=0.5": {"poisson": 0.3, "interface_friction": 0.5},
+                 "nu=0, mu=0": {"poisson": 0.0, "interface_friction": 0.0}}
+SOFT_DROP = 0.005
+
+
+def soft_fill_dict(variant: str) -> dict:
+    return scene_dict(fill={**FILL, "young": 1e5, **SOFT_VARIANTS[variant]}, solver={"stiffness_drop": SOFT_DROP})
+
+
+@functools.cache
+def soft_fill(variant: str):
+    """The FE analysis of the reference arch under a very soft fill (once per session)."""
+    return run_analysis(scene_from_dict(soft_fill_dict(variant)))
+
+
+@pytest.mark.parametrize("variant", list(SOFT_VARIANTS))
+def test_interface_forces_balance_the_ring(variant):
+    """The arch-fill interface forces (signs, completeness, the ring side of every pair) with the ground's forces on
+    the springings balance the ring's weight, after self-weight and at the last converged live load (which acts on
+    the road, not on the ring). 1e-6 of the weight: the FE's equilibrium residual is 1e-8 of the largest nodal force."""
+    an = soft_fill(variant)
+    s = an.search
+    weight = an.model.dead_weight
+    for it in (s.settled, s.last):
+        f = interface_forces(an, it)
+        assert len(f.blocks) and set(f.blocks) <= set(range(an.ring.n_voussoirs)) and np.all(f.normal >= -1e-9 * weight)
+        ground = springing_reactions(joint_states(an.solver, an.pairs, an.ring, it), an.ring).sum(axis=0)
+        np.testing.assert_allclose(f.forces.sum(axis=0) + ground, [0.0, weight], atol=1e-6 * weight)
+
+
+@pytest.mark.parametrize("variant", list(SOFT_VARIANTS))
+def test_very_soft_fill_only_passes_loads_to_the_ring(variant):
+    """A very soft fill adds no strength of its own: the ring's rigid-block LP loaded by the forces the fill
+    transmits (dead: after self-weight; live: their change up to the last converged level P_L, scaled with it)
+    collapses at the FE limit, with the FE's hinges.
+
+    Lower bound: the FE state at P_L is statically admissible for that LP, so lambda >= P_L up to the LP's
+    polygonal voussoirs against the mesh (~1e-4 of the ring weight): 1e-3 below. Upper: the FE limit is where the
+    curve goes flat, once the ring's four hinges are complete, so the ring under the transmitted loads has no more
+    reserve than the bracket: the tolerance (0.005) above. Measured lambda / P_L = 1.0009 (nu 0.3, mu 0.5: P_L 456.5 kN)
+    and 1.0001 (nu 0, mu 0: 398.2 kN). A fill that restrains the ring fails this (E = 1 GPa: 3.98, in
+    test_stiff_rough_fill_prevents_the_bare_arch_mechanism), and so does the LP with the fill as dead-load columns
+    on the extrados (279 kN, 0.61 and 0.70 x P_L: it ignores the fill spreading the load and pressing on the
+    haunches); the FE must still carry at least that LP."""
+    an = soft_fill(variant)
+    s = an.search
+    assert s.status == LIMIT_FOUND and s.failure.startswith("load-deflection curve flat"), s.failure
+    check = transmitted_load_check(an)
+    assert check.level == s.lower
+    assert 1 - 1e-3 <= check.ratio <= 1 + s.tolerance, check.ratio
+    assert set(check.lp.hinges) == {j.id for j in an.joints if j.hinge}
+    columns = collapse_load(an.scene).load
+    assert s.lower * an.load_total >= 0.99 * columns  # the FE carries at least that LP (1 %: FE/LP of a bare arch)
+    assert columns < 0.75 * s.lower * an.load_total  # which would fail the check above by 25 % and more
+
+
+@pytest.mark.mpi
+def test_ring_check_same_under_mpi(tmp_path):
+    """The ring under the transmitted loads through the command line on 2 MPI ranks (the interface forces gathered
+    from both): results.json holds the serial in-process values (1e-6: the same active sets and steps)."""
+    variant = "nu=0, mu=0"
+    out = tmp_path / "out"
+    proc = bridgefem("run", write_toml(tmp_path / "soft.toml", soft_fill_dict(variant)), "--out", out, "--quiet",
+                     ranks=2)
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((out / "results.json").read_text())
+    an = soft_fill(variant)
+    check = transmitted_load_check(an)
+    ring = data["ring_under_transmitted_loads"]
+    assert data["mpi_ranks"] == 2 and data["status"] == an.search.status == LIMIT_FOUND
+    assert ring["fe_load"] == pytest.approx(check.level * an.load_total, rel=1e-6)
+    assert ring["load"] == pytest.approx(check.load_factor * an.load_total, rel=1e-6)
+    assert ring["mechanism"]["hinges"] == sorted(check.lp.hinges)
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ import pytest
 
 from bridgefem.geometry import build_ring
 from bridgefem.rigid_block import (BlockModel, collapse_load, dead_load_deficit, generalised_loads, min_thickness,
-                                   ring_model, solve_blocks)
-from bridgefem.scene import scene_from_dict
+                                   ring_model, ring_under_forces, solve_blocks)
+from bridgefem.scene import Fill, scene_from_dict
 
 
 def scene(voussoirs=16, friction=0.6, joint_at_loads=True, loads=None):
@@ -208,3 +208,22 @@ def test_timing_1000_blocks(capsys):
         print(f"\n1000-block ring: model {built - start:.3f} s, LP assembly + HiGHS {done - built:.3f} s "
               f"(solver-side time_s {res.time_s:.3f} s), collapse load {res.load / 1e3:.2f} kN")
     assert res.status == "limit load found"
+
+
+def test_ring_under_forces_is_the_ring_under_the_given_forces():
+    """The reference load given as a force at its point (the extrados corner of joint 6, on block 5 as with
+    load_at_joint="left") gives the scene's LP value; a fill's overburden is not added (the forces replace the
+    fill), so the scene with a fill gives the bare ring's value; a dead force adds to the self-weight (a load
+    pattern given as dead load at 1 x and as live load at unit factor: lambda one less)."""
+    bare = scene()
+    ref = collapse_load(bare, load_at_joint="left")
+    model = ring_model(bare, load_at_joint="left")
+    block = int(np.flatnonzero(model.live[:, 1])[0])
+    point = model.joint_b[block + 1]  # joint j lies between blocks j - 1 and j
+    filled = replace(bare, fill=Fill(unit_weight=18000.0, young=1e5, depth=0.5, extension=2.0))
+    assert collapse_load(filled, load_at_joint="left").load_factor > 1.5 * ref.load_factor  # the overburden helps
+    for s in (bare, filled):
+        res = solve_blocks(ring_under_forces(s, [block], [point], [[0.0, 0.0]], [[0.0, -1.0]]))
+        assert res.load_factor == pytest.approx(ref.load_factor, rel=1e-9)
+    shifted = solve_blocks(ring_under_forces(bare, [block], [point], [[0.0, -1e4]], [[0.0, -1e4]]))
+    assert shifted.load_factor == pytest.approx(ref.load_factor / 1e4 - 1, rel=1e-9)
