@@ -10,6 +10,7 @@ import argparse
 import json
 import logging
 import sys
+import traceback
 from pathlib import Path
 
 from .scene import Scene, SceneError, load_scene
@@ -158,6 +159,22 @@ def main(argv: list[str] | None = None) -> int:
     except SceneError as err:
         print(f"bridgefem: error: {err}", file=sys.stderr)
         return 2
+    except Exception:
+        _abort_if_parallel()
+        raise
+
+
+def _abort_if_parallel() -> None:
+    """An unexpected error on one MPI rank leaves the others waiting in a collective call for ever: print it and
+    abort the whole job (mpirun exits non-zero) instead. Serial runs keep the usual traceback and exit code 1."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        traceback.print_exc()
+        print(f"bridgefem: error on MPI rank {comm.rank}: aborting all {comm.size} ranks", file=sys.stderr,
+              flush=True)
+        comm.Abort(1)
 
 
 if __name__ == "__main__":

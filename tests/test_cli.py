@@ -1,6 +1,9 @@
 """The command line end to end: results files, bad input (exit 2, nothing written), the same answer under
 mpirun -n 2, and the demo scene."""
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -23,6 +26,35 @@ def test_failed_run_keeps_earlier_results(tmp_path):
     scene = write_toml(tmp_path / "bad.toml", scene_dict(joints={"friction": -1.0}))
     assert bridgefem("run", scene, "--out", out).returncode == 2
     assert json.loads((out / "results.json").read_text()) == {"earlier": True}
+
+
+# Rank 1 fails inside the analysis while rank 0 goes on into the next collective call.
+FAIL_ON_RANK_1 = """
+import sys
+from mpi4py import MPI
+import bridgefem.analysis
+from bridgefem import cli
+run_analysis = bridgefem.analysis.run_analysis
+def failing(*args, **kwargs):
+    if MPI.COMM_WORLD.rank == 1:
+        raise RuntimeError("injected failure on rank 1")
+    return run_analysis(*args, **kwargs)
+bridgefem.analysis.run_analysis = failing
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_error_on_one_rank_aborts_the_job(tmp_path):
+    """Without the abort the job hangs (rank 0 waits for rank 1 for ever) and the timeout fails the test."""
+    scene = write_toml(tmp_path / "s.toml", scene_dict(mesh={"elements_through_thickness": 1}))
+    out = tmp_path / "out"
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", FAIL_ON_RANK_1, "run", str(scene), "--out",
+                           str(out)], capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
+    assert proc.returncode != 0
+    assert "injected failure on rank 1" in proc.stderr and "aborting all 2 ranks" in proc.stderr, proc.stderr
+    assert not out.exists()
 
 
 @pytest.fixture(scope="module")
@@ -83,8 +115,8 @@ def test_petsc_options_from_the_command_line(tmp_path, demo_serial, options, rec
 def test_two_ranks_with_few_voussoirs_do_not_deadlock(tmp_path, voussoirs):
     """Ranks then own different numbers of joint faces; every collective call must still be made by all."""
     scene = write_toml(tmp_path / "few.toml", scene_dict(arch={"voussoirs": voussoirs}))
-    serial = bridgefem("run", scene, "--out", tmp_path / "serial", "--quiet", timeout=300)
-    parallel = bridgefem("run", scene, "--out", tmp_path / "mpi", "--quiet", ranks=2, timeout=300)
+    serial = bridgefem("run", scene, "--out", tmp_path / "serial", "--quiet", timeout=1200)
+    parallel = bridgefem("run", scene, "--out", tmp_path / "mpi", "--quiet", ranks=2, timeout=1200)
     assert serial.returncode == parallel.returncode == 0, parallel.stderr
     a, b = (json.loads((tmp_path / d / "results.json").read_text()) for d in ("serial", "mpi"))
     assert a["status"] == b["status"]
