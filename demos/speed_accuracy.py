@@ -413,7 +413,7 @@ def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: 
           + markdown_table(compact_rows(rows), COMPACT) + "\n## Configurations on every case\n\n"
           f"Presets need at least {min_elements} element(s) through the thickness (one element along the shortest "
           f"voussoir); fast: the most accurate within {1 + COST_NOISE:g} x the cheapest CPU time; accurate: the "
-          f"cheapest within {100 * ACCURATE_ERROR:g} %; default candidate: the cheapest within "
+          f"cheapest within {100 * ACCURATE_ERROR:g} %; default: the cheapest within "
           f"{100 * DEFAULT_ERROR:g} %.\n\n" + configurations_table(configs, PRESETS, recommended)
           + "\n## Every run\n\n" + markdown_table(rows))
     return md
