@@ -19,8 +19,8 @@ half the bracket width / midpoint, ``err_bound``, and for the voussoir sweep ``e
 / LP(N = 4096). Cost: CPU and wall time of :func:`bridgefem.analysis.run_analysis` after a warm-up (fastest of up to
 5 runs within 2 s), peak resident memory above the level before the run, linear solves. The Pareto front is on
 (CPU time, err_bound), errors compared to two significant digits. Presets (:func:`recommend_presets`): on the
-front of the worst err_bound and the summed CPU time over the cases; the default preset is not changed here, the
-study only names a candidate.
+front of the worst err_bound and the summed CPU time over the cases; the table marks the presets in
+:data:`bridgefem.scene.PRESETS` next to the picks, so a preset that has fallen off the front shows.
 
 Cases: ``semicircular`` (demos/bare_arch.toml) and ``segmental`` (rise/span = 1/4; benchmarks/harness.py). The
 Prestwood bridge with fill (demos/prestwood.toml) is not a case: its Mohr-Coulomb run ends in a solver failure.
@@ -65,7 +65,7 @@ QUICK = {"meshes": ((1, 1), (2, 1), (4, 1)), "reference": (8, 1), "tolerances": 
          "tolerance_meshes": (2,), "seed_check": (2, 1)}
 COST_NOISE = 0.2  # CPU times of runs this short differ by up to this fraction between repeats on a shared machine
 ACCURATE_ERROR = 0.0002  # the accurate preset: the cheapest configuration whose worst err_bound is at most this
-DEFAULT_ERROR = 0.0005  # the candidate for the default preset: the cheapest one within this (the lead decides)
+DEFAULT_ERROR = 0.0005  # the default preset: the cheapest configuration whose worst err_bound is at most this
 
 
 # ------------------------------------------------------------------------------------------------ the runs
@@ -250,7 +250,7 @@ def recommend_presets(configs: list[dict], min_elements: int) -> dict[str, dict]
 
     - fast: the most accurate configuration that costs at most (1 + COST_NOISE) x the cheapest one;
     - accurate: the cheapest configuration whose worst err_bound is at most ACCURATE_ERROR;
-    - default (a candidate only, not applied): the cheapest within DEFAULT_ERROR.
+    - default: the cheapest within DEFAULT_ERROR.
 
     Errors are compared to two digits and ties go to the cheaper configuration, so each pick is on the front."""
     eligible = [c for c in configs if c["config"][0] >= min_elements]
@@ -259,7 +259,7 @@ def recommend_presets(configs: list[dict], min_elements: int) -> dict[str, dict]
     budget = (1.0 + COST_NOISE) * min(c["cpu_s"] for c in eligible)
     affordable = [c for c in eligible if c["cpu_s"] <= budget]
     picks = {"fast": min(affordable, key=lambda c: (_err_key(c["err_bound"]), c["cpu_s"])),
-             "default (candidate)": cheapest_within(eligible, DEFAULT_ERROR),
+             "default": cheapest_within(eligible, DEFAULT_ERROR),
              "accurate": cheapest_within(eligible, ACCURATE_ERROR)}
     return {name: c for name, c in picks.items() if c is not None}
 
@@ -413,7 +413,7 @@ def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: 
           + markdown_table(compact_rows(rows), COMPACT) + "\n## Configurations on every case\n\n"
           f"Presets need at least {min_elements} element(s) through the thickness (one element along the shortest "
           f"voussoir); fast: the most accurate within {1 + COST_NOISE:g} x the cheapest CPU time; accurate: the "
-          f"cheapest within {100 * ACCURATE_ERROR:g} %; default candidate: the cheapest within "
+          f"cheapest within {100 * ACCURATE_ERROR:g} %; default: the cheapest within "
           f"{100 * DEFAULT_ERROR:g} %.\n\n" + configurations_table(configs, PRESETS, recommended)
           + "\n## Every run\n\n" + markdown_table(rows))
     return md

@@ -26,7 +26,7 @@ from conftest import bridgefem, scene_dict, write_toml
 COARSE = {"elements_through_thickness": 2}
 RHO_G = 2000.0 * 9.81  # N/m^3, the reference masonry
 RING_WEIGHT = RHO_G * np.pi / 2 * (5.5 ** 2 - 4.5 ** 2)  # N, half annulus R = 4.5 .. 5.5 m, width 1 m
-# Rigid-block LP against FE on the same joints: 1 % covers the bracket tolerance (0.5 %), the mesh's chords
+# Rigid-block LP against FE on the same joints: 1 % covers the bracket (default tolerance 1e-4), the mesh's chords
 # against the LP's polygons and the FE's nodal contact on a hinge (as in test_extremes).
 FE_LP_REL = 0.01
 TALL = {"model": "elastic", "height": 2.0}  # 1 m long (the springing joint's reach), 2 m high: they overturn
