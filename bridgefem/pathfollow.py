@@ -31,9 +31,17 @@ from ``lower`` is below that fraction of the tangent stiffness after self-weight
 On a softening (concave) curve the secant over a step exceeds the tangent at its end, so such a failure is as
 decisive as a lost equilibrium, and the bracket rule is unchanged.
 
+**Predictor.** A trial more than the width above ``lower`` starts from the active set predicted by the secant
+through the last two converged states (``lower`` and the one before it, both with live load: the self-weight
+state is a poor start for a secant), extrapolated to the trial (:meth:`bridgefem.solver.ContactSolver.solve_step`):
+on a load path whose joints open and slide progressively that saves the first Newton iteration. A trial within
+the width of ``lower`` (one that can close the bracket) starts from the converged active set, so that its
+failure is the Newton method's own evidence.
+
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
-failure.
+failure. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
+iteration that keeps wandering into mechanisms stops early, as such a failure, instead of spending its iterations.
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -52,6 +60,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from petsc4py import PETSc
 
 from .solver import ContactSolver, Iterate, StepOutcome
 
@@ -64,7 +73,7 @@ LOCKED = "no collapse up to the maximum load (locked)"
 STABLE = "stable under self-weight"
 
 APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
-LANDING = 0.04  # an approach step that would stop within this fraction of T goes to T
+LANDING = 0.08  # an approach step that would stop within this fraction of T goes to T
 PLAUSIBLE = 0.02  # failures below (1 - PLAUSIBLE) T contradict the guess (suspect)
 SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most this many widths ...
 SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
@@ -139,9 +148,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     steps: list[LoadStep] = []
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
 
-    def attempt(level: float, start: Iterate, start_level: float = 0.0) -> StepOutcome:
+    def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
+                give_up: bool = False) -> StepOutcome:
         t0 = time.perf_counter()
-        out = solver.solve_step(level, start)
+        out = solver.solve_step(level, start, predictor, give_up)
         reached = deflection(out.iterate) if out.converged else None
         if reached is not None and k_initial < math.inf:
             rise = reached - deflection(start)
@@ -200,7 +210,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             trial = lower + step
         trial = min(trial, max_load)
-        out = attempt(trial, state, lower)
+        predict = trial - lower > width and history and history[-1][0] > 0  # two live-load states, not closing
+        predictor = _secant(history[-1], lower, state, trial) if predict else None
+        out = attempt(trial, state, lower, predictor, give_up=True)
         if out.converged:
             history.append((lower, state, taken))
             taken, arrived = trial - lower, lower < target <= trial
@@ -226,6 +238,15 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = f"solver failure: bracket not closed within {max_steps} load steps"
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _secant(previous: tuple[float, Iterate, float], level: float, state: Iterate, trial: float) -> PETSc.Vec:
+    """The combined vector extrapolated to ``trial`` along the secant from the converged ``previous`` (level,
+    state, step) to ``state`` at ``level`` (levels in N per unit load factor)."""
+    before, earlier, _ = previous
+    x = state.x.copy()
+    x.axpy((trial - level) / (level - before), state.x - earlier.x)
+    return x
 
 
 def _initial_stiffness(solver: ContactSolver, deflection: Callable[[Iterate], float], state: Iterate) -> float:

@@ -28,8 +28,20 @@ fill's limit is where the load-deflection curve becomes flat (:mod:`bridgefem.pa
 Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
 for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
-friction law is waived at those pairs. Any other cycle is a failure: a mechanism if it returns to a singular
-proposal after damping, non-convergence otherwise.
+friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
+mechanism; any other cycle is damped like a singular proposal (half of the changes from the last solved active
+set), and fails as non-convergence when it cannot be.
+
+**Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
+which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
+proposal that fails again after ``DAMPING_CHAINS`` such recoveries (or a cycle) ends the step as
+non-convergence, not as a mechanism: repeated wandering into mechanisms is the Newton method failing on a large
+step, and the load incrementation retries with a smaller one.
+
+**Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
+of the solution (the load incrementation extrapolates the last two converged states) against the converged
+start. The start's active set is then the base of the first damping chain, and a failure before the step has
+solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it).
 """
 from __future__ import annotations
 
@@ -57,6 +69,7 @@ DEFAULT_PETSC_OPTIONS = {
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
+DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
 
 @dataclass
@@ -339,12 +352,18 @@ class ContactSolver:
         damped.state[keep], damped.sign[keep] = base.proposal.state[keep], base.proposal.sign[keep]
         return damped, base._replace(pending=keep)
 
-    def solve_step(self, level: float, start: Iterate) -> StepOutcome:
+    def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
+                   give_up: bool = False) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
         the last good iterate and applies only the half of the proposed changes with the largest violations,
-        down to a single change; only then is the failure reported.
+        down to a single change; only then is the failure reported. With ``give_up`` (the caller can retry a
+        smaller step), a failure after ``DAMPING_CHAINS`` recovered chains ends the step at once, as
+        non-convergence, and so does a cycle.
+
+        ``predictor``: an estimate of the solution at ``level`` (combined vector); the first active set solved
+        is its classification against ``start`` (the module's *Predictor*).
         """
         active, slip_ref = start.active.copy(), start.slip_ref
         x = self.A.createVecRight()
@@ -359,18 +378,31 @@ class ContactSolver:
 
         base: _Proposal | None = None  # the last good active set and what it proposed
         singular = None  # the last singular proposal of this step
+        damping, recovered = False, 0  # in a damping chain; chains that ended with a solved active set
+        chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
         plastic = start.plastic_strain
         if self.material is not None:
             self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
+        predicted = self._predict(predictor, active, slip_ref, frozen) if predictor is not None else None
+        if predicted is not None:  # no solved active set yet: a failure proves nothing
+            base, active = predicted, predicted.proposal
+            seen.add(self._global_key(active))
         for it in range(1, self.max_iterations + 1):
             failure = self._solve_active(level, active, slip_ref, x)
             if failure is not None:
                 singular = failure if failure[1] else singular
+                if recovered >= chains and not damping:
+                    return StepOutcome(False, f"no convergence: a proposed active set failed again after "
+                                              f"{recovered} damping chain(s): {failure[0]}", it, residual,
+                                       factorisations())
+                damping = True
                 damped = self._damp(base) if base is not None else None
                 if damped is None:
-                    return StepOutcome(False, failure[0], it, residual, factorisations(), mechanism=failure[1])
+                    return StepOutcome(False, failure[0], it, residual, factorisations(),
+                                       mechanism=failure[1] and predicted is None)
                 active, base = damped
                 continue
+            recovered, damping, predicted = recovered + damping, False, None
             _, lam, d = self.split(x)
             new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
             _stick(new, frozen)
@@ -403,8 +435,14 @@ class ContactSolver:
                                        residual, factorisations(), mechanism=True)
                 flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
-                    return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
-                                       factorisations())
+                    damped = self._damp(_Proposal(active, new, pending, violation)) \
+                        if recovered < chains else None
+                    if damped is None:
+                        return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
+                                           factorisations())
+                    damping = True
+                    active, base = damped
+                    continue
                 frozen |= flips
                 _stick(new, frozen)
                 gkey = self._global_key(new)
@@ -418,6 +456,16 @@ class ContactSolver:
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
                            factorisations())
+
+    def _predict(self, predictor: PETSc.Vec, active: ContactState, slip_ref: np.ndarray,
+                 frozen: np.ndarray) -> "_Proposal | None":
+        """The active set an estimate of the solution proposes from the converged ``active``, as a proposal whose
+        good set is ``active``; None when it proposes no change."""
+        _, lam, d = self.split(predictor)
+        new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
+        _stick(new, frozen)
+        pending = (new.state != active.state) | (new.sign != active.sign)
+        return _Proposal(active, new, pending, violation) if self._any(pending.any()) else None
 
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
