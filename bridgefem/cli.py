@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 import traceback
 from pathlib import Path
@@ -89,8 +90,9 @@ def _run(args, petsc: dict) -> int:
     data = write_results(an, out, extra)
     if comm.rank == 0:
         lim = data["limit_load"]
-        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.2f}"
-        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.2f}, {upper}] kN "
+        digits = _decimals(lim["tolerance"] * lim["lower"] / 1e3)
+        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.{digits}f}"
+        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.{digits}f}, {upper}] kN "
               f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
         if data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
@@ -108,6 +110,11 @@ def _run(args, petsc: dict) -> int:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
     return 1 if data["status"].startswith("solver failure") else 0
+
+
+def _decimals(width: float) -> int:
+    """Decimals that show a bracket of this width (at least 2): one digit below its leading one."""
+    return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
 
 
 def _check(args) -> int:
