@@ -84,8 +84,8 @@ EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations
 BACKTRACK = 4  # converged states kept for backtracking
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
-RAMP_RATIO = 0.25  # a cohesion-continuation step keeps this fraction of the cohesion's excess over the scene's
-RAMP_STEPS = 4  # steps with a raised cohesion (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
+RAMP_RATIO = 0.5  # a cohesion-continuation step keeps this fraction of the cohesion's excess over the scene's
+RAMP_STEPS = 7  # steps with a raised cohesion (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
 RAMP_HALVINGS = 6  # failed cohesion-continuation steps halved at most this many times in all
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
