@@ -39,12 +39,15 @@ failure.
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
 stays for the live load.
 
-**Self-weight.** The self-weight is applied in one step. When that step fails without proof of a mechanism and the
-fill is plastic, the self-weight is reached by a *cohesion continuation* instead: the whole self-weight with the
-fill's cohesion first raised to the fill's overburden stress (unit weight x fill height, which keeps it nearly
-elastic), then lowered back to the scene's in steps, each keeping ``RAMP_RATIO`` of the excess, the excess
-dropped after ``RAMP_STEPS`` steps, a failed step halved (at most ``RAMP_HALVINGS`` times), every step solved
-from the last converged state. A cohesionless fill needs it: with c = 0 (and no tension) the fill, the joints'
+**Self-weight.** The self-weight is applied in one step. When that step fails without proof of a mechanism, the
+fill is plastic and its cohesion below its overburden stress (unit weight x fill height), the self-weight is
+reached by a *cohesion continuation* instead: the whole self-weight with the fill's cohesion first raised to
+the overburden stress (which keeps the fill nearly elastic), then lowered back to the scene's in steps, each
+keeping ``RAMP_RATIO`` of the excess, the excess dropped after ``RAMP_STEPS`` steps, a failed step halved (at
+most ``RAMP_HALVINGS`` times in all), every step solved from the last converged state. Scenes whose one-step
+self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion is
+"unstable under self-weight" (the weaker fill has no equilibrium either); any other failure a solver failure
+that names the cohesion it failed at. A cohesionless fill needs it: with c = 0 (and no tension) the fill, the joints'
 Coulomb friction and elasticity are all positively homogeneous in the loads, so a fraction of the self-weight
 from the unloaded state is the same problem scaled and fails alike; the active-set Newton method diverges there
 because nearly the whole fill yields at once while the arch-fill interface starts to slide. A raised cohesion
