@@ -45,8 +45,8 @@ reached by a *cohesion continuation* instead: the whole self-weight with the fil
 the overburden stress (which keeps the fill nearly elastic), then lowered back to the scene's in steps, each
 keeping ``RAMP_RATIO`` of the excess, the excess dropped after ``RAMP_STEPS`` steps, a failed step halved (at
 most ``RAMP_HALVINGS`` times in all), every step solved from the last converged state. Scenes whose one-step
-self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion is
-"unstable under self-weight" (the weaker fill has no equilibrium either); any other failure a solver failure
+self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion counts as
+"unstable under self-weight" (a weaker fill carries no more); any other failure is a solver failure
 that names the cohesion it failed at. A cohesionless fill needs it: with c = 0 (and no tension) the fill, the joints'
 Coulomb friction and elasticity are all positively homogeneous in the loads, so a fraction of the self-weight
 from the unloaded state is the same problem scaled and fails alike; the active-set Newton method diverges there
