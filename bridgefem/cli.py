@@ -67,6 +67,8 @@ def _progress(total: float):
             return
         c = step.counts
         pairs = f"open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else step.reason
+        if step.cohesion is not None:
+            pairs += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
         print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  "
               f"{'converged' if step.converged else 'FAILED   '}  newton {step.iterations:2d}  "
               f"residual {step.residual:.1e}  {pairs}  ({step.seconds:.2f} s)", flush=True)

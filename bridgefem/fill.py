@@ -11,13 +11,14 @@ stiffness).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import basix
 import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .mesh import BlockMesh
@@ -55,6 +56,7 @@ class PlasticFill:
         mesh = bm.mesh
         f = scene.fill
         self.material = MohrCoulomb(f.young, f.poisson, f.friction_angle, f.cohesion, f.tension_cutoff)
+        self.cohesion = f.cohesion  # the scene's (Pa); set_cohesion changes the material's for a while
         self.bcs = bcs
         degree = max(1, 2 * (scene.mesh.degree - 1))
         points, _ = basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.triangle, degree)
@@ -73,6 +75,11 @@ class PlasticFill:
         block = np.full(n_cells, -1)
         block[bm.cell_tags.indices] = bm.cell_tags.values
         self._fill = np.repeat(block == bm.fill_block, n_qp)
+        y = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(n_cells, -1)[block == bm.fill_block], 1]
+        comm = mesh.comm
+        height = comm.allreduce(y.max() if y.size else -np.inf, op=MPI.MAX) - \
+            comm.allreduce(y.min() if y.size else np.inf, op=MPI.MIN)
+        self.overburden = f.unit_weight * height  # vertical stress (Pa) of the full fill height, a stress scale
         ring = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
         self._elastic = np.broadcast_to(ring, (len(self._fill), 3, 3)).copy()  # per point; the fill's is unused
         ab = scene.abutments
@@ -90,6 +97,10 @@ class PlasticFill:
         self.n_owned = V.dofmap.index_map.size_local * 2
         self._u_vec = self.K.createVecRight()
         self._ku = self.K.createVecLeft()
+
+    def set_cohesion(self, cohesion: float) -> None:
+        """Evaluate the fill with this cohesion (Pa) from now on (the scene's: ``self.cohesion``)."""
+        self.material = replace(self.material, cohesion=cohesion)
 
     def initial_plastic_strain(self) -> np.ndarray:
         return np.zeros((int(self._fill.sum()), 4))

@@ -47,7 +47,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
               "newton_iterations": st.iterations, "factorisations": st.factorisations,
               "residual": st.residual if np.isfinite(st.residual) else None,
               "deflection": st.deflection, "pairs": st.counts, "support_movement": st.movement,
-              "seconds": st.seconds} for st in s.steps]
+              "fill_cohesion": st.cohesion, "seconds": st.seconds} for st in s.steps]
     return {
         "scene": an.scene.name,
         "status": s.status,

@@ -81,6 +81,70 @@ def test_total_vertical_reaction_equals_total_weight(settled):
     assert an.model.fill_weight == pytest.approx(fill * scene.arch.width, rel=1e-3)
 
 
+@pytest.fixture(scope="module")
+def cohesionless():
+    """The reference arch under a wide cohesionless Mohr-Coulomb fill (phi 30 degrees, c = 0), self-weight only."""
+    wide = {**FILL, "extension": 12.0, "material": "mohr-coulomb", "friction_angle": 30.0, "cohesion": 0.0}
+    scene = scene_from_dict({k: v for k, v in scene_dict(fill=wide).items() if k != "load"})
+    an = run_analysis(scene)
+    fill = an.solver.material
+    fill.evaluate(an.search.last.x.array[:an.solver.n_u], an.search.last.plastic_strain, tangent=False)
+    dxq = ufl.Measure("dx", domain=an.block_mesh.mesh, metadata={"quadrature_degree": 1,
+                                                                   "quadrature_scheme": "default"})
+    return scene, an, fill.stress, dxq  # fill.stress: the converged stress [sxx, syy, sxy] at the P1 points
+
+
+def test_cohesionless_fill_carries_its_self_weight_by_cohesion_continuation(cohesionless):
+    """A cohesionless fill yields almost everywhere under its own weight and the arch-fill interface slides: the
+    one-step self-weight diverges without a mechanism, so the self-weight is reached with the fill's cohesion raised
+    and lowered back to 0 (pathfollow); the state reported is at the scene's cohesion, with a plastic fill."""
+    _, an, _, _ = cohesionless
+    s = an.search
+    assert s.status == "stable under self-weight", s.status
+    assert not s.steps[0].converged and s.steps[0].cohesion is None
+    raised = [st.cohesion for st in s.steps[1:-1]]
+    assert all(c is not None and c > 0 for c in raised) and raised == sorted(raised, reverse=True)
+    assert s.steps[-1].converged and s.steps[-1].cohesion is None and s.steps[-1].level == 0.0
+    assert an.solver.material.material.cohesion == 0.0
+    assert np.abs(s.last.plastic_strain).max() > 0
+
+
+def test_cohesionless_fill_reactions_equal_total_weight(cohesionless):
+    """Reactions of the fixed fill base (from the converged elastic-plastic stresses) plus the springings' ground
+    forces = ring + fill weight (hand values as in test_total_vertical_reaction_equals_total_weight); 1e-3: the
+    chord error of the curved faces."""
+    scene, an, stress, dxq = cohesionless
+    v = ufl.TestFunction(an.model.V)
+    rho_g = cell_constant(an.block_mesh, scene.masonry.density * scene.gravity, scene.fill.unit_weight)
+    voigt = ufl.as_vector([strain(v)[0, 0], strain(v)[1, 1], 2 * strain(v)[0, 1]])
+    residual = assemble_vector(fem.form(scene.arch.width * ufl.dot(stress, voigt) * dxq
+                                        + scene.arch.width * rho_g * v[1] * ufl.dx))
+    residual.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    dofs, owned = an.model.bcs[0].dof_indices()
+    dofs = dofs[:owned]
+    fill_base = MPI.COMM_WORLD.allreduce(residual.array[dofs[dofs % 2 == 1]].sum())
+    springings = springing_reactions(an.joints, an.ring)[:, 1].sum()
+    r_out = scene.arch.span / 2 + scene.arch.thickness
+    ring = scene.masonry.density * scene.gravity * np.pi / 2 * (r_out ** 2 - (scene.arch.span / 2) ** 2)
+    fill = scene.fill.unit_weight * (2 * (r_out + scene.fill.extension) * (r_out + scene.fill.depth)
+                                     - np.pi / 2 * r_out ** 2)
+    assert fill_base + springings == pytest.approx((ring + fill) * scene.arch.width, rel=1e-3)
+
+
+def test_cohesionless_fill_vertical_stress_is_overburden_far_from_the_arch(cohesionless):
+    """In the outer 0.5 m of the fill (11.5 m from the arch, a column on rollers) sigma_yy = -gamma x depth: the
+    mean over that column at the quadrature points against the same mean of the hand value; 3 % as for the
+    elastic fill."""
+    scene, an, stress, dxq = cohesionless
+    x = ufl.SpatialCoordinate(an.block_mesh.mesh)
+    x_left = -scene.arch.span / 2 - scene.arch.thickness - scene.fill.extension
+    near_end = ufl.conditional(ufl.lt(x[0], x_left + 0.5), 1.0, 0.0)
+    road = an.ring.crown_extrados + scene.fill.depth
+    fe, hand = (MPI.COMM_WORLD.allreduce(fem.assemble_scalar(fem.form(f * near_end * dxq)))
+                for f in (stress[1], -scene.fill.unit_weight * (road - x[1])))
+    assert fe == pytest.approx(hand, rel=0.03)
+
+
 def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     """A stiff fill (a tenth of the masonry's modulus) with a rough interface (mu = 100) holds the ring: the FE
     carries more than the LP with the fill as dead load only (whose mechanism needs the ring to sway into the
