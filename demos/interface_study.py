@@ -84,8 +84,8 @@ def markdown_table(rows: list[dict]) -> str:
             "LP time s", "FE status"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        cells = [str(r["voussoirs"]), f"[{r['fe_lower_kN']:.2f}, {_num(r['fe_upper_kN'], '.2f')}]",
-                 _num(r["lp_kN"], ".2f"), _num(r["fe_lp_ratio"], ".4f"), "yes" if r["hinges_match"] else "no",
+        cells = [str(r["voussoirs"]), f"[{r['fe_lower_kN']:.3f}, {_num(r['fe_upper_kN'], '.3f')}]",
+                 _num(r["lp_kN"], ".3f"), _num(r["fe_lp_ratio"], ".4f"), "yes" if r["hinges_match"] else "no",
                  str(r["dofs"]), str(r["load_steps"]), str(r["linear_solves"]), f"{r['fe_time_s']:.1f}",
                  f"{r['lp_time_s']:.3f}", r["fe_status"]]
         lines.append("| " + " | ".join(cells) + " |")
