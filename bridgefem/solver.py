@@ -317,11 +317,17 @@ class ContactSolver:
             self._matrix_key = key
             self.stats["factorisations"] += 1
         t0 = time.perf_counter()
-        self.ksp.solve(self.b, x)
-        self.stats["time_factorise_solve"] += time.perf_counter() - t0
-        self.stats["solves"] += 1
+        try:
+            self.ksp.solve(self.b, x)
+        except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
+            self._matrix_key = None
+            return f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False
+        finally:
+            self.stats["time_factorise_solve"] += time.perf_counter() - t0
+            self.stats["solves"] += 1
         reason = self.ksp.getConvergedReason()
         if reason < 0:
+            self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
             return _linear_failure(self.ksp, reason)
         if self._any(not np.all(np.isfinite(x.array))):
             return "NaN in the solution", False
