@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import cpp as _cpp
-from dolfinx.mesh import Mesh, MeshTagsMetaClass, create_mesh, meshtags_from_entities
+from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags_from_entities
 from mpi4py import MPI
 
 from .geometry import Abutment, ArchRing, FillOutline
@@ -119,7 +119,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
             n_along = max(1, int(np.ceil(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum() / h - 1e-9)))
             for side in (intra, extra):
-                for c, n in zip(side, _segment_counts([_curve_length(c) for c in side], n_along)):
+                lengths = [_curve_length(c) for c in side] if len(side) > 1 else [1.0]  # one curve: all n_along
+                for c, n in zip(side, _segment_counts(lengths, n_along)):
                     mesh.setTransfiniteCurve(c, n + 1)
             mesh.setTransfiniteSurface(s, "Alternate", [inner[i], inner[i + 1], outer[i + 1], outer[i]])
         mesh.generate(2)
@@ -188,8 +189,8 @@ def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], out
 def _curve_length(curve: int) -> float:
     import gmsh
 
-    pts = np.array([gmsh.model.getValue(1, curve, [u]) for u in
-                    np.linspace(*gmsh.model.getParametrizationBounds(1, curve)[0:2], 9).ravel()])
+    lo, hi = gmsh.model.getParametrizationBounds(1, curve)
+    pts = np.asarray(gmsh.model.getValue(1, curve, np.linspace(lo, hi, 9).ravel())).reshape(-1, 3)
     return float(np.linalg.norm(np.diff(pts[:, :2], axis=0), axis=1).sum())
 
 
@@ -242,12 +243,21 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
         facets, values = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
         cell_values = np.zeros(0, dtype=np.int32)
         info = comm.bcast(None, root=0)
-    mesh = create_mesh(comm, cs, xs, domain)
+    mesh = _create_mesh(comm, cs, xs, domain)
     tdim = mesh.topology.dim
     ct = _tags(mesh, tdim, cs, cell_values)
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
     return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments))
+
+
+def _create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, domain: ufl.Mesh) -> Mesh:
+    """:func:`dolfinx.mesh.create_mesh` with the cells passed as an adjacency list: given a numpy array, DOLFINx
+    0.5 first calls the C++ function with it, which raises a TypeError whose message formats both arrays."""
+    cmap = _cpp.fem.CoordinateElement(_cpp.mesh.CellType.triangle, 1)
+    adjacency = _cpp.graph.AdjacencyList_int64(np.ascontiguousarray(cells, dtype=np.int64))
+    return Mesh(_cpp.mesh.create_mesh(comm, adjacency, cmap, np.ascontiguousarray(x), GhostMode.shared_facet,
+                                      _cpp.mesh.create_cell_partitioner()), domain)
 
 
 def _owning_cell(cells: np.ndarray, segments: np.ndarray) -> np.ndarray:
