@@ -14,6 +14,7 @@ from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from . import jit
 from .geometry import ArchRing
 from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh
 from .scene import Scene
@@ -58,10 +59,10 @@ def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.n
 
 
 def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
-                  abutment_value: float | None = None) -> fem.Function:
+                  abutment_value: float | None = None, Q: fem.FunctionSpace | None = None) -> fem.Function:
     """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill and
-    ``abutment_value`` on elastic abutments (default: ``arch_value``)."""
-    Q = fem.FunctionSpace(bm.mesh, ("DG", 0))
+    ``abutment_value`` on elastic abutments (default: ``arch_value``); ``Q``: the DG0 space (default: a new one)."""
+    Q = jit.scalar_space(bm.mesh, "DG", 0) if Q is None else Q
     q = fem.Function(Q)
     tags = bm.cell_tags
     is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
@@ -95,31 +96,32 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     extrados of a bare arch and on the road over a fill; the fill's supports are built into K and the loads."""
     mesh, comm = bm.mesh, bm.mesh.comm
     fill = scene.fill
-    V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
+    V = jit.vector_space(mesh, "Lagrange", scene.mesh.degree)
+    Q = jit.scalar_space(mesh, "DG", 0)
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     ab = scene.abutments
     arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
     fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
     abutment_lame = lame(ab.young, ab.poisson, scene.model.plane) if ab.elastic else (None, None)
-    lam, mu = (cell_constant(bm, a, f, b) for a, f, b in zip(arch_lame, fill_lame, abutment_lame))
+    lam, mu = (cell_constant(bm, a, f, b, Q) for a, f, b in zip(arch_lame, fill_lame, abutment_lame))
     width = scene.arch.width
     bcs = fill_supports(V, bm)
 
     sigma = 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
-    K = assemble_matrix(fem.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
+    K = assemble_matrix(jit.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
     K.assemble()
 
     rho_g = scene.masonry.density * scene.gravity
     weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
-                           ab.unit_weight if ab.elastic else None)
+                           ab.unit_weight if ab.elastic else None, Q)
     f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=bm.cell_tags)
 
     def weight_of(blocks: tuple[int, ...]) -> float:
         """Weight (N) of the cells with these tags."""
-        return comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(blocks)))) if blocks else 0.0
+        return comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx(blocks)))) if blocks else 0.0
 
-    dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx)))
+    dead_total = comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx)))
     fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
     abutment_weight = weight_of(bm.abutment_blocks)
 
@@ -171,7 +173,7 @@ def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
 
 def _load_vector(form, bcs) -> PETSc.Vec:
     """Assemble a load vector (N), add ghost contributions and zero it on supported dofs."""
-    vec = assemble_vector(fem.form(form))
+    vec = assemble_vector(jit.form(form))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     set_bc(vec, bcs)
     return vec
