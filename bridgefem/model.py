@@ -11,6 +11,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
+from dolfinx.mesh import meshtags
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -115,13 +116,18 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
                            ab.unit_weight if ab.elastic else None, Q)
     f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
-    dx = ufl.Measure("dx", domain=mesh, subdomain_data=bm.cell_tags)
 
     def weight_of(blocks: tuple[int, ...]) -> float:
-        """Weight (N) of the cells with these tags."""
-        return comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx(blocks)))) if blocks else 0.0
+        """Weight (N) of the cells with these tags (marked 1 in a tag of their own: one form for any blocks)."""
+        if not blocks:
+            return 0.0
+        ct = bm.cell_tags
+        cells = ct.indices[np.isin(ct.values, blocks)]
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=meshtags(mesh, ct.dim, cells,
+                                                                    np.ones(len(cells), dtype=np.int32)))
+        return comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx(1))))
 
-    dead_total = comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx)))
+    dead_total = comm.allreduce(fem.assemble_scalar(jit.form(width * weight * ufl.dx)))
     fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
     abutment_weight = weight_of(bm.abutment_blocks)
 
