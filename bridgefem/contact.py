@@ -29,7 +29,6 @@ from dolfinx.mesh import meshtags
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
-from . import jit
 from .geometry import ArchRing
 from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag
 
@@ -72,7 +71,7 @@ def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
     ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=meshtags(bm.mesh, ft.dim, faces,
                                                                    np.ones(len(faces), dtype=np.int32)))
     v = ufl.TestFunction(V)
-    vec = assemble_vector(jit.form(v[0] * ds(1)))
+    vec = assemble_vector(fem.form(v[0] * ds(1)))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     return vec.array[0::2].copy()
 

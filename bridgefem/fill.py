@@ -21,7 +21,6 @@ from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import jit
 from .mesh import BlockMesh
 from .model import lame, strain
 from .plasticity import MohrCoulomb, elastic_tangent, return_map
@@ -91,8 +90,8 @@ class PlasticFill:
         width = scene.arch.width
         dxq = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree, "quadrature_scheme": "default"})
         v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
-        self._f_form = jit.form(width * ufl.dot(self.stress, _voigt(v)) * dxq)
-        self._k_form = jit.form(width * ufl.dot(ufl.dot(self.tangent, _voigt(du)), _voigt(v)) * dxq)
+        self._f_form = fem.form(width * ufl.dot(self.stress, _voigt(v)) * dxq)
+        self._k_form = fem.form(width * ufl.dot(ufl.dot(self.tangent, _voigt(du)), _voigt(v)) * dxq)
         self.K = assemble_matrix(self._k_form, bcs=bcs)
         self.K.assemble()
         self.n_owned = V.dofmap.index_map.size_local * 2

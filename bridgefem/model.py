@@ -15,7 +15,6 @@ from dolfinx.mesh import meshtags
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from . import jit
 from .geometry import ArchRing
 from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh
 from .scene import Scene
@@ -63,7 +62,7 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
                   abutment_value: float | None = None, Q: fem.FunctionSpace | None = None) -> fem.Function:
     """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill and
     ``abutment_value`` on elastic abutments (default: ``arch_value``); ``Q``: the DG0 space (default: a new one)."""
-    Q = jit.scalar_space(bm.mesh, "DG", 0) if Q is None else Q
+    Q = fem.FunctionSpace(bm.mesh, ("DG", 0)) if Q is None else Q
     q = fem.Function(Q)
     tags = bm.cell_tags
     is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
@@ -97,8 +96,8 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     extrados of a bare arch and on the road over a fill; the fill's supports are built into K and the loads."""
     mesh, comm = bm.mesh, bm.mesh.comm
     fill = scene.fill
-    V = jit.vector_space(mesh, "Lagrange", scene.mesh.degree)
-    Q = jit.scalar_space(mesh, "DG", 0)
+    V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
+    Q = fem.FunctionSpace(mesh, ("DG", 0))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     ab = scene.abutments
     arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
@@ -109,7 +108,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
     bcs = fill_supports(V, bm)
 
     sigma = 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
-    K = assemble_matrix(jit.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
+    K = assemble_matrix(fem.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
     K.assemble()
 
     rho_g = scene.masonry.density * scene.gravity
@@ -125,9 +124,9 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
         cells = ct.indices[np.isin(ct.values, blocks)]
         dx = ufl.Measure("dx", domain=mesh, subdomain_data=meshtags(mesh, ct.dim, cells,
                                                                     np.ones(len(cells), dtype=np.int32)))
-        return comm.allreduce(fem.assemble_scalar(jit.form(width * weight * dx(1))))
+        return comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(1))))
 
-    dead_total = comm.allreduce(fem.assemble_scalar(jit.form(width * weight * ufl.dx)))
+    dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * ufl.dx)))
     fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
     abutment_weight = weight_of(bm.abutment_blocks)
 
@@ -179,7 +178,7 @@ def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
 
 def _load_vector(form, bcs) -> PETSc.Vec:
     """Assemble a load vector (N), add ghost contributions and zero it on supported dofs."""
-    vec = assemble_vector(jit.form(form))
+    vec = assemble_vector(fem.form(form))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     set_bc(vec, bcs)
     return vec
