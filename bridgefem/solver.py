@@ -69,6 +69,9 @@ DEFAULT_PETSC_OPTIONS = {
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
+ADMISSIBLE_TOL = 1e-3  # penetration (or back-slip) of a diverging mode, of its largest joint displacement, that rejects it
+WORK_TOL = 1e-6  # driving-load work on a diverging mode, of |f|_1 |u|_inf, below which it does none
+REPAIR = 0.5  # an inadmissible mode's pairs within this fraction of its worst violation are closed and stuck
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
 
@@ -105,6 +108,15 @@ class _Proposal(NamedTuple):
     proposal: ContactState
     pending: np.ndarray
     violation: np.ndarray
+
+
+class _Failure(NamedTuple):
+    """A failed solve: why, whether it proves a mechanism, and the local pairs that an inadmissible diverging mode
+    pushes into each other (or slides against their friction force), to be closed and stuck (None: no repair)."""
+
+    message: str
+    mechanism: bool
+    repair: np.ndarray | None = None
 
 
 class ContactSolver:
@@ -214,6 +226,7 @@ class ContactSolver:
         self.r = self.A.createVecLeft()
         self.d = self._G.createVecLeft()
         self._lam = self._G.createVecLeft()
+        self._mode = self.A.createVecRight()
         G.destroy()
         Gt.destroy()
 
@@ -292,19 +305,62 @@ class ContactSolver:
     def _any(self, flag: bool) -> bool:
         return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
 
-    def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec):
-        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism)."""
+    def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
+                      origin: PETSc.Vec):
+        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism). A
+        displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
+        converged start) is admissible (:meth:`_inadmissible`)."""
         self._rhs(level, active, slip_ref)
         failure = self._solve(active, x)
         if failure is not None:
-            return failure
+            return _Failure(*failure)
         u_max = self._norm_inf(x.array[:self.n_u])
         if not np.isfinite(self.u_cap) and u_max > 0:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
-            return (f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m "
-                    "(no equilibrium: mechanism)"), True
+            text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
+            flaw, repair = self._inadmissible(level, active, x, origin)
+            if flaw is not None:
+                return _Failure(f"{text} along an inadmissible mode: {flaw} (a wrong active set, not a mechanism)",
+                                False, repair)
+            return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
+
+    def _inadmissible(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec
+                      ) -> tuple[str | None, np.ndarray | None]:
+        """Why the diverging direction x - origin of a solve is no collapse mechanism (None when it is one), and the
+        local pairs to close and stick that it pushes into each other or slides against their friction force (the
+        module's *Mechanism verdicts*). Collective."""
+        mode = self._mode
+        x.copy(mode)
+        mode.axpy(-1.0, origin)
+        u = mode.array[:self.n_u]
+        _, _, d = self.split(mode)
+        d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
+        drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
+        works = self.comm.allreduce(np.array([drive.array @ u, self.f_dead.array @ u + level * (self.f_live.array @ u),
+                                              np.abs(drive.array).sum(), np.abs(self.f_dead.array).sum()
+                                              + level * np.abs(self.f_live.array).sum()]))
+        scales = works[2:] * self._norm_inf(u)
+        significant = np.abs(works[:2]) > WORK_TOL * scales
+        flaw = None if significant[0] else \
+            f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
+        # the sense in which the driving load pushes it (else the whole load; else as solved): the repair's sense
+        orient = np.sign(works[0]) if significant[0] else np.sign(works[1]) if significant[1] else 1.0
+        tol = ADMISSIBLE_TOL * self._norm_inf(d.ravel())
+        state = active.state
+        penetration = np.where(state == OPEN, -orient * d[:, 0], -np.inf)  # closed pairs keep d_n = 0
+        backslip = np.where(state == SLIP, orient * active.sign * d[:, 1], -np.inf)  # slip is along -sign
+        worst_of = []
+        for excess, what in ((penetration, "interpenetration"), (backslip, "slip against the friction force")):
+            worst = int(excess.argmax()) if len(excess) else 0
+            local = (float(excess[worst]), int(self.pairs.joint[worst])) if len(excess) else (-np.inf, 0)
+            value, joint = max(self.comm.allgather(local))
+            worst_of.append(value)
+            if flaw is None and value > tol:
+                flaw = f"{what} {value / (tol / ADMISSIBLE_TOL):.2g} of its largest joint displacement at joint {joint}"
+        excess = np.maximum(penetration, backslip)
+        return flaw, (excess > max(tol, REPAIR * max(worst_of)) if flaw is not None else None)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
@@ -394,18 +450,23 @@ class ContactSolver:
             base, active = predicted, predicted.proposal
             seen.add(self._global_key(active))
         for it in range(1, self.max_iterations + 1):
-            failure = self._solve_active(level, active, slip_ref, x)
+            failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
-                singular = failure if failure[1] else singular
+                singular = failure if failure.mechanism else singular
+                repaired = self._repaired(active, failure.repair, frozen)
+                if repaired is not None and self._global_key(repaired) not in seen:
+                    active = repaired  # close (and stick) what the inadmissible mode pushes into each other
+                    seen.add(self._global_key(active))
+                    continue
                 if recovered >= chains and not damping:
                     return StepOutcome(False, f"no convergence: a proposed active set failed again after "
-                                              f"{recovered} damping chain(s): {failure[0]}", it, residual,
+                                              f"{recovered} damping chain(s): {failure.message}", it, residual,
                                        factorisations())
                 damping = True
                 damped = self._damp(base) if base is not None else None
                 if damped is None:
-                    return StepOutcome(False, failure[0], it, residual, factorisations(),
-                                       mechanism=failure[1] and predicted is None)
+                    return StepOutcome(False, failure.message, it, residual, factorisations(),
+                                       mechanism=failure.mechanism and predicted is None)
                 active, base = damped
                 continue
             recovered, damping, predicted = recovered + damping, False, None
@@ -462,6 +523,17 @@ class ContactSolver:
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
                            factorisations())
+
+    def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
+                  ) -> ContactState | None:
+        """``active`` with the ``repair`` pairs closed and sticking (None without a repair anywhere). Collective."""
+        if not self._any(repair is not None and bool(repair.any())):
+            return None
+        fixed = active.copy()
+        if repair is not None:
+            fixed.state[repair], fixed.sign[repair] = STICK, 0
+        _stick(fixed, frozen)
+        return fixed
 
     def _predict(self, predictor: PETSc.Vec, active: ContactState, slip_ref: np.ndarray,
                  frozen: np.ndarray) -> "_Proposal | None":
