@@ -71,6 +71,7 @@ EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 ADMISSIBLE_TOL = 1e-3  # penetration (or back-slip) of a diverging mode, of its largest joint displacement, that rejects it
 WORK_TOL = 1e-6  # driving-load work on a diverging mode, of |f|_1 |u|_inf, below which it does none
+PROOF_TOL = 1e-6  # interpenetration and friction slip of a diverging mode, of its largest joint displacement, in a proof
 REPAIR = 0.5  # an inadmissible mode's pairs within this fraction of its worst violation are closed and stuck
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
@@ -111,12 +112,22 @@ class _Proposal(NamedTuple):
 
 
 class _Failure(NamedTuple):
-    """A failed solve: why, whether it proves a mechanism, and the local pairs that an inadmissible diverging mode
-    pushes into each other (or slides against their friction force), to be closed and stuck (None: no repair)."""
+    """A failed solve: why, whether it shows a mechanism (``proof``: a proved one), and the local pairs that an
+    inadmissible diverging mode pushes into each other, to be closed (None: no repair)."""
 
     message: str
     mechanism: bool
     repair: np.ndarray | None = None
+    proof: bool = False
+
+
+class _Verdict(NamedTuple):
+    """What a diverging mode shows: why it is no mechanism (None: admissible), the local pairs to close, and
+    whether it proves that no equilibrium exists."""
+
+    flaw: str | None
+    repair: np.ndarray | None
+    proof: bool
 
 
 class ContactSolver:
@@ -319,18 +330,19 @@ class ContactSolver:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
             text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
-            flaw, repair = self._inadmissible(level, active, x, origin)
-            if flaw is not None:
-                return _Failure(f"{text} along an inadmissible mode: {flaw} (a wrong active set, not a mechanism)",
-                                False, repair)
+            verdict = self._verdict(level, active, x, origin)
+            if verdict.flaw is not None:
+                return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
+                                "mechanism)", False, verdict.repair)
+            if verdict.proof:
+                return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
+                                "the loads do positive work)", True, proof=True)
             return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
 
-    def _inadmissible(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec
-                      ) -> tuple[str | None, np.ndarray | None]:
-        """Why the diverging direction x - origin of a solve is no collapse mechanism (None when it is one), and the
-        local pairs to close and stick that it pushes into each other or slides against their friction force (the
-        module's *Mechanism verdicts*). Collective."""
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> "_Verdict":
+        """What the diverging direction x - origin of a solve shows (the module's *Mechanism verdicts*).
+        Collective."""
         mode = self._mode
         x.copy(mode)
         mode.axpy(-1.0, origin)
@@ -338,29 +350,28 @@ class ContactSolver:
         _, _, d = self.split(mode)
         d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
         drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
-        works = self.comm.allreduce(np.array([drive.array @ u, self.f_dead.array @ u + level * (self.f_live.array @ u),
-                                              np.abs(drive.array).sum(), np.abs(self.f_dead.array).sum()
-                                              + level * np.abs(self.f_live.array).sum()]))
+        total = self.f_dead.array + level * self.f_live.array
+        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
+                                              np.abs(total).sum()]))
         scales = works[2:] * self._norm_inf(u)
         significant = np.abs(works[:2]) > WORK_TOL * scales
         flaw = None if significant[0] else \
             f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
-        # the sense in which the driving load pushes it (else the whole load; else as solved): the repair's sense
+        # the sense in which the driving load pushes it (else the whole load; else as solved)
         orient = np.sign(works[0]) if significant[0] else np.sign(works[1]) if significant[1] else 1.0
-        tol = ADMISSIBLE_TOL * self._norm_inf(d.ravel())
-        state = active.state
-        penetration = np.where(state == OPEN, -orient * d[:, 0], -np.inf)  # closed pairs keep d_n = 0
-        backslip = np.where(state == SLIP, orient * active.sign * d[:, 1], -np.inf)  # slip is along -sign
-        worst_of = []
-        for excess, what in ((penetration, "interpenetration"), (backslip, "slip against the friction force")):
-            worst = int(excess.argmax()) if len(excess) else 0
-            local = (float(excess[worst]), int(self.pairs.joint[worst])) if len(excess) else (-np.inf, 0)
-            value, joint = max(self.comm.allgather(local))
-            worst_of.append(value)
-            if flaw is None and value > tol:
-                flaw = f"{what} {value / (tol / ADMISSIBLE_TOL):.2g} of its largest joint displacement at joint {joint}"
-        excess = np.maximum(penetration, backslip)
-        return flaw, (excess > max(tol, REPAIR * max(worst_of)) if flaw is not None else None)
+        span = self._norm_inf(d.ravel())
+        penetration = np.where(active.state == OPEN, -orient * d[:, 0], -np.inf)  # closed pairs keep d_n = 0
+        slip = np.where(self.mu > 0, np.abs(d[:, 1]), 0.0)  # slip against friction (mu = 0 slips freely)
+        worst = int(penetration.argmax()) if len(penetration) else 0
+        local = (float(penetration[worst]), int(self.pairs.joint[worst])) if len(penetration) else (-np.inf, 0)
+        value, joint = max(self.comm.allgather(local))
+        if flaw is None and value > ADMISSIBLE_TOL * span:
+            flaw = f"interpenetration {value / span:.2g} of its largest joint displacement at joint {joint}"
+        if flaw is not None:
+            return _Verdict(flaw, penetration > max(ADMISSIBLE_TOL * span, REPAIR * value), False)
+        proof = (self.material is None and value <= PROOF_TOL * span
+                 and self._norm_inf(slip) <= PROOF_TOL * span and orient * works[1] > WORK_TOL * scales[1])
+        return _Verdict(None, None, proof)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
@@ -452,10 +463,12 @@ class ContactSolver:
         for it in range(1, self.max_iterations + 1):
             failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
+                if failure.proof:
+                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True)
                 singular = failure if failure.mechanism else singular
                 repaired = self._repaired(active, failure.repair, frozen)
                 if repaired is not None and self._global_key(repaired) not in seen:
-                    active = repaired  # close (and stick) what the inadmissible mode pushes into each other
+                    active, damping = repaired, False  # close what the inadmissible mode pushes into each other
                     seen.add(self._global_key(active))
                     continue
                 if recovered >= chains and not damping:
