@@ -355,22 +355,33 @@ class ContactSolver:
                                               np.abs(total).sum()]))
         scales = works[2:] * self._norm_inf(u)
         significant = np.abs(works[:2]) > WORK_TOL * scales
-        flaw = None if significant[0] else \
-            f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
-        # the sense in which the driving load pushes it (else the whole load; else as solved)
-        orient = np.sign(works[0]) if significant[0] else np.sign(works[1]) if significant[1] else 1.0
         span = self._norm_inf(d.ravel())
-        penetration = np.where(active.state == OPEN, -orient * d[:, 0], -np.inf)  # closed pairs keep d_n = 0
-        slip = np.where(self.mu > 0, np.abs(d[:, 1]), 0.0)  # slip against friction (mu = 0 slips freely)
-        worst = int(penetration.argmax()) if len(penetration) else 0
-        local = (float(penetration[worst]), int(self.pairs.joint[worst])) if len(penetration) else (-np.inf, 0)
-        value, joint = max(self.comm.allgather(local))
-        if flaw is None and value > ADMISSIBLE_TOL * span:
+        slip = self._norm_inf(np.where(self.mu > 0, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
+        slipping = slip > ADMISSIBLE_TOL * span
+        # the sense in which the driving load pushes a hinge mode (else the whole load); a slip mode's sense is not
+        # the loads' (the friction law makes the system unsymmetric): the sense that penetrates least
+        senses = [np.sign(works[0])] if significant[0] and not slipping else \
+            [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
+        openings = np.where(active.state == OPEN, d[:, 0], np.nan)  # closed pairs keep d_n = 0
+        worst = [(-np.inf, 0)] * len(senses)
+        for k, sense in enumerate(senses):
+            excess = -sense * openings
+            if np.any(active.state == OPEN):
+                i = int(np.nanargmax(excess))
+                worst[k] = (float(excess[i]), int(self.pairs.joint[i]))
+            worst[k] = max(self.comm.allgather(worst[k]))
+        k = int(np.argmin([w[0] for w in worst]))
+        orient, (value, joint) = senses[k], worst[k]
+        flaw = None
+        if not significant[0] and not slipping:
+            flaw = f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
+        elif value > ADMISSIBLE_TOL * span:
             flaw = f"interpenetration {value / span:.2g} of its largest joint displacement at joint {joint}"
         if flaw is not None:
-            return _Verdict(flaw, penetration > max(ADMISSIBLE_TOL * span, REPAIR * value), False)
-        proof = (self.material is None and value <= PROOF_TOL * span
-                 and self._norm_inf(slip) <= PROOF_TOL * span and orient * works[1] > WORK_TOL * scales[1])
+            repair = np.nan_to_num(-orient * openings, nan=-np.inf) > max(ADMISSIBLE_TOL * span, REPAIR * value)
+            return _Verdict(flaw, repair, False)
+        proof = (self.material is None and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
+                 and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
         return _Verdict(None, None, proof)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
@@ -451,6 +462,7 @@ class ContactSolver:
 
         base: _Proposal | None = None  # the last good active set and what it proposed
         singular = None  # the last singular proposal of this step
+        repairs = {}  # global key of an active set whose diverging mode was inadmissible -> its repair
         damping, recovered = False, 0  # in a damping chain; chains that ended with a solved active set
         chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
         plastic = start.plastic_strain
@@ -466,17 +478,19 @@ class ContactSolver:
                 if failure.proof:
                     return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True)
                 singular = failure if failure.mechanism else singular
-                repaired = self._repaired(active, failure.repair, frozen)
-                if repaired is not None and self._global_key(repaired) not in seen:
-                    active, damping = repaired, False  # close what the inadmissible mode pushes into each other
-                    seen.add(self._global_key(active))
-                    continue
+                fix = self._repaired(active, failure.repair, frozen)
+                if fix is not None:
+                    repairs[self._global_key(active)] = fix
                 if recovered >= chains and not damping:
                     return StepOutcome(False, f"no convergence: a proposed active set failed again after "
                                               f"{recovered} damping chain(s): {failure.message}", it, residual,
                                        factorisations())
                 damping = True
                 damped = self._damp(base) if base is not None else None
+                if damped is None and fix is not None and self._global_key(fix) not in seen:
+                    active = fix  # nothing left to damp: close what the inadmissible mode pushes into each other
+                    seen.add(self._global_key(active))
+                    continue
                 if damped is None:
                     return StepOutcome(False, failure.message, it, residual, factorisations(),
                                        mechanism=failure.mechanism and predicted is None)
@@ -510,6 +524,13 @@ class ContactSolver:
             if gkey in seen and self.material is not None:
                 seen.clear()  # the fill's state moves between visits: a revisit is no cycle (max_iterations bounds it)
             elif gkey in seen:
+                fix = repairs.pop(gkey, None)
+                if fix is not None and self._global_key(fix) not in seen:
+                    # back to a set whose diverging mode was inadmissible: its repair instead
+                    seen.add(self._global_key(fix))
+                    base = _Proposal(active, fix, (fix.state != active.state) | (fix.sign != active.sign), violation)
+                    active = fix
+                    continue
                 if singular is not None:
                     return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
