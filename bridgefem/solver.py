@@ -29,8 +29,36 @@ Sliding pairs whose slip direction flips back and forth between Newton iteration
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
 for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
 friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
-mechanism; any other cycle is damped like a singular proposal (half of the changes from the last solved active
-set), and fails as non-convergence when it cannot be.
+mechanism; a cycle that returns to a set whose diverging mode was inadmissible goes to that set's repair (below);
+any other cycle is damped like a singular proposal (half of the changes from the last solved active set), and
+fails as non-convergence when it cannot be.
+
+**Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
+the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
+-10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
+diverges (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible
+mode. The diverging mode is the solution minus the step's converged start, normalised: its relative displacements
+d at the pairs and the work of the loads on it. It is *inadmissible*, a wrong active set and not a mechanism
+(a failure without proof, damped like any failed proposal), when
+
+- it is a hinge mode (no friction slip beyond ``ADMISSIBLE_TOL`` of its largest joint displacement) on which the
+  driving load (the live load; the self-weight at live load 0) does no work (below ``WORK_TOL`` of |f|_1 |u|_inf),
+  e.g. a part of the ring freed by opening a whole joint: such a singularity is no collapse of the structure;
+- or, in the sense in which the driving load pushes it (a hinge mode; for a mode with friction slip, whose sense is
+  not the loads' since the slip law makes the system unsymmetric, the sense that penetrates least), it closes a
+  pair of the active set's open pairs by more than ``ADMISSIBLE_TOL`` of its largest joint displacement
+  (interpenetration; the closed pairs keep d_n = 0 by their law).
+
+Such a failure carries a *repair*: the active set with the open pairs within ``REPAIR`` of the worst penetration
+closed and sticking. The repair is tried when damping has nothing left to halve, or when the iteration returns
+to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint gave a mode that rotates
+the springing voussoir into the ground: damping returns to it, the repair converges). An admissible diverging mode
+*proves* collapse, and ends the step at once whatever its history (a predicted or damped active set), when it is
+a rigid-block hinge mode without friction slip or interpenetration (both below ``PROOF_TOL``; mu = 0 pairs may
+slip) and the whole load does positive work on it (above ``WORK_TOL``; bare ring or elastic fill only): by
+virtual work, any equilibrium with compressive joint forces would give that work as -sum(lam_n d_n) <= 0. Other
+admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms as before: the damping
+chain or the cycle that returns to them decides.
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -41,7 +69,8 @@ step, and the load incrementation retries with a smaller one.
 **Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
 of the solution (the load incrementation extrapolates the last two converged states) against the converged
 start. The start's active set is then the base of the first damping chain, and a failure before the step has
-solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it).
+solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it), unless its
+diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
@@ -69,10 +98,11 @@ DEFAULT_PETSC_OPTIONS = {
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
-ADMISSIBLE_TOL = 1e-3  # penetration (or back-slip) of a diverging mode, of its largest joint displacement, that rejects it
-WORK_TOL = 1e-6  # driving-load work on a diverging mode, of |f|_1 |u|_inf, below which it does none
+ADMISSIBLE_TOL = 1e-3  # interpenetration (friction slip) of a diverging mode, of its largest joint displacement,
+# beyond which it is inadmissible (a slip mode)
+WORK_TOL = 1e-6  # load work on a diverging mode, of |f|_1 |u|_inf, below which the load does none
 PROOF_TOL = 1e-6  # interpenetration and friction slip of a diverging mode, of its largest joint displacement, in a proof
-REPAIR = 0.5  # an inadmissible mode's pairs within this fraction of its worst violation are closed and stuck
+REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode closes by this fraction of its worst
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
 
@@ -90,7 +120,8 @@ class Iterate:
 @dataclass
 class StepOutcome:
     """Result of one load step; ``reason`` is empty when converged. A failure with ``mechanism`` set showed
-    a singular or unbounded response (no equilibrium); other failures are non-convergence."""
+    a singular system or a response unbounded along an admissible mode (no equilibrium; the module's *Mechanism
+    verdicts*); other failures are non-convergence."""
 
     converged: bool
     reason: str
@@ -320,7 +351,7 @@ class ContactSolver:
                       origin: PETSc.Vec):
         """Solve the linear system of an active set into x; returns None or (failure message, is mechanism). A
         displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
-        converged start) is admissible (:meth:`_inadmissible`)."""
+        converged start) is admissible (:meth:`_verdict`)."""
         self._rhs(level, active, slip_ref)
         failure = self._solve(active, x)
         if failure is not None:
@@ -442,7 +473,9 @@ class ContactSolver:
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
         the last good iterate and applies only the half of the proposed changes with the largest violations,
-        down to a single change; only then is the failure reported. With ``give_up`` (the caller can retry a
+        down to a single change; then the repair of an inadmissible diverging mode is tried, and only then is
+        the failure reported. A diverging mode that proves collapse ends the step at once (the module's
+        *Mechanism verdicts*). With ``give_up`` (the caller can retry a
         smaller step), a failure after ``DAMPING_CHAINS`` recovered chains ends the step at once, as
         non-convergence, and so does a cycle.
 
