@@ -101,7 +101,7 @@ DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight re
 ADMISSIBLE_TOL = 1e-3  # interpenetration (friction slip) of a diverging mode, of its largest joint displacement,
 # beyond which it is inadmissible (a slip mode)
 WORK_TOL = 1e-6  # load work on a diverging mode, of |f|_1 |u|_inf, below which the load does none
-PROOF_TOL = 1e-6  # interpenetration and friction slip of a diverging mode, of its largest joint displacement, in a proof
+PROOF_TOL = 1e-6  # interpenetration and friction slip of a proving mode, of its largest joint displacement
 REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode closes by this fraction of its worst
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
