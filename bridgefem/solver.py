@@ -29,8 +29,36 @@ Sliding pairs whose slip direction flips back and forth between Newton iteration
 discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
 for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
 friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
-mechanism; any other cycle is damped like a singular proposal (half of the changes from the last solved active
-set), and fails as non-convergence when it cannot be.
+mechanism; a cycle that returns to a set whose diverging mode was inadmissible goes to that set's repair (below);
+any other cycle is damped like a singular proposal (half of the changes from the last solved active set), and
+fails as non-convergence when it cannot be.
+
+**Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
+the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
+-10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
+diverges (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible
+mode. The diverging mode is the solution minus the step's converged start, normalised: its relative displacements
+d at the pairs and the work of the loads on it. It is *inadmissible*, a wrong active set and not a mechanism
+(a failure without proof, damped like any failed proposal), when
+
+- it is a hinge mode (no friction slip beyond ``ADMISSIBLE_TOL`` of its largest joint displacement) on which the
+  driving load (the live load; the self-weight at live load 0) does no work (below ``WORK_TOL`` of |f|_1 |u|_inf),
+  e.g. a part of the ring freed by opening a whole joint: such a singularity is no collapse of the structure;
+- or, in the sense in which the driving load pushes it (a hinge mode; for a mode with friction slip, whose sense is
+  not the loads' since the slip law makes the system unsymmetric, the sense that penetrates least), it closes a
+  pair of the active set's open pairs by more than ``ADMISSIBLE_TOL`` of its largest joint displacement
+  (interpenetration; the closed pairs keep d_n = 0 by their law).
+
+Such a failure carries a *repair*: the active set with the open pairs within ``REPAIR`` of the worst penetration
+closed and sticking. The repair is tried when damping has nothing left to halve, or when the iteration returns
+to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint gave a mode that rotates
+the springing voussoir into the ground: damping returns to it, the repair converges). An admissible diverging mode
+*proves* collapse, and ends the step at once whatever its history (a predicted or damped active set), when it is
+a rigid-block hinge mode without friction slip or interpenetration (both below ``PROOF_TOL``; mu = 0 pairs may
+slip) and the whole load does positive work on it (above ``WORK_TOL``; bare ring or elastic fill only): by
+virtual work, any equilibrium with compressive joint forces would give that work as -sum(lam_n d_n) <= 0. Other
+admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms as before: the damping
+chain or the cycle that returns to them decides.
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -41,7 +69,8 @@ step, and the load incrementation retries with a smaller one.
 **Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
 of the solution (the load incrementation extrapolates the last two converged states) against the converged
 start. The start's active set is then the base of the first damping chain, and a failure before the step has
-solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it).
+solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it), unless its
+diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
@@ -69,6 +98,11 @@ DEFAULT_PETSC_OPTIONS = {
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
+ADMISSIBLE_TOL = 1e-3  # interpenetration (friction slip) of a diverging mode, of its largest joint displacement,
+# beyond which it is inadmissible (a slip mode)
+WORK_TOL = 1e-6  # load work on a diverging mode, of |f|_1 |u|_inf, below which the load does none
+PROOF_TOL = 1e-6  # interpenetration and friction slip of a proving mode, of its largest joint displacement
+REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode closes by this fraction of its worst
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 
 
@@ -86,7 +120,8 @@ class Iterate:
 @dataclass
 class StepOutcome:
     """Result of one load step; ``reason`` is empty when converged. A failure with ``mechanism`` set showed
-    a singular or unbounded response (no equilibrium); other failures are non-convergence."""
+    a singular system or a response unbounded along an admissible mode (no equilibrium; the module's *Mechanism
+    verdicts*); other failures are non-convergence."""
 
     converged: bool
     reason: str
@@ -105,6 +140,25 @@ class _Proposal(NamedTuple):
     proposal: ContactState
     pending: np.ndarray
     violation: np.ndarray
+
+
+class _Failure(NamedTuple):
+    """A failed solve: why, whether it shows a mechanism (``proof``: a proved one), and the local pairs that an
+    inadmissible diverging mode pushes into each other, to be closed (None: no repair)."""
+
+    message: str
+    mechanism: bool
+    repair: np.ndarray | None = None
+    proof: bool = False
+
+
+class _Verdict(NamedTuple):
+    """What a diverging mode shows: why it is no mechanism (None: admissible), the local pairs to close, and
+    whether it proves that no equilibrium exists."""
+
+    flaw: str | None
+    repair: np.ndarray | None
+    proof: bool
 
 
 class ContactSolver:
@@ -214,6 +268,7 @@ class ContactSolver:
         self.r = self.A.createVecLeft()
         self.d = self._G.createVecLeft()
         self._lam = self._G.createVecLeft()
+        self._mode = self.A.createVecRight()
         G.destroy()
         Gt.destroy()
 
@@ -292,19 +347,73 @@ class ContactSolver:
     def _any(self, flag: bool) -> bool:
         return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
 
-    def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec):
-        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism)."""
+    def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
+                      origin: PETSc.Vec):
+        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism). A
+        displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
+        converged start) is admissible (:meth:`_verdict`)."""
         self._rhs(level, active, slip_ref)
         failure = self._solve(active, x)
         if failure is not None:
-            return failure
+            return _Failure(*failure)
         u_max = self._norm_inf(x.array[:self.n_u])
         if not np.isfinite(self.u_cap) and u_max > 0:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
-            return (f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m "
-                    "(no equilibrium: mechanism)"), True
+            text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
+            verdict = self._verdict(level, active, x, origin)
+            if verdict.flaw is not None:
+                return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
+                                "mechanism)", False, verdict.repair)
+            if verdict.proof:
+                return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
+                                "the loads do positive work)", True, proof=True)
+            return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
+
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> "_Verdict":
+        """What the diverging direction x - origin of a solve shows (the module's *Mechanism verdicts*).
+        Collective."""
+        mode = self._mode
+        x.copy(mode)
+        mode.axpy(-1.0, origin)
+        u = mode.array[:self.n_u]
+        _, _, d = self.split(mode)
+        d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
+        drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
+        total = self.f_dead.array + level * self.f_live.array
+        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
+                                              np.abs(total).sum()]))
+        scales = works[2:] * self._norm_inf(u)
+        significant = np.abs(works[:2]) > WORK_TOL * scales
+        span = self._norm_inf(d.ravel())
+        slip = self._norm_inf(np.where(self.mu > 0, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
+        slipping = slip > ADMISSIBLE_TOL * span
+        # the sense in which the driving load pushes a hinge mode (else the whole load); a slip mode's sense is not
+        # the loads' (the friction law makes the system unsymmetric): the sense that penetrates least
+        senses = [np.sign(works[0])] if significant[0] and not slipping else \
+            [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
+        openings = np.where(active.state == OPEN, d[:, 0], np.nan)  # closed pairs keep d_n = 0
+        worst = [(-np.inf, 0)] * len(senses)
+        for k, sense in enumerate(senses):
+            excess = -sense * openings
+            if np.any(active.state == OPEN):
+                i = int(np.nanargmax(excess))
+                worst[k] = (float(excess[i]), int(self.pairs.joint[i]))
+            worst[k] = max(self.comm.allgather(worst[k]))
+        k = int(np.argmin([w[0] for w in worst]))
+        orient, (value, joint) = senses[k], worst[k]
+        flaw = None
+        if not significant[0] and not slipping:
+            flaw = f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
+        elif value > ADMISSIBLE_TOL * span:
+            flaw = f"interpenetration {value / span:.2g} of its largest joint displacement at joint {joint}"
+        if flaw is not None:
+            repair = np.nan_to_num(-orient * openings, nan=-np.inf) > max(ADMISSIBLE_TOL * span, REPAIR * value)
+            return _Verdict(flaw, repair, False)
+        proof = (self.material is None and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
+                 and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
+        return _Verdict(None, None, proof)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
@@ -364,7 +473,9 @@ class ContactSolver:
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
         the last good iterate and applies only the half of the proposed changes with the largest violations,
-        down to a single change; only then is the failure reported. With ``give_up`` (the caller can retry a
+        down to a single change; then the repair of an inadmissible diverging mode is tried, and only then is
+        the failure reported. A diverging mode that proves collapse ends the step at once (the module's
+        *Mechanism verdicts*). With ``give_up`` (the caller can retry a
         smaller step), a failure after ``DAMPING_CHAINS`` recovered chains ends the step at once, as
         non-convergence, and so does a cycle.
 
@@ -384,6 +495,7 @@ class ContactSolver:
 
         base: _Proposal | None = None  # the last good active set and what it proposed
         singular = None  # the last singular proposal of this step
+        repairs = {}  # global key of an active set whose diverging mode was inadmissible -> its repair
         damping, recovered = False, 0  # in a damping chain; chains that ended with a solved active set
         chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
         plastic = start.plastic_strain
@@ -394,18 +506,27 @@ class ContactSolver:
             base, active = predicted, predicted.proposal
             seen.add(self._global_key(active))
         for it in range(1, self.max_iterations + 1):
-            failure = self._solve_active(level, active, slip_ref, x)
+            failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
-                singular = failure if failure[1] else singular
+                if failure.proof:
+                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True)
+                singular = failure if failure.mechanism else singular
+                fix = self._repaired(active, failure.repair, frozen)
+                if fix is not None:
+                    repairs[self._global_key(active)] = fix
                 if recovered >= chains and not damping:
                     return StepOutcome(False, f"no convergence: a proposed active set failed again after "
-                                              f"{recovered} damping chain(s): {failure[0]}", it, residual,
+                                              f"{recovered} damping chain(s): {failure.message}", it, residual,
                                        factorisations())
                 damping = True
                 damped = self._damp(base) if base is not None else None
+                if damped is None and fix is not None and self._global_key(fix) not in seen:
+                    active = fix  # nothing left to damp: close what the inadmissible mode pushes into each other
+                    seen.add(self._global_key(active))
+                    continue
                 if damped is None:
-                    return StepOutcome(False, failure[0], it, residual, factorisations(),
-                                       mechanism=failure[1] and predicted is None)
+                    return StepOutcome(False, failure.message, it, residual, factorisations(),
+                                       mechanism=failure.mechanism and predicted is None)
                 active, base = damped
                 continue
             recovered, damping, predicted = recovered + damping, False, None
@@ -436,6 +557,13 @@ class ContactSolver:
             if gkey in seen and self.material is not None:
                 seen.clear()  # the fill's state moves between visits: a revisit is no cycle (max_iterations bounds it)
             elif gkey in seen:
+                fix = repairs.pop(gkey, None)
+                if fix is not None and self._global_key(fix) not in seen:
+                    # back to a set whose diverging mode was inadmissible: its repair instead
+                    seen.add(self._global_key(fix))
+                    base = _Proposal(active, fix, (fix.state != active.state) | (fix.sign != active.sign), violation)
+                    active = fix
+                    continue
                 if singular is not None:
                     return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
@@ -462,6 +590,17 @@ class ContactSolver:
         return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
                                   "changing", self.max_iterations, residual,
                            factorisations())
+
+    def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
+                  ) -> ContactState | None:
+        """``active`` with the ``repair`` pairs closed and sticking (None without a repair anywhere). Collective."""
+        if not self._any(repair is not None and bool(repair.any())):
+            return None
+        fixed = active.copy()
+        if repair is not None:
+            fixed.state[repair], fixed.sign[repair] = STICK, 0
+        _stick(fixed, frozen)
+        return fixed
 
     def _predict(self, predictor: PETSc.Vec, active: ContactState, slip_ref: np.ndarray,
                  frozen: np.ndarray) -> "_Proposal | None":
