@@ -93,8 +93,8 @@ def test_scene_keys_are_checked():
 def test_stiff_wide_abutments_give_the_rigid_springing_limit_load():
     """Abutments of the masonry's stiffness, 3 m long and 0.5 m high, resist the ring's thrust with a wide margin:
     the FE bracket overlaps the one on rigid springings (both contain the same limit load; only the elastic
-    stiffness below the springings differs, so the last trials may differ: measured [136.956, 136.968] against
-    [136.956, 136.964] kN) and the LP with the abutment blocks is the bare ring's."""
+    stiffness below the springings differs, so the search's secant predictions and last trials may differ; measured:
+    the same [136.956, 136.964] kN, and [136.956, 136.968] before the mechanism verdicts checked admissibility) and the LP with the abutment blocks is the bare ring's."""
     wide = {"model": "elastic", "height": 0.5, "length": 3.0}
     rigid, elastic = analyse("{}"), analyse(repr(wide))
     assert rigid.search.status == elastic.search.status == LIMIT_FOUND
