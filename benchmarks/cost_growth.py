@@ -19,7 +19,7 @@ Also: the rigid-block LP with 1000 voussoirs (target: under 1 s), fastest of 3, 
 
 Run:
 
-    ./run python benchmarks/cost_growth.py                               # full (about 6 min on 2 cores)
+    ./run python benchmarks/cost_growth.py                               # full (about 4 min on 2 cores)
     ./run python benchmarks/cost_growth.py --quick                       # 4 sizes up to 10k dofs (~1 min)
     ./run python benchmarks/cost_growth.py --cases segmental --sizes P1:4,8 P2:4 --figures demos/figures
 

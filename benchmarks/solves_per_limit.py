@@ -12,7 +12,7 @@ test.
 
 Run:
 
-    ./run python benchmarks/solves_per_limit.py              # every case (about 25 s)
+    ./run python benchmarks/solves_per_limit.py              # every case (about 1 min)
     ./run python benchmarks/solves_per_limit.py --cases demo  # the cases whose name contains "demo"
 """
 from __future__ import annotations

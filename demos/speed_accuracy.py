@@ -27,7 +27,7 @@ Prestwood bridge with fill (demos/prestwood.toml) is not a case: its Mohr-Coulom
 
 Run:
 
-    ./run python demos/speed_accuracy.py                          # both cases, about 4 min on 2 cores
+    ./run python demos/speed_accuracy.py                          # both cases, about 2 min on 2 cores
     ./run python demos/speed_accuracy.py --quick                  # coarse meshes, about 15 s (used by the tests)
     ./run python demos/speed_accuracy.py --figures demos/figures  # also copy the PNG and MD for the README
 
