@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--ranks", type=int, nargs="+", default=[2], help="parallel rank counts (default 2)")
     p.add_argument("--repeat", type=int, default=1, help="alternating repeats; the fastest run is kept")
     p.add_argument("--out", type=Path, default=Path("results/mpi_speedup"))
-    p.add_argument("--figures", type=Path, help="also copy mpi_speedup.md into this folder")
+    p.add_argument("--figures", type=Path, help="also copy mpi_speedup.md and .png into this folder")
     args = p.parse_args(argv)
     if args.scene is not None:
         base, name = tomllib.loads(args.scene.read_text()), args.scene.stem
@@ -113,8 +113,34 @@ def main(argv: list[str] | None = None) -> int:
           f"after ({os.cpu_count()} CPUs: other jobs on the machine make the ratio unreliable); fastest of "
           f"{args.repeat} alternating run(s) per rank count; benchmark wall time {elapsed:.0f} s.\n\n"
           + "\n".join(lines) + "\n\n" + "\n".join(f"- {v}" for v in verdict) + "\n")
-    write_outputs(args.out, "mpi_speedup", rows, md, figures=args.figures)
+    title = f"MPI speed-up: {name}, t/{args.ett}, P{args.degree}, {serial['dofs']} dofs"
+    write_outputs(args.out, "mpi_speedup", rows, md, plot=lambda path: plot(rows, title, path), figures=args.figures)
     return 0
+
+
+def plot(rows: list[dict], title: str, path: Path) -> None:
+    """Wall time per phase (stacked bars) for each rank count, with the speed-up over serial on each bar."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    labels = [f"{r['ranks']} rank{'s' if r['ranks'] > 1 else ''}" for r in rows]
+    bottom = [0.0] * len(rows)
+    for ph in PHASES:
+        times = [r["time_" + ph.replace(" ", "_") + "_s"] for r in rows]
+        ax.bar(labels, times, bottom=bottom, label=ph)
+        bottom = [b + t for b, t in zip(bottom, times)]
+    for x, (r, top) in enumerate(zip(rows, bottom)):
+        ax.annotate(f"x{r['speedup']:.2f}", (x, top), ha="center", va="bottom")
+    ax.set_ylim(0, 1.1 * max(bottom))
+    ax.set_ylabel("wall time (s)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 if __name__ == "__main__":
