@@ -42,6 +42,9 @@ failure is the Newton method's own evidence.
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
 iteration that keeps wandering into mechanisms stops early, as such a failure, instead of spending its iterations.
+With a plastic fill a trial more than the width above ``lower`` gets ``PLASTIC_BUDGET`` times the Newton iterations
+of the hardest converged step (Prestwood: converged steps take 4-23 iterations, failed ones used 40-60 without
+recovering); trials that can close the bracket keep ``max_iterations``.
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -99,6 +102,8 @@ MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at mo
 RAMP_RATIO = 0.5  # a cohesion-continuation step keeps this fraction of the cohesion's excess over the scene's
 RAMP_STEPS = 7  # steps with a raised cohesion (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
 RAMP_HALVINGS = 6  # failed cohesion-continuation steps halved at most this many times in all
+PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
+# iterations of the hardest converged step (a diverging plastic Newton iteration does not recover)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -169,9 +174,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
 
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
-                give_up: bool = False) -> StepOutcome:
+                give_up: bool = False, iterations: int | None = None) -> StepOutcome:
         t0 = time.perf_counter()
-        out = solver.solve_step(level, start, predictor, give_up)
+        out = solver.solve_step(level, start, predictor, give_up, iterations)
         reached = deflection(out.iterate) if out.converged else None
         if reached is not None and k_initial < math.inf:
             rise = reached - deflection(start)
@@ -220,6 +225,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     soft = math.inf  # lowest failed level above lower
     retry = False  # the next trial retries the soft bound
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
+    hardest = first.iterations  # Newton iterations of the hardest converged step
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
@@ -236,8 +242,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         trial = min(trial, max_load)
         predict = trial - lower > width and history and history[-1][0] > 0  # two live-load states, not closing
         predictor = _secant(history[-1], lower, state, trial) if predict else None
-        out = attempt(trial, state, lower, predictor, give_up=True)
+        budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
+        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
         if out.converged:
+            hardest = max(hardest, out.iterations)
             history.append((lower, state, taken))
             taken, arrived = trial - lower, lower < target <= trial
             lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False

@@ -468,7 +468,7 @@ class ContactSolver:
         return damped, base._replace(pending=keep)
 
     def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
-                   give_up: bool = False) -> StepOutcome:
+                   give_up: bool = False, iterations: int | None = None) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
@@ -477,7 +477,8 @@ class ContactSolver:
         the failure reported. A diverging mode that proves collapse ends the step at once (the module's
         *Mechanism verdicts*). With ``give_up`` (the caller can retry a
         smaller step), a failure after ``DAMPING_CHAINS`` recovered chains ends the step at once, as
-        non-convergence, and so does a cycle.
+        non-convergence, and so does a cycle. ``iterations``: this step's Newton iteration budget (default
+        ``max_iterations``).
 
         ``predictor``: an estimate of the solution at ``level`` (combined vector); the first active set solved
         is its classification against ``start`` (the module's *Predictor*).
@@ -505,7 +506,8 @@ class ContactSolver:
         if predicted is not None:  # no solved active set yet: a failure proves nothing
             base, active = predicted, predicted.proposal
             seen.add(self._global_key(active))
-        for it in range(1, self.max_iterations + 1):
+        budget = self.max_iterations if iterations is None else min(iterations, self.max_iterations)
+        for it in range(1, budget + 1):
             failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
                 if failure.proof:
@@ -585,11 +587,9 @@ class ContactSolver:
             active = new
         if self.material is not None and residual > 1.0:
             return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied nodal "
-                                      f"force after {self.max_iterations} iterations", self.max_iterations, residual,
-                               factorisations())
-        return StepOutcome(False, f"max iterations ({self.max_iterations}) reached with the active set still "
-                                  "changing", self.max_iterations, residual,
-                           factorisations())
+                                      f"force after {budget} iterations", budget, residual, factorisations())
+        return StepOutcome(False, f"max iterations ({budget}) reached with the active set still changing", budget,
+                           residual, factorisations())
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
