@@ -26,7 +26,7 @@ from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offs
 from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
-from .model import ElasticModel, build_elastic_model
+from .model import ElasticModel, build_elastic_model, node_blocks
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
 from .rigid_block import LPResult, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
@@ -184,9 +184,7 @@ def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
     facets = bm.facet_tags.indices[bm.facet_tags.values == EXTRADOS_TAG]
     nodes = fem.locate_dofs_topological(V, 1, facets)
     nodes = nodes[nodes < n_owned]
-    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
-    node_block = np.full(n_owned + imap.num_ghosts, -1)
-    node_block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
+    node_block = node_blocks(V, bm)
     coords = V.tabulate_dof_coordinates()[:, :2]
     table = np.vstack(comm.allgather(np.column_stack([imap.local_to_global(nodes.astype(np.int32)), coords[nodes],
                                                       node_block[nodes]])))

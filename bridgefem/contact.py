@@ -25,12 +25,11 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
-from dolfinx.mesh import meshtags
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
 from .geometry import ArchRing
-from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag
+from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag, marked
 
 OPEN, STICK, SLIP = 0, 1, 2
 STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
@@ -64,12 +63,9 @@ class JointPairs:
 def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
     """Integral of each basis function over the joint faces: the tributary length per blocked dof (m).
 
-    The faces are marked 1 in a tag of their own, so that the form does not depend on which tags (how many
+    The faces are marked 1 in a tag of their own (:func:`bridgefem.mesh.marked`), so that the form does not depend on which tags (how many
     voussoirs) are integrated over: compiled once, not per joint layout."""
-    ft = bm.facet_tags
-    faces = ft.indices[np.isin(ft.values, tags)]
-    ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=meshtags(bm.mesh, ft.dim, faces,
-                                                                   np.ones(len(faces), dtype=np.int32)))
+    ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=marked(bm.mesh, bm.facet_tags, tags))
     v = ufl.TestFunction(V)
     vec = assemble_vector(fem.form(v[0] * ds(1)))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)

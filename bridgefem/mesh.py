@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import cpp as _cpp
-from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags_from_entities
+from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_from_entities
 from mpi4py import MPI
 
 from .geometry import Abutment, ArchRing, FillOutline
@@ -39,6 +39,13 @@ BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_
 def joint_face_tag(joint: int, side: int) -> int:
     """Facet tag of a joint face: side 0 = the joint's left block, 1 = its right block."""
     return 2 * joint + side
+
+
+def marked(mesh: Mesh, tags: MeshTagsMetaClass, values) -> MeshTagsMetaClass:
+    """The entities of ``tags`` (on ``mesh``) whose tag is one of ``values``, all tagged 1: a form integrating over tag 1 is
+    then the same (compiled once) whatever the values, e.g. however many voussoirs there are."""
+    entities = tags.indices[np.isin(tags.values, values)]
+    return meshtags(mesh, tags.dim, entities, np.ones(len(entities), dtype=np.int32))
 
 
 @dataclass

@@ -11,12 +11,11 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
-from dolfinx.mesh import meshtags
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from .geometry import ArchRing
-from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh
+from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 from .scene import Scene
 
 POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the load
@@ -74,6 +73,16 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
     return q
 
 
+def node_blocks(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
+    """The block (cell tag: voussoir, abutment or fill) of each local node of V, owned then ghost (-1: none).
+    Nodes are duplicated at the joints, so each belongs to one block."""
+    imap = V.dofmap.index_map
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    block = np.full(imap.size_local + imap.num_ghosts, -1)
+    block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
+    return block
+
+
 def fill_supports(V: fem.FunctionSpace, bm: BlockMesh) -> list[fem.DirichletBCMetaClass]:
     """The fill's supports: its base fixed, its vertical ends on rollers (u_x = 0); none without fill."""
     if bm.fill_block is None:
@@ -120,10 +129,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
         """Weight (N) of the cells with these tags (marked 1 in a tag of their own: one form for any blocks)."""
         if not blocks:
             return 0.0
-        ct = bm.cell_tags
-        cells = ct.indices[np.isin(ct.values, blocks)]
-        dx = ufl.Measure("dx", domain=mesh, subdomain_data=meshtags(mesh, ct.dim, cells,
-                                                                    np.ones(len(cells), dtype=np.int32)))
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=marked(mesh, bm.cell_tags, blocks))
         return comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(1))))
 
     dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * ufl.dx)))

@@ -111,7 +111,8 @@ CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that ro
 class LoadStep:
     """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load;
     ``movement`` the fraction of the imposed support movement applied; ``cohesion`` the fill's raised cohesion (Pa)
-    in a step of the self-weight's cohesion continuation (None: the scene's)."""
+    in a step of the self-weight's cohesion continuation (None: the scene's); ``mechanism``: a failed step that showed
+    no equilibrium (:class:`bridgefem.solver.StepOutcome`; a flat load-deflection curve counts)."""
 
     index: int
     level: float
@@ -125,6 +126,7 @@ class LoadStep:
     seconds: float
     movement: float = 0.0
     cohesion: float | None = None
+    mechanism: bool = False
 
 
 @dataclass
@@ -188,7 +190,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                            mechanism=True), None
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
-                        _raised_cohesion(solver))
+                        _raised_cohesion(solver), out.mechanism)
         steps.append(step)
         report(step)
         return out

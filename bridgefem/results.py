@@ -19,6 +19,7 @@ from petsc4py import PETSc
 
 from .analysis import Analysis, springing_reactions, transmitted_load_check
 from .contact import OPEN, SLIP
+from .model import node_blocks
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
 
@@ -231,11 +232,7 @@ def _voussoir_motion(an: Analysis) -> np.ndarray:
     V, bm = an.model.V, an.block_mesh
     n_owned = V.dofmap.index_map.size_local
     n_blocks = an.ring.n_blocks + (an.block_mesh.fill_block is not None)  # the same on every rank
-    node_block = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1)
-    cells = bm.cell_tags.indices
-    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
-    node_block[dofs[cells].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
-    blk = node_block[:n_owned]
+    blk = node_blocks(V, bm)[:n_owned]
     x = V.tabulate_dof_coordinates()[:n_owned, :2]
     u = an.search.last.x.array[:2 * n_owned].reshape(-1, 2)
     comm = V.mesh.comm

@@ -349,13 +349,13 @@ class ContactSolver:
 
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
                       origin: PETSc.Vec):
-        """Solve the linear system of an active set into x; returns None or (failure message, is mechanism). A
+        """Solve the linear system of an active set into x; returns None or the :class:`_Failure`. A
         displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
         converged start) is admissible (:meth:`_verdict`)."""
         self._rhs(level, active, slip_ref)
         failure = self._solve(active, x)
         if failure is not None:
-            return _Failure(*failure)
+            return failure
         u_max = self._norm_inf(x.array[:self.n_u])
         if not np.isfinite(self.u_cap) and u_max > 0:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
@@ -417,7 +417,7 @@ class ContactSolver:
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
-        active set or the fill's tangent changed); returns None or (failure message, is mechanism)."""
+        active set or the fill's tangent changed); returns None or the :class:`_Failure`."""
         key = active.key()
         if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
             self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
@@ -430,7 +430,7 @@ class ContactSolver:
             self.ksp.solve(self.b, x)
         except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
             self._matrix_key = None
-            return f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False
+            return _Failure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
         finally:
             self.stats["time_factorise_solve"] += time.perf_counter() - t0
             self.stats["solves"] += 1
@@ -439,7 +439,7 @@ class ContactSolver:
             self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
             return _linear_failure(self.ksp, reason)
         if self._any(not np.all(np.isfinite(x.array))):
-            return "NaN in the solution", False
+            return _Failure("NaN in the solution", False)
         return None
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
@@ -533,9 +533,8 @@ class ContactSolver:
                 continue
             recovered, damping, predicted = recovered + damping, False, None
             _, lam, d = self.split(x)
-            new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
-            _stick(new, frozen)
-            pending = (new.state != active.state) | (new.sign != active.sign)
+            proposal = self._propose(active, lam, d, slip_ref, frozen)
+            new, pending = proposal.proposal, proposal.pending
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             if self.material is not None:
                 f_int, plastic = self._linearise(x, start.plastic_strain)
@@ -563,16 +562,15 @@ class ContactSolver:
                 if fix is not None and self._global_key(fix) not in seen:
                     # back to a set whose diverging mode was inadmissible: its repair instead
                     seen.add(self._global_key(fix))
-                    base = _Proposal(active, fix, (fix.state != active.state) | (fix.sign != active.sign), violation)
+                    base = _Proposal(active, fix, _changes(fix, active), proposal.violation)
                     active = fix
                     continue
                 if singular is not None:
-                    return StepOutcome(False, f"{singular[0]}; confirmed: damped iterations return to it", it,
+                    return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
                 flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
-                    damped = self._damp(_Proposal(active, new, pending, violation)) \
-                        if recovered < chains else None
+                    damped = self._damp(proposal) if recovered < chains else None
                     if damped is None:
                         return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
                                            factorisations())
@@ -583,8 +581,7 @@ class ContactSolver:
                 _stick(new, frozen)
                 gkey = self._global_key(new)
             seen.add(gkey)
-            base = _Proposal(active, new, pending, violation)
-            active = new
+            base, active = proposal, new
         if self.material is not None and residual > 1.0:
             return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied nodal "
                                       f"force after {budget} iterations", budget, residual, factorisations())
@@ -607,10 +604,16 @@ class ContactSolver:
         """The active set an estimate of the solution proposes from the converged ``active``, as a proposal whose
         good set is ``active``; None when it proposes no change."""
         _, lam, d = self.split(predictor)
+        proposal = self._propose(active, lam, d, slip_ref, frozen)
+        return proposal if self._any(proposal.pending.any()) else None
+
+    def _propose(self, active: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
+                 frozen: np.ndarray) -> "_Proposal":
+        """The active set the Alart-Curnier functions propose from ``active`` for multipliers ``lam`` and relative
+        displacements ``d`` (frozen pairs kept sticking), with the changed pairs and their violations."""
         new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
         _stick(new, frozen)
-        pending = (new.state != active.state) | (new.sign != active.sign)
-        return _Proposal(active, new, pending, violation) if self._any(pending.any()) else None
+        return _Proposal(active, new, _changes(new, active), violation)
 
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
@@ -647,8 +650,13 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
     active.state[fix], active.sign[fix] = STICK, 0
 
 
-def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:
-    """Describe a failed linear solve; the flag says whether it proves a singular system (a mechanism)."""
+def _changes(new: ContactState, old: ContactState) -> np.ndarray:
+    """Local pairs whose state or slip sign differs between two active sets."""
+    return (new.state != old.state) | (new.sign != old.sign)
+
+
+def _linear_failure(ksp: PETSc.KSP, reason: int) -> _Failure:
+    """Describe a failed linear solve; a mechanism only when it proves a singular system."""
     names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
     pc = ksp.getPC()
     text = f"linear solver failed: {names.get(reason, reason)}"
@@ -657,5 +665,5 @@ def _linear_failure(ksp: PETSc.KSP, reason: int) -> tuple[str, bool]:
         singular = infog == -10
         detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
                   "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
-        return f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular
-    return f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False
+        return _Failure(f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular)
+    return _Failure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)

@@ -165,8 +165,9 @@ def test_large_spreading_keeps_the_limit_load():
     assert an.search.status == LIMIT_FOUND, an.search.failure
     assert an.search.lower == pytest.approx(before.search.lower, rel=1e-4)
     assert an.search.upper == pytest.approx(before.search.upper, rel=1e-4)
-    early = [st.level for st in an.search.steps if not st.converged and st.level < before.search.lower
-             and "no equilibrium: mechanism" in st.reason and not st.reason.startswith("no convergence")]
+    ref = lp({})  # rigid-block theory: a small support movement leaves the collapse load unchanged
+    assert an.search.lower <= ref.load * (1 + FE_LP_REL) and an.search.upper >= ref.load * (1 - FE_LP_REL)
+    early = [st.level for st in an.search.steps if st.mechanism and st.level < before.search.lower]
     assert not early, early
 
 
