@@ -4,9 +4,11 @@ Also reads the collapse mechanism off the last converged state: per joint the re
 compression positive), shear V (N), eccentricity e (m, from the joint centre, positive towards the extrados)
 and the open part of its length. A *hinge* is a cracked joint (open over at least half its length, or with
 its thrust within 1 % of the length from a face: with one element through the thickness a joint has only two
-pairs) whose |e| is the largest of its run of consecutive such joints (the thrust line touches the ring there); it sits at the
-intrados when e < 0 and at the extrados when e > 0 (for an abutment's base: at its inner and outer edge); a run
-only continues through joints that share a block. A *sliding* joint has every closed pair slipping one way.
+pairs) whose |e| is the largest of its run of consecutive such joints (the thrust line touches the ring there;
+|e| that agree within ``HINGE_TIE`` of the length, e.g. thrusts on the edge pair, tie and the largest opening
+wins, not rounding); it sits at the intrados when e < 0 and at the extrados when e > 0 (for an abutment's base: at
+its inner and outer edge); a run only continues through joints that share a block. A *sliding* joint has every
+closed pair slipping one way.
 
 With a fill, the forces the fill exerts on the ring across the arch-fill interface (:func:`interface_forces`) load
 the ring's rigid-block LP in :func:`transmitted_load_check`: the ring under the loads the fill transmits.
@@ -34,18 +36,21 @@ from .solver import ContactSolver, Iterate
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
 HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
+HINGE_TIE = 1e-6  # eccentricities (fraction of the length) that agree this closely tie; the largest opening wins
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
 
 
 @dataclass
 class JointState:
-    """Resultants and state of one joint at the last converged step (forces in N, lengths in m)."""
+    """Resultants and state of one joint at the last converged step (forces in N, lengths in m); ``opening``: the
+    largest normal gap of its pairs (m, 0 when closed)."""
 
     id: int
     normal_force: float
     shear_force: float
     eccentricity: float
     open_fraction: float
+    opening: float
     sliding: int
     hinge: str = ""
 
@@ -141,20 +146,22 @@ def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np
 
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
     """Per-joint resultants, hinges and sliding at a converged iterate (identical on every rank)."""
-    _, lam, _ = solver.split(it.x)
-    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign])
+    _, lam, d = solver.split(it.x)
+    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign,
+                             d[:, 0]])
     table = np.vstack(solver.comm.allgather(local))
     states = []
     for jt in (j for j in ring.joints if not j.free):
         rows = table[table[:, 0] == jt.id]
-        lam_n, lam_t, pos, length, st, sign = rows[:, 1], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6]
+        lam_n, lam_t, pos, length, st, sign, gap = rows[:, 1:8].T
         n_force = lam_n.sum()
         ecc = float((lam_n * (pos - jt.length / 2)).sum() / n_force) if n_force > 0 else 0.0
         closed = st != OPEN
         slip_signs = set(sign[closed & (st == SLIP)])
         sliding = int(slip_signs.pop()) if closed.any() and np.all(st[closed] == SLIP) and len(slip_signs) == 1 else 0
         states.append(JointState(jt.id, float(n_force), float(lam_t.sum()), ecc,
-                                 float(length[~closed].sum() / length.sum()), sliding))
+                                 float(length[~closed].sum() / length.sum()), float(gap[~closed].max(initial=0.0)),
+                                 sliding))
     _mark_hinges(states, ring)
     return states
 
@@ -278,6 +285,7 @@ def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
             run.append(s)
             continue
         if run:
-            best = max(run, key=lambda r: abs(r.eccentricity) / ring.joints[r.id].length)
+            best = max(run, key=lambda r: (round(abs(r.eccentricity) / ring.joints[r.id].length / HINGE_TIE),
+                                           r.opening))
             best.hinge = "extrados" if best.eccentricity > 0 else "intrados"
         run = [s] if c else []

@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from .geometry import ArchRing
 from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag, marked
+from .model import node_blocks
 
 OPEN, STICK, SLIP = 0, 1, 2
 STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
@@ -73,11 +74,12 @@ def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
 
 
 def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
-    """Rows (tag, global blocked node, x, y, tributary length) of the owned nodes on each facet tag, gathered
-    from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
+    """Rows (tag, global blocked node, x, y, tributary length, block) of the owned nodes on each facet tag,
+    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
     comm = bm.mesh.comm
     imap = V.dofmap.index_map
     weights = _tributary_lengths(V, bm, tags)
+    blocks = node_blocks(V, bm)
     coords = V.tabulate_dof_coordinates()[:, :2]
     rows = []
     for tag in tags:
@@ -85,14 +87,17 @@ def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
         nodes = fem.locate_dofs_topological(V, 1, facets)
         nodes = nodes[nodes < imap.size_local]
         g = imap.local_to_global(nodes.astype(np.int32))
-        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes]]))
-    return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 5))))
+        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes], blocks[nodes]]))
+    return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 6))))
 
 
 def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:
     """Pairs of the arch-fill interface: each fill node on the extrados (except those on the fixed base) with
     the ring node at its place. At a joint's extrados corner two voussoir faces meet: the fill node is paired
-    with one of them (lower global index), since pairing both would over-constrain a closed joint. Normal from
+    with one of them, since pairing both would over-constrain a closed joint: the voussoir with the lower block
+    number (the one on the left of the joint), a choice of the geometry, not of the node numbering, which differs
+    between partitions (pairing by the lower global index made the fill ride on different voussoirs under MPI
+    once a joint opened). Normal from
     the ring into the fill, from the neighbouring interface nodes (central differences)."""
     table = _gather_face_nodes(V, bm, [EXTRADOS_TAG, FILL_INTERFACE_TAG, FILL_BASE_TAG])
     ring_rows = table[table[:, 0] == EXTRADOS_TAG]
@@ -102,7 +107,9 @@ def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> d
     dist, idx = cKDTree(ring_rows[:, 2:4]).query(fill_rows[:, 2:4], k=2)
     if np.any(dist[:, 0] > match_tol):
         raise RuntimeError("arch-fill interface: fill nodes without a ring node at their place")
-    ring_node = np.where(dist <= match_tol, ring_rows[idx, 1], np.inf).min(axis=1)
+    near = dist <= match_tol
+    left = np.argmin(np.where(near, ring_rows[idx, 5], np.inf), axis=1)  # the voussoir on the joint's left
+    ring_node = ring_rows[idx[np.arange(len(idx)), left], 1]
     x = fill_rows[:, 2:4]
     tangent = np.gradient(x, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1)[:, None]

@@ -60,7 +60,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
                     **({"normal_force": js.normal_force, "shear_force": js.shear_force,
                         "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
-                        "hinge": js.hinge, "sliding": js.sliding} if js else {})}
+                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding} if js else {})}
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
