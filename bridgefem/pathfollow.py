@@ -58,12 +58,13 @@ keeping ``RAMP_RATIO`` of the excess, the excess dropped after ``RAMP_STEPS`` st
 most ``RAMP_HALVINGS`` times in all), every step solved from the last converged state. Scenes whose one-step
 self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion counts as
 "unstable under self-weight" (a weaker fill carries no more); any other failure is a solver failure
-that names the cohesion it failed at. A cohesionless fill needs it: with c = 0 (and no tension) the fill, the joints'
-Coulomb friction and elasticity are all positively homogeneous in the loads, so a fraction of the self-weight
-from the unloaded state is the same problem scaled and fails alike; the active-set Newton method diverges there
-because nearly the whole fill yields at once while the arch-fill interface starts to slide. A raised cohesion
-at the whole self-weight is what a self-weight fraction is for a cohesive fill (stresses scale with the load,
-so the weight g with cohesion c is the weight 1 with cohesion c / g).
+that names the cohesion it failed at. With the line search of the plastic Newton iteration (:mod:`bridgefem.solver`)
+the cohesionless scenes tried (the tests' reference arch, Prestwood with c = 0) converge in one step; the
+continuation is the fallback for a fill whose one-step self-weight does not (tested on its own). A fraction of the
+self-weight would not help there: with c = 0 (and no tension) the fill, the joints' Coulomb friction and elasticity
+are all positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
+problem scaled and fails alike. A raised cohesion at the whole self-weight is what a self-weight fraction is for a
+cohesive fill (stresses scale with the load, so the weight g with cohesion c is the weight 1 with cohesion c / g).
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,

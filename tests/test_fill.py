@@ -15,7 +15,7 @@ from petsc4py import PETSc
 from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.mesh import FILL_BASE_TAG
 from bridgefem.model import cell_constant, lame, strain
-from bridgefem.pathfollow import LIMIT_FOUND
+from bridgefem.pathfollow import LIMIT_FOUND, _settle_self_weight
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
@@ -81,39 +81,68 @@ def test_total_vertical_reaction_equals_total_weight(settled):
     assert an.model.fill_weight == pytest.approx(fill * scene.arch.width, rel=1e-3)
 
 
-@pytest.fixture(scope="module")
-def cohesionless():
+SELF_WEIGHT_PATHS = ["one step", "cohesion continuation"]
+
+
+@functools.cache
+def cohesionless_analysis():
     """The reference arch under a wide cohesionless Mohr-Coulomb fill (phi 30 degrees, c = 0), self-weight only."""
     wide = {**FILL, "extension": 12.0, "material": "mohr-coulomb", "friction_angle": 30.0, "cohesion": 0.0}
     scene = scene_from_dict({k: v for k, v in scene_dict(fill=wide).items() if k != "load"})
-    an = run_analysis(scene)
+    return scene, run_analysis(scene)
+
+
+@pytest.fixture(scope="module", params=SELF_WEIGHT_PATHS)
+def cohesionless(request):
+    """The cohesionless fill's converged self-weight state, reached in one step (the search: with the plastic
+    Newton line search it converges) or by the search's fallback, the cohesion continuation from the unloaded
+    state (pathfollow._settle_self_weight, run on the same solver): the scene, analysis, state, the joints'
+    resultants, the converged stress [sxx, syy, sxy] at the P1 points and its quadrature measure."""
+    scene, an = cohesionless_analysis()
+    state = an.search.last
+    if request.param == "cohesion continuation":
+        state = _settle_self_weight(an.solver, lambda level, start: an.solver.solve_step(level, start)).iterate
     fill = an.solver.material
-    fill.evaluate(an.search.last.x.array[:an.solver.n_u], an.search.last.plastic_strain, tangent=False)
+    fill.evaluate(state.x.array[:an.solver.n_u], state.plastic_strain, tangent=False)
     dxq = ufl.Measure("dx", domain=an.block_mesh.mesh, metadata={"quadrature_degree": 1,
                                                                    "quadrature_scheme": "default"})
-    return scene, an, fill.stress, dxq  # fill.stress: the converged stress [sxx, syy, sxy] at the P1 points
+    return scene, an, state, joint_states(an.solver, an.pairs, an.ring, state), fill.stress.copy(), dxq
 
 
-def test_cohesionless_fill_carries_its_self_weight_by_cohesion_continuation(cohesionless):
-    """A cohesionless fill yields almost everywhere under its own weight and the arch-fill interface slides: the
-    one-step self-weight diverges without a mechanism, so the self-weight is reached with the fill's cohesion raised
-    and lowered back to 0 (pathfollow); the state reported is at the scene's cohesion, with a plastic fill."""
-    _, an, _, _ = cohesionless
+def test_cohesionless_fill_carries_its_self_weight():
+    """The search settles the self-weight of a cohesionless fill at the scene's cohesion, with a plastic fill."""
+    _, an = cohesionless_analysis()
     s = an.search
     assert s.status == "stable under self-weight", s.status
-    assert not s.steps[0].converged and s.steps[0].cohesion is None
-    raised = [st.cohesion for st in s.steps[1:-1]]
-    assert all(c is not None and c > 0 for c in raised) and raised == sorted(raised, reverse=True)
     assert s.steps[-1].converged and s.steps[-1].cohesion is None and s.steps[-1].level == 0.0
     assert an.solver.material.material.cohesion == 0.0
     assert np.abs(s.last.plastic_strain).max() > 0
+
+
+def test_cohesion_continuation_lowers_the_cohesion_to_the_scenes():
+    """The fallback for a self-weight that fails in one step: the whole self-weight with the fill's cohesion
+    raised to its overburden stress, then lowered in decreasing steps back to the scene's 0; the last step is
+    at the scene's cohesion and has converged (its equilibrium: the reaction and overburden tests, parametrised)."""
+    _, an = cohesionless_analysis()
+    fill = an.solver.material
+    tried = []
+
+    def attempt(level, start):
+        tried.append(fill.material.cohesion)
+        return an.solver.solve_step(level, start)
+
+    out = _settle_self_weight(an.solver, attempt)
+    assert out.converged, out.reason
+    assert tried[0] == pytest.approx(fill.overburden) and tried[-1] == 0.0
+    assert tried == sorted(tried, reverse=True) and len(tried) > 2
+    assert fill.material.cohesion == 0.0 and np.abs(out.iterate.plastic_strain).max() > 0
 
 
 def test_cohesionless_fill_reactions_equal_total_weight(cohesionless):
     """Reactions of the fixed fill base (from the converged elastic-plastic stresses) plus the springings' ground
     forces = ring + fill weight (hand values as in test_total_vertical_reaction_equals_total_weight); 1e-3: the
     chord error of the curved faces."""
-    scene, an, stress, dxq = cohesionless
+    scene, an, _, joints, stress, dxq = cohesionless
     v = ufl.TestFunction(an.model.V)
     rho_g = cell_constant(an.block_mesh, scene.masonry.density * scene.gravity, scene.fill.unit_weight)
     voigt = ufl.as_vector([strain(v)[0, 0], strain(v)[1, 1], 2 * strain(v)[0, 1]])
@@ -123,7 +152,7 @@ def test_cohesionless_fill_reactions_equal_total_weight(cohesionless):
     dofs, owned = an.model.bcs[0].dof_indices()
     dofs = dofs[:owned]
     fill_base = MPI.COMM_WORLD.allreduce(residual.array[dofs[dofs % 2 == 1]].sum())
-    springings = springing_reactions(an.joints, an.ring)[:, 1].sum()
+    springings = springing_reactions(joints, an.ring)[:, 1].sum()
     r_out = scene.arch.span / 2 + scene.arch.thickness
     ring = scene.masonry.density * scene.gravity * np.pi / 2 * (r_out ** 2 - (scene.arch.span / 2) ** 2)
     fill = scene.fill.unit_weight * (2 * (r_out + scene.fill.extension) * (r_out + scene.fill.depth)
@@ -135,7 +164,7 @@ def test_cohesionless_fill_vertical_stress_is_overburden_far_from_the_arch(cohes
     """In the outer 0.5 m of the fill (11.5 m from the arch, a column on rollers) sigma_yy = -gamma x depth: the
     mean over that column at the quadrature points against the same mean of the hand value; 3 % as for the
     elastic fill."""
-    scene, an, stress, dxq = cohesionless
+    scene, an, _, _, stress, dxq = cohesionless
     x = ufl.SpatialCoordinate(an.block_mesh.mesh)
     x_left = -scene.arch.span / 2 - scene.arch.thickness - scene.fill.extension
     near_end = ufl.conditional(ufl.lt(x[0], x_left + 0.5), 1.0, 0.0)
