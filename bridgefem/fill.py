@@ -31,11 +31,14 @@ APEX_STIFFNESS = 1e-6  # fraction of the elastic matrix kept in the tangent (poi
 
 @dataclass
 class FillResponse:
-    """Internal force (owned entries, N), the trial plastic strain (n, 4) and, when the tangent was asked for,
-    its CSR values and the right-hand side correction ``K_t u - f_int`` (owned, N)."""
+    """The fill at owned displacements ``u`` (m): internal force (owned entries, N), the trial plastic strain
+    (n, 4), the consistent tangent moduli at the fill's points (n, 3, 3; Pa) and, once :meth:`PlasticFill.linearise`
+    has assembled it, the tangent's CSR values and the right-hand side correction ``K_t u - f_int`` (owned, N)."""
 
+    u: np.ndarray
     f_int: np.ndarray
     plastic_strain: np.ndarray
+    moduli: np.ndarray
     tangent_values: np.ndarray | None = None
     correction: np.ndarray | None = None
 
@@ -106,8 +109,8 @@ class PlasticFill:
         return np.zeros((int(self._fill.sum()), 4))
 
     def evaluate(self, u_owned: np.ndarray, plastic_strain: np.ndarray, tangent: bool = True) -> FillResponse:
-        """Stress and internal force at displacement ``u_owned`` (m) from the converged plastic strain, and the
-        tangent unless ``tangent`` is False."""
+        """Stress (into ``stress``) and internal force at displacement ``u_owned`` (m) from the converged plastic
+        strain, and the assembled tangent (:meth:`linearise`) unless ``tangent`` is False."""
         self.u.x.array[:self.n_owned] = u_owned
         self.u.x.scatter_forward()
         eps = self._strain.eval(self._cells).reshape(-1, 3)
@@ -119,15 +122,19 @@ class PlasticFill:
         f_int = assemble_vector(self._f_form)
         f_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         set_bc(f_int, self.bcs)
-        if not tangent:
-            return FillResponse(f_int.array.copy(), new_plastic)
+        response = FillResponse(u_owned.copy(), f_int.array.copy(), new_plastic, d_alg)
+        return self.linearise(response) if tangent else response
+
+    def linearise(self, response: FillResponse) -> FillResponse:
+        """The response with the consistent tangent K_t assembled at its displacements (CSR values, N/m) and the
+        right-hand side correction K_t u - f_int (owned, N)."""
         d = self._elastic.copy()
-        d[self._fill] = d_alg + self._apex
+        d[self._fill] = response.moduli + self._apex
         self.tangent.x.array.reshape(-1, 9)[self._dofs] = d.reshape(-1, 9)
         self.K.zeroEntries()
         assemble_matrix(self.K, self._k_form, bcs=self.bcs)
         self.K.assemble()
-        self._u_vec.array[:] = u_owned
+        self._u_vec.array[:] = response.u
         self.K.mult(self._u_vec, self._ku)
-        return FillResponse(f_int.array.copy(), new_plastic, self.K.getValuesCSR()[2].copy(),
-                            self._ku.array - f_int.array)
+        return replace(response, tangent_values=self.K.getValuesCSR()[2].copy(),
+                       correction=self._ku.array - response.f_int)

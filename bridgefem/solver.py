@@ -98,7 +98,7 @@ from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, class
                       complementarity_residual)
 
 if TYPE_CHECKING:
-    from .fill import PlasticFill
+    from .fill import FillResponse, PlasticFill
 
 PETSC_PREFIX = "bridgefem_"
 DEFAULT_PETSC_OPTIONS = {
@@ -331,12 +331,15 @@ class ContactSolver:
         return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)),
                        plastic)
 
-    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray, elastic: bool = False
-                   ) -> tuple[np.ndarray, np.ndarray]:
-        """Evaluate the fill at the displacements of x: the tangent (the elastic K if ``elastic``) goes into the
-        system matrix and K_t u - f_int into the right-hand side. Returns the internal force (owned, N) and the
-        trial plastic strain."""
-        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=not elastic)
+    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray, elastic: bool = False,
+                   response: "FillResponse | None" = None) -> tuple[np.ndarray, np.ndarray]:
+        """Evaluate the fill at the displacements of x (or take its ``response`` there, already evaluated): the
+        tangent (the elastic K if ``elastic``) goes into the system matrix and K_t u - f_int into the right-hand
+        side. Returns the internal force (owned, N) and the trial plastic strain."""
+        if response is None:
+            response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=not elastic)
+        elif not elastic:
+            response = self.material.linearise(response)
         if elastic:
             self._u_work.array[:] = x.array[:self.n_u]
             self._K.mult(self._u_work, self._ku)
@@ -549,14 +552,15 @@ class ContactSolver:
                 continue
             recovered, damping, predicted = recovered + damping, False, None
             if self.material is not None:  # the module's *Line search*
-                merit = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen, f_scale)
+                merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
+                                                    f_scale)
                 x.copy(anchor)
             _, lam, d = self.split(x)
             proposal = self._propose(active, lam, d, slip_ref, frozen)
             new, pending = proposal.proposal, proposal.pending
             changed = self.comm.allreduce(int(np.count_nonzero(pending)))
             if self.material is not None:
-                f_int, plastic = self._linearise(x, start.plastic_strain)
+                f_int, plastic = self._linearise(x, start.plastic_strain, response=accepted)
                 residual = self._material_residual(x, f_int, level, f_scale)
             else:
                 residual = self._equilibrium_residual(x, f_scale)
@@ -653,36 +657,37 @@ class ContactSolver:
         return self._norm_inf(out) / f_scale
 
     def _merit(self, level: float, x: PETSc.Vec, plastic_strain: np.ndarray, slip_ref: np.ndarray,
-               frozen: np.ndarray, f_scale: float) -> float:
+               frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
         """The line search's merit at x: the larger of the scaled out-of-balance force |f + G^T lam - f_int(u)|_inf
         / f_scale (the fill's return map at the displacements of x, from the step's converged ``plastic_strain``)
         and the scaled Alart-Curnier residual of the joints (friction law waived at ``frozen`` pairs), the two
-        residuals of the convergence test. Collective."""
-        f_int = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False).f_int
+        residuals of the convergence test; and the fill's response at x (no tangent). Collective."""
+        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
         _, lam, d = self.split(x)
         ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
         ncp[frozen, 1] = 0.0
-        return max(self._material_residual(x, f_int, level, f_scale), self._norm_inf(ncp.ravel()) / f_scale)
+        return max(self._material_residual(x, response.f_int, level, f_scale),
+                   self._norm_inf(ncp.ravel()) / f_scale), response
 
     def _line_search(self, level: float, x: PETSc.Vec, anchor: PETSc.Vec, merit: float, plastic_strain: np.ndarray,
-                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> float:
+                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
         """Backtrack the Newton step from ``anchor`` (the linearisation point, merit ``merit``) to the solution in
         x: x becomes anchor + a (x - anchor) for the first a = 1, 1/2, ... (at most ``LINE_SEARCH_HALVINGS``
         halvings) whose merit is at most (1 - ``ARMIJO`` a) ``merit``, or stays the full step when none is.
-        Returns the merit at the new x. Collective."""
+        Returns the merit and the fill's response at the new x (linearised there next). Collective."""
         x.copy(self._full)
         self._step.waxpy(-1.0, anchor, x)
         a = 1.0
-        value = full = self._merit(level, x, plastic_strain, slip_ref, frozen, f_scale)
+        value, response = full = self._merit(level, x, plastic_strain, slip_ref, frozen, f_scale)
         while value > (1.0 - ARMIJO * a) * merit and a > 0.5 ** LINE_SEARCH_HALVINGS:
             a *= 0.5
             anchor.copy(x)
             x.axpy(a, self._step)
-            value = self._merit(level, x, plastic_strain, slip_ref, frozen, f_scale)
+            value, response = self._merit(level, x, plastic_strain, slip_ref, frozen, f_scale)
         if value > (1.0 - ARMIJO * a) * merit:
             self._full.copy(x)
             return full
-        return value
+        return value, response
 
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
         self.A.mult(x, self.r)
