@@ -1,21 +1,284 @@
 """Scene files (TOML): read, validate and hold everything a run needs, in SI units.
 
-Every rejected value raises :class:`SceneError` naming the key, the value and what is allowed;
-the command line turns it into exit code 2 before anything is written.
+:data:`SCHEMA` is the one source of every scene key: its type, default, unit, allowed values and a one-line
+description. The dataclasses take their defaults from it, ``bridgefem check`` prints a scene resolved against it
+and docs/scene-keys.md is generated from it (:func:`keys_markdown`). To add a key: one :class:`Key` line in its
+section of :data:`SCHEMA` and a field of the same name in the section's dataclass (default
+``_default(section, key)``); a key that applies only with a given value of another key names it in ``only``.
+Then regenerate docs/scene-keys.md (``./run python -m bridgefem.scene > docs/scene-keys.md``).
+
+Every rejected value raises :class:`SceneError` naming the key, the value and what is allowed; the command line
+turns it into exit code 2 before anything is written.
 """
 from __future__ import annotations
 
 import math
+import os
+import re
+import stat
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from .geometry import SHAPES, make_shape
 
 
 class SceneError(ValueError):
     """A scene value that cannot be used; the message names key, value and what is allowed."""
+
+
+REQUIRED = object()  # a Key default: the key must be given
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scene key. ``default``: REQUIRED, a value, or None when the code derives it (``derived`` says how);
+    numbers must be finite and within ``low``..``high`` (``low_open``/``high_open``: the bound itself excluded);
+    ``choices``: the allowed values; ``only``: (key, value) of the same section without which this key is
+    refused (e.g. the Mohr-Coulomb keys of an elastic fill)."""
+
+    kind: type
+    doc: str
+    default: Any = REQUIRED
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    choices: tuple = ()
+    only: tuple[str, str] | None = None
+    derived: str = ""
+
+    def allowed(self) -> str:
+        """What is allowed, in words, e.g. "a positive number in m up to 1000"."""
+        if self.choices:
+            return " or ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in self.choices)
+        if self.kind is not int and self.kind is not float:
+            return {bool: "true or false", str: "a string", dict: "a table"}[self.kind]
+        noun = "integer" if self.kind is int else "number"
+        lo, hi = self.low, self.high
+        upper = "" if hi is None else f" {'below' if self.high_open else 'up to'} {hi:g}"
+        if lo == 0 and self.low_open:
+            text = f"a positive {noun}"
+        elif lo is not None and hi is not None and not (self.low_open or self.high_open):
+            text, upper = f"{'an' if noun == 'integer' else 'a'} {noun} from {lo:g} to {hi:g}", ""
+        elif lo is not None:
+            text = f"{'an' if noun == 'integer' else 'a'} {noun} {'>' if self.low_open else '>='} {lo:g}"
+            upper = upper and f" and {'<' if self.high_open else '<='} {hi:g}"
+        else:
+            text = f"{'an' if noun == 'integer' else 'a'} {noun}"
+        return text + (f" in {self.unit}" if self.unit else "") + upper
+
+    def check(self, where: str, value: Any) -> Any:
+        """The value, typed (an integer where a number is expected becomes a float), or SceneError."""
+        if self.kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, self.kind) or (self.kind is not bool and isinstance(value, bool)):
+            kind = {float: "number", int: "integer", str: "string", bool: "true or false", dict: "table"}[self.kind]
+            raise SceneError(f"{where} = {_show(value)}: expected {kind} ({self.allowed()})")
+        ok = True
+        if isinstance(value, float) and not math.isfinite(value):
+            ok = False
+        elif self.choices:
+            ok = value in self.choices
+        elif self.kind in (int, float):
+            ok = ((self.low is None or (value > self.low if self.low_open else value >= self.low))
+                  and (self.high is None or (value < self.high if self.high_open else value <= self.high)))
+        if not ok:
+            raise SceneError(f"{where} = {_show(value)}: allowed is {self.allowed()}")
+        return value
+
+
+def _show(value: Any, limit: int = 60) -> str:
+    """A value for a one-line message: its repr, cut to ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
+PRESETS: dict[str, dict[tuple[str, str], Any]] = {
+    "fast": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0005},
+    "default": {("mesh", "elements_through_thickness"): 4, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0001},
+    "accurate": {("mesh", "elements_through_thickness"): 8, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0001},
+}
+"""Speed-accuracy presets (``[solver] preset``): the mesh and bracket settings they imply, all three on the Pareto
+front measured by ``demos/speed_accuracy.py`` (README, "Speed and accuracy"): ``fast`` the most accurate within
+the cost of the cheapest run, ``default`` the cheapest within a worst error bound of 0.05 %, ``accurate`` within
+0.02 %. The ``default`` preset is the source of these keys' defaults; a key given in the scene overrides its
+preset value."""
+
+FILL_MATERIALS = ("elastic", "mohr-coulomb")
+ABUTMENT_MODELS = ("rigid", "elastic")
+MOVING_SPRINGINGS = ("left", "right", "both")
+MAX_LENGTH = 1000.0  # m: no masonry arch, fill or abutment is larger
+MAX_LOADS = 100  # [[load]] tables in one scene
+MAX_NAME = 100  # characters of a scene name (a file name)
+MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
+_MC = ("material", "mohr-coulomb")
+_ELASTIC = ("model", "elastic")
+
+
+def _length(doc: str, default: Any = REQUIRED, **kw) -> Key:
+    return Key(float, doc, default, "m", low=0.0, low_open=True, high=MAX_LENGTH, **kw)
+
+
+def _modulus(doc: str, default: Any = REQUIRED, **kw) -> Key:
+    return Key(float, doc, default, "Pa", low=1e3, high=1e13, **kw)
+
+
+def _poisson(doc: str, default: Any, **kw) -> Key:
+    return Key(float, doc, default, low=0.0, high=0.5, high_open=True, **kw)
+
+
+def _coefficient(doc: str, default: Any = REQUIRED, **kw) -> Key:
+    return Key(float, doc, default, low=0.0, high=1e4, **kw)
+
+
+def _preset(section: str, key: str) -> Any:
+    return PRESETS["default"][(section, key)]
+
+
+SCHEMA: dict[str, dict[str, Key]] = {
+    "scene": {
+        "name": Key(str, "output folder results/<name>/; a file name, not a path", None,
+                    derived="the scene file's name without .toml"),
+        "gravity": Key(float, "acceleration of gravity", 9.81, "m/s^2", low=0.0, low_open=True, high=100.0),
+    },
+    "arch": {
+        "shape": Key(str, "shape of the intrados", choices=SHAPES),
+        "span": _length("clear span between the springings, on the intrados"),
+        "rise": _length("intrados rise (semicircular: span/2; segmental <= span/2; pointed >= span/2; "
+                        "elliptical and parabolic <= 2 span)", None, derived="span/2 (semicircular only)"),
+        "thickness": _length("ring thickness normal to the centreline (< span)"),
+        "width": _length("out-of-plane width; loads and results are for this width", 1.0),
+        "voussoirs": Key(int, "voussoirs; joints perpendicular to the centreline, evenly spaced along it", low=2,
+                         high=4096),
+        "joint_at_loads": Key(bool, "move the nearest joint under each point load and patch edge", True),
+    },
+    "masonry": {
+        "young": _modulus("Young's modulus of the voussoirs"),
+        "poisson": _poisson("Poisson's ratio of the voussoirs", 0.2),
+        "density": Key(float, "density of the voussoirs", unit="kg/m^3", low=0.0, low_open=True, high=1e5),
+    },
+    "joints": {
+        "friction": _coefficient("Coulomb coefficient of every joint, springing joints included"),
+    },
+    "load": {
+        "kind": Key(str, "a point load or a patch (uniform per horizontal metre)", choices=("point", "patch")),
+        "position": Key(float, "fraction of the span from the left springing (a patch: its centre)", low=0.0,
+                        high=1.0),
+        "length": Key(float, "length along the span (patch loads only)", 0.0, "m", low=0.0, high=MAX_LENGTH),
+        "factor": Key(float, "share of the load pattern: this load is factor x the load level (N)", 1.0, low=0.0,
+                      low_open=True, high=1e6),
+    },
+    "fill": {
+        "unit_weight": Key(float, "weight density of the fill", unit="N/m^3", low=0.0, low_open=True, high=1e6),
+        "young": _modulus("Young's modulus of the fill"),
+        "depth": _length("road level above the crown's extrados"),
+        "extension": _length("fill beyond each springing's extrados corner"),
+        "poisson": _poisson("Poisson's ratio of the fill", 0.3),
+        "material": Key(str, "elastic, or a Drucker-Prager cone matched to Mohr-Coulomb in plane strain",
+                        "elastic", choices=FILL_MATERIALS),
+        "friction_angle": Key(float, "friction angle of the fill", 30.0, "degrees", low=0.0, high=60.0, only=_MC),
+        "cohesion": Key(float, "cohesion of the fill", 0.0, "Pa", low=0.0, high=1e10, only=_MC),
+        "tension_cutoff": Key(float, "limit of the fill's mean tensile stress", 0.0, "Pa", low=0.0, high=1e10,
+                              only=_MC),
+        "interface_friction": _coefficient("Coulomb coefficient of the arch-fill interface (the extrados)", 0.5),
+        "element_size": Key(float, "fill mesh size away from the ring (0: twice the ring's element size)", 0.0,
+                            "m", low=0.0, high=MAX_LENGTH),
+    },
+    "abutments": {
+        "model": Key(str, "rigid: the springings bear on the ground; elastic: a block below each springing",
+                     "rigid", choices=ABUTMENT_MODELS),
+        "height": _length("from the springing line (y = 0) down to the abutment's base", None, only=_ELASTIC,
+                          derived="required for elastic abutments"),
+        "length": _length("outwards from the springing's intrados corner", None, only=_ELASTIC,
+                          derived="to the springing's extrados corner"),
+        "young": _modulus("Young's modulus of the abutments", None, only=_ELASTIC, derived="the masonry's"),
+        "poisson": _poisson("Poisson's ratio of the abutments", None, only=_ELASTIC, derived="the masonry's"),
+        "unit_weight": Key(float, "weight density of the abutments", None, "N/m^3", low=0.0, low_open=True,
+                           high=1e6, only=_ELASTIC, derived="masonry density x gravity"),
+        "friction": _coefficient("Coulomb coefficient of the abutments' base joints", None, only=_ELASTIC,
+                                 derived="the joints'"),
+        "movement_springing": Key(str, "where the ground moves", "", choices=MOVING_SPRINGINGS,
+                                  derived="none (required with a movement)"),
+        "movement_horizontal": Key(float, "ground movement, positive = spreading (away from the span)", 0.0, "m",
+                                   low=-10.0, high=10.0),
+        "movement_vertical": Key(float, "ground movement, positive = up (a settlement is negative)", 0.0, "m",
+                                 low=-10.0, high=10.0),
+        "movement_steps": Key(int, "increments of the movement, after the self-weight, before the live load", 4,
+                              low=1, high=1000),
+    },
+    "mesh": {
+        "elements_through_thickness": Key(int, "elements through the ring thickness",
+                                          _preset("mesh", "elements_through_thickness"), low=1, high=64),
+        "degree": Key(int, "Lagrange degree of the displacement", _preset("mesh", "degree"), choices=(1, 2)),
+    },
+    "model": {
+        "plane": Key(str, "2D idealisation: plane strain or plane stress", "strain", choices=("strain", "stress")),
+    },
+    "solver": {
+        "preset": Key(str, "speed-accuracy preset: defaults of the mesh keys and the tolerance", "default",
+                      choices=tuple(PRESETS)),
+        "tolerance": Key(float, "relative width of the limit-load bracket", _preset("solver", "tolerance"),
+                         low=1e-8, high=0.5),
+        "max_iterations": Key(int, "active-set (Newton) iterations per load step", 60, low=1, high=10000),
+        "max_load": Key(float, "live load where the search stops as \"locked\" (0: 100 x ring weight)", 0.0, "N",
+                        low=0.0, high=1e15),
+        "initial_step": Key(float, "first live-load step (0: ring weight / 4)", 0.0, "N", low=0.0, high=1e15),
+        "max_steps": Key(int, "load steps in all", 200, low=1, high=100000),
+        "stiffness_drop": Key(float, "with a fill: a step whose secant stiffness falls below this fraction of the "
+                              "initial one marks the limit (0: off)", 0.02, low=0.0, high=1.0, high_open=True),
+        "petsc": Key(dict, "PETSc options of the contact solver, from the allow-list below", {}),
+    },
+}
+"""Every scene key, by section ("load": the keys of each [[load]] table)."""
+_REQUIRED_SECTIONS = ("arch", "masonry", "joints")
+_OPTIONAL_SECTIONS = ("fill", "abutments")
+
+_KSP_TOLERANCE = dict(unit="", low=0.0, low_open=True, high=1.0)
+PETSC_SCENE_OPTIONS: dict[str, Key] = {
+    "ksp_type": Key(str, "Krylov method (preonly: the direct solve alone)", choices=("preonly", "gmres", "fgmres",
+                                                                                    "bcgs", "richardson")),
+    "pc_type": Key(str, "preconditioner (lu: direct solve)", choices=("lu", "ilu", "jacobi", "sor", "none")),
+    "pc_factor_mat_solver_type": Key(str, "direct solver package", choices=("mumps", "petsc", "superlu_dist")),
+    "pc_factor_mat_ordering_type": Key(str, "fill-reducing ordering of PETSc's own LU",
+                                       choices=("nd", "natural", "rcm", "qmd", "1wd")),
+    "pc_factor_shift_type": Key(str, "pivot shift", choices=("none", "nonzero", "positive_definite", "inblocks")),
+    "pc_factor_shift_amount": Key(float, "pivot shift amount", low=0.0, high=1.0),
+    "ksp_rtol": Key(float, "relative tolerance of an iterative solve", **_KSP_TOLERANCE),
+    "ksp_atol": Key(float, "absolute tolerance of an iterative solve", low=0.0, low_open=True, high=1e10),
+    "ksp_divtol": Key(float, "divergence tolerance of an iterative solve", low=1.0, high=1e30),
+    "ksp_max_it": Key(int, "iterations of an iterative solve", low=1, high=1000000),
+}
+"""PETSc options a scene's [solver.petsc] may set: solver settings only. Viewers, monitors, anything that reads or
+writes a file or opens a display or socket is refused here; the command line (--petsc) may pass any option."""
+MUMPS_ICNTL = (6, 7, 8, 10, 12, 13, 14, 23, 24, 25, 28, 29, 35, 36, 38)
+"""MUMPS integer controls a scene may set (mat_mumps_icntl_N): orderings, scaling, pivoting, workspace, null
+pivots, low rank; not 1-4 (output streams and verbosity) nor 22 (out-of-core files)."""
+MUMPS_CNTL = (1, 2, 3, 4, 5, 7)
+"""MUMPS real controls a scene may set (mat_mumps_cntl_N): pivoting thresholds, refinement, low-rank dropping."""
+
+
+def _petsc_key(name: str) -> Key | None:
+    if name in PETSC_SCENE_OPTIONS:
+        return PETSC_SCENE_OPTIONS[name]
+    m = re.fullmatch(r"mat_mumps_(icntl|cntl)_([0-9]{1,2})", name)
+    if m and m[1] == "icntl" and int(m[2]) in MUMPS_ICNTL:
+        return Key(int, "MUMPS ICNTL", low=-1000, high=10**7)
+    if m and m[1] == "cntl" and int(m[2]) in MUMPS_CNTL:
+        return Key(float, "MUMPS CNTL", low=-1e30, high=1e30)
+    return None
+
+
+def _petsc_allowed() -> str:
+    return (", ".join(PETSC_SCENE_OPTIONS) + ", mat_mumps_icntl_N (N = " + ", ".join(map(str, MUMPS_ICNTL))
+            + "), mat_mumps_cntl_N (N = " + ", ".join(map(str, MUMPS_CNTL)) + ")")
+
+
+def _default(section: str, key: str) -> Any:
+    """A key's default, from :data:`SCHEMA` (the dataclasses' field defaults)."""
+    return SCHEMA[section][key].default
 
 
 @dataclass(frozen=True)
@@ -28,7 +291,7 @@ class Arch:
     thickness: float
     width: float
     voussoirs: int
-    joint_at_loads: bool = True
+    joint_at_loads: bool = _default("arch", "joint_at_loads")
 
 
 @dataclass(frozen=True)
@@ -63,13 +326,13 @@ class Fill:
     young: float
     depth: float
     extension: float
-    poisson: float = 0.3
-    material: str = "elastic"
-    friction_angle: float = 30.0
-    cohesion: float = 0.0
-    tension_cutoff: float = 0.0
-    interface_friction: float = 0.5
-    element_size: float = 0.0
+    poisson: float = _default("fill", "poisson")
+    material: str = _default("fill", "material")
+    friction_angle: float = _default("fill", "friction_angle")
+    cohesion: float = _default("fill", "cohesion")
+    tension_cutoff: float = _default("fill", "tension_cutoff")
+    interface_friction: float = _default("fill", "interface_friction")
+    element_size: float = _default("fill", "element_size")
 
 
 @dataclass(frozen=True)
@@ -86,17 +349,17 @@ class Abutments:
     before the live load in ``movement_steps`` equal increments.
     """
 
-    model: str = "rigid"
+    model: str = _default("abutments", "model")
     height: float | None = None  # this key and the next five: elastic abutments only (None when rigid)
     length: float | None = None
     young: float | None = None
     poisson: float | None = None
     unit_weight: float | None = None
     friction: float | None = None
-    movement_springing: str = ""
-    movement_horizontal: float = 0.0
-    movement_vertical: float = 0.0
-    movement_steps: int = 4
+    movement_springing: str = _default("abutments", "movement_springing")
+    movement_horizontal: float = _default("abutments", "movement_horizontal")
+    movement_vertical: float = _default("abutments", "movement_vertical")
+    movement_steps: int = _default("abutments", "movement_steps")
 
     @property
     def elastic(self) -> bool:
@@ -118,8 +381,8 @@ class Load:
 
     kind: str
     position: float
-    length: float = 0.0
-    factor: float = 1.0
+    length: float = _default("load", "length")
+    factor: float = _default("load", "factor")
 
     def x_range(self, span: float) -> tuple[float, float]:
         """Horizontal extent on the extrados (m); a point load has zero length."""
@@ -131,15 +394,15 @@ class Load:
 class MeshOptions:
     """Elements through the ring thickness and Lagrange degree of the displacement field (1 or 2)."""
 
-    elements_through_thickness: int = 4
-    degree: int = 1
+    elements_through_thickness: int = _default("mesh", "elements_through_thickness")
+    degree: int = _default("mesh", "degree")
 
 
 @dataclass(frozen=True)
 class ModelOptions:
     """2D idealisation: plane strain (default) or plane stress."""
 
-    plane: str = "strain"
+    plane: str = _default("model", "plane")
 
 
 @dataclass(frozen=True)
@@ -155,14 +418,14 @@ class SolverOptions:
     stiffness after self-weight marks the limit (the load-deflection curve is flat; 0: only a lost equilibrium).
     """
 
-    tolerance: float = 0.0001
-    max_iterations: int = 60
-    max_load: float = 0.0
-    initial_step: float = 0.0
-    max_steps: int = 200
+    tolerance: float = _default("solver", "tolerance")
+    max_iterations: int = _default("solver", "max_iterations")
+    max_load: float = _default("solver", "max_load")
+    initial_step: float = _default("solver", "initial_step")
+    max_steps: int = _default("solver", "max_steps")
     petsc: dict = field(default_factory=dict)
-    preset: str = "default"
-    stiffness_drop: float = 0.02
+    preset: str = _default("solver", "preset")
+    stiffness_drop: float = _default("solver", "stiffness_drop")
 
 
 @dataclass(frozen=True)
@@ -174,7 +437,7 @@ class Scene:
     masonry: Masonry
     joints: JointProperties
     loads: tuple[Load, ...]
-    gravity: float = 9.81
+    gravity: float = _default("scene", "gravity")
     fill: Fill | None = None
     abutments: Abutments = RIGID_ABUTMENTS
     mesh: MeshOptions = MeshOptions()
@@ -190,146 +453,51 @@ class Scene:
         return xs
 
 
-PRESETS: dict[str, dict[tuple[str, str], Any]] = {
-    "fast": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0005},
-    "default": {("mesh", "elements_through_thickness"): 4, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0001},
-    "accurate": {("mesh", "elements_through_thickness"): 8, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0001},
-}
-"""Speed-accuracy presets (``[solver] preset``): the mesh and bracket settings they imply, all three on the Pareto
-front measured by ``demos/speed_accuracy.py`` (README, "Speed and accuracy"): ``fast`` the most accurate within
-the cost of the cheapest run, ``default`` the cheapest within a worst error bound of 0.05 %, ``accurate`` within
-0.02 %.
-A key given explicitly in the scene overrides its preset value."""
-
-_REQUIRED = object()
-
-
-@dataclass(frozen=True)
-class _Key:
-    kind: type
-    default: Any = _REQUIRED
-    check: Callable[[Any], bool] = lambda v: True
-    allowed: str = ""
-
-
-def _positive(v):
-    return v > 0 and math.isfinite(v)
-
-
-def _finite(v):
-    return math.isfinite(v)
-
-
-FILL_MATERIALS = ("elastic", "mohr-coulomb")
-ABUTMENT_MODELS = ("rigid", "elastic")
-MOVING_SPRINGINGS = ("left", "right", "both")
-_ELASTIC_ONLY = ("height", "length", "young", "poisson", "unit_weight", "friction")  # [abutments] keys
-
-_SCHEMA: dict[str, dict[str, _Key]] = {
-    "scene": {
-        "name": _Key(str, None, lambda v: bool(v.strip()), "a non-empty string"),
-        "gravity": _Key(float, 9.81, _positive, "a positive number (m/s^2)"),
-    },
-    "arch": {
-        "shape": _Key(str, check=lambda v: v in SHAPES, allowed="one of " + ", ".join(SHAPES)),
-        "span": _Key(float, check=_positive, allowed="a positive length in m"),
-        "rise": _Key(float, None, _positive, "a positive length in m"),
-        "thickness": _Key(float, check=_positive, allowed="a positive length in m"),
-        "width": _Key(float, 1.0, _positive, "a positive length in m"),
-        "voussoirs": _Key(int, check=lambda v: 2 <= v <= 4096, allowed="an integer from 2 to 4096"),
-        "joint_at_loads": _Key(bool, True),
-    },
-    "masonry": {
-        "young": _Key(float, check=_positive, allowed="a positive modulus in Pa"),
-        "poisson": _Key(float, 0.2, lambda v: 0 <= v < 0.5, allowed="0 <= poisson < 0.5"),
-        "density": _Key(float, check=_positive, allowed="a positive density in kg/m^3"),
-    },
-    "joints": {
-        "friction": _Key(float, check=lambda v: v >= 0 and math.isfinite(v), allowed="a number >= 0"),
-    },
-    "load": {
-        "kind": _Key(str, check=lambda v: v in ("point", "patch"), allowed="point or patch"),
-        "position": _Key(float, check=lambda v: 0 <= v <= 1, allowed="a fraction of the span from 0 to 1"),
-        "length": _Key(float, 0.0, lambda v: v >= 0, "a length >= 0 in m (patch loads only)"),
-        "factor": _Key(float, 1.0, _positive, "a positive share of the load pattern"),
-    },
-    "fill": {
-        "unit_weight": _Key(float, check=_positive, allowed="a positive weight density in N/m^3"),
-        "young": _Key(float, check=_positive, allowed="a positive modulus in Pa"),
-        "depth": _Key(float, check=_positive, allowed="a positive depth in m of the road above the crown extrados"),
-        "extension": _Key(float, check=_positive, allowed="a positive length in m beyond each springing"),
-        "poisson": _Key(float, 0.3, lambda v: 0 <= v < 0.5, "0 <= poisson < 0.5"),
-        "material": _Key(str, "elastic", lambda v: v in FILL_MATERIALS, " or ".join(FILL_MATERIALS)),
-        "friction_angle": _Key(float, 30.0, lambda v: 0 <= v <= 60, "an angle from 0 to 60 degrees"),
-        "cohesion": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
-        "tension_cutoff": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
-        "interface_friction": _Key(float, 0.5, lambda v: 0 <= v < math.inf, "a number >= 0"),
-        "element_size": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a length >= 0 in m (0: automatic)"),
-    },
-    "abutments": {
-        "model": _Key(str, "rigid", lambda v: v in ABUTMENT_MODELS, " or ".join(f'"{m}"' for m in ABUTMENT_MODELS)),
-        "height": _Key(float, None, _positive, "a positive depth in m of the base below the springing line"),
-        "length": _Key(float, None, _positive, "a positive length in m outwards from the springing's intrados"),
-        "young": _Key(float, None, _positive, "a positive modulus in Pa (default: the masonry's)"),
-        "poisson": _Key(float, None, lambda v: 0 <= v < 0.5, "0 <= poisson < 0.5 (default: the masonry's)"),
-        "unit_weight": _Key(float, None, _positive, "a positive weight density in N/m^3 (default: the masonry's)"),
-        "friction": _Key(float, None, lambda v: 0 <= v < math.inf, "a number >= 0 (default: the joints')"),
-        "movement_springing": _Key(str, None, lambda v: v in MOVING_SPRINGINGS,
-                                   " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS)),
-        "movement_horizontal": _Key(float, 0.0, _finite, "a length in m (positive: spreading, away from the span)"),
-        "movement_vertical": _Key(float, 0.0, _finite, "a length in m (positive: up; settlement negative)"),
-        "movement_steps": _Key(int, 4, lambda v: 1 <= v <= 1000, "an integer from 1 to 1000"),
-    },
-    "mesh": {
-        "elements_through_thickness": _Key(int, 4, lambda v: 1 <= v <= 64, "an integer from 1 to 64"),
-        "degree": _Key(int, 1, lambda v: v in (1, 2), "1 or 2"),
-    },
-    "model": {
-        "plane": _Key(str, "strain", lambda v: v in ("strain", "stress"), "strain or stress"),
-    },
-    "solver": {
-        "tolerance": _Key(float, 0.0001, lambda v: 1e-8 <= v <= 0.5, "a relative tolerance from 1e-8 to 0.5"),
-        "max_iterations": _Key(int, 60, lambda v: 1 <= v <= 10000, "an integer from 1 to 10000"),
-        "max_load": _Key(float, 0.0, lambda v: v >= 0, "a load >= 0 in N (0: automatic)"),
-        "initial_step": _Key(float, 0.0, lambda v: v >= 0, "a load >= 0 in N (0: automatic)"),
-        "max_steps": _Key(int, 200, lambda v: 1 <= v <= 100000, "an integer from 1 to 100000"),
-        "petsc": _Key(dict, {}),
-        "preset": _Key(str, "default", lambda v: v in PRESETS, "one of " + ", ".join(f'"{p}"' for p in PRESETS)),
-        "stiffness_drop": _Key(float, 0.02, lambda v: 0 <= v < 1, "a fraction from 0 (off) to below 1 of the "
-                               "initial stiffness (used only with a fill)"),
-    },
-}
-_REQUIRED_SECTIONS = ("arch", "masonry", "joints")
-_OPTIONAL_SECTIONS = ("fill", "abutments")
-
-
-def _typed(where: str, value: Any, key: _Key) -> Any:
-    if key.kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, key.kind) or (key.kind is int and isinstance(value, bool)):
-        raise SceneError(f"{where} = {value!r}: expected {key.kind.__name__}"
-                         + (f" ({key.allowed})" if key.allowed else ""))
-    if not key.check(value):
-        raise SceneError(f"{where} = {value!r}: allowed is {key.allowed}")
-    return value
+def check_name(name: str, where: str) -> str:
+    """A scene name is a file name: 1 to MAX_NAME characters, no path separator, no control character, not
+    starting with "." (so neither "." nor ".." nor a hidden folder)."""
+    bad = (not name or len(name) > MAX_NAME or name.startswith(".") or "/" in name or "\\" in name
+           or name != name.strip() or any(ord(c) < 32 or ord(c) == 127 for c in name))
+    if bad:
+        raise SceneError(f"{where} = {_show(name)}: allowed is a file name of 1 to {MAX_NAME} characters without "
+                         "/, \\, control characters or surrounding spaces, not starting with \".\"")
+    return name
 
 
 def _section(data: Any, name: str, label: str) -> dict[str, Any]:
+    """The section's keys checked and typed, defaults filled in; a key that needs another key's value
+    (:attr:`Key.only`) is refused without it."""
     if not isinstance(data, dict):
-        raise SceneError(f"{label}: expected a table, got {data!r}")
-    schema = _SCHEMA[name]
+        raise SceneError(f"{label}: expected a table, got {_show(data)}")
+    schema = SCHEMA[name]
     unknown = sorted(set(data) - set(schema))
     if unknown:
-        raise SceneError(f"{label}: unknown key {unknown[0]!r}; allowed keys are {', '.join(schema)}")
+        raise SceneError(f"{label}: unknown key {_show(unknown[0])}; allowed keys are {', '.join(schema)}")
     out = {}
     for k, key in schema.items():
         where = f"{label} {k}"
         if k in data:
-            out[k] = _typed(where, data[k], key)
-        elif key.default is _REQUIRED:
-            raise SceneError(f"{where}: missing; expected {key.kind.__name__} ({key.allowed})")
+            out[k] = key.check(where, data[k])
+        elif key.default is REQUIRED:
+            raise SceneError(f"{where}: missing; expected {key.allowed()}")
         else:
             out[k] = key.default
+    for k, key in schema.items():
+        if key.only and k in data and out[key.only[0]] != key.only[1]:
+            raise SceneError(f"{label} {k} = {_show(data[k])}: only for {key.only[0]} = \"{key.only[1]}\" "
+                             f"({key.only[0]} is \"{out[key.only[0]]}\")")
+    return out
+
+
+def _petsc(table: dict[str, Any]) -> dict[str, Any]:
+    """The scene's [solver.petsc] table, every key on the allow-list and its value checked."""
+    out = {}
+    for k, v in table.items():
+        key = _petsc_key(k)
+        if key is None:
+            raise SceneError(f"[solver.petsc] {_show(k)}: not an allowed solver option; a scene may set "
+                             f"{_petsc_allowed()} (any other PETSc option only on the command line: --petsc)")
+        out[k] = key.check(f"[solver.petsc] {k}", v)
     return out
 
 
@@ -354,25 +522,28 @@ def _check_rise(a: dict[str, Any]) -> float:
 
 def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     """Validate a parsed TOML document and build a :class:`Scene`."""
-    unknown = sorted(set(data) - set(_SCHEMA) - {"load"})
+    unknown = sorted(set(data) - set(SCHEMA) - {"load"})
     if unknown:
-        raise SceneError(f"[{unknown[0]}]: unknown section; allowed sections are "
-                         + ", ".join(f"[{s}]" for s in _SCHEMA if s != "load") + ", [[load]]")
+        raise SceneError(f"[{_show(unknown[0])[1:-1]}]: unknown section; allowed sections are "
+                         + ", ".join(f"[{s}]" for s in SCHEMA if s != "load") + ", [[load]]")
     for name in _REQUIRED_SECTIONS:
         if name not in data:
             raise SceneError(f"[{name}]: missing section")
-    sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in _SCHEMA
+    sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in SCHEMA
            if name != "load" and (name in data or name not in _OPTIONAL_SECTIONS)}
-    for (name, key), value in PRESETS[sec["solver"]["preset"]].items():
-        if key not in data.get(name, {}):
-            sec[name][key] = value
+    name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
+    for (section, key), value in PRESETS[sec["solver"]["preset"]].items():
+        if key not in data.get(section, {}):
+            sec[section][key] = value
     a = sec["arch"]
     a["rise"] = _check_rise(a)
     if a["thickness"] >= a["span"]:
         raise SceneError(f"[arch] thickness = {a['thickness']!r}: allowed is 0 < thickness < span = {a['span']:g} m")
     raw_loads = data.get("load", [])
     if not isinstance(raw_loads, list):
-        raise SceneError(f"[[load]] = {raw_loads!r}: expected [[load]] tables (none: self-weight only)")
+        raise SceneError(f"[[load]] = {_show(raw_loads)}: expected [[load]] tables (none: self-weight only)")
+    if len(raw_loads) > MAX_LOADS:
+        raise SceneError(f"[[load]]: {len(raw_loads)} tables; allowed are at most {MAX_LOADS}")
     loads = []
     for i, raw in enumerate(raw_loads):
         label = f"[[load]] #{i + 1}"
@@ -386,14 +557,12 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
             raise SceneError(f"{label} position = {ld.position!r}, length = {ld.length!r}: the load spans "
                              f"x = {lo:g}..{hi:g} m, outside the span -{a['span'] / 2:g}..{a['span'] / 2:g} m")
         loads.append(ld)
-    solver = dict(sec["solver"])
-    solver["petsc"] = {str(k): v for k, v in solver["petsc"].items()}
+    solver = {**sec["solver"], "petsc": _petsc(sec["solver"]["petsc"])}
     fill = Fill(**sec["fill"]) if "fill" in sec else None
     if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
         raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
-    abutments = _abutments(sec["abutments"], data["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
-    return Scene(name=sec["scene"]["name"] or default_name, gravity=sec["scene"]["gravity"], fill=fill,
-                 abutments=abutments,
+    abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
+    return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
                  solver=SolverOptions(**solver))
@@ -405,20 +574,16 @@ def springing_reach(arch: dict[str, Any]) -> float:
     return float(abs(arch["thickness"] * shape.normal(0.0)[0]))
 
 
-def _abutments(ab: dict[str, Any], given: dict[str, Any], sec: dict[str, dict[str, Any]]) -> Abutments:
+def _abutments(ab: dict[str, Any], sec: dict[str, dict[str, Any]]) -> Abutments:
     """Check the [abutments] keys against each other and fill in the defaults taken from the masonry and joints."""
-    if (ab["movement_horizontal"] or ab["movement_vertical"]) and ab["movement_springing"] is None:
+    if (ab["movement_horizontal"] or ab["movement_vertical"]) and not ab["movement_springing"]:
         raise SceneError("[abutments] movement_springing: missing; required with a support movement "
-                         "(" + " or ".join(f'"{m}"' for m in MOVING_SPRINGINGS) + ")")
+                         "(" + SCHEMA["abutments"]["movement_springing"].allowed() + ")")
     if ab["model"] == "rigid":
-        extra = [k for k in _ELASTIC_ONLY if k in given]
-        if extra:
-            raise SceneError(f"[abutments] {extra[0]} = {given[extra[0]]!r}: only for model = \"elastic\" "
-                             "(rigid abutments are the ground itself)")
-        return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
+        return Abutments(**ab)
     if ab["height"] is None:
         raise SceneError("[abutments] height: missing; required for model = \"elastic\" "
-                         "(a positive depth in m of the base below the springing line)")
+                         f"({SCHEMA['abutments']['height'].allowed()})")
     reach = springing_reach(sec["arch"])
     if ab["length"] is not None and ab["length"] < reach * (1 - 1e-9):
         raise SceneError(f"[abutments] length = {ab['length']!r}: allowed is a length >= {reach:g} m, the "
@@ -427,16 +592,133 @@ def _abutments(ab: dict[str, Any], given: dict[str, Any], sec: dict[str, dict[st
     defaults = {"length": reach, "young": m["young"], "poisson": m["poisson"],
                 "unit_weight": m["density"] * sec["scene"]["gravity"], "friction": sec["joints"]["friction"]}
     ab.update({k: v for k, v in defaults.items() if ab[k] is None})
-    return Abutments(**{**ab, "movement_springing": ab["movement_springing"] or ""})
+    return Abutments(**ab)
+
+
+def show_path(path: str | Path) -> str:
+    """A file name for a one-line message: as given, or its repr (cut) when it holds control characters or is
+    long."""
+    text = os.fsdecode(path)
+    return text if len(text) <= 200 and text.isprintable() else _show(text, 200)
+
+
+def read_scene_text(path: str | Path) -> str:
+    """The text of a scene file: a regular file (not a folder, FIFO, device or socket, refused before reading),
+    at most MAX_SCENE_BYTES, in UTF-8."""
+    where = show_path(path)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # O_NONBLOCK: a FIFO cannot block
+    except FileNotFoundError:
+        raise SceneError(f"{where}: no such scene file") from None
+    except PermissionError:
+        raise SceneError(f"{where}: cannot read the scene file (permission denied)") from None
+    except ValueError:
+        raise SceneError(f"{where}: not a usable file name (it holds a NUL character)") from None
+    except OSError as err:
+        raise SceneError(f"{where}: cannot open the scene file ({err.strerror})") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise SceneError(f"{where}: is a folder; expected a scene file (TOML)")
+        if not stat.S_ISREG(mode):
+            raise SceneError(f"{where}: not a regular file (a FIFO, device or socket); expected a scene file (TOML)")
+        chunks, size = [], 0
+        while size <= MAX_SCENE_BYTES and (chunk := os.read(fd, MAX_SCENE_BYTES + 1 - size)):
+            chunks.append(chunk)
+            size += len(chunk)
+        raw = b"".join(chunks)
+    except OSError as err:
+        raise SceneError(f"{where}: cannot read the scene file ({err.strerror})") from None
+    finally:
+        os.close(fd)
+    if len(raw) > MAX_SCENE_BYTES:
+        raise SceneError(f"{where}: larger than {MAX_SCENE_BYTES} bytes; a scene file is a short TOML text")
+    try:
+        return raw.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as err:
+        raise SceneError(f"{where}: not UTF-8 text (byte {err.start}); a scene file is TOML in UTF-8") from None
 
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; the scene name defaults to the file name without extension."""
-    path = Path(path)
+    text = read_scene_text(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"{path}: not valid TOML ({err})") from None
-    return scene_from_dict(data, default_name=path.stem)
+        raise SceneError(f"{show_path(path)}: not valid TOML ({err})") from None
+    except RecursionError:
+        raise SceneError(f"{show_path(path)}: not valid TOML (nested too deeply)") from None
+    stem = Path(os.fsdecode(path)).stem
+    if "name" not in data.get("scene", {}) if isinstance(data.get("scene"), dict) else True:
+        check_name(stem, f"{show_path(path)}: the file name gives the scene name")
+    return scene_from_dict(data, default_name=stem)
+
+
+# ----------------------------------------------------------------------------- the resolved scene and the keys
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, float) and len(repr(value)) > 12 and float(f"{value:g}") == value:
+        return f"{value:g}"  # 1e+10, not 10000000000.0
+    return repr(value)
+
+
+def resolved_toml(scene: Scene) -> str:
+    """The scene with every key resolved (defaults, preset and derived values filled in), as TOML with each
+    key's unit: what ``bridgefem check`` prints. Reading it back gives the same scene."""
+    objects = {"scene": scene, "arch": scene.arch, "masonry": scene.masonry, "joints": scene.joints,
+               "fill": scene.fill, "abutments": scene.abutments, "mesh": scene.mesh, "model": scene.model,
+               "solver": scene.solver}
+    lines: list[str] = []
+
+    def table(header: str, section: str, obj: Any) -> None:
+        lines.append(header)
+        for k, key in SCHEMA[section].items():
+            value = getattr(obj, k)
+            if k == "petsc" or value is None or value == "" or (key.only and getattr(obj, key.only[0]) != key.only[1]):
+                continue
+            note = "  # " + key.unit if key.unit else ""
+            lines.append(f"{k} = {_toml_value(value)}{note}")
+        lines.append("")
+
+    for section in SCHEMA:
+        if section == "load":
+            for ld in scene.loads:
+                table("[[load]]", "load", ld)
+        elif objects[section] is not None:
+            table(f"[{section}]", section, objects[section])
+    if scene.solver.petsc:
+        lines += ["[solver.petsc]"] + [f"{k} = {_toml_value(v)}" for k, v in scene.solver.petsc.items()] + [""]
+    return "\n".join(lines)
+
+
+def keys_markdown() -> str:
+    """docs/scene-keys.md: a table of every scene key (generated from :data:`SCHEMA`)."""
+    out = ["# Scene keys", "",
+           "Generated from `bridgefem/scene.py` (`SCHEMA`) by `./run python -m bridgefem.scene`; a test checks "
+           "that this file is up to date. Units are SI; *required* keys have no default.", ""]
+    for section, keys in SCHEMA.items():
+        out += [f"## [[load]]" if section == "load" else f"## [{section}]", "",
+                "| key | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
+        for k, key in keys.items():
+            default = ("*required*" if key.default is REQUIRED else key.derived if key.derived
+                       else "{}" if key.default == {} else _toml_value(key.default))
+            only = f" (only with {key.only[0]} = \"{key.only[1]}\")" if key.only else ""
+            out.append(f"| `{k}` | {default} | {key.unit} | {key.allowed()} | {key.doc}{only} |")
+        out.append("")
+    out += ["## [solver.petsc]", "",
+            "A scene may set only these solver options (prefix `bridgefem_` is added); anything else, e.g. "
+            "viewers and monitors, only on the command line (`--petsc KEY=VALUE`).", "",
+            "| key | allowed | meaning |", "|---|---|---|"]
+    out += [f"| `{k}` | {key.allowed()} | {key.doc} |" for k, key in PETSC_SCENE_OPTIONS.items()]
+    out += [f"| `mat_mumps_icntl_N`, N = {', '.join(map(str, MUMPS_ICNTL))} | {_petsc_key('mat_mumps_icntl_7').allowed()} "
+            "| MUMPS integer controls |",
+            f"| `mat_mumps_cntl_N`, N = {', '.join(map(str, MUMPS_CNTL))} | {_petsc_key('mat_mumps_cntl_1').allowed()} "
+            "| MUMPS real controls |", ""]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    print(keys_markdown(), end="")
