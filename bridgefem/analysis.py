@@ -80,9 +80,11 @@ class Analysis:
 
 
 def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None,
-                 report: Callable[[LoadStep], None] = lambda s: None) -> Analysis:
+                 report: Callable[[LoadStep], None] = lambda s: None,
+                 phase: Callable[[str], None] = lambda name: None) -> Analysis:
     """Compute the limit load of a scene: the ring, with its fill and elastic abutments when the scene has them,
-    after the support movement it imposes (collective over ``comm``)."""
+    after the support movement it imposes (collective over ``comm``); ``phase(name)`` announces each set-up phase
+    and ``report(step)`` each load step."""
     timings = {}
     t = time.perf_counter()
 
@@ -100,22 +102,27 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     fill = scene.fill
     outline = (fill_outline(ring, fill.depth, fill.extension, scene.load_edges_x()) if fill is not None else None)
     lap("geometry")
+    phase("meshing")
     bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm, outline,
                           fill.element_size if fill is not None else 0.0)
     lap("mesh")
+    phase("assembling")
     model = build_elastic_model(bm, ring, scene)
     lap("assembly")
+    phase("pairing the joints")
     pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
     lap("pairing")
     young, friction = pair_properties(scene, ring, pairs)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness
     material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
     motion = support_motion(scene, ring)
+    phase("setting up the solver (first factorisation)")
     solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, friction, c,
                            FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
                            {**scene.solver.petsc, **(petsc_options or {})}, material, ground_offsets(pairs, motion))
     lap("solver setup")
     s = scene.solver
+    phase("limit search")
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,

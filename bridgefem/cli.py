@@ -1,8 +1,11 @@
 """Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
 
-Exit codes: 0 computed (whatever the structural status), 1 solver failure, 2 bad input (nothing written).
-PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (they override the
-scene's ``[solver.petsc]`` table, which overrides the defaults).
+Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
+the earlier results in ``<out>`` are kept), 2 bad input or a refused output folder (one line on stderr, nothing
+written; checked before the analysis), 143 terminated by SIGTERM (the earlier results kept, nothing half-written).
+Where results go: :mod:`bridgefem.output` (docs/output-policy.md).
+PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
 """
 from __future__ import annotations
 
@@ -10,11 +13,14 @@ import argparse
 import json
 import logging
 import math
+import os
 import sys
 import traceback
 from pathlib import Path
 
-from .scene import Scene, SceneError, load_scene
+from .output import OutputError, Terminated, claim, failed_target, sigterm_raises
+from .scene import SceneError, load_scene, resolved_toml
+from .sizing import LARGE_DOFS, MAX_DOFS, check_size
 
 PETSC_PREFIX = "-bridgefem_"
 
@@ -28,7 +34,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
                      help="PETSc option for the contact solver, without the prefix (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
-    check = sub.add_parser("check", help="validate a scene file and print it")
+    run.add_argument("--no-size-limit", action="store_true",
+                     help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
+    check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
+                                          "filled in, with units)")
     check.add_argument("scene", type=Path)
     lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
     lp.add_argument("scene", type=Path)
@@ -78,6 +87,7 @@ def _progress(total: float):
 
 def _run(args, petsc: dict) -> int:
     scene = load_scene(args.scene)
+    size = check_size(scene, max_dofs=math.inf if args.no_size_limit else MAX_DOFS)
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
@@ -85,11 +95,22 @@ def _run(args, petsc: dict) -> int:
     from .results import write_results
 
     comm = MPI.COMM_WORLD
+    check_petsc_options(petsc, comm)
     total = sum(ld.factor for ld in scene.loads)
-    an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total))
-    extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
-                        "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
-    data = write_results(an, out, extra)
+    announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
+    with claim(out, comm, also=(failed_target(out),)):
+        if announce:
+            print(f"{scene.name}: {size.describe()}", flush=True)
+        an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
+                          phase=_phase if announce else (lambda name: None))
+        extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+                            "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
+        failed = an.search.status.startswith("solver failure")
+        if failed:  # a failed run never replaces earlier results
+            kept, out = out, failed_target(out)
+        data = write_results(an, out, extra)
+    if comm.rank == 0 and failed:
+        print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
     if comm.rank == 0:
         lim = data["limit_load"]
         digits = _decimals(lim["tolerance"] * lim["lower"] / 1e3)
@@ -119,10 +140,55 @@ def _decimals(width: float) -> int:
     return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
 
 
+def _phase(name: str) -> None:
+    print(f"  {name} ...", flush=True)
+
+
 def _check(args) -> int:
-    scene: Scene = load_scene(args.scene)
-    print(json.dumps({"scene": scene.name, "valid": True}, indent=2))
+    scene = load_scene(args.scene)
+    size = check_size(scene)
+    print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
     return 0
+
+
+def check_petsc_options(options: dict, comm) -> None:
+    """Set each PETSc option of the command line on a throw-away solver of a tiny matrix, so that a value PETSc
+    rejects (an unknown type, a malformed number) stops the run before anything is written (collective)."""
+    if not options:
+        return
+    from petsc4py import PETSc
+
+    from .solver import DEFAULT_PETSC_OPTIONS
+
+    prefix = "bridgefem_check_"
+    A = PETSc.Mat().createAIJ([(2, None), (2, None)], nnz=1, comm=comm)
+    first, last = A.getOwnershipRange()
+    for i in range(first, last):
+        A.setValue(i, i, 1.0)
+    A.assemble()
+    opts = PETSc.Options()
+    PETSc.Sys.pushErrorHandler("python")  # raise, without PETSc's own error print
+    try:
+        for key, value in options.items():
+            merged = {**DEFAULT_PETSC_OPTIONS, key: value}
+            for k, v in merged.items():
+                opts[prefix + k] = v
+            ksp = PETSc.KSP().create(comm)
+            try:
+                ksp.setOptionsPrefix(prefix)
+                ksp.setOperators(A)
+                ksp.setFromOptions()
+                ksp.setUp()
+            except PETSc.Error as err:
+                reason = str(err).strip().splitlines()[-1].split("] ", 1)[-1].strip()
+                raise SceneError(f"PETSc option {key} = {value!r}: rejected by PETSc ({reason})") from None
+            finally:
+                ksp.destroy()
+                for k in merged:
+                    opts.delValue(prefix + k)
+    finally:
+        PETSc.Sys.popErrorHandler()
+        A.destroy()
 
 
 def _lp(args) -> int:
@@ -157,20 +223,38 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args, raw = _parser().parse_known_args(argv)
     try:
-        petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
-        if raw and args.command != "run":
-            raise SceneError(f"unknown argument {raw[0]!r}")
-        if args.command == "run":
-            return _run(args, petsc)
-        if args.command == "check":
-            return _check(args)
-        return _lp(args) if args.command == "lp" else _min_thickness(args)
-    except SceneError as err:
-        print(f"bridgefem: error: {err}", file=sys.stderr)
+        with sigterm_raises():
+            petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
+            if raw and args.command != "run":
+                raise SceneError(f"unknown argument {raw[0]!r}")
+            if args.command == "run":
+                return _run(args, petsc)
+            if args.command == "check":
+                return _check(args)
+            return _lp(args) if args.command == "lp" else _min_thickness(args)
+    except (SceneError, OutputError) as err:
+        _error(str(err))
         return 2
+    except Terminated:
+        _error("terminated by SIGTERM; no results folder was left half-written")
+        return 128 + 15
     except Exception:
         _abort_if_parallel()
         raise
+
+
+def _error(message: str) -> None:
+    """One line on stderr, from one MPI rank (every rank meets the same error)."""
+    if _launcher_rank() == 0:
+        print(f"bridgefem: error: {' '.join(message.split())}", file=sys.stderr, flush=True)
+
+
+def _launcher_rank() -> int:
+    """This process's MPI rank as mpirun tells it (no MPI start-up needed for a bad input)."""
+    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        if os.environ.get(name, "").isdigit():
+            return int(os.environ[name])
+    return 0
 
 
 def _abort_if_parallel() -> None:

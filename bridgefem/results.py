@@ -1,15 +1,13 @@
 """Results of a run: results.json, XDMF fields for ParaView and PNG plots, written atomically.
 
-Everything goes to a temporary folder beside the target, which replaces the target only when complete,
-so an interrupted or failed run never leaves a half-written folder and never overwrites earlier results.
+Everything goes to a temporary folder beside the target, which replaces the target only when complete
+(:func:`bridgefem.output.results_folder`), so an interrupted run never leaves a half-written folder.
 Loads are in N (for the scene's width), lengths in m.
 """
 from __future__ import annotations
 
 import json
 import platform
-import shutil
-import tempfile
 from importlib import metadata
 from pathlib import Path
 
@@ -20,6 +18,7 @@ from petsc4py import PETSc
 from .analysis import Analysis, springing_reactions, transmitted_load_check
 from .contact import OPEN, SLIP
 from .model import node_blocks
+from .output import results_folder
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
 
@@ -156,11 +155,10 @@ def lp_check(scene, data: dict) -> dict:
 
 
 def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
-    """Write results.json, fields.xdmf and the PNGs into ``out`` atomically (collective); returns the summary."""
+    """Write results.json, fields.xdmf and the PNGs into ``out`` atomically, under the output policy of
+    :mod:`bridgefem.output` (collective); returns the summary."""
     comm = an.solver.comm
-    out = Path(out)
-    tmp = Path(comm.bcast(tempfile.mkdtemp(prefix=f".{out.name}.", dir=_parent(out)) if comm.rank == 0 else None))
-    try:
+    with results_folder(Path(out), comm) as tmp:
         data = summary(an, extra)
         data.update(lp_check(an.scene, data))
         if an.search.last is not None:
@@ -172,24 +170,7 @@ def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
 
             plot_load_deflection(data, tmp / "load_deflection.png")
             plot_mechanism(an.ring, data, motion, tmp / "mechanism.png")
-        comm.barrier()
-    except BaseException:
-        if comm.rank == 0:
-            shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if comm.rank == 0:
-        old = out.with_name(f".{out.name}.old")
-        if out.exists():
-            out.rename(old)
-        tmp.rename(out)
-        shutil.rmtree(old, ignore_errors=True)
-    comm.barrier()
     return data
-
-
-def _parent(out: Path) -> Path:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    return out.parent
 
 
 def _write_fields(an: Analysis, path: Path) -> None:
