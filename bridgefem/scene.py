@@ -495,8 +495,9 @@ def _petsc(table: dict[str, Any]) -> dict[str, Any]:
     for k, v in table.items():
         key = _petsc_key(k)
         if key is None:
-            raise SceneError(f"[solver.petsc] {_show(k)}: not an allowed solver option; a scene may set "
-                             f"{_petsc_allowed()} (any other PETSc option only on the command line: --petsc)")
+            name = k if re.fullmatch(r"[A-Za-z0-9_]{1,60}", k) else _show(k)
+            raise SceneError(f"[solver.petsc] {name}: not an allowed solver option; allowed in a "
+                             f"scene are {_petsc_allowed()} (any other PETSc option only on the command line: --petsc)")
         out[k] = key.check(f"[solver.petsc] {k}", v)
     return out
 
@@ -505,7 +506,7 @@ def _check_rise(a: dict[str, Any]) -> float:
     span, rise, shape = a["span"], a["rise"], a["shape"]
     if shape == "semicircular":
         if rise is not None and not math.isclose(rise, span / 2, rel_tol=1e-6):
-            raise SceneError(f"[arch] rise = {rise!r}: a semicircular arch has rise = span/2 = {span / 2:g} m "
+            raise SceneError(f"[arch] rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = {span / 2:g} m "
                              "(omit rise, or use shape = \"segmental\" / \"elliptical\")")
         return span / 2
     if rise is None:
@@ -528,7 +529,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
                          + ", ".join(f"[{s}]" for s in SCHEMA if s != "load") + ", [[load]]")
     for name in _REQUIRED_SECTIONS:
         if name not in data:
-            raise SceneError(f"[{name}]: missing section")
+            raise SceneError(f"[{name}]: missing section; expected the sections "
+                             + ", ".join(f"[{n}]" for n in _REQUIRED_SECTIONS) + " (and others as needed)")
     sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in SCHEMA
            if name != "load" and (name in data or name not in _OPTIONAL_SECTIONS)}
     name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
@@ -555,7 +557,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         lo, hi = ld.x_range(a["span"])
         if lo < -a["span"] / 2 - 1e-12 or hi > a["span"] / 2 + 1e-12:
             raise SceneError(f"{label} position = {ld.position!r}, length = {ld.length!r}: the load spans "
-                             f"x = {lo:g}..{hi:g} m, outside the span -{a['span'] / 2:g}..{a['span'] / 2:g} m")
+                             f"x = {lo:g}..{hi:g} m; allowed is a load within the span, x = -{a['span'] / 2:g}..{a['span'] / 2:g} m")
         loads.append(ld)
     solver = {**sec["solver"], "petsc": _petsc(sec["solver"]["petsc"])}
     fill = Fill(**sec["fill"]) if "fill" in sec else None

@@ -88,9 +88,9 @@ def check_size(scene: Scene, memory: float | None = None, max_dofs: float = MAX_
     keys = (f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
             f"degree = {m.degree}")
     if size.memory > 0.8 * memory:
-        raise SceneError(f"{keys}: {size.describe()}, more than 80 % of this machine's {memory / 1e9:.1f} GB; "
-                         "use fewer voussoirs or elements")
+        raise SceneError(f"{keys}: {size.describe()}, more than the allowed 80 % of this "
+                         f"machine's {memory / 1e9:.1f} GB; use fewer voussoirs or elements")
     if size.dofs > max_dofs:
-        raise SceneError(f"{keys}: {size.describe()}, more than the {max_dofs:,.0f} unknowns a run may have "
+        raise SceneError(f"{keys}: {size.describe()}, more than the {max_dofs:,.0f} unknowns allowed "
                          "(hours per limit search); use fewer voussoirs or elements, or --no-size-limit")
     return size

@@ -2,7 +2,10 @@
 from __future__ import annotations
 
 import copy
+import json
+import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -31,19 +34,32 @@ def scene_dict(**sections) -> dict:
 
 
 def write_toml(path: Path, d: dict) -> Path:
-    """A minimal TOML writer for scene dictionaries (tables, arrays of tables, scalars)."""
+    """A minimal TOML writer for scene dictionaries (tables, arrays of tables, scalars, lists, inline tables;
+    strings escaped, nan and inf as TOML writes them)."""
+    def key(k):
+        return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+
     def value(v):
         if isinstance(v, bool):
             return "true" if v else "false"
         if isinstance(v, str):
-            return f'"{v}"'
+            return json.dumps(v)
+        if isinstance(v, float) and not math.isfinite(v):
+            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+        if isinstance(v, list):
+            return "[" + ", ".join(map(value, v)) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{key(k)} = {value(x)}" for k, x in v.items()) + "}"
         return repr(v)
 
     lines = []
     for name, sec in d.items():
+        if not isinstance(sec, (dict, list)) or (isinstance(sec, list) and not all(isinstance(t, dict) for t in sec)):
+            lines.insert(0, f"{key(name)} = {value(sec)}")  # a top-level value: before the first table
+            continue
         for table in (sec if isinstance(sec, list) else [sec]):
-            lines.append(f"[[{name}]]" if isinstance(sec, list) else f"[{name}]")
-            lines += [f"{k} = {value(v)}" for k, v in table.items()]
+            lines.append(f"[[{key(name)}]]" if isinstance(sec, list) else f"[{key(name)}]")
+            lines += [f"{key(k)} = {value(v)}" for k, v in table.items()]
     path.write_text("\n".join(lines) + "\n")
     return path
 

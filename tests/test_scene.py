@@ -18,7 +18,7 @@ from conftest import scene_dict
     ({"masonry": {"poisson": 0.5}}, ["[masonry] poisson", "0.5", "< 0.5"]),
     ({"masonry": {"young": "stiff"}}, ["[masonry] young", "stiff", "number"]),
     ({"load": [{"kind": "point", "position": 1.2}]}, ["[[load]] #1 position", "1.2", "0 to 1"]),
-    ({"load": [{"kind": "patch", "position": 0.99, "length": 1.0}]}, ["[[load]] #1", "outside the span"]),
+    ({"load": [{"kind": "patch", "position": 0.99, "length": 1.0}]}, ["[[load]] #1", "within the span"]),
     ({"load": [{"kind": "point", "position": 0.5, "length": 1.0}]}, ["[[load]] #1 length", "point load"]),
     ({"solver": {"tolerance": 0.0}}, ["[solver] tolerance", "0.0"]),
     ({"mesh": {"degree": 3}}, ["[mesh] degree", "3", "1 or 2"]),
