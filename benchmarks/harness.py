@@ -297,22 +297,24 @@ def git_state() -> str:
 
 def write_outputs(out: Path, stem: str, rows: list[dict], markdown: str, plot=None,
                   figures: Path | None = None) -> None:
-    """Write OUT/STEM.csv (every key of every row), OUT/STEM.md and, with ``plot(path)``, OUT/STEM.png; copy the
-    .md and .png into ``figures`` when given; print the markdown and where the files went."""
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / f"{stem}.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
-        writer.writeheader()
-        writer.writerows(rows)
-    (out / f"{stem}.md").write_text(markdown)
-    made = [f"{stem}.md"]
-    if plot is not None:
-        plot(out / f"{stem}.png")
-        made.append(f"{stem}.png")
-    if figures is not None:
-        figures.mkdir(parents=True, exist_ok=True)
-        for name in made:
-            shutil.copy(out / name, figures / name)
+    """Write OUT/STEM.csv (every key of every row), OUT/STEM.md and, with ``plot(path)``, OUT/STEM.png, atomically
+    and under bridgefem's output policy (:func:`bridgefem.output.results_folder`); copy the .md and .png into
+    ``figures`` when given; print the markdown and where the files went."""
+    from bridgefem.output import results_folder
+
+    made = [f"{stem}.md"] + ([f"{stem}.png"] if plot is not None else [])
+    with results_folder(out) as tmp:
+        with open(tmp / f"{stem}.csv", "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
+            writer.writeheader()
+            writer.writerows(rows)
+        (tmp / f"{stem}.md").write_text(markdown)
+        if plot is not None:
+            plot(tmp / f"{stem}.png")
+        if figures is not None:
+            figures.mkdir(parents=True, exist_ok=True)
+            for name in made:
+                shutil.copy(tmp / name, figures / name)
     print(markdown)
     print(f"written to {out}/ ({stem}.csv, " + ", ".join(made) + ")")
 

@@ -140,7 +140,8 @@ def _preset(section: str, key: str) -> Any:
 
 SCHEMA: dict[str, dict[str, Key]] = {
     "scene": {
-        "name": Key(str, "output folder results/<name>/; a file name, not a path", None,
+        "name": Key(str, f"output folder results/<name>/; a file name, not a path: 1 to {MAX_NAME} characters, no "
+                    "/, \\ or control characters, not starting with \".\"", None,
                     derived="the scene file's name without .toml"),
         "gravity": Key(float, "acceleration of gravity", 9.81, "m/s^2", low=0.0, low_open=True, high=100.0),
     },

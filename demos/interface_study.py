@@ -22,14 +22,13 @@ import argparse
 import csv
 import dataclasses
 import logging
-import shutil
-import tempfile
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 from bridgefem.analysis import run_analysis
+from bridgefem.output import OutputError, claim, results_folder
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import Scene, SceneError, load_scene
 
@@ -127,24 +126,14 @@ def plot(rows: list[dict], title: str, path: Path) -> None:
 
 
 def write_outputs(rows: list[dict], title: str, out: Path) -> None:
-    """CSV, markdown and PNG into a temporary folder beside ``out``, which then replaces ``out`` (rank 0 only)."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    """CSV, markdown and PNG into ``out``, atomically and under bridgefem's output policy (rank 0 only)."""
+    with results_folder(out) as tmp:
         with open(tmp / "interface_study.csv", "w", newline="") as fh:
             writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
         (tmp / "interface_study.md").write_text(f"# {title}\n\n" + markdown_table(rows))
         plot(rows, title, tmp / "interface_study.png")
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    old = out.with_name(f".{out.name}.old")
-    if out.exists():
-        out.rename(old)
-    tmp.rename(out)
-    shutil.rmtree(old, ignore_errors=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -162,16 +151,17 @@ def main(argv: list[str] | None = None) -> int:
     comm = MPI.COMM_WORLD
     try:
         base = load_scene(args.scene)
-        rows = [study_case(with_voussoirs(base, n, args.friction), comm) for n in args.voussoirs]
-    except SceneError as err:  # raised identically on every rank
+        with claim(args.out, comm):  # a refused --out stops the study before it runs
+            rows = [study_case(with_voussoirs(base, n, args.friction), comm) for n in args.voussoirs]
+            if comm.rank == 0:
+                mu = base.joints.friction if args.friction is None else args.friction
+                title = f"Interface-count study: {base.name}, mu = {mu:g}, {comm.size} MPI rank(s)"
+                write_outputs(rows, title, args.out)
+                print(markdown_table(rows), end="")
+                print(f"written to {args.out}/ (interface_study.csv, .md, .png)")
+            comm.barrier()
+    except (SceneError, OutputError) as err:  # raised identically on every rank
         p.error(str(err))
-    if comm.rank == 0:
-        mu = base.joints.friction if args.friction is None else args.friction
-        title = f"Interface-count study: {base.name}, mu = {mu:g}, {comm.size} MPI rank(s)"
-        write_outputs(rows, title, args.out)
-        print(markdown_table(rows), end="")
-        print(f"written to {args.out}/ (interface_study.csv, .md, .png)")
-    comm.barrier()
     return 0
 
 

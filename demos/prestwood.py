@@ -24,14 +24,13 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import shutil
-import tempfile
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 from bridgefem.analysis import run_analysis
+from bridgefem.output import OutputError, results_folder
 from bridgefem.results import write_results
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import Scene, load_scene
@@ -134,28 +133,26 @@ def main(argv: list[str] | None = None) -> int:
     comm = MPI.COMM_WORLD
     scene = load_scene(args.scene)
     out = Path(args.out)
-    work = None
+    try:
+        with results_folder(out, comm) as work:  # checked before the study; replaces out when all is written
+            rows = [lp_row(scene)]
+            for label, case in variants(scene, not args.no_sensitivity).items():
+                rows.append(fe_row(label, case, work, comm))
+                if comm.rank == 0:
+                    r = rows[-1]
+                    print(f"{label}: {r['status']}, [{_num(r['lower_kN'], '.1f')}, {_num(r['upper_kN'], '.1f')}] "
+                          f"kN ({r['seconds']:.0f} s)", flush=True)
+            if comm.rank == 0:
+                table = markdown(rows)
+                (work / "prestwood.md").write_text(table + "\n")
+                with open(work / "prestwood.csv", "w", newline="") as f:
+                    w = csv.DictWriter(f, fieldnames=[k for k in rows[0] if k != "curve"], extrasaction="ignore")
+                    w.writeheader()
+                    w.writerows(rows)
+                plot(rows, work / "prestwood.png")
+    except OutputError as err:
+        parser.error(str(err))
     if comm.rank == 0:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        work = tempfile.mkdtemp(prefix=".prestwood-", dir=out.parent)
-    work = Path(comm.bcast(work, root=0))
-    rows = [lp_row(scene)]
-    for label, case in variants(scene, not args.no_sensitivity).items():
-        rows.append(fe_row(label, case, work, comm))
-        if comm.rank == 0:
-            r = rows[-1]
-            print(f"{label}: {r['status']}, [{_num(r['lower_kN'], '.1f')}, {_num(r['upper_kN'], '.1f')}] kN "
-                  f"({r['seconds']:.0f} s)", flush=True)
-    if comm.rank == 0:
-        table = markdown(rows)
-        (work / "prestwood.md").write_text(table + "\n")
-        with open(work / "prestwood.csv", "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=[k for k in rows[0] if k != "curve"], extrasaction="ignore")
-            w.writeheader()
-            w.writerows(rows)
-        plot(rows, work / "prestwood.png")
-        shutil.rmtree(out, ignore_errors=True)
-        work.rename(out)
         print(table)
         print(f"results in {out}/")
     return 0

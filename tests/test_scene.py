@@ -1,9 +1,11 @@
 """Scene validation: every bad value gives one message naming the key, the value and what is allowed."""
+import tomllib
+
 import pytest
 
-from bridgefem.scene import SceneError, scene_from_dict
+from bridgefem.scene import SceneError, keys_markdown, load_scene, resolved_toml, scene_from_dict
 
-from conftest import scene_dict
+from conftest import ROOT, scene_dict
 
 
 @pytest.mark.parametrize("sections,expected", [
@@ -47,3 +49,36 @@ def test_defaults_and_units():
     assert (s.gravity, s.arch.width, s.arch.joint_at_loads, s.mesh.degree, s.model.plane) == (9.81, 1.0, True, 1,
                                                                                               "strain")
     assert s.loads[0].x_range(9.0) == pytest.approx((-2.5, -2.5), abs=1e-4)
+
+
+def test_docs_scene_keys_is_generated_from_the_schema():
+    """docs/scene-keys.md is the schema's table: regenerate it with ./run python -m bridgefem.scene."""
+    assert (ROOT / "docs" / "scene-keys.md").read_text() == keys_markdown()
+
+
+@pytest.mark.parametrize("demo", ["bare_arch", "abutments", "prestwood"])
+def test_the_resolved_scene_reads_back_as_the_same_scene(demo):
+    """bridgefem check prints every key resolved: read back, it is the same scene (defaults, preset and derived
+    values included)."""
+    scene = load_scene(ROOT / "demos" / f"{demo}.toml")
+    text = resolved_toml(scene)
+    assert scene_from_dict(tomllib.loads(text)) == scene
+    for section in ("[scene]", "[arch]", "[masonry]", "[joints]", "[[load]]", "[mesh]", "[solver]"):
+        assert section in text
+    assert "gravity = 9.81  # m/s^2" in text and "max_steps = 200" in text
+
+
+def test_check_prints_the_resolved_scene(capsys):
+    from bridgefem import cli
+
+    assert cli.main(["check", str(ROOT / "demos" / "bare_arch.toml")]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("# bare_arch: valid; about 5") and "unknowns" in out
+    assert "elements_through_thickness = 4" in out and "tolerance = 0.0001" in out
+
+
+def test_a_preset_sets_the_keys_not_given():
+    s = scene_from_dict(scene_dict(solver={"preset": "fast"}))
+    assert (s.mesh.elements_through_thickness, s.solver.tolerance) == (2, 0.0005)
+    s = scene_from_dict(scene_dict(solver={"preset": "fast", "tolerance": 0.01}))
+    assert (s.mesh.elements_through_thickness, s.solver.tolerance) == (2, 0.01)
