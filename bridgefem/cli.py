@@ -95,7 +95,7 @@ def _run(args, petsc: dict) -> int:
     from .results import write_results
 
     comm = MPI.COMM_WORLD
-    check_petsc_options(petsc, comm)
+    check_petsc_options({**scene.solver.petsc, **petsc}, comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
     with claim(out, comm, also=(failed_target(out),)):
@@ -152,8 +152,9 @@ def _check(args) -> int:
 
 
 def check_petsc_options(options: dict, comm) -> None:
-    """Set each PETSc option of the command line on a throw-away solver of a tiny matrix, so that a value PETSc
-    rejects (an unknown type, a malformed number) stops the run before anything is written (collective)."""
+    """Set each PETSc option (the scene's and the command line's) on a throw-away solver of a tiny matrix, so that a
+    value PETSc rejects (an unknown type, a malformed number, a solver package not installed) stops the run before
+    anything is written (collective)."""
     if not options:
         return
     from petsc4py import PETSc
@@ -238,6 +239,9 @@ def main(argv: list[str] | None = None) -> int:
     except Terminated:
         _error("terminated by SIGTERM; no results folder was left half-written")
         return 128 + 15
+    except KeyboardInterrupt:
+        _error("interrupted; no results folder was left half-written")
+        return 128 + 2
     except Exception:
         _abort_if_parallel()
         raise
