@@ -159,7 +159,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "masonry": {
         "young": _modulus("Young's modulus of the voussoirs"),
         "poisson": _poisson("Poisson's ratio of the voussoirs", 0.2),
-        "density": Key(float, "density of the voussoirs", unit="kg/m^3", low=0.0, low_open=True, high=1e5),
+        "density": Key(float, "density of the voussoirs", unit="kg/m^3", low=10.0, high=1e5),
     },
     "joints": {
         "friction": _coefficient("Coulomb coefficient of every joint, springing joints included"),
@@ -173,7 +173,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       low_open=True, high=1e6),
     },
     "fill": {
-        "unit_weight": Key(float, "weight density of the fill", unit="N/m^3", low=0.0, low_open=True, high=1e6),
+        "unit_weight": Key(float, "weight density of the fill", unit="N/m^3", low=100.0, high=1e6),
         "young": _modulus("Young's modulus of the fill"),
         "depth": _length("road level above the crown's extrados"),
         "extension": _length("fill beyond each springing's extrados corner"),
@@ -197,8 +197,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                           derived="to the springing's extrados corner"),
         "young": _modulus("Young's modulus of the abutments", None, only=_ELASTIC, derived="the masonry's"),
         "poisson": _poisson("Poisson's ratio of the abutments", None, only=_ELASTIC, derived="the masonry's"),
-        "unit_weight": Key(float, "weight density of the abutments", None, "N/m^3", low=0.0, low_open=True,
-                           high=1e6, only=_ELASTIC, derived="masonry density x gravity"),
+        "unit_weight": Key(float, "weight density of the abutments", None, "N/m^3", low=100.0, high=1e6,
+                           only=_ELASTIC, derived="masonry density x gravity"),
         "friction": _coefficient("Coulomb coefficient of the abutments' base joints", None, only=_ELASTIC,
                                  derived="the joints'"),
         "movement_springing": Key(str, "where the ground moves", "", choices=MOVING_SPRINGINGS,
@@ -254,9 +254,12 @@ PETSC_SCENE_OPTIONS: dict[str, Key] = {
 }
 """PETSc options a scene's [solver.petsc] may set: solver settings only. Viewers, monitors, anything that reads or
 writes a file or opens a display or socket is refused here; the command line (--petsc) may pass any option."""
-MUMPS_ICNTL = (6, 7, 8, 10, 12, 13, 14, 23, 24, 25, 28, 29, 35, 36, 38)
-"""MUMPS integer controls a scene may set (mat_mumps_icntl_N): orderings, scaling, pivoting, workspace, null
-pivots, low rank; not 1-4 (output streams and verbosity) nor 22 (out-of-core files)."""
+MUMPS_ICNTL = {6: (0, 7), 7: (0, 7), 8: (-2, 77), 10: (-100, 100), 12: (0, 3), 13: (-1, 100000), 14: (0, 1000),
+               23: (0, 100000), 24: (0, 1), 25: (-1, 100000), 28: (0, 2), 29: (0, 2), 35: (0, 3), 36: (0, 1),
+               38: (0, 1000)}
+"""MUMPS integer controls a scene may set (mat_mumps_icntl_N: allowed range): orderings, scaling, pivoting,
+workspace (14: extra %, 23: MB, bounded so that a scene cannot ask for the machine's memory), null pivots, low
+rank; not 1-4 (output streams and verbosity) nor 22 (out-of-core files)."""
 MUMPS_CNTL = (1, 2, 3, 4, 5, 7)
 """MUMPS real controls a scene may set (mat_mumps_cntl_N): pivoting thresholds, refinement, low-rank dropping."""
 
@@ -266,7 +269,8 @@ def _petsc_key(name: str) -> Key | None:
         return PETSC_SCENE_OPTIONS[name]
     m = re.fullmatch(r"mat_mumps_(icntl|cntl)_([0-9]{1,2})", name)
     if m and m[1] == "icntl" and int(m[2]) in MUMPS_ICNTL:
-        return Key(int, "MUMPS ICNTL", low=-1000, high=10**7)
+        low, high = MUMPS_ICNTL[int(m[2])]
+        return Key(int, f"MUMPS ICNTL({int(m[2])})", low=low, high=high)
     if m and m[1] == "cntl" and int(m[2]) in MUMPS_CNTL:
         return Key(float, "MUMPS CNTL", low=-1e30, high=1e30)
     return None
@@ -716,8 +720,9 @@ def keys_markdown() -> str:
             "viewers and monitors, only on the command line (`--petsc KEY=VALUE`).", "",
             "| key | allowed | meaning |", "|---|---|---|"]
     out += [f"| `{k}` | {key.allowed()} | {key.doc} |" for k, key in PETSC_SCENE_OPTIONS.items()]
-    out += [f"| `mat_mumps_icntl_N`, N = {', '.join(map(str, MUMPS_ICNTL))} | {_petsc_key('mat_mumps_icntl_7').allowed()} "
-            "| MUMPS integer controls |",
+    out += [f"| `mat_mumps_icntl_{n}` | {_petsc_key(f'mat_mumps_icntl_{n}').allowed()} | MUMPS ICNTL({n}) |"
+            for n in MUMPS_ICNTL]
+    out += [
             f"| `mat_mumps_cntl_N`, N = {', '.join(map(str, MUMPS_CNTL))} | {_petsc_key('mat_mumps_cntl_1').allowed()} "
             "| MUMPS real controls |", ""]
     return "\n".join(out)
