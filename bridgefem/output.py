@@ -2,8 +2,8 @@
 
 1. A target folder is written only when it does not exist, is an empty folder, or is an earlier bridgefem results
    folder: it holds the marker file :data:`MARKER`, written by bridgefem, and nothing but the files that marker
-   lists. Anything else (a file, a symbolic link, a folder holding other files, the current folder or one above
-   it) is refused with :class:`OutputError`, before the analysis (:func:`claim`) and again before the replacement.
+   lists. Anything else (a file, a symbolic link, a mount point, a folder holding other files, the current folder
+   or one above it) is refused with :class:`OutputError`, before the analysis (:func:`claim`) and again before the replacement.
 2. One run at a time per target: a lock (``flock`` on ``.<name>.lock`` beside the target, removed when done),
    taken before the analysis and held to the end; a second run on the same target is refused.
 3. The files go to a temporary folder ``.<name>.bridgefem-tmp-*`` beside the target, which replaces the target in
@@ -95,6 +95,8 @@ def check_target(target: Path) -> None:
                           "folder or an earlier bridgefem results folder")
     if not target.exists():
         return
+    if os.path.ismount(target):
+        raise OutputError(f"{target}: is a mount point, which cannot be replaced; give a folder inside it")
     if not target.is_dir():
         raise OutputError(f"{target}: exists and is not a folder; bridgefem writes only into a new folder, an "
                           "empty folder or an earlier bridgefem results folder (it never touches this file)")

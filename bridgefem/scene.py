@@ -17,7 +17,7 @@ import os
 import re
 import stat
 import tomllib
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -656,7 +656,8 @@ def load_scene(path: str | Path) -> Scene:
     except RecursionError:
         raise SceneError(f"{show_path(path)}: not valid TOML (nested too deeply)") from None
     stem = Path(os.fsdecode(path)).stem
-    if "name" not in data.get("scene", {}) if isinstance(data.get("scene"), dict) else True:
+    named = isinstance(data.get("scene"), dict) and "name" in data["scene"]
+    if not named:
         check_name(stem, f"{show_path(path)}: the file name gives the scene name")
     return scene_from_dict(data, default_name=stem)
 

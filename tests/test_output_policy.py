@@ -102,6 +102,12 @@ def test_the_current_folder_and_above_are_refused(tmp_path, monkeypatch):
             check_target(Path(target))
 
 
+@pytest.mark.skipif(not os.path.ismount("/proc"), reason="needs /proc mounted")
+def test_a_mount_point_is_refused():
+    with pytest.raises(OutputError, match="mount point"):
+        check_target(Path("/proc"))
+
+
 def test_an_error_while_writing_keeps_the_earlier_results(tmp_path):
     out = earlier_results(tmp_path / "out")
     before = snapshot(tmp_path)
