@@ -9,18 +9,26 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import math
 import sys
 import traceback
 from pathlib import Path
 
 from .scene import Scene, SceneError, load_scene
 
-PETSC_PREFIX = "-bridgefem_"
+
+
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("bridgefem")
+    except metadata.PackageNotFoundError:
+        return "source tree (not installed)"
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bridgefem", description="Limit loads of masonry arch bridges.")
+    p.add_argument("--version", action="version", version=f"bridgefem {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
     run.add_argument("scene", type=Path)
@@ -42,6 +50,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+    from .solver import PETSC_PREFIX as prefix
+
+    PETSC_PREFIX = "-" + prefix
     out = {}
     for item in pairs:
         key, sep, value = item.partition("=")
@@ -60,20 +71,37 @@ def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
 
 
 def _progress(total: float):
+    """Print one line per load step (rank 0): the live load, the outcome, Newton iterations, the residual and how
+    many joint node pairs are open, sticking and slipping."""
     from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+              flush=True)
 
     def report(step) -> None:
         if MPI.COMM_WORLD.rank != 0:
             return
         c = step.counts
-        pairs = f"open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else step.reason
+        if step.converged:
+            what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""
+            outcome = "converged"
+        else:
+            what = _collapse(step.reason) if step.mechanism else step.reason
+            outcome = "failed   "
         if step.cohesion is not None:
-            pairs += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
-        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  "
-              f"{'converged' if step.converged else 'FAILED   '}  newton {step.iterations:2d}  "
-              f"residual {step.residual:.1e}  {pairs}  ({step.seconds:.2f} s)", flush=True)
+            what += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
+        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  {outcome}  newton "
+              f"{step.iterations:2d}  residual {step.residual:.1e}  {what}  ({step.seconds:.2f} s)", flush=True)
 
     return report
+
+
+def _collapse(reason: str) -> str:
+    """What a failed step that proved collapse means to a user (the solver's numbers stay in results.json)."""
+    if reason.startswith("load-deflection curve flat"):
+        return "the load-deflection curve is flat: the structure moves as a mechanism"
+    return "no equilibrium: the voussoirs move as a mechanism"
 
 
 def _run(args, petsc: dict) -> int:
@@ -91,12 +119,16 @@ def _run(args, petsc: dict) -> int:
                         "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
     data = write_results(an, out, extra)
     if comm.rank == 0:
+        from .pathfollow import LIMIT_FOUND
+        from .plots import format_bracket
+
         lim = data["limit_load"]
-        digits = _decimals(lim["tolerance"] * lim["lower"] / 1e3)
-        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.{digits}f}"
-        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.{digits}f}, {upper}] kN "
+        print(f"{scene.name}: {data['status']}; limit load in "
+              f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
               f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
-        if data["failure_reason"]:
+        if data["status"] == LIMIT_FOUND:
+            print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
+        elif data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
         print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
         lp = data["lp"]
@@ -112,11 +144,6 @@ def _run(args, petsc: dict) -> int:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
     return 1 if data["status"].startswith("solver failure") else 0
-
-
-def _decimals(width: float) -> int:
-    """Decimals that show a bracket of this width (at least 2): one digit below its leading one."""
-    return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
 
 
 def _check(args) -> int:
