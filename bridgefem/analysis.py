@@ -50,6 +50,9 @@ LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP bracket midpoint outside this on a bare r
 # below the rigid-block one (a coarse mesh spreads a hinge), never more than 1 % above it (the LP is an upper bound
 # on the same joints up to the LP's polygonal voussoirs)
 
+SMALL_DISPLACEMENT = 0.01  # a deflection beyond this fraction of the span is outside the geometrically linear
+# model's validity (the equilibrium is written on the undeformed shape; arch theory asks for far less than 1 %)
+
 
 @dataclass
 class ConvergedState:
@@ -121,9 +124,16 @@ class Analysis:
 
     @property
     def warnings(self) -> list[str]:
-        """What a user must know before trusting the bracket: voussoirs shorter than an element, and an FE/LP ratio
-        outside :data:`LP_RATIO_RANGE` on a bare ring without FE sliding."""
+        """What a user must know before trusting the bracket: voussoirs shorter than an element, a deflection
+        beyond :data:`SMALL_DISPLACEMENT` of the span, and an FE/LP ratio outside :data:`LP_RATIO_RANGE` on a bare
+        ring without FE sliding."""
         out = []
+        deflections = [abs(st.deflection) for st in self.search.steps if st.converged and st.deflection is not None]
+        span = self.scene.arch.span
+        if deflections and max(deflections) > SMALL_DISPLACEMENT * span:
+            out.append(f"deflection {max(deflections):.3g} m exceeds {SMALL_DISPLACEMENT:.0%} of the span: the "
+                       "small-displacement model is outside its validity (masonry Young's modulus too low?); the "
+                       "limit load is the rigid-block one of the undeformed arch")
         centres = np.array([jt.centre for jt in self.ring.joints[:self.ring.n_voussoirs + 1]])
         shortest = float(np.linalg.norm(np.diff(centres, axis=0), axis=1).min())
         size = self.block_mesh.element_size
