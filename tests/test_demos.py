@@ -3,7 +3,11 @@ import csv
 import subprocess
 import sys
 
+import pytest
+
 from conftest import ROOT
+
+pytestmark = pytest.mark.slow  # end-to-end analyses
 
 
 def run_demo(name: str, args: list[str], out) -> list[dict]:

@@ -28,6 +28,8 @@ from bridgefem.scene import Scene, scene_from_dict
 
 from conftest import bridgefem, scene_dict, write_toml
 
+pytestmark = pytest.mark.slow  # end-to-end analyses
+
 R_CENTRE = 5.0  # m, centreline radius of the reference arch (intrados span 9 m + t = 1 m)
 
 # FE bracket against the rigid-block LP on the same joints: the FE model with a stiff ring tends to the
