@@ -200,3 +200,15 @@ def test_two_ranks_with_few_voussoirs_do_not_deadlock(tmp_path, voussoirs):
     assert a["status"] == b["status"]
     for bound in ("lower", "upper"):
         assert b["limit_load"][bound] == pytest.approx(a["limit_load"][bound], rel=1e-9)
+
+
+def test_first_run_prints_no_compiler_output(tmp_path):
+    """With an empty cache DOLFINx compiles its forms: the user sees the analysis, not the C compiler's log."""
+    scene = write_toml(tmp_path / "s.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
+                                                       solver={"tolerance": 0.01}))
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(scene), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    assert any((tmp_path / "cache").rglob("*.c")), "nothing was compiled: the test does not test the first run"
+    assert "gcc" not in proc.stderr + proc.stdout and "INFO" not in proc.stderr + proc.stdout, proc.stderr
