@@ -212,3 +212,14 @@ def test_first_run_prints_no_compiler_output(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert any((tmp_path / "cache").rglob("*.c")), "nothing was compiled: the test does not test the first run"
     assert "gcc" not in proc.stderr + proc.stdout and "INFO" not in proc.stderr + proc.stdout, proc.stderr
+
+
+def test_abutments_example_in_the_docs_is_its_output(tmp_path):
+    """docs/validation.md shows the console summary of demos/abutments.toml: it must be what the command prints."""
+    proc = bridgefem("run", ROOT / "demos" / "abutments.toml", "--out", tmp_path / "ab", "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    docs = (ROOT / "docs" / "validation.md").read_text()
+    summary = proc.stdout.splitlines()[:4]
+    assert summary[0].startswith("abutments: limit load found; limit load in [29.5516, 29.5534] kN")
+    for line in summary:
+        assert line in docs, line

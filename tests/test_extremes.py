@@ -248,7 +248,7 @@ def expect_three_voussoirs(an):
 
 def expect_many_voussoirs(an):
     # 256 voussoirs are about 0.06 m long on the centreline (pi R / 256), shorter
-    # than one element (t/4 = 0.25 m): the README's known limitation (the hinge spreads over several thin joints
+    # than one element (t/4 = 0.25 m): a known limitation (docs/validation.md) (the hinge spreads over several thin joints
     # and the FE can stop below the LP). The user must be warned whatever the outcome, and the FE can never carry
     # more than the rigid-block LP on the same joints (an upper bound up to FE_LP_REL); a solver failure must say so.
     data = results_json(an)
