@@ -123,9 +123,13 @@ def _run(args, petsc: dict) -> int:
         from .plots import format_bracket
 
         lim = data["limit_load"]
-        print(f"{scene.name}: {data['status']}; limit load in "
-              f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
-              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        if data["status"] == LIMIT_FOUND:
+            print(f"{scene.name}: {data['status']}; limit load in "
+                  f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+                  f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        else:
+            print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
+                  f"width {scene.arch.width:g} m)")
         if data["status"] == LIMIT_FOUND:
             print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
         elif data["failure_reason"]:

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .geometry import ArchRing  # noqa: E402
+from .pathfollow import LIMIT_FOUND  # noqa: E402
 
 BAND_MIN = 0.015  # the bracket band is drawn at least this fraction of the load axis high (1e-4 wide is invisible)
 MODE_SIZE = 0.08  # the collapse mode is amplified until its largest block motion is this fraction of the span
@@ -30,8 +31,10 @@ def format_bracket(lower: float, upper: float | None, tolerance: float) -> str:
     return f"[{lower / 1e3:.{digits}f}, {high}] kN"
 
 
-def _title(ax, text: str) -> None:
-    ax.set_title("\n".join(textwrap.wrap(text, TITLE_WIDTH)), fontsize=9)
+def _title(ax, data: dict) -> None:
+    """The scene's name (at most two lines) and its status."""
+    name = textwrap.wrap(data["scene"], TITLE_WIDTH, max_lines=2, placeholder=" ...")
+    ax.set_title("\n".join(name + textwrap.wrap(data["status"], TITLE_WIDTH)), fontsize=9)
 
 
 def plot_load_deflection(data: dict, path: Path) -> None:
@@ -47,7 +50,7 @@ def plot_load_deflection(data: dict, path: Path) -> None:
     if lp and lp.get("load"):
         ax.axhline(lp["load"] / 1e3, color="k", ls="--", lw=1,
                    label=f"rigid-block LP, {lp['model']}: {lp['load'] / 1e3:.2f} kN")
-    if lim["upper"] is not None and lim["upper"] > 0:
+    if data["status"] == LIMIT_FOUND:
         low, high = ax.get_ylim()
         half = max(lim["upper"] - lim["lower"], BAND_MIN * (high - low) * 1e3) / 2e3
         mid = (lim["lower"] + lim["upper"]) / 2e3
@@ -56,7 +59,7 @@ def plot_load_deflection(data: dict, path: Path) -> None:
                          f"(tolerance {lim['tolerance']:g}; band at least {BAND_MIN:.1%} of the axis)")
     ax.set_xlabel("deflection under the load (mm, down)")
     ax.set_ylabel(f"live load (kN, for a width of {lim['width']:g} m)")
-    _title(ax, f"{data['scene']}: {data['status']}")
+    _title(ax, data)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=7)
     fig.tight_layout()
@@ -104,10 +107,16 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
             ax.plot(*_hinge_point(ring, int(jid), where), "o", mfc="none", mec="k", ms=13, mew=1.5, zorder=6)
     top = fill[:, 1].max() if fill is not None else None
     for ld in data.get("loads", []):
-        tip = np.array([ld["x"], top]) if top is not None else ring.extrados_point(ld["x"])
-        ax.annotate("", xy=tip, xytext=tip + np.array([0, 0.15 * ring.span]),
-                    arrowprops=dict(arrowstyle="-|>", color="k", lw=1.5))
-    handles = [plt.Line2D([], [], color="saddlebrown", lw=2, label=f"collapse mode (motion x {scale:.3g})"),
+        half = (ld.get("length") or 0.0) / 2
+        xs = np.linspace(ld["x"] - half, ld["x"] + half, 5 if half else 1)
+        tips = [np.array([x, top]) if top is not None else ring.extrados_point(x) for x in xs]
+        for tip in tips:
+            ax.annotate("", xy=tip, xytext=tip + np.array([0, 0.15 * ring.span]),
+                        arrowprops=dict(arrowstyle="-|>", color="k", lw=1.2))
+        if half:
+            ax.plot(xs, [t[1] + 0.15 * ring.span for t in tips], color="k", lw=1.2)
+    handles = [plt.Line2D([], [], color="saddlebrown", lw=2,
+                          label=f"blocks moved by the last converged load increment x {scale:.3g}"),
                plt.Line2D([], [], marker="o", color="red", ls="", label="FE hinge"),
                plt.Line2D([], [], color="tab:blue", lw=3, label="FE sliding joint")]
     if lp:
@@ -116,8 +125,7 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
     ax.legend(handles=handles, loc="upper right", fontsize=7)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.25)
-    _title(ax, f"{data['scene']}: {data['status']}; collapse mode = the blocks' motion over the last converged "
-               "load increment, amplified")
+    _title(ax, data)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     fig.tight_layout()
