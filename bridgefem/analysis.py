@@ -223,7 +223,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     lap("mesh")
     model = build_elastic_model(bm, ring, scene)
     lap("assembly")
-    pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
+    pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)  # coincident joint nodes, up to round-off
     lap("pairing")
     young, friction = pair_properties(scene, ring, pairs)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness

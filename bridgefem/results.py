@@ -45,7 +45,9 @@ UNITS = {
     "length": "m (coordinates, deflections, openings, eccentricities, element size, width)",
     "stress": "Pa (fill cohesion)",
     "time": "s (timings, seconds)",
-    "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement)",
+    "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
+                     "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
+    "counts": "pairs: joint node pairs open / stick / slip at the end of the step",
 }
 CONVENTIONS = {
     "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",

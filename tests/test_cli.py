@@ -167,6 +167,17 @@ def test_two_ranks_give_the_same_bracket_and_mechanism(demo_serial, tmp_path):
     assert parallel["limit_load"]["lower"] == pytest.approx(serial["limit_load"]["lower"], rel=1e-9)
     assert parallel["limit_load"]["upper"] == pytest.approx(serial["limit_load"]["upper"], rel=1e-9)
     assert parallel["mechanism"] == serial["mechanism"]
+    # the time series gathered from both ranks: the same steps, mesh size and joint states (nodes numbered apart)
+    import meshio
+
+    series = [meshio.xdmf.TimeSeriesReader(str(d / "fields.xdmf")) for d in (demo_serial[1], out)]
+    assert [len(r.read_points_cells()[0]) for r in series] == [len(series[0].read_points_cells()[0])] * 2
+    assert series[0].num_steps == series[1].num_steps
+    for k in (0, series[0].num_steps - 1):
+        (ta, a, _), (tb, b, _) = (r.read_data(k) for r in series)
+        assert tb == pytest.approx(ta, rel=1e-9)
+        assert np.bincount(b["joint_state"]).tolist() == np.bincount(a["joint_state"]).tolist()
+        assert np.abs(b["displacement"]).max() == pytest.approx(np.abs(a["displacement"]).max(), rel=1e-6)
 
 
 @pytest.mark.parametrize("options,recorded,status", [
