@@ -45,13 +45,8 @@ HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction o
 HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
 HINGE_TIE = 1e-6  # eccentricities (fraction of the length) that agree this closely tie; the largest opening wins
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
-LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP bracket midpoint outside this on a bare ring without FE sliding is flagged:
-# measured FE/LP is 0.9997-1.0001 for 4-128 voussoirs (docs/validation.md); an elastic FE limit may sit up to 2 %
-# below the rigid-block one (a coarse mesh spreads a hinge), never more than 1 % above it (the LP is an upper bound
-# on the same joints up to the LP's polygonal voussoirs)
-
-SMALL_DISPLACEMENT = 0.01  # a deflection beyond this fraction of the span is outside the geometrically linear
-# model's validity (the equilibrium is written on the undeformed shape; arch theory asks for far less than 1 %)
+LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP flagged outside it: elastic blocks stop <= 2 % below the LP, never 1 % above
+SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void the small-displacement model
 
 
 @dataclass
