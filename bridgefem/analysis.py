@@ -12,11 +12,18 @@ closed pair slipping one way.
 
 With a fill, the forces the fill exerts on the ring across the arch-fill interface (:func:`interface_forces`) load
 the ring's rigid-block LP in :func:`transmitted_load_check`: the ring under the loads the fill transmits.
+
+Load vocabulary: the *load level* P (N per unit ``factor``; ``LoadStep.level`` in :mod:`bridgefem.pathfollow`,
+``LPResult.load_factor`` in :mod:`bridgefem.rigid_block`) scales the scene's live loads, each ``factor`` x P; the
+*live load* is P x the sum of the factors (N, ``Analysis.load_total`` per unit level), the ``load`` of results.json.
 """
 from __future__ import annotations
 
+import logging
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -30,7 +37,7 @@ from .geometry import ArchRing, fill_outline
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .rigid_block import LPResult, ring_under_forces, solve_blocks
+from .rigid_block import LPResult, collapse_load, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
 from .solver import ContactSolver, Iterate
 
@@ -38,6 +45,19 @@ HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction o
 HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
 HINGE_TIE = 1e-6  # eccentricities (fraction of the length) that agree this closely tie; the largest opening wins
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
+LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP flagged outside it: elastic blocks stop <= 2 % below the LP, never 1 % above
+SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void the small-displacement model
+
+
+@dataclass
+class ConvergedState:
+    """One converged load step kept for the output time series: ``step`` its index in the history, ``load`` the
+    live load (N), ``u`` the owned displacement dofs (m), ``pair_state`` OPEN/STICK/SLIP of the local joint pairs."""
+
+    step: int
+    load: float
+    u: np.ndarray
+    pair_state: np.ndarray
 
 
 @dataclass
@@ -68,6 +88,7 @@ class Analysis:
     search: LimitSearch
     joints: list[JointState]
     timings: dict = field(default_factory=dict)
+    converged: list[ConvergedState] = field(default_factory=list)
 
     @property
     def load_total(self) -> float:
@@ -78,6 +99,92 @@ class Analysis:
     def n_dofs(self) -> int:
         return self.solver.N
 
+    @cached_property
+    def lp(self) -> LPResult:
+        """The rigid-block LP on the same joints (associative friction; with a fill, the fill as dead load only)."""
+        return collapse_load(self.scene)
+
+    @property
+    def fe_lp_ratio(self) -> float | None:
+        """FE bracket midpoint over the LP's collapse load (None without a closed bracket or an LP limit)."""
+        s = self.search
+        if not self.lp.load or not s.upper:
+            return None
+        return 0.5 * (s.lower + s.upper) * self.load_total / self.lp.load
+
+    @cached_property
+    def ring_check(self) -> TransmittedLoadCheck | None:
+        """The ring under the loads the fill transmits (:func:`transmitted_load_check`; collective)."""
+        return transmitted_load_check(self)
+
+    @property
+    def warnings(self) -> list[str]:
+        """What a user must know before trusting the bracket: voussoirs shorter than an element, a deflection
+        beyond :data:`SMALL_DISPLACEMENT` of the span, and an FE/LP ratio outside :data:`LP_RATIO_RANGE` on a bare
+        ring without FE sliding."""
+        out = []
+        deflections = [abs(st.deflection) for st in self.search.steps if st.converged and st.deflection is not None]
+        span = self.scene.arch.span
+        if deflections and max(deflections) > SMALL_DISPLACEMENT * span:
+            out.append(f"deflection {max(deflections):.3g} m exceeds {SMALL_DISPLACEMENT:.0%} of the span: the "
+                       "small-displacement model is outside its validity (masonry Young's modulus too low?); the "
+                       "limit load is the rigid-block one of the undeformed arch")
+        centres = np.array([jt.centre for jt in self.ring.joints[:self.ring.n_voussoirs + 1]])
+        shortest = float(np.linalg.norm(np.diff(centres, axis=0), axis=1).min())
+        size = self.block_mesh.element_size
+        if shortest < size:
+            out.append(f"voussoirs as short as {shortest:.3g} m are shorter than one element ({size:.3g} m): the FE "
+                       "can stop below the limit load; raise [mesh] elements_through_thickness or use fewer voussoirs")
+        ratio, sliding = self.fe_lp_ratio, any(j.sliding for j in self.joints)
+        if ratio is not None and not sliding and self.scene.fill is None \
+                and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
+            out.append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a case without FE "
+                       "sliding: check the mesh, the tolerance and the mechanism")
+        return out
+
+    def voussoir_motion(self, u: np.ndarray) -> np.ndarray:
+        """Least-squares rigid motion (ux m, uy m, rotation rad, anticlockwise) of each block (voussoirs, abutments,
+        then the fill) under the owned displacement dofs ``u`` (m), one row per block (collective)."""
+        V, bm = self.model.V, self.block_mesh
+        n_owned = V.dofmap.index_map.size_local
+        n_blocks = self.ring.n_blocks + (bm.fill_block is not None)  # the same on every rank
+        blk = node_blocks(V, bm)[:n_owned]
+        x = V.tabulate_dof_coordinates()[:n_owned, :2]
+        u = u[:2 * n_owned].reshape(-1, 2)
+        comm = V.mesh.comm
+
+        def total(w):
+            return comm.allreduce(np.bincount(blk, weights=w, minlength=n_blocks))
+
+        count = total(np.ones(len(blk)))
+        xc = np.column_stack([total(x[:, 0]), total(x[:, 1])]) / count[:, None]
+        r = x - xc[blk]
+        theta = total(r[:, 0] * u[:, 1] - r[:, 1] * u[:, 0]) / total((r ** 2).sum(axis=1))
+        mean_u = np.column_stack([total(u[:, 0]), total(u[:, 1])]) / count[:, None]
+        return np.column_stack([mean_u - np.column_stack([-theta * xc[:, 1], theta * xc[:, 0]]), theta])
+
+    def collapse_mode(self) -> np.ndarray | None:
+        """The blocks' rigid motion over the last converged increment of live load (the motion the mechanism
+        starts with; :meth:`voussoir_motion` rows), or over the whole path when only one state converged; None
+        without a converged state. Collective."""
+        if not self.converged:
+            return None
+        last = self.converged[-1].u
+        before = self.converged[-2].u if len(self.converged) > 1 else np.zeros_like(last)
+        return self.voussoir_motion(last - before)
+
+
+@contextmanager
+def quiet_compiler():
+    """Silence the C compiler's log of DOLFINx's just-in-time forms (INFO records that the compiler's build step
+    sends to the root logger on a first run) while inside; warnings and errors still show."""
+    previous = logging.root.manager.disable
+    logging.disable(max(previous, logging.INFO))
+    try:
+        yield
+    finally:
+        logging.disable(previous)
+
 
 def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None,
                  report: Callable[[LoadStep], None] = lambda s: None,
@@ -85,6 +192,12 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     """Compute the limit load of a scene: the ring, with its fill and elastic abutments when the scene has them,
     after the support movement it imposes (collective over ``comm``); ``phase(name)`` announces each set-up phase
     and ``report(step)`` each load step."""
+    with quiet_compiler():
+        return _analyse(scene, comm, petsc_options, report, phase)
+
+
+def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
+             report: Callable[[LoadStep], None], phase: Callable[[str], None]) -> Analysis:
     timings = {}
     t = time.perf_counter()
 
@@ -110,7 +223,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     model = build_elastic_model(bm, ring, scene)
     lap("assembly")
     phase("pairing the joints")
-    pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)
+    pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)  # coincident joint nodes, up to round-off
     lap("pairing")
     young, friction = pair_properties(scene, ring, pairs)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness
@@ -123,15 +236,43 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     lap("solver setup")
     s = scene.solver
     phase("limit search")
-    search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
+    keep = _ConvergedStates(monitor_deflection(solver, model.monitor), solver.n_u,
+                            sum(ld.factor for ld in scene.loads) or 1.0, report)
+    search = find_limit_load(solver, keep.deflection, tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
                              max_steps=s.max_steps, guess_scene=scene,
                              stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
-                             movement_steps=scene.abutments.movement_steps if motion else 0, report=report)
+                             movement_steps=scene.abutments.movement_steps if motion else 0, report=keep.report)
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
-    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)
+    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings, keep.states)
+
+
+class _ConvergedStates:
+    """Keeps the state of every converged load step, through the search's two callbacks: it evaluates the
+    deflection of a converged iterate before it reports the step, so the iterate whose deflection the step
+    reports is that step's state."""
+
+    def __init__(self, deflection: Callable[[Iterate], float], n_u: int, load_per_level: float,
+                 report: Callable[[LoadStep], None]):
+        self._deflection, self._n_u, self._per_level, self._report = deflection, n_u, load_per_level, report
+        self._seen: list[tuple[float, Iterate]] = []
+        self.states: list[ConvergedState] = []
+
+    def deflection(self, it: Iterate) -> float:
+        value = self._deflection(it)
+        self._seen.append((value, it))
+        return value
+
+    def report(self, step: LoadStep) -> None:
+        if step.converged:
+            it = next((it for value, it in self._seen if value is step.deflection or value == step.deflection), None)
+            if it is not None:
+                self.states.append(ConvergedState(step.index, step.level * self._per_level,
+                                                  it.x.array[:self._n_u].copy(), it.active.state.copy()))
+        self._seen.clear()
+        self._report(step)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:
@@ -221,8 +362,8 @@ def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
 class TransmittedLoadCheck:
     """The ring's rigid-block LP under the loads the fill transmits (:func:`transmitted_load_check`).
 
-    ``level``: the FE's last converged live-load level P_L (N per unit load factor); ``load_factor``: the LP's
-    collapse level lambda (same unit) under dead load = ring weight + interface forces after self-weight and live
+    ``level``: the FE's last converged load level P_L (N per unit load factor); ``load_factor``: the LP's
+    collapse load level lambda (same unit) under dead load = ring weight + interface forces after self-weight and live
     load = (interface forces at P_L - those after self-weight) / P_L; ``ratio`` = lambda / P_L (None when the LP
     finds no limit load); ``lp``: the LP result (its mechanism)."""
 

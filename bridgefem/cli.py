@@ -18,15 +18,16 @@ import sys
 import traceback
 from pathlib import Path
 
+from . import PETSC_PREFIX, version
 from .output import OutputError, Terminated, claim, failed_target, sigterm_raises
 from .scene import SceneError, load_scene, resolved_toml
 from .sizing import LARGE_DOFS, MAX_DOFS, check_size
 
-PETSC_PREFIX = "-bridgefem_"
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bridgefem", description="Limit loads of masonry arch bridges.")
+    p.add_argument("--version", action="version", version=f"bridgefem {version()}")
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
     run.add_argument("scene", type=Path)
@@ -51,6 +52,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+    prefix = "-" + PETSC_PREFIX
     out = {}
     for item in pairs:
         key, sep, value = item.partition("=")
@@ -60,29 +62,46 @@ def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
     i = 0
     while i < len(raw):
         arg = raw[i]
-        if not arg.startswith(PETSC_PREFIX):
-            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {PETSC_PREFIX}")
+        if not arg.startswith(prefix):
+            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {prefix}")
         has_value = i + 1 < len(raw) and not raw[i + 1].startswith("-")
-        out[arg[len(PETSC_PREFIX):]] = raw[i + 1] if has_value else ""
+        out[arg[len(prefix):]] = raw[i + 1] if has_value else ""
         i += 2 if has_value else 1
     return out
 
 
 def _progress(total: float):
+    """Print one line per load step (rank 0): the live load, the outcome, Newton iterations, the residual and how
+    many joint node pairs are open, sticking and slipping."""
     from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+              flush=True)
 
     def report(step) -> None:
         if MPI.COMM_WORLD.rank != 0:
             return
         c = step.counts
-        pairs = f"open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else step.reason
+        if step.converged:
+            what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""
+            outcome = "converged"
+        else:
+            what = _collapse(step.reason) if step.mechanism else step.reason
+            outcome = "failed   "
         if step.cohesion is not None:
-            pairs += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
-        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  "
-              f"{'converged' if step.converged else 'FAILED   '}  newton {step.iterations:2d}  "
-              f"residual {step.residual:.1e}  {pairs}  ({step.seconds:.2f} s)", flush=True)
+            what += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
+        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  {outcome}  newton "
+              f"{step.iterations:2d}  residual {step.residual:.1e}  {what}  ({step.seconds:.2f} s)", flush=True)
 
     return report
+
+
+def _collapse(reason: str) -> str:
+    """What a failed step that proved collapse means to a user (the solver's numbers stay in results.json)."""
+    if reason.startswith("load-deflection curve flat"):
+        return "the load-deflection curve is flat: the structure moves as a mechanism"
+    return "no equilibrium: the voussoirs move as a mechanism"
 
 
 def _run(args, petsc: dict) -> int:
@@ -112,12 +131,20 @@ def _run(args, petsc: dict) -> int:
     if comm.rank == 0 and failed:
         print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
     if comm.rank == 0:
+        from .pathfollow import LIMIT_FOUND
+        from .plots import format_bracket
+
         lim = data["limit_load"]
-        digits = _decimals(lim["tolerance"] * lim["lower"] / 1e3)
-        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.{digits}f}"
-        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.{digits}f}, {upper}] kN "
-              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
-        if data["failure_reason"]:
+        if data["status"] == LIMIT_FOUND:
+            print(f"{scene.name}: {data['status']}; limit load in "
+                  f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+                  f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        else:
+            print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
+                  f"width {scene.arch.width:g} m)")
+        if data["status"] == LIMIT_FOUND:
+            print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
+        elif data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
         print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
         lp = data["lp"]
@@ -133,11 +160,6 @@ def _run(args, petsc: dict) -> int:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
     return 1 if data["status"].startswith("solver failure") else 0
-
-
-def _decimals(width: float) -> int:
-    """Decimals that show a bracket of this width (at least 2): one digit below its leading one."""
-    return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
 
 
 def _phase(name: str) -> None:

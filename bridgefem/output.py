@@ -28,9 +28,10 @@ import signal
 import sys
 import tempfile
 import threading
-from importlib import metadata
 from pathlib import Path
 from typing import Iterator
+
+from . import version
 
 MARKER = ".bridgefem-results"
 """The file bridgefem writes into every results folder: JSON with its version and the files it wrote."""
@@ -63,13 +64,6 @@ def sigterm_raises() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
-
-
-def _version() -> str:
-    try:
-        return metadata.version("bridgefem")
-    except metadata.PackageNotFoundError:
-        return "source tree"
 
 
 def _listing(folder: Path) -> set[str]:
@@ -129,7 +123,7 @@ def _marker_files(folder: Path) -> set[str] | None:
 
 
 def _write_marker(folder: Path, files: list[str]) -> None:
-    (folder / MARKER).write_text(json.dumps({"bridgefem": _version(), "files": sorted(files)}, indent=1) + "\n")
+    (folder / MARKER).write_text(json.dumps({"bridgefem": version(), "files": sorted(files)}, indent=1) + "\n")
 
 
 class _Lock:

@@ -1,4 +1,5 @@
-"""Results of a run: results.json, XDMF fields for ParaView and PNG plots, written atomically.
+"""Results of a run written to files: results.json, XDMF fields for ParaView and PNG plots, written atomically.
+Everything here formats what :mod:`bridgefem.analysis` computed.
 
 Everything goes to a temporary folder beside the target, which replaces the target only when complete
 (:func:`bridgefem.output.results_folder`), so an interrupted run never leaves a half-written folder.
@@ -8,16 +9,15 @@ from __future__ import annotations
 
 import json
 import platform
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
-from dolfinx import fem, io
 from petsc4py import PETSc
 
-from .analysis import Analysis, springing_reactions, transmitted_load_check
-from .contact import OPEN, SLIP
-from .model import node_blocks
+from . import version
+from .analysis import Analysis, quiet_compiler, springing_reactions
+from .contact import OPEN, SLIP, STICK
+from .geometry import fill_outline
 from .output import results_folder
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
@@ -31,16 +31,37 @@ def versions() -> dict:
 
     out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
            "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
-           "numpy": np.__version__, "scipy": scipy.__version__}
-    try:
-        out["bridgefem"] = metadata.version("bridgefem")
-    except metadata.PackageNotFoundError:
-        out["bridgefem"] = "source tree"
+           "numpy": np.__version__, "scipy": scipy.__version__, "bridgefem": version()}
     return out
 
 
+UNITS = {
+    "force": "N (forces, loads, weights, reactions: for the scene's width)",
+    "length": "m (coordinates, deflections, openings, eccentricities, element size, width)",
+    "stress": "Pa (fill cohesion)",
+    "time": "s (timings, seconds)",
+    "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
+                     "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
+    "counts": "pairs: joint node pairs open / stick / slip at the end of the step",
+}
+CONVENTIONS = {
+    "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
+    "joints": "numbered from the left springing (0) to the right springing (N voussoirs: joint N); voussoir i lies "
+              "between joints i and i+1; elastic abutments: blocks N, N+1, their base joints N+1, N+2",
+    "normal_force": "compression positive",
+    "shear_force": "along the joint's tangent (intrados -> extrados end turned -90 degrees)",
+    "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
+    "deflection": "downward displacement under the live load (mean over the loaded nodes), positive down",
+    "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
+                           "to the right, vertical positive up",
+    "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",
+    "joint_state (fields.xdmf)": "0 no joint, 1 stick, 2 slip, 3 open; time value = live load (N)",
+}
+
+
 def summary(an: Analysis, extra: dict | None = None) -> dict:
-    """The JSON-ready summary of an analysis (identical on every rank)."""
+    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
+    collective: the ring check is an LP on rank 0)."""
     s, total = an.search, an.load_total
     hinges = [j for j in an.joints if j.hinge]
     steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
@@ -54,6 +75,8 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
                        "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
         "failure_reason": s.failure,
+        "units": UNITS,
+        "conventions": CONVENTIONS,
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
                       "sliding": [j.id for j in an.joints if j.sliding]},
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
@@ -63,8 +86,9 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
-        "springing_reactions": springing_reactions(an.joints, an.ring).tolist() if an.joints else [],
+        "springing_reactions": _reactions(an),
         "ring_under_transmitted_loads": ring_check_summary(an),
+        **lp_entries(an),
         "history": steps,
         "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
                   "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
@@ -80,6 +104,19 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
     }
 
 
+def _reactions(an: Analysis) -> list[dict]:
+    """``springing_reactions``: one labelled entry per joint on the ground (N, ground on the structure)."""
+    if not an.joints:
+        return []
+    ring = an.ring
+    on_ground = [js.id for js in an.joints if ring.joints[js.id].left is None or ring.joints[js.id].right is None]
+    names = {ring.joints[0].id: "left springing", ring.joints[ring.n_voussoirs].id: "right springing"}
+    if an.scene.abutments.elastic:
+        names = {j.id: f"{side} abutment base" for j, side in zip(ring.bases, ("left", "right"))}
+    return [{"joint": jid, "at": names.get(jid, "ground"), "horizontal": float(h), "vertical": float(v)}
+            for jid, (h, v) in zip(on_ground, springing_reactions(an.joints, ring))]
+
+
 RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by the forces the fill transmits across "
                     "the arch-fill interface: dead load = ring weight + interface forces after self-weight, live load = "
                     "their change up to the FE's last converged load, scaled with it; a lower-bound check: ratio >= 1, "
@@ -90,29 +127,27 @@ def ring_check_summary(an: Analysis) -> dict | None:
     """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
     ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
     loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
-    check = transmitted_load_check(an)
+    check = an.ring_check
     if check is None:
         return None
     lp, total = check.lp, an.load_total
     return {"model": RING_CHECK_MODEL, "fe_load": check.level * total,
             "load": None if check.load_factor is None else check.load_factor * total, "unit": "N",
-            "ratio": check.ratio, "status": lp.status,
-            "mechanism": {"hinges": sorted(lp.hinges),
-                          "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-                          "sliding": sorted(lp.sliding)}}
+            "ratio": check.ratio, "status": lp.status, "mechanism": _mechanism(lp)}
 
 
-LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP outside this on a case without sliding is flagged
 LP_FILL_LABEL = "fill as dead load only"
+
+
+def _mechanism(lp) -> dict:
+    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
+            "sliding": sorted(lp.sliding)}
 
 
 def lp_summary(lp) -> dict:
     """The JSON form of a rigid-block result: load (N), status, friction model, mechanism, seconds."""
     return {"load": lp.load, "unit": "N", "status": lp.status, "friction_model": lp.friction_model,
-            "mechanism": {"hinges": sorted(lp.hinges),
-                          "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-                          "sliding": sorted(lp.sliding)},
-            "seconds": lp.time_s}
+            "mechanism": _mechanism(lp), "seconds": lp.time_s}
 
 
 def lp_label(scene) -> str:
@@ -126,32 +161,11 @@ def lp_label(scene) -> str:
     return label
 
 
-def lp_check(scene, data: dict) -> dict:
-    """The rigid-block LP on the same joints (associative friction) and its ratio to the FE bracket midpoint.
-    With a fill the LP carries it as dead load only, so the ratio measures the fill's strength and stiffness
-    (the FE/LP range check applies to bare arches).
-
-    Returns the ``lp``, ``fe_lp_ratio`` and ``warnings`` entries of results.json.
-    """
-    from .rigid_block import collapse_load
-
-    lp = collapse_load(scene)
-    out = {"lp": {**lp_summary(lp), "model": lp_label(scene)}, "fe_lp_ratio": None, "warnings": []}
-    ring_joints = data["joints"][:scene.arch.voussoirs + 1]
-    mid = np.array([0.5 * (np.array(j["intrados"]) + np.array(j["extrados"])) for j in ring_joints])
-    shortest = float(np.linalg.norm(np.diff(mid, axis=0), axis=1).min())
-    if shortest < data["model"]["element_size"]:
-        out["warnings"].append(f"voussoirs as short as {shortest:.3g} m are shorter than one element "
-                               f"({data['model']['element_size']:.3g} m): the FE can stop below the limit load; "
-                               "raise [mesh] elements_through_thickness or use fewer voussoirs")
-    lim = data["limit_load"]
-    if lp.load and lim["upper"]:
-        ratio = 0.5 * (lim["lower"] + lim["upper"]) / lp.load
-        out["fe_lp_ratio"] = ratio
-        if not data["mechanism"]["sliding"] and scene.fill is None and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
-            out["warnings"].append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a "
-                                   "case without FE sliding: check the mesh, the tolerance and the mechanism")
-    return out
+def lp_entries(an: Analysis) -> dict:
+    """The ``lp``, ``fe_lp_ratio`` and ``warnings`` entries of results.json (:attr:`Analysis.lp`,
+    :attr:`Analysis.fe_lp_ratio`, :attr:`Analysis.warnings`)."""
+    return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
+            "warnings": an.warnings}
 
 
 def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
@@ -160,70 +174,110 @@ def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
     comm = an.solver.comm
     with results_folder(Path(out), comm) as tmp:
         data = summary(an, extra)
-        data.update(lp_check(an.scene, data))
-        if an.search.last is not None:
-            _write_fields(an, tmp / "fields.xdmf")
-        motion = _voussoir_motion(an) if an.search.last is not None else None
+        if an.converged:
+            with quiet_compiler():
+                _write_fields(an, tmp / "fields.xdmf")
+        motion = an.collapse_mode()
         if comm.rank == 0:
             (tmp / "results.json").write_text(json.dumps(data, indent=2))
             from .plots import plot_load_deflection, plot_mechanism
 
             plot_load_deflection(data, tmp / "load_deflection.png")
-            plot_mechanism(an.ring, data, motion, tmp / "mechanism.png")
+            plot_mechanism(an.ring, data, motion, tmp / "mechanism.png", _fill_polygon(an))
     return data
 
 
+XDMF_CELL = {3: ("Triangle", [0, 1, 2]), 6: ("Triangle_6", [0, 1, 2, 5, 3, 4])}  # DOLFINx's triangle dofs (P1,
+# P2) in XDMF's node order
+
+
+class _XdmfSeries:
+    """An XDMF 3 temporal collection on one mesh (rank 0): the points and cells once, then per time value the point
+    fields, each in the HDF5 file beside the XDMF file."""
+
+    def __init__(self, path: Path, points: np.ndarray, cells: np.ndarray):
+        import h5py
+
+        self.path, self.h5 = path, h5py.File(path.with_suffix(".h5"), "w")
+        self.h5["mesh/geometry"], self.h5["mesh/topology"] = points, cells
+        kind, _ = XDMF_CELL[cells.shape[1]]
+        self.mesh = (f'<Geometry GeometryType="XYZ">{self._item("mesh/geometry")}</Geometry>'
+                     f'<Topology TopologyType="{kind}" NumberOfElements="{len(cells)}">'
+                     f'{self._item("mesh/topology")}</Topology>')
+        self.grids: list[str] = []
+
+    def _item(self, name: str) -> str:
+        data = self.h5[name]
+        kind = "Int" if data.dtype.kind == "i" else "Float"
+        dims = " ".join(map(str, data.shape))
+        return (f'<DataItem DataType="{kind}" Precision="{data.dtype.itemsize}" Dimensions="{dims}" Format="HDF">'
+                f'{self.path.with_suffix(".h5").name}:/{name}</DataItem>')
+
+    def write(self, time: float, fields: dict[str, np.ndarray]) -> None:
+        k = len(self.grids)
+        attributes = ""
+        for name, values in fields.items():
+            self.h5[f"{name}/{k}"] = values
+            kind = "Vector" if values.ndim == 2 else "Scalar"
+            attributes += (f'<Attribute Name="{name}" AttributeType="{kind}" Center="Node">'
+                           f'{self._item(f"{name}/{k}")}</Attribute>')
+        self.grids.append(f'<Grid Name="step {k}" GridType="Uniform">{self.mesh}<Time Value="{time!r}"/>'
+                          f'{attributes}</Grid>')
+
+    def close(self) -> None:
+        self.h5.close()
+        self.path.write_text('<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>'
+                             '<Grid Name="load steps" GridType="Collection" CollectionType="Temporal">\n'
+                             + "\n".join(self.grids) + "\n</Grid></Domain></Xdmf>\n")
+
+
 def _write_fields(an: Analysis, path: Path) -> None:
-    """Displacement (m) and joint state (0 none, 1 stick, 2 slip, 3 open) at the last converged step, on P1."""
-    V, it, solver, pairs = an.model.V, an.search.last, an.solver, an.pairs
-    mesh = V.mesh
-    u = fem.Function(V, name="displacement")
-    n_u = solver.n_u
-    u.x.array[:n_u] = it.x.array[:n_u]
-    u.x.scatter_forward()
-    Q, q_to_v = V.sub(0).collapse()
-    state = fem.Function(Q, name="joint_state")
-    code = np.where(it.active.state == OPEN, JOINT_STATE_CODES["open"],
-                    np.where(it.active.state == SLIP, JOINT_STATE_CODES["slip"], JOINT_STATE_CODES["stick"]))
-    table = np.vstack(mesh.comm.allgather(np.column_stack([np.concatenate([pairs.left, pairs.right]),
-                                                           np.concatenate([code, code])])))
-    table = table[table[:, 0] >= 0]
-    order = np.argsort(table[:, 0])
-    keys, vals = table[order, 0], table[order, 1]
-    imap = V.dofmap.index_map
-    nodes_global = imap.local_to_global(np.asarray(q_to_v, dtype=np.int32) // 2)
-    pos = np.clip(np.searchsorted(keys, nodes_global), 0, max(len(keys) - 1, 0))
-    hit = (keys[pos] == nodes_global) if len(keys) else np.zeros(len(nodes_global), bool)
-    state.x.array[:] = np.where(hit, vals[pos] if len(keys) else 0, 0)
-    if an.scene.mesh.degree != 1:
-        V1 = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
-        Q1 = fem.FunctionSpace(mesh, ("Lagrange", 1))
-        u1, s1 = fem.Function(V1, name="displacement"), fem.Function(Q1, name="joint_state")
-        u1.interpolate(u)
-        s1.interpolate(state)
-        u, state = u1, s1
-    with io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
-        xdmf.write_mesh(mesh)
-        xdmf.write_function(u)
-        xdmf.write_function(state)
-
-
-def _voussoir_motion(an: Analysis) -> np.ndarray:
-    """Least-squares rigid motion (ux, uy, rotation) of each voussoir at the last converged step (collective)."""
-    V, bm = an.model.V, an.block_mesh
-    n_owned = V.dofmap.index_map.size_local
-    n_blocks = an.ring.n_blocks + (an.block_mesh.fill_block is not None)  # the same on every rank
-    blk = node_blocks(V, bm)[:n_owned]
-    x = V.tabulate_dof_coordinates()[:n_owned, :2]
-    u = an.search.last.x.array[:2 * n_owned].reshape(-1, 2)
+    """Displacement (m, x y 0) and joint state (:data:`JOINT_STATE_CODES`, exact integers) at every converged
+    load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as one XDMF time series whose
+    time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``. Gathered to and written by
+    rank 0. Collective."""
+    V, pairs = an.model.V, an.pairs
     comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    dofs = dofs[:V.mesh.topology.index_map(2).size_local]
+    owned = imap.local_to_global(np.arange(n_owned, dtype=np.int32))
+    points = comm.gather((owned, V.tabulate_dof_coordinates()[:n_owned]), root=0)
+    cells = comm.gather(imap.local_to_global(dofs.ravel()).reshape(dofs.shape), root=0)
+    codes = np.zeros(3, dtype=np.int32)
+    codes[[OPEN, STICK, SLIP]] = [JOINT_STATE_CODES[k] for k in ("open", "stick", "slip")]
+    ends = np.concatenate([pairs.left, pairs.right])
+    series = None
+    if comm.rank == 0:
+        xyz = np.zeros((sum(len(g) for g, _ in points), 3))
+        for g, x in points:
+            xyz[g] = x
+        cells = np.vstack(cells)
+        series = _XdmfSeries(path, xyz, cells[:, XDMF_CELL[cells.shape[1]][1]])
+    for cs in an.converged:
+        u = comm.gather((owned, cs.u.reshape(-1, 2)), root=0)
+        state = comm.gather((ends, np.concatenate([codes[cs.pair_state]] * 2)), root=0)
+        if series is not None:
+            disp, joint_state = np.zeros_like(xyz), np.zeros(len(xyz), dtype=np.int32)
+            for g, v in u:
+                disp[g, :2] = v
+            for g, c in state:
+                joint_state[g[g >= 0]] = c[g >= 0]
+            series.write(cs.load, {"displacement": disp, "joint_state": joint_state})
+    if series is not None:
+        series.close()
 
-    def total(w):
-        return comm.allreduce(np.bincount(blk, weights=w, minlength=n_blocks))
 
-    count = total(np.ones(len(blk)))
-    xc = np.column_stack([total(x[:, 0]), total(x[:, 1])]) / count[:, None]
-    r = x - xc[blk]
-    theta = total(r[:, 0] * u[:, 1] - r[:, 1] * u[:, 0]) / total((r ** 2).sum(axis=1))
-    mean_u = np.column_stack([total(u[:, 0]), total(u[:, 1])]) / count[:, None]
-    return np.column_stack([mean_u - np.column_stack([-theta * xc[:, 1], theta * xc[:, 0]]), theta])
+def _fill_polygon(an: Analysis) -> np.ndarray | None:
+    """The fill's region (m): its ends, road and base, then the ring's extrados from right to left; None without
+    a fill."""
+    fill = an.scene.fill
+    if fill is None:
+        return None
+    box = fill_outline(an.ring, fill.depth, fill.extension)
+    extrados = np.vstack([v.extrados for v in an.ring.voussoirs])
+    extrados = extrados[np.argsort(-extrados[:, 0])]
+    corners = [[box.x_left, box.y_base], [box.x_left, box.y_road], [box.x_right, box.y_road],
+               [box.x_right, box.y_base]]
+    return np.vstack([corners, extrados])

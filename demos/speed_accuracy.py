@@ -29,7 +29,7 @@ Run:
 
     ./run python demos/speed_accuracy.py                          # both cases, about 2 min on 2 cores
     ./run python demos/speed_accuracy.py --quick                  # coarse meshes, about 15 s (used by the tests)
-    ./run python demos/speed_accuracy.py --figures demos/figures  # also copy the PNG and MD for the README
+    ./run python demos/speed_accuracy.py --figures demos/figures  # also copy the PNG and MD for docs/benchmarks.md
 
 Writes DIR/speed_accuracy.csv (every number), .md (tables) and .png (log-log error bound against CPU time per case
 with the Pareto front and the presets; error against N); DIR defaults to results/speed_accuracy. Loads in kN.
@@ -313,7 +313,7 @@ def markdown_table(rows: list[dict], columns=tuple(COLUMNS)) -> str:
 
 
 def compact_rows(rows: list[dict]) -> list[dict]:
-    """The rows of the README table: each case's front, the presets, the reference, the seed check, the other
+    """The rows of the docs/benchmarks.md table: each case's front, the presets, the reference, the seed check, the other
     solvers, the voussoirs."""
     return [r for r in rows if r.get("on_front") or r.get("preset") or r["kind"] in ("reference", "seed", "solver",
                                                                                       "voussoirs")]

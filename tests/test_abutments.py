@@ -23,6 +23,8 @@ from bridgefem.scene import SceneError, scene_from_dict
 
 from conftest import bridgefem, scene_dict, write_toml
 
+pytestmark = pytest.mark.slow  # end-to-end analyses
+
 COARSE = {"elements_through_thickness": 2}
 RHO_G = 2000.0 * 9.81  # N/m^3, the reference masonry
 RING_WEIGHT = RHO_G * np.pi / 2 * (5.5 ** 2 - 4.5 ** 2)  # N, half annulus R = 4.5 .. 5.5 m, width 1 m

@@ -11,6 +11,8 @@ from bridgefem.scene import scene_from_dict
 
 from conftest import scene_dict
 
+pytestmark = pytest.mark.slow  # end-to-end analyses
+
 R_CENTRE = 5.0
 
 

@@ -5,9 +5,14 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import ROOT, bridgefem, scene_dict, write_toml
+
+pytestmark = pytest.mark.slow  # every test runs the command line in a new process
+
+README_DEMO_BRACKET = (137.056, 137.064)  # kN: the README's demo output, which this test keeps true
 
 
 def test_bad_scene_exits_2_and_writes_nothing(tmp_path):
@@ -65,16 +70,89 @@ def demo_serial(tmp_path_factory):
     return json.loads((out / "results.json").read_text()), out, proc.stdout
 
 
-def test_demo_writes_results_and_reports_progress(demo_serial):
+def test_demo_gives_the_readme_bracket_and_reports_progress(demo_serial):
     data, out, stdout = demo_serial
     for name in ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png"):
         assert (out / name).is_file(), name
     assert data["status"] == "limit load found"
     lim = data["limit_load"]
     assert lim["unit"] == "N" and lim["lower"] < lim["upper"] <= lim["lower"] * (1 + lim["tolerance"])
+    assert (round(lim["lower"] / 1e3, 3), round(lim["upper"] / 1e3, 3)) == README_DEMO_BRACKET
+    readme = (ROOT / "README.md").read_text()
+    assert "limit load in [{:.3f}, {:.3f}] kN".format(*README_DEMO_BRACKET) in readme
+    assert "limit load in [{:.3f}, {:.3f}] kN".format(*README_DEMO_BRACKET) in stdout
+    assert data["mechanism"]["hinges"] == [2, 6, 12, 16] == data["lp"]["mechanism"]["hinges"]
     assert len(data["joints"]) == 17 and data["joints"][0]["intrados"] == [-4.5, 0.0]
-    assert "step   1" in stdout and "limit load in [" in stdout
+    assert "step   1" in stdout and "pairs open/stick/slip" in stdout and "INFO" not in stdout
     assert set(data["timings"]) >= {"mesh", "assembly", "limit search"}
+
+
+def test_results_json_units_and_reactions(demo_serial):
+    """Units and sign conventions are stated in the file; the labelled springing reactions carry the ring's weight
+    plus the last converged live load (conservation)."""
+    data, _, _ = demo_serial
+    assert data["units"]["force"].startswith("N") and data["units"]["length"].startswith("m")
+    assert "compression positive" in data["conventions"]["normal_force"]
+    reactions = data["springing_reactions"]
+    assert [r["at"] for r in reactions] == ["left springing", "right springing"]
+    vertical = sum(r["vertical"] for r in reactions)
+    assert vertical == pytest.approx(data["self_weight"] + data["limit_load"]["lower"], rel=1e-6)
+
+
+def test_fields_hold_every_converged_step(demo_serial):
+    """fields.xdmf read back with meshio's time-series reader: one time value per converged step, equal to the
+    history's live loads (N); the joint state is an integer 0..3 with open pairs where the hinges are; the
+    displacement is the elastic response (mm), not the mechanism."""
+    import meshio
+
+    data, out, _ = demo_serial
+    reader = meshio.xdmf.TimeSeriesReader(str(out / "fields.xdmf"))
+    points, cells = reader.read_points_cells()
+    times, states = [], []
+    for k in range(reader.num_steps):
+        t, point_data, _ = reader.read_data(k)
+        times.append(t)
+        states.append(point_data["joint_state"])
+        assert point_data["displacement"].shape == (len(points), 3)
+        assert np.abs(point_data["displacement"]).max() < 0.01
+    assert times == pytest.approx([h["load"] for h in data["history"] if h["converged"]], rel=1e-12)
+    last = states[-1]
+    assert np.issubdtype(last.dtype, np.integer) and set(np.unique(last)) <= {0, 1, 2, 3}
+    assert (last == 3).any() and (last == 1).any()  # open pairs at the hinges, sticking ones elsewhere
+
+
+def test_version():
+    proc = bridgefem("--version")
+    assert proc.returncode == 0 and proc.stdout.startswith("bridgefem ")
+
+
+def test_lp_min_thickness_and_check_commands(tmp_path):
+    """The LP commands give the rigid-block values the tests check elsewhere (137.095 kN, hinges 2 6 12 16 for the
+    demo; Heyman's t/R = 0.1075 for a thin semicircle with many voussoirs) and `check` prints the scene."""
+    demo = ROOT / "demos" / "bare_arch.toml"
+    text = bridgefem("lp", demo)
+    assert text.returncode == 0 and "collapse load 137.09" in text.stdout and "[2, 6, 12, 16]" in text.stdout
+    js = json.loads(bridgefem("lp", demo, "--json").stdout)
+    assert js["unit"] == "N" and js["load"] == pytest.approx(137.095e3, rel=1e-4)
+    assert js["mechanism"]["hinges"] == [2, 6, 12, 16]
+    thin = write_toml(tmp_path / "thin.toml", scene_dict(arch={"voussoirs": 128}, load=[]))
+    mt = json.loads(bridgefem("min-thickness", thin, "--json").stdout)
+    assert mt["ratio"] == pytest.approx(0.1075, rel=0.01)
+    check = bridgefem("check", demo)
+    assert check.returncode == 0 and "bare_arch" in check.stdout
+    bad = bridgefem("lp", write_toml(tmp_path / "bad.toml", scene_dict(arch={"span": -9.0})))
+    assert bad.returncode == 2 and "[arch] span" in bad.stderr
+
+
+def test_run_script_works_from_any_folder(tmp_path):
+    """./run bridgefem run SCENE from another folder: the scene path is relative to that folder and results/ is
+    written there, not in the repository."""
+    scene = write_toml(tmp_path / "my.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
+                                                        solver={"tolerance": 0.01}))
+    proc = subprocess.run([str(ROOT / "run"), "bridgefem", "run", "my.toml", "--quiet"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "results" / "my" / "results.json").is_file()
 
 
 @pytest.mark.mpi
@@ -89,6 +167,17 @@ def test_two_ranks_give_the_same_bracket_and_mechanism(demo_serial, tmp_path):
     assert parallel["limit_load"]["lower"] == pytest.approx(serial["limit_load"]["lower"], rel=1e-9)
     assert parallel["limit_load"]["upper"] == pytest.approx(serial["limit_load"]["upper"], rel=1e-9)
     assert parallel["mechanism"] == serial["mechanism"]
+    # the time series gathered from both ranks: the same steps, mesh size and joint states (nodes numbered apart)
+    import meshio
+
+    series = [meshio.xdmf.TimeSeriesReader(str(d / "fields.xdmf")) for d in (demo_serial[1], out)]
+    assert [len(r.read_points_cells()[0]) for r in series] == [len(series[0].read_points_cells()[0])] * 2
+    assert series[0].num_steps == series[1].num_steps
+    for k in (0, series[0].num_steps - 1):
+        (ta, a, _), (tb, b, _) = (r.read_data(k) for r in series)
+        assert tb == pytest.approx(ta, rel=1e-9)
+        assert np.bincount(b["joint_state"]).tolist() == np.bincount(a["joint_state"]).tolist()
+        assert np.abs(b["displacement"]).max() == pytest.approx(np.abs(a["displacement"]).max(), rel=1e-6)
 
 
 @pytest.mark.parametrize("options,recorded,status", [
@@ -123,3 +212,26 @@ def test_two_ranks_with_few_voussoirs_do_not_deadlock(tmp_path, voussoirs):
     assert a["status"] == b["status"]
     for bound in ("lower", "upper"):
         assert b["limit_load"][bound] == pytest.approx(a["limit_load"][bound], rel=1e-9)
+
+
+def test_first_run_prints_no_compiler_output(tmp_path):
+    """With an empty cache DOLFINx compiles its forms: the user sees the analysis, not the C compiler's log."""
+    scene = write_toml(tmp_path / "s.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
+                                                       solver={"tolerance": 0.01}))
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(scene), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    assert any((tmp_path / "cache").rglob("*.c")), "nothing was compiled: the test does not test the first run"
+    assert "gcc" not in proc.stderr + proc.stdout and "INFO" not in proc.stderr + proc.stdout, proc.stderr
+
+
+def test_abutments_example_in_the_docs_is_its_output(tmp_path):
+    """docs/validation.md shows the console summary of demos/abutments.toml: it must be what the command prints."""
+    proc = bridgefem("run", ROOT / "demos" / "abutments.toml", "--out", tmp_path / "ab", "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    docs = (ROOT / "docs" / "validation.md").read_text()
+    summary = proc.stdout.splitlines()[:4]
+    assert summary[0].startswith("abutments: limit load found; limit load in [29.5516, 29.5534] kN")
+    for line in summary:
+        assert line in docs, line

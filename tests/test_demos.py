@@ -3,7 +3,11 @@ import csv
 import subprocess
 import sys
 
+import pytest
+
 from conftest import ROOT
+
+pytestmark = pytest.mark.slow  # end-to-end analyses
 
 
 def run_demo(name: str, args: list[str], out) -> list[dict]:
@@ -53,3 +57,15 @@ def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the
         for r in seeded:
             same = next(m for m in mesh if (m["ett"], m["degree"]) == (r["ett"], r["degree"]))  # seeded x1
             assert abs(float(r["fe_mid_kN"]) / float(same["fe_mid_kN"]) - 1) <= float(same["tolerance"]), (r, same)
+
+
+def test_tutorial_brackets_the_rigid_block_collapse_load():
+    """demos/tutorial.py walks the pipeline by hand: its bracket lies within 0.1 % of the rigid-block collapse load
+    of this joint layout (137.095 kN, the LP on the same joints; docs/validation.md), with the LP's four hinges."""
+    proc = subprocess.run([sys.executable, "demos/tutorial.py"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("limit load found: limit load in ["))
+    lower, upper = (float(v) for v in line.split("[")[1].split("]")[0].split(","))
+    assert lower <= 137.095 * 1.001 and upper >= 137.095 * 0.999, line
+    assert line.endswith("hinges at joints [2, 6, 12, 16]")

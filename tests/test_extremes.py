@@ -20,13 +20,15 @@ import time
 import numpy as np
 import pytest
 
-from bridgefem.analysis import Analysis, run_analysis, transmitted_load_check
+from bridgefem.analysis import Analysis, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
-from bridgefem.results import lp_check, summary
+from bridgefem.results import summary
 from bridgefem.rigid_block import collapse_load, min_thickness
 from bridgefem.scene import Scene, scene_from_dict
 
 from conftest import bridgefem, scene_dict, write_toml
+
+pytestmark = pytest.mark.slow  # end-to-end analyses
 
 R_CENTRE = 5.0  # m, centreline radius of the reference arch (intrados span 9 m + t = 1 m)
 
@@ -62,7 +64,7 @@ CASES = {
     "elements=32": {"mesh": {"elements_through_thickness": 32}},
     "load at 0.01 span": {"load": [{"kind": "point", "position": 0.01}]},
     "load at crown": {"load": [{"kind": "point", "position": 0.5}]},
-    "tolerance=1e-4": {"solver": {"tolerance": 1e-4}},
+    "tolerance=1e-6": {"solver": {"tolerance": 1e-6}},
     "fill young=1e-5 masonry": {"fill": {"unit_weight": 18000.0, "young": 1e5, "depth": 0.5, "extension": 2.0}},
 }
 
@@ -89,10 +91,8 @@ def lp(case: str, friction: float | None = None):
 
 
 def results_json(an: Analysis) -> dict:
-    """What results.json would hold (summary + LP check), without writing files."""
-    data = summary(an)
-    data.update(lp_check(an.scene, data))
-    return data
+    """What results.json would hold, without writing files."""
+    return summary(an)
 
 
 def fe_lp_ratio(an: Analysis, load: float) -> float:
@@ -188,8 +188,11 @@ def expect_young(case):
         last = [st.deflection for st in s.steps if st.converged][-1]
         last_ref = [st.deflection for st in r.steps if st.converged][-1]
         assert last * e == pytest.approx(last_ref * e_ref, rel=1e-4)
-        if e == 1e6:
-            assert last > an.scene.arch.rise  # documented above: linear kinematics far beyond validity
+        # so at E = 1e6 Pa the deflection is far beyond a small-displacement model's validity: the user must be told
+        small = last < 0.01 * an.scene.arch.span
+        warned = any("small-displacement" in w for w in results_json(an)["warnings"])
+        assert warned != small, (last, results_json(an)["warnings"])
+        assert small == (e >= 1e9)
     return check
 
 
@@ -244,18 +247,15 @@ def expect_three_voussoirs(an):
 
 
 def expect_many_voussoirs(an):
-    # 256 voussoirs are 0.12 m long, shorter than one element (t/4 = 0.25 m): the README's known limitation
-    # (the hinge spreads over several thin joints and the FE stops below the LP). The honest outcomes are the
-    # LP's value, a solver failure, or a limit load with a warning next to it. Here the LP mechanism has a
-    # sliding joint (89, next to the hinge at 90) but friction barely matters (mu = 10: +3.7 %, and the
-    # non-associative LP gives the same value as the associative one), so a ratio well below 1 is the mesh
-    # limitation, not sliding, and must not reach the user as a plain limit load.
-    s = an.search
+    # 256 voussoirs are about 0.06 m long on the centreline (pi R / 256), shorter
+    # than one element (t/4 = 0.25 m): a known limitation (docs/validation.md) (the hinge spreads over several thin joints
+    # and the FE can stop below the LP). The user must be warned whatever the outcome, and the FE can never carry
+    # more than the rigid-block LP on the same joints (an upper bound up to FE_LP_REL); a solver failure must say so.
+    data = results_json(an)
+    assert any("shorter than one element" in w for w in data["warnings"]), data["warnings"]
+    s, ref = an.search, lp("voussoirs=256")
     if s.status == LIMIT_FOUND:
-        ratio = fe_lp_ratio(an, lp("voussoirs=256").load)
-        if not 1 - FE_LP_REL <= ratio <= 1 + FE_LP_REL:
-            data = results_json(an)
-            assert data["warnings"], f"FE/LP = {ratio:.4f} reported as a limit load without a warning"
+        assert s.lower <= ref.load * (1 + FE_LP_REL), (s.lower, ref.load)
     else:
         assert s.status.startswith("solver failure: "), s.status
 
@@ -292,10 +292,12 @@ def expect_crown(an):
 
 
 def expect_tight(an):
-    # tolerance 1e-4: the bracket closes to 1e-4 of the lower bound and still lies within 1 % of the LP
-    s = an.search
-    assert s.upper - s.lower <= 1e-4 * s.lower * (1 + 1e-12)
-    assert_brackets_lp(an, lp("tolerance=1e-4"))
+    # tolerance 1e-6 (100 x tighter than the default): the bracket closes to 1e-6 of the lower bound, lies within
+    # 1 % of the LP, and overlaps the default run's bracket (both contain the same limit load)
+    s, ref = an.search, analyse("friction=0.6")[0].search
+    assert s.upper - s.lower <= 1e-6 * s.lower * (1 + 1e-12)
+    assert_brackets_lp(an, lp("tolerance=1e-6"))
+    assert s.lower <= ref.upper and s.upper >= ref.lower, ((s.lower, s.upper), (ref.lower, ref.upper))
 
 
 def expect_soft_fill(an):
@@ -337,7 +339,7 @@ EXPECT = {
     "elements=32": expect_mesh("elements=32"),
     "load at 0.01 span": expect_load_near_springing,
     "load at crown": expect_crown,
-    "tolerance=1e-4": expect_tight,
+    "tolerance=1e-6": expect_tight,
     "fill young=1e-5 masonry": expect_soft_fill,
 }
 assert EXPECT.keys() == CASES.keys()
@@ -372,11 +374,16 @@ def assert_no_nan(an: Analysis) -> None:
     json.dumps(results_json(an), allow_nan=False)  # results.json: no NaN or inf anywhere
 
 
-def assert_bounded(an: Analysis) -> None:
-    sv = an.scene.solver
-    assert 1 <= len(an.search.steps) <= sv.max_steps
-    for st in an.search.steps:
-        assert 1 <= st.iterations <= sv.max_iterations, st
+def assert_equilibrium(an: Analysis) -> None:
+    """At the last converged state of a bare ring the ground's reactions carry the mesh's weight plus the live load
+    (vertical) and balance (horizontal): conservation, independent of how the search got there."""
+    s = an.search
+    if an.scene.fill is not None or s.last is None:
+        return
+    reactions = springing_reactions(an.joints, an.ring).sum(axis=0)
+    total = an.model.dead_weight + s.lower * an.load_total
+    assert reactions[1] == pytest.approx(total, rel=1e-6), (reactions, total)
+    assert abs(reactions[0]) <= 1e-6 * total
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -387,7 +394,7 @@ def test_extreme_case(case):
           f"max {max(st.iterations for st in s.steps)} iterations; {seconds:.1f} s")
     assert_clear_status(an)
     assert_no_nan(an)
-    assert_bounded(an)
+    assert_equilibrium(an)
     EXPECT[case](an)
 
 

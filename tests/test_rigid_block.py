@@ -1,6 +1,5 @@
 """Rigid-block limit analysis (bridgefem.rigid_block) against independent reference values."""
 import json
-import time
 from dataclasses import replace
 
 import numpy as np
@@ -195,19 +194,6 @@ def test_small_patch_equals_point_load():
     point = collapse_load(scene(joint_at_loads=False))
     patch = collapse_load(scene(joint_at_loads=False, loads=[{"kind": "patch", "position": 0.22222, "length": 0.02}]))
     assert patch.load == pytest.approx(point.load, rel=1e-7)  # round-off of the patch midpoint and the LP
-
-
-def test_timing_1000_blocks(capsys):
-    sc = scene(voussoirs=1000)
-    start = time.perf_counter()
-    model = ring_model(sc)
-    built = time.perf_counter()
-    res = solve_blocks(model)
-    done = time.perf_counter()
-    with capsys.disabled():
-        print(f"\n1000-block ring: model {built - start:.3f} s, LP assembly + HiGHS {done - built:.3f} s "
-              f"(solver-side time_s {res.time_s:.3f} s), collapse load {res.load / 1e3:.2f} kN")
-    assert res.status == "limit load found"
 
 
 def test_ring_under_forces_is_the_ring_under_the_given_forces():
