@@ -75,13 +75,12 @@ def _progress(total: float):
     many joint node pairs are open, sticking and slipping."""
     from mpi4py import MPI
 
-    if MPI.COMM_WORLD.rank == 0:
-        print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
-              flush=True)
-
     def report(step) -> None:
         if MPI.COMM_WORLD.rank != 0:
             return
+        if step.index == 0:
+            print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+                  flush=True)
         c = step.counts
         if step.converged:
             what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""

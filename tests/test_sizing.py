@@ -46,4 +46,4 @@ def test_a_large_run_prints_its_estimate_and_phases(tmp_path, capsys, monkeypatc
     assert lines[0].startswith("s: about ") and "unknowns" in lines[0]
     assert lines[1:6] == ["  meshing ...", "  assembling ...", "  pairing the joints ...",
                           "  setting up the solver (first factorisation) ...", "  limit search ..."]
-    assert lines[6].startswith("step   0")
+    assert lines[6].startswith("load steps: ") and lines[7].startswith("step   0")
