@@ -24,8 +24,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 _FINE = 4001  # samples of the parameter used to measure arc lengths and invert x(p)
@@ -383,3 +387,12 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
     return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
                     abutments)
+
+
+def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
+    """The joints and blocks of a scene (one source for the FE model and the LP); ``thickness`` (m) overrides the
+    ring's. Raises ValueError when the loads are too close together for the number of voussoirs."""
+    a, ab = scene.arch, scene.abutments
+    ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
+                      scene.load_edges_x(), a.joint_at_loads)
+    return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring

@@ -57,8 +57,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from .abutments import scene_ring
-from .geometry import polygon_area_centroid
+from .geometry import polygon_area_centroid, scene_ring
 from .scene import Scene
 
 FRICTION_MODELS = ("associative", "non-associative")
