@@ -1,6 +1,7 @@
 """Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
 
-Exit codes: 0 computed (whatever the structural status), 1 solver failure, 2 bad input (nothing written).
+Exit codes: 0 computed (whatever the structural status), 1 solver failure or no stable thickness
+(``min-thickness``), 2 bad input (nothing written).
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (they override the
 scene's ``[solver.petsc]`` table, which overrides the defaults).
 """
@@ -141,9 +142,14 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from .rigid_block import min_thickness
+    from .rigid_block import NoStableThickness, min_thickness
 
-    res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
+    try:
+        res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
+    except NoStableThickness as err:
+        print(json.dumps({"thickness": None, "reason": str(err)}) if args.json
+              else f"minimum thickness under self-weight: none: {err}")
+        return 1
     if args.json:
         print(json.dumps(res.to_dict()))
     else:

@@ -32,8 +32,14 @@ if TYPE_CHECKING:
     from .scene import Scene
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
-_FINE = 4001  # samples of the parameter used to measure arc lengths and invert x(p)
-_EDGE_SAMPLES = 17  # points per voussoir intrados/extrados edge (polygon and Gmsh splines)
+LOAD_SIDES = ("left", "right", "split")
+# a load point within this fraction of the span of a joint's extrados corner is on the joint: it acts at the
+# corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
+AT_JOINT_TOL = 1e-4
+_FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
+# points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
+# holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
+_EDGE_SAMPLES = 17
 
 
 class _Shape(ABC):
@@ -344,11 +350,21 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     if joint_at_loads and len(load_x):
         params = _place_joints_at_loads(params, s_of_p, load_params)
 
+    def extrados_x(q):
+        return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
+
     def voussoir(i):
         pa, pb = params[i], params[i + 1]
         kinks = [k for k in curve.kinks if pa < k < pb]
-        loads = [k for k in load_params if pa + 1e-9 < k < pb - 1e-9]
-        q = np.unique(np.concatenate([np.linspace(pa, pb, _EDGE_SAMPLES), kinks, loads]))
+        inside = np.array([k for k in load_params if pa < k < pb])  # a load on a joint's corner is at the joint
+        corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
+        loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
+        special = np.array(sorted(kinks + loads))
+        regular = np.linspace(pa, pb, _EDGE_SAMPLES)
+        if len(special):  # no spline point closer than a quarter of the sample spacing to a corner or load point
+            gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
+            regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
+        q = np.unique(np.concatenate([regular, special]))
         split = tuple(int(k) for k in np.searchsorted(q, kinks))
         return Voussoir(i, _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0), split,
                         tuple(int(k) for k in np.searchsorted(q, sorted(kinks + loads))))
@@ -387,6 +403,36 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
     return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
                     abutments)
+
+
+
+def joint_under(ring: ArchRing, x: float) -> int | None:
+    """The interior joint whose extrados corner is at horizontal position x (m), within ``AT_JOINT_TOL`` x span,
+    or None (springing corners do not count: a load there is on the end voussoir only)."""
+    inner = ring.joints[1:ring.n_voussoirs]
+    if not inner:
+        return None
+    j = min(inner, key=lambda jt: abs(jt.extrados[0] - x))
+    return j.id if abs(j.extrados[0] - x) <= AT_JOINT_TOL * ring.span else None
+
+
+def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[int, ...]:
+    """The voussoir(s) that carry a vertical point load at horizontal position x (m) on the extrados.
+
+    A load off the joints is on the voussoir below it. A load on a joint's extrados corner (:func:`joint_under`)
+    is on the joint's ``side`` block ("left" | "right"), or half on each ("split"): the one choice the FE load
+    vector and the rigid-block LP both take from here. Raises ValueError off the extrados or for an unknown side.
+    """
+    if side not in LOAD_SIDES:
+        raise ValueError(f"load side {side!r}: allowed are {', '.join(LOAD_SIDES)}")
+    j = joint_under(ring, x)
+    if j is not None:
+        left, right = ring.joints[j].left, ring.joints[j].right
+        return {"left": (left,), "right": (right,), "split": (left, right)}[side]
+    on = [v.id for v in ring.voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
+    if not on:
+        raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
+    return (on[0],)
 
 
 def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:

@@ -60,7 +60,7 @@ def block_weights(sc):
 def test_equilibrium_and_work_balance(joint_at_loads):
     """Block equilibrium recomputed joint by joint from the reported forces, and virtual work of the mechanism."""
     sc = scene(joint_at_loads=joint_at_loads)
-    res = collapse_load(sc)
+    res = collapse_load(sc, load_at_joint="split")
     ring, weight = block_weights(sc)
     x_load = sc.loads[0].x_range(9.0)[0]
     if joint_at_loads:  # the load acts on the corner of the joint moved under it, half on each block
