@@ -138,6 +138,13 @@ def _lp(args) -> int:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
         print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
               f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+        sides = [f"load {i + 1} on the {s} voussoir" if s != "split" else f"load {i + 1} shared by both voussoirs"
+                 for i, s in enumerate(res.load_sides) if s is not None]
+        if sides:
+            print(f"  point loads on joints (least favourable): {', '.join(sides)}")
+        if res.friction_model != "associative" and res.load_factor_associative is not None:
+            print(f"  associative friction: {res.load_factor_associative * res.load / res.load_factor / 1e3:.3f} kN "
+                  "(non-associative collapse loads need not be unique: docs/joints-and-lp.md)")
     return 0
 
 

@@ -41,7 +41,12 @@ with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <-
 the shear capacity no longer grows with dilatancy; it repeats until the load factor settles. At a fixed point
 (``n = n~``) the state obeys ``|s| <= mu n``, so the non-associative load factor does not exceed the associative
 one; where the collapse state is statically determinate (e.g. an arch mechanism of two hinges and two sliding
-joints, or hinges plus a sliding springing) the two coincide.
+joints, or hinges plus a sliding springing) the two coincide: on a single ring every case measured does
+(docs/joints-and-lp.md). Where they differ, non-associative collapse loads need not be unique (they depend on
+the clamping forces left in the blocks): the iteration returns one of them, not a bound (three blocks in the
+tests: 30/19 from the iteration, 25/19 without clamping).
+
+**Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
 **Dead load only** (least thickness): the *deficit* programme minimises ``tau >= 0``, a uniform tensile strength
 at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``). The

@@ -18,6 +18,8 @@ import pytest
 from bridgefem.rigid_block import NoStableThickness, dead_load_deficit, min_thickness, ring_model
 from bridgefem.scene import scene_from_dict
 
+from conftest import bridgefem
+
 MU_RM, MU_MS, ETA_MS = 0.395832, 0.309215, 0.200637
 FRICTION_MODELS = ["associative", "non-associative"]
 
@@ -79,3 +81,14 @@ def test_thresholds_many_joints():
     assert threshold(heyman * (1 + 1e-4)) == pytest.approx(MU_RM, rel=3e-3)
     assert threshold(0.25) == pytest.approx(MU_MS, rel=1e-4)
     assert min_thickness(semicircle(100, MU_MS * 1.002, 0.25), rtol=1e-4).ratio == pytest.approx(ETA_MS, rel=0.05)
+
+
+@pytest.mark.slow
+def test_min_thickness_command_without_a_stable_thickness(tmp_scene):
+    """`bridgefem min-thickness` at mu = 0.30 (below mu_ms): one line naming the sliding joints, exit code 1."""
+    d = {"arch": {"shape": "semicircular", "span": 9.0, "thickness": 1.0, "voussoirs": 27},
+         "masonry": {"young": 1e10, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.30}}
+    out = bridgefem("min-thickness", tmp_scene(d))
+    assert out.returncode == 1 and not out.stderr
+    assert out.stdout.count("\n") == 1 and out.stdout.startswith("minimum thickness under self-weight: none:")
+    assert "slide" in out.stdout
