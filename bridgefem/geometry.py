@@ -322,9 +322,10 @@ def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float])
         j = free[0]
         params[j] = pl
         taken.add(j)
-    if np.any(np.diff(params) <= 0):
-        raise ValueError("loads are too close together for this number of voussoirs: "
-                         "a voussoir would vanish; use more voussoirs or joint_at_loads = false")
+    if np.any(np.diff(s_of_p(params)) <= AT_JOINT_TOL * s_of_p(np.array([1.0]))[0]):
+        raise ValueError("loads are too close together for this number of voussoirs: a voussoir would vanish "
+                         f"(shorter than {AT_JOINT_TOL:g} x the ring's length); use more voussoirs or "
+                         "joint_at_loads = false")
     return params
 
 
@@ -344,10 +345,17 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def s_of_p(q):
         return np.interp(q, p, s)
 
-    load_params = [_extrados_x_to_param(curve, thickness, x) for x in load_x]
+    xs = np.unique(np.asarray(load_x, float))
+    gaps = np.diff(xs)
+    if np.any(gaps < AT_JOINT_TOL * span):
+        k = int(np.argmin(gaps))
+        raise ValueError(f"point loads or patch edges at x = {xs[k]:.9g} and {xs[k + 1]:.9g} m are {gaps[k]:.3g} m "
+                         f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
+                         "have an edge that short; put them at one position or further apart")
+    load_params = [_extrados_x_to_param(curve, thickness, x) for x in xs]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
-    if joint_at_loads and len(load_x):
+    if joint_at_loads and len(load_params):
         params = _place_joints_at_loads(params, s_of_p, load_params)
 
     def extrados_x(q):
@@ -437,8 +445,13 @@ def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[in
 
 def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
     """The joints and blocks of a scene (one source for the FE model and the LP); ``thickness`` (m) overrides the
-    ring's. Raises ValueError when the loads are too close together for the number of voussoirs."""
+    ring's. Raises SceneError when the loads are too close together (for each other or the number of voussoirs)."""
+    from .scene import SceneError
+
     a, ab = scene.arch, scene.abutments
-    ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
-                      scene.load_edges_x(), a.joint_at_loads)
+    try:
+        ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
+                          scene.load_edges_x(), a.joint_at_loads)
+    except ValueError as err:
+        raise SceneError(f"[[load]] positions: {err}") from None
     return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring
