@@ -102,7 +102,7 @@ class _Pointed(_Shape):
 
     def normal(self, p):
         n = self._mirror(p, lambda q: self._left(q)[1])
-        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)
+        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)  # p = 0.5 up to round-off: the apex
         return np.where(crown[..., None], np.array([0.0, 1.0]), n)
 
 
@@ -398,6 +398,7 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         inner, outer = joint.intrados, joint.extrados
         x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
         base = (np.array([inner[0], -height]), np.array([x_out, -height]))
+        # a corner above the outer base corner unless it is the springing's extrados corner (1e-12 m: round-off)
         corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:

@@ -71,6 +71,7 @@ LEAST_FAVOURABLE = "least-favourable"
 _EXHAUSTIVE = 8  # point loads on joints up to which every allocation is tried (2^8 = 256 LPs)
 _TIE = 1e-7  # relative: a load on one block must lower the collapse load by more than this to replace the split
 _MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
+_DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
 _WINDOW = 6  # non-associative iterations: converged when lambda is steady over this many LPs
 _THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
 _LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
@@ -559,7 +560,7 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     if sol.status != 0:
         raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
     tau = float(sol.x[-1] * prog.fref)
-    res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > 1e-9 else "stable under self-weight",
+    res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > _DEFICIT_TOL else "stable under self-weight",
                    friction_model)
     _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start

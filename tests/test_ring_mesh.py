@@ -62,7 +62,8 @@ from bridgefem.mesh import _gmsh_bridge
 out = []
 for shape, span, rise, n, per, offset in {cases!r}:
     ring = build_ring(shape, span, rise, 0.8, n)
-    x = ring.joints[n // 3].extrados[0] + offset * (ring.joints[n // 3 + 1].extrados[0] - ring.joints[n // 3].extrados[0])
+    a, b = (ring.joints[k].extrados[0] for k in (n // 3, n // 3 + 1))
+    x = a + offset * (b - a)
     out.append(len(_gmsh_bridge(build_ring(shape, span, rise, 0.8, n, [x], False), per, None, 0.0).cells))
 print(json.dumps(out))
 """
