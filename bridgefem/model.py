@@ -190,12 +190,19 @@ def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> t
 def least_favourable_sides(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> list[str | None]:
     """Per scene load, the block side ("left" | "right") that carries a point load lying on a joint in the
     rigid-block LP's least favourable allocation (:func:`bridgefem.rigid_block.collapse_load`), else None. Over
-    a fill the loads act on the road and no side is needed. Computed on rank 0 and broadcast."""
+    a fill the loads act on the road and no side is needed. Computed on rank 0 and broadcast; if the LP fails (a
+    RuntimeError from HiGHS) the loads stay shared by both faces (None)."""
     if scene.fill is not None or not any(ld.kind == "point" for ld in scene.loads):
         return [None] * len(scene.loads)
     from .rigid_block import collapse_load
 
-    return comm.bcast(collapse_load(scene).load_sides if comm.rank == 0 else None, root=0)
+    def sides() -> list[str | None]:
+        try:
+            return collapse_load(scene).load_sides
+        except RuntimeError:
+            return [None] * len(scene.loads)
+
+    return comm.bcast(sides() if comm.rank == 0 else None, root=0)
 
 
 def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
