@@ -1,5 +1,5 @@
-"""A scene's supports: the ring's geometry with its elastic abutments (when the scene has them) and the imposed
-movement of the ground under the moving springing(s).
+"""A scene's supports: the joints that bear on the ground and the imposed movement of the ground under the moving
+springing(s). (The ring with its elastic abutments is built by :func:`bridgefem.geometry.scene_ring`.)
 
 The ground is rigid. Under rigid abutments (the default) the springing joints bear on it directly; under
 elastic abutments their base joints do. A support movement displaces the ground under the springing joint, or
@@ -10,17 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import ArchRing, add_abutments, build_ring
+from .geometry import ArchRing
 from .scene import Scene
-
-
-def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
-    """The joints and blocks of a scene (one source for the FE model and the LP); ``thickness`` (m) overrides the
-    ring's. Raises ValueError when the loads are too close together for the number of voussoirs."""
-    a, ab = scene.arch, scene.abutments
-    ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
-                      scene.load_edges_x(), a.joint_at_loads)
-    return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring
 
 
 def ground_joints(ring: ArchRing) -> dict[int, str]:

@@ -30,10 +30,10 @@ import numpy as np
 from dolfinx import fem
 from mpi4py import MPI
 
-from .abutments import scene_ring, support_motion
+from .abutments import support_motion
 from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
-from .geometry import ArchRing, fill_outline
+from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection

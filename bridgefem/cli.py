@@ -1,9 +1,9 @@
 """Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
-the earlier results in ``<out>`` are kept), 2 bad input or a refused output folder (one line on stderr, nothing
-written; checked before the analysis), 143 terminated by SIGTERM (the earlier results kept, nothing half-written).
-Where results go: :mod:`bridgefem.output` (docs/output-policy.md).
+the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
+output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
+earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.output` (docs/output-policy.md).
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
 the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
 """
@@ -225,13 +225,25 @@ def _lp(args) -> int:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
         print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
               f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+        sides = [f"load {i + 1} on the {s} voussoir" if s != "split" else f"load {i + 1} shared by both voussoirs"
+                 for i, s in enumerate(res.load_sides) if s is not None]
+        if sides:
+            print(f"  point loads on joints (least favourable): {', '.join(sides)}")
+        if res.friction_model != "associative" and res.load_factor_associative is not None:
+            print(f"  associative friction: {res.load_factor_associative * res.load / res.load_factor / 1e3:.3f} kN "
+                  "(non-associative collapse loads need not be unique: docs/joints-and-lp.md)")
     return 0
 
 
 def _min_thickness(args) -> int:
-    from .rigid_block import min_thickness
+    from .rigid_block import NoStableThickness, min_thickness
 
-    res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
+    try:
+        res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
+    except NoStableThickness as err:
+        print(json.dumps({"thickness": None, "reason": str(err)}) if args.json
+              else f"minimum thickness under self-weight: none: {err}")
+        return 1
     if args.json:
         print(json.dumps(res.to_dict()))
     else:

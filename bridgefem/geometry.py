@@ -24,12 +24,22 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from .scene import Scene
+
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
-_FINE = 4001  # samples of the parameter used to measure arc lengths and invert x(p)
-_EDGE_SAMPLES = 17  # points per voussoir intrados/extrados edge (polygon and Gmsh splines)
+LOAD_SIDES = ("left", "right", "split")
+# a load point within this fraction of the span of a joint's extrados corner is on the joint: it acts at the
+# corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
+AT_JOINT_TOL = 1e-4
+_FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
+# points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
+# holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
+_EDGE_SAMPLES = 17
 
 
 class _Shape(ABC):
@@ -92,7 +102,7 @@ class _Pointed(_Shape):
 
     def normal(self, p):
         n = self._mirror(p, lambda q: self._left(q)[1])
-        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)
+        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)  # p = 0.5 up to round-off: the apex
         return np.where(crown[..., None], np.array([0.0, 1.0]), n)
 
 
@@ -312,9 +322,10 @@ def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float])
         j = free[0]
         params[j] = pl
         taken.add(j)
-    if np.any(np.diff(params) <= 0):
-        raise ValueError("loads are too close together for this number of voussoirs: "
-                         "a voussoir would vanish; use more voussoirs or joint_at_loads = false")
+    if np.any(np.diff(s_of_p(params)) <= AT_JOINT_TOL * s_of_p(np.array([1.0]))[0]):
+        raise ValueError("loads are too close together for this number of voussoirs: a voussoir would vanish "
+                         f"(shorter than {AT_JOINT_TOL:g} x the ring's length); use more voussoirs or "
+                         "joint_at_loads = false")
     return params
 
 
@@ -334,17 +345,34 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def s_of_p(q):
         return np.interp(q, p, s)
 
-    load_params = [_extrados_x_to_param(curve, thickness, x) for x in load_x]
+    xs = np.unique(np.asarray(load_x, float))
+    gaps = np.diff(xs)
+    if np.any(gaps < AT_JOINT_TOL * span):
+        k = int(np.argmin(gaps))
+        raise ValueError(f"point loads or patch edges at x = {xs[k]:.9g} and {xs[k + 1]:.9g} m are {gaps[k]:.3g} m "
+                         f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
+                         "have an edge that short; put them at one position or further apart")
+    load_params = [_extrados_x_to_param(curve, thickness, x) for x in xs]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
-    if joint_at_loads and len(load_x):
+    if joint_at_loads and len(load_params):
         params = _place_joints_at_loads(params, s_of_p, load_params)
+
+    def extrados_x(q):
+        return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
 
     def voussoir(i):
         pa, pb = params[i], params[i + 1]
         kinks = [k for k in curve.kinks if pa < k < pb]
-        loads = [k for k in load_params if pa + 1e-9 < k < pb - 1e-9]
-        q = np.unique(np.concatenate([np.linspace(pa, pb, _EDGE_SAMPLES), kinks, loads]))
+        inside = np.array([k for k in load_params if pa < k < pb])  # a load on a joint's corner is at the joint
+        corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
+        loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
+        special = np.array(sorted(kinks + loads))
+        regular = np.linspace(pa, pb, _EDGE_SAMPLES)
+        if len(special):  # no spline point closer than a quarter of the sample spacing to a corner or load point
+            gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
+            regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
+        q = np.unique(np.concatenate([regular, special]))
         split = tuple(int(k) for k in np.searchsorted(q, kinks))
         return Voussoir(i, _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0), split,
                         tuple(int(k) for k in np.searchsorted(q, sorted(kinks + loads))))
@@ -370,6 +398,7 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         inner, outer = joint.intrados, joint.extrados
         x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
         base = (np.array([inner[0], -height]), np.array([x_out, -height]))
+        # a corner above the outer base corner unless it is the springing's extrados corner (1e-12 m: round-off)
         corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:
@@ -383,3 +412,47 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
     return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
                     abutments)
+
+
+
+def joint_under(ring: ArchRing, x: float) -> int | None:
+    """The interior joint whose extrados corner is at horizontal position x (m), within ``AT_JOINT_TOL`` x span,
+    or None (springing corners do not count: a load there is on the end voussoir only)."""
+    inner = ring.joints[1:ring.n_voussoirs]
+    if not inner:
+        return None
+    j = min(inner, key=lambda jt: abs(jt.extrados[0] - x))
+    return j.id if abs(j.extrados[0] - x) <= AT_JOINT_TOL * ring.span else None
+
+
+def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[int, ...]:
+    """The voussoir(s) that carry a vertical point load at horizontal position x (m) on the extrados.
+
+    A load off the joints is on the voussoir below it. A load on a joint's extrados corner (:func:`joint_under`)
+    is on the joint's ``side`` block ("left" | "right"), or half on each ("split"): the one choice the FE load
+    vector and the rigid-block LP both take from here. Raises ValueError off the extrados or for an unknown side.
+    """
+    if side not in LOAD_SIDES:
+        raise ValueError(f"load side {side!r}: allowed are {', '.join(LOAD_SIDES)}")
+    j = joint_under(ring, x)
+    if j is not None:
+        left, right = ring.joints[j].left, ring.joints[j].right
+        return {"left": (left,), "right": (right,), "split": (left, right)}[side]
+    on = [v.id for v in ring.voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
+    if not on:
+        raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
+    return (on[0],)
+
+
+def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
+    """The joints and blocks of a scene (one source for the FE model and the LP); ``thickness`` (m) overrides the
+    ring's. Raises SceneError when the loads are too close together (for each other or the number of voussoirs)."""
+    from .scene import SceneError
+
+    a, ab = scene.arch, scene.abutments
+    try:
+        ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
+                          scene.load_edges_x(), a.joint_at_loads)
+    except ValueError as err:
+        raise SceneError(f"[[load]] positions: {err}") from None
+    return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring

@@ -124,7 +124,10 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             mesh.setTransfiniteCurve(c, per_thickness + 1)
         for s, intra, extra, i in surfaces:
             centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
-            n_along = max(1, int(np.ceil(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum() / h - 1e-9)))
+            length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
+            # segments along: about one per element size h (1e-9: a length of exactly k h gives k), and at least
+            # one per curve of an edge split at a load point or crown kink (each curve needs a segment)
+            n_along = max(int(np.ceil(length / h - 1e-9)), len(intra), len(extra))
             for side in (intra, extra):
                 lengths = [_curve_length(c) for c in side] if len(side) > 1 else [1.0]  # one curve: all n_along
                 for c, n in zip(side, _segment_counts(lengths, n_along)):

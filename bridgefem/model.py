@@ -14,7 +14,7 @@ from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .geometry import ArchRing
+from .geometry import ArchRing, joint_under, point_load_blocks
 from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 from .scene import Scene
 
@@ -99,10 +99,14 @@ def strain(w):
     return ufl.sym(ufl.grad(w))
 
 
-def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticModel:
-    """Assemble K, the self-weight vector and the unit live-load vector (point loads as nodal forces shared
-    equally by the nodes at the load point — both faces of a joint placed under it). Live loads act on the
-    extrados of a bare arch and on the road over a fill; the fill's supports are built into K and the loads."""
+def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
+                        point_load_sides: list[str | None] | None = None) -> ElasticModel:
+    """Assemble K, the self-weight vector and the unit live-load vector. Live loads act on the extrados of a bare
+    arch and on the road over a fill; the fill's supports are built into K and the loads. A point load is a nodal
+    force shared equally by the nodes at the load point of the blocks that carry it (:func:`load_point`): a load
+    on a joint is on the side given per scene load by ``point_load_sides`` ("left" | "right" | "split"; None for a
+    load off the joints), by default the rigid-block LP's least favourable one (:func:`least_favourable_sides`),
+    so that the FE and the LP load the same block."""
     mesh, comm = bm.mesh, bm.mesh.comm
     fill = scene.fill
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
@@ -147,10 +151,14 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
             inside = ufl.conditional(ufl.And(ufl.ge(x[0], a), ufl.le(x[0], b)), 1.0, 0.0)
             patch = patch - ld.factor / ld.length * inside * abs(n[1]) * v[1] * ds(surface)
     f_live = _load_vector(patch, bcs)
-    for ld in scene.loads:
+    if point_load_sides is None:
+        point_load_sides = least_favourable_sides(scene, comm)
+    blocks = node_blocks(V, bm)
+    for ld, side in zip(scene.loads, point_load_sides):
         if ld.kind == "point":
-            point = load_point(ring, scene, ld.x_range(scene.arch.span)[0])
+            point, carriers = load_point(ring, scene, ld.x_range(scene.arch.span)[0], side or "split")
             nodes = _owned_nodes_at(V, point, POINT_TOL)
+            nodes = nodes[np.isin(blocks[nodes], carriers)]
             count = comm.allreduce(len(nodes))
             if count == 0:
                 raise RuntimeError(f"no mesh node at the point load x = {point[0]:.6g} m")
@@ -168,11 +176,33 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene) -> ElasticM
                         bcs, abutment_weight)
 
 
-def load_point(ring: ArchRing, scene: Scene, x: float) -> np.ndarray:
-    """Where a point load at horizontal position x (m) acts: on the road over a fill, else on the extrados."""
-    if scene.fill is None:
-        return ring.extrados_point(x)
-    return np.array([x, ring.crown_extrados + scene.fill.depth])
+def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> tuple[np.ndarray, tuple[int, ...]]:
+    """Where a point load at horizontal position x (m) acts and the blocks whose nodes there carry it: on the road
+    over a fill (the fill's block), else on the ring's extrados as :func:`bridgefem.geometry.point_load_blocks`
+    says for ``side`` (a load on a joint acts at the joint's extrados corner)."""
+    if scene.fill is not None:
+        return np.array([x, ring.crown_extrados + scene.fill.depth]), (ring.n_blocks,)
+    j = joint_under(ring, x)
+    point = ring.extrados_point(x) if j is None else ring.joints[j].extrados
+    return point, point_load_blocks(ring, x, side)
+
+
+def least_favourable_sides(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> list[str | None]:
+    """Per scene load, the block side ("left" | "right") that carries a point load lying on a joint in the
+    rigid-block LP's least favourable allocation (:func:`bridgefem.rigid_block.collapse_load`), else None. Over
+    a fill the loads act on the road and no side is needed. Computed on rank 0 and broadcast; if the LP fails (a
+    RuntimeError from HiGHS) the loads stay shared by both faces (None)."""
+    if scene.fill is not None or not any(ld.kind == "point" for ld in scene.loads):
+        return [None] * len(scene.loads)
+    from .rigid_block import collapse_load
+
+    def sides() -> list[str | None]:
+        try:
+            return collapse_load(scene).load_sides
+        except RuntimeError:
+            return [None] * len(scene.loads)
+
+    return comm.bcast(sides() if comm.rank == 0 else None, root=0)
 
 
 def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:

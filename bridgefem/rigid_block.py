@@ -41,7 +41,12 @@ with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <-
 the shear capacity no longer grows with dilatancy; it repeats until the load factor settles. At a fixed point
 (``n = n~``) the state obeys ``|s| <= mu n``, so the non-associative load factor does not exceed the associative
 one; where the collapse state is statically determinate (e.g. an arch mechanism of two hinges and two sliding
-joints, or hinges plus a sliding springing) the two coincide.
+joints, or hinges plus a sliding springing) the two coincide: on a single ring every case measured does
+(docs/joints-and-lp.md). Where they differ, non-associative collapse loads need not be unique (they depend on
+the clamping forces left in the blocks): the iteration returns one of them, not a bound (three blocks in the
+tests: 30/19 from the iteration, 25/19 without clamping).
+
+**Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
 **Dead load only** (least thickness): the *deficit* programme minimises ``tau >= 0``, a uniform tensile strength
 at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``). The
@@ -50,6 +55,7 @@ blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -57,15 +63,17 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from .abutments import scene_ring
-from .geometry import polygon_area_centroid
+from .geometry import joint_under, point_load_blocks, polygon_area_centroid, scene_ring
 from .scene import Scene
 
 FRICTION_MODELS = ("associative", "non-associative")
-LOAD_AT_JOINT = ("left", "right", "split")
-_AT_JOINT_TOL = 1e-4  # a point load within this fraction of the span from a joint's extrados corner is on it
+LEAST_FAVOURABLE = "least-favourable"
+_EXHAUSTIVE = 8  # point loads on joints up to which every allocation is tried (2^8 = 256 LPs)
+_TIE = 1e-7  # relative: a load on one block must lower the collapse load by more than this to replace the split
 _MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
+_DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
 _WINDOW = 6  # non-associative iterations: converged when lambda is steady over this many LPs
+_THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
 _LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
 
 
@@ -127,7 +135,9 @@ class LPResult:
     block_velocities: (nb, 3) u, v (m/s-like) and omega (rad) at the reference points, live-load work = 1
     (dead-load-only problems: largest block speed = 1); joint_rotation, joint_slip: relative motions;
     work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
-    iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s).
+    iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s);
+    load_sides: per scene load, the block ("left" | "right" | "split") that carries it when it lies on a joint,
+    else None (:func:`collapse_load`).
     """
 
     load: float | None
@@ -148,6 +158,7 @@ class LPResult:
     iterations: int = 0
     converged: bool = True
     time_s: float = 0.0
+    load_sides: list[str | None] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """JSON-serialisable copy (arrays become lists, joint ids stay ints)."""
@@ -347,22 +358,24 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alph
     return res
 
 
-def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str = "split",
+def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
                live: bool = True) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
 
     Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
     vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
-    uniform per horizontal metre over its x-range. A point load exactly above a joint is carried by the block on
-    its ``load_at_joint`` side ("left" | "right"), or half by each ("split"). ``thickness`` overrides the scene's;
-    ``live=False`` drops the live loads. A scene's fill enters as dead load only (:func:`_overburden`). Elastic
-    abutments are two more rigid blocks (``unit_weight area width`` at their centroids) with their base joints on
-    the ground (the abutments' friction); a support movement is not modelled (it does not change the collapse
-    load of rigid blocks).
+    uniform per horizontal metre over its x-range. A point load exactly above a joint acts at the joint's extrados
+    corner and is carried as :func:`bridgefem.geometry.point_load_blocks` says for its side: ``load_at_joint`` is
+    one side ("left" | "right" | "split") for every load, or one per scene load (patches ignore theirs).
+    ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
+    only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
+    centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
+    (it does not change the collapse load of rigid blocks).
     """
-    if load_at_joint not in LOAD_AT_JOINT:
-        raise ValueError(f"load_at_joint = {load_at_joint!r}: allowed are {', '.join(LOAD_AT_JOINT)}")
     a = scene.arch
+    sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
+    if len(sides) != len(scene.loads):
+        raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
     ring = scene_ring(scene, thickness)
     blocks = ring.voussoirs + ring.abutments
     area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
@@ -374,36 +387,7 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
     if scene.fill is not None:
         dead = dead + _overburden(ring, scene, ref)
-    ext = np.vstack([v.extrados for v in ring.voussoirs])
-    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
-    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
-    blocks, xs, fy = [], [], []
-    for ld in scene.loads if live else ():
-        lo, hi = ld.x_range(a.span)
-        if ld.kind == "point":
-            j = np.argmin(np.abs(x0[1:] - lo)) + 1  # nearest interior joint (between blocks j-1 and j)
-            if abs(x0[j] - lo) <= _AT_JOINT_TOL * a.span:  # on the joint's extrados corner
-                on = {"left": [j - 1], "right": [j], "split": [j - 1, j]}[load_at_joint]
-                x = x0[j]
-            else:
-                on, x = np.nonzero((x0 <= lo) & (lo <= x1))[0][:1], lo
-            if not len(on):
-                raise ValueError(f"point load at x = {lo:g} m is not above the ring's extrados")
-            blocks.append(np.array(on))
-            xs.append(np.full(len(on), x))
-            fy.append(np.full(len(on), -ld.factor / len(on)))
-        else:
-            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
-            on = np.nonzero(right > left)[0]
-            blocks.append(on)
-            xs.append(0.5 * (left[on] + right[on]))
-            fy.append(-ld.factor * (right[on] - left[on]) / (hi - lo))
-    if blocks:
-        b, x = np.concatenate(blocks), np.concatenate(xs)
-        f = np.column_stack([np.zeros(len(x)), np.concatenate(fy)])
-        live_loads = generalised_loads(ref, b, np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]), f)
-    else:
-        live_loads = np.zeros((nb, 3))
+    live_loads = _live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
     friction = np.full(len(ring.joints), scene.joints.friction)
     if ring.bases:
         friction[[j.id for j in ring.bases]] = scene.abutments.friction
@@ -413,6 +397,33 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
         friction=friction)
+
+
+def _live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
+    """(nb, 3) generalised live loads of a scene's loads for unit load factor (see :func:`ring_model`)."""
+    ext = np.vstack([v.extrados for v in ring.voussoirs])
+    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
+    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
+    on, xs, fy = [], [], []
+    for ld, side in zip(scene.loads, sides):
+        lo, hi = ld.x_range(scene.arch.span)
+        if ld.kind == "point":
+            carriers = point_load_blocks(ring, lo, side)
+            j = joint_under(ring, lo)
+            on.append(np.array(carriers))
+            xs.append(np.full(len(carriers), lo if j is None else ring.joints[j].extrados[0]))
+            fy.append(np.full(len(carriers), -ld.factor / len(carriers)))
+        else:
+            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
+            k = np.nonzero(right > left)[0]
+            on.append(k)
+            xs.append(0.5 * (left[k] + right[k]))
+            fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
+    if not on:
+        return np.zeros((len(ref), 3))
+    x, f = np.concatenate(xs), np.concatenate(fy)
+    return generalised_loads(ref, np.concatenate(on), np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
+                             np.column_stack([np.zeros(len(f)), f]))
 
 
 def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:
@@ -447,10 +458,73 @@ def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
     return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
 
 
-def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = "split",
+def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
                   **options) -> LPResult:
-    """Rigid-block collapse load of a scene's ring; ``options`` go to :func:`solve_blocks`."""
-    return solve_blocks(ring_model(scene, load_at_joint=load_at_joint), friction_model, **options)
+    """Rigid-block collapse load of a scene's ring; ``options`` go to :func:`solve_blocks`.
+
+    ``load_at_joint``: the block that carries a point load lying on a joint (:func:`ring_model`), or
+    "least-favourable" (the default): the allocation with the least collapse load (:func:`_least_favourable`).
+    The result's ``load_sides`` says which was taken.
+    """
+    ring = scene_ring(scene)
+    span = scene.arch.span
+    on_joint = [i for i, ld in enumerate(scene.loads)
+                if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
+    model = ring_model(scene, load_at_joint="split")
+
+    def solve(choice: dict[int, str]) -> LPResult:
+        sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))
+        res = solve_blocks(dataclasses.replace(model, live=_live_loads(scene, ring, model.ref, sides)),
+                           friction_model, **options)
+        res.load_sides = [choice.get(i) for i in range(len(scene.loads))]
+        return res
+
+    if load_at_joint != LEAST_FAVOURABLE:
+        return solve({i: load_at_joint for i in on_joint})
+    return _least_favourable(solve, on_joint)
+
+
+def _level(res: LPResult) -> float:
+    """The collapse load factor as a number to compare (an unbounded load is +inf)."""
+    return np.inf if res.load_factor is None and res.status == "no collapse (unbounded)" else (res.load_factor or 0.0)
+
+
+def _least_favourable(solve, on_joint: list[int]) -> LPResult:
+    """The least collapse load over the allocations of the point loads on joints (load index -> side).
+
+    With associative friction the load factors ``(lambda_1, ..., lambda_k)`` the blocks can carry form a convex
+    set, so its gauge is convex along the (affine) allocation and its maximum over the box of allocations (the
+    least load factor) sits at a corner: every load wholly on one block. Up to ``_EXHAUSTIVE`` such loads every
+    corner is tried (2^k LPs); beyond, one load at a time is moved to its other block while that lowers the load
+    (a local search, not a proof). The split allocation is kept unless a corner is lower by more than ``_TIE``
+    (relative): where the allocation does not matter (no joint slides) the load stays shared by both faces.
+    """
+    split = solve({})
+    if not on_joint:
+        return split
+    if len(on_joint) <= _EXHAUSTIVE:
+        results = [solve(dict(zip(on_joint, c))) for c in itertools.product(("left", "right"), repeat=len(on_joint))]
+        best = min(results, key=_level)
+    else:
+        choice = dict.fromkeys(on_joint, "left")
+        best = solve(choice)
+        improved = True
+        while improved:
+            improved = False
+            for i in on_joint:
+                trial = {**choice, i: "right" if choice[i] == "left" else "left"}
+                res = solve(trial)
+                if _level(res) < _level(best):
+                    best, choice, improved = res, trial, True
+    if _level(best) < _level(split) * (1 - _TIE):
+        return best
+    split.load_sides = ["split" if i in on_joint else None for i in range(len(split.load_sides))]
+    return split
+
+
+class NoStableThickness(ValueError):
+    """No ring thickness in the searched range carries the self-weight (e.g. too little friction: a semicircle
+    needs mu >= 0.3092, Cocchetti & Rizzi 2020)."""
 
 
 @dataclass
@@ -486,7 +560,7 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     if sol.status != 0:
         raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
     tau = float(sol.x[-1] * prog.fref)
-    res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > 1e-9 else "stable under self-weight",
+    res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > _DEFICIT_TOL else "stable under self-weight",
                    friction_model)
     _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
@@ -497,8 +571,9 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
                   **options) -> ThicknessResult:
     """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.
 
-    A thickness is stable when :func:`dead_load_deficit` is zero; the bracket starts at (1e-4, 0.999) x span and
-    is halved until its width is below ``rtol`` x thickness. For circular shapes the centreline radius is
+    A thickness is stable when :func:`dead_load_deficit` is zero; the bracket starts at ``_THICKNESS_RANGE`` x span
+    and is halved until its width is below ``rtol`` x thickness. Raises :class:`NoStableThickness` when even the
+    thickest ring of the range falls. For circular shapes the centreline radius is
     ``R = R_intrados + t/2`` and ``ratio = t/R``.
     """
     span = scene.arch.span
@@ -509,9 +584,12 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
         evals += 1
         return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)[1]
 
-    lo, hi = 1e-4 * span, 0.999 * span
-    if analyse(hi).status != "stable under self-weight":
-        raise ValueError(f"the ring cannot carry its self-weight at any thickness below the span ({hi:g} m)")
+    lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
+    thickest = analyse(hi)
+    if thickest.status != "stable under self-weight":
+        how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
+        raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
+                                f"self-weight with friction {scene.joints.friction:g} ({friction_model}): {how}")
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
         if analyse(mid).status == "stable under self-weight":

@@ -149,10 +149,12 @@ def expect_friction_small(case):
 
 
 def expect_reference(an):
-    # the reference value (joint under the load): rigid-block 137.1 kN, four-hinge mechanism
+    # the reference (joint under the load): the least favourable allocation puts the load on the
+    # voussoir right of joint 6, which slides there (129.6 kN; shared by both faces: 137.1 kN, four hinges)
     res = lp("friction=0.6")
     assert_brackets_lp(an, res)
-    assert fe_hinges(an) == set(res.hinges) == {2, 6, 12, 16}
+    assert set(res.hinges) == {6, 12, 16} and res.sliding == [6] and res.load_sides == ["right"]
+    assert fe_hinges(an) >= set(res.hinges)
     # a larger trial (128.5 kN from 119.9 kN) once diverged along a mode the live load does no work on, which
     # pushed joints 6 and 11 into each other, and was reported as a mechanism ('confirmed'): inadmissible modes
     # are no mechanisms (bridgefem.solver, Mechanism verdicts); that trial now converges
@@ -168,6 +170,7 @@ def expect_friction_huge(an):
     assert_brackets_lp(an, res)
     assert fe_hinges(an) >= set(res.hinges) and not res.sliding and not fe_sliding(an)
     assert max(abs(j.shear_force) / j.normal_force for j in an.joints if j.normal_force > 0) < 0.6
+    assert res.load_sides == ["split"]  # no joint slides: the load stays shared by both faces of joint 6
 
 
 def expect_young(case):
@@ -231,19 +234,23 @@ def expect_thick(an):
 
 def expect_two_voussoirs(an):
     # 2 voussoirs (the interior joint moved under the load): three joints, i.e. a three-pin arch, which is
-    # statically determinate and cannot form a hinge mechanism. It collapses only when a hinge slides too:
-    # LP hinges 0, 1, 2 and sliding at the right springing, at ~1.1x the ring weight; the FE finds the same.
+    # statically determinate and cannot form a hinge mechanism. It collapses only when a hinge slides too: with
+    # the load on the right voussoir (least favourable) hinges 1, 2 sliding too, at ~0.8x the ring weight
+    # (shared by both faces: hinges 0, 1, 2, sliding at the right springing, ~1.1x); the FE follows.
     res = lp("voussoirs=2")
-    assert set(res.hinges) == {0, 1, 2} and res.sliding
+    assert set(res.hinges) == set(res.sliding) == {1, 2} and res.load_sides == ["right"]
     assert_brackets_lp(an, res)
-    assert fe_hinges(an) == {0, 1, 2} and fe_sliding(an)
+    assert fe_hinges(an) >= {1, 2} and fe_sliding(an)
 
 
 def expect_three_voussoirs(an):
-    # 3 voussoirs: four joints, the classical four-hinge mechanism with every joint a hinge
+    # 3 voussoirs: four joints. Shared by both faces of joint 1 the load gives the classical four-hinge mechanism
+    # with every joint a hinge (193.1 kN); on the right voussoir (least favourable) that voussoir slides down
+    # at joint 1 (hinges 1, 2, 3), 133.5 kN
     res = lp("voussoirs=3")
     assert_brackets_lp(an, res)
-    assert fe_hinges(an) == set(res.hinges) == {0, 1, 2, 3}
+    assert set(res.hinges) == {1, 2, 3} and res.sliding == [1] and res.load_sides == ["right"]
+    assert fe_hinges(an) >= {1, 2, 3}
 
 
 def expect_many_voussoirs(an):

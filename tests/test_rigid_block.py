@@ -59,7 +59,7 @@ def block_weights(sc):
 def test_equilibrium_and_work_balance(joint_at_loads):
     """Block equilibrium recomputed joint by joint from the reported forces, and virtual work of the mechanism."""
     sc = scene(joint_at_loads=joint_at_loads)
-    res = collapse_load(sc)
+    res = collapse_load(sc, load_at_joint="split")
     ring, weight = block_weights(sc)
     x_load = sc.loads[0].x_range(9.0)[0]
     if joint_at_loads:  # the load acts on the corner of the joint moved under it, half on each block
@@ -149,6 +149,22 @@ def test_single_block_tipping_or_sliding(friction, friction_model):
     assert res.work_dead + res.load_factor * res.work_live == pytest.approx(res.dissipation, abs=1e-9)
 
 
+THREE_BLOCK_JOINTS = [((-1, 0), (0, 0), 0, -1), ((0, 0), (1, 0), 1, -1), ((0, 0), (0, 1), 0, 1),
+                      ((-1, 1), (0, 1), 2, 0), ((0, 1), (1, 1), 2, 1)]
+
+
+def three_blocks(joints):
+    """Unit blocks [-1, 0] x [0, 1] and [0, 1] x [0, 1] on the ground under a block [-1, 1] x [1, 2] (weights 1, 1,
+    2), pushed horizontally at (-1, 1.9); ``joints``: (start, end, left block, right block), mu = 1."""
+    centres = np.array([[-0.5, 0.5], [0.5, 0.5], [0.0, 1.5]])
+    return BlockModel(
+        ref=centres, dead=generalised_loads(centres, [0, 1, 2], centres, [[0.0, -1.0], [0.0, -1.0], [0.0, -2.0]]),
+        live=generalised_loads(centres, [2], [[-1.0, 1.9]], [[1.0, 0.0]]),
+        joint_a=np.array([j[0] for j in joints], float), joint_b=np.array([j[1] for j in joints], float),
+        joint_left=np.array([j[2] for j in joints]), joint_right=np.array([j[3] for j in joints]),
+        friction=np.ones(len(joints)))
+
+
 def test_non_associative_below_associative():
     """Two blocks on the ground under a top block pushed at its top-left corner (mu = 1).
 
@@ -157,23 +173,26 @@ def test_non_associative_below_associative():
     friction at its limit on both of its contacts (mu = 1), pushes the right block's bottom-left corner with
     (0.5, -0.5) N: moments about (1, 0) give 1.9 P = 2 x 1 + 1 x 0.5 + 0.5, P = 30/19.
     """
-    rect_centres = np.array([[-0.5, 0.5], [0.5, 0.5], [0.0, 1.5]])
-    areas = np.array([1.0, 1.0, 2.0])
-    joints = [((-1, 0), (0, 0), 0, -1), ((0, 0), (1, 0), 1, -1), ((0, 0), (0, 1), 0, 1),
-              ((-1, 1), (0, 1), 2, 0), ((0, 1), (1, 1), 2, 1)]
-    model = BlockModel(
-        ref=rect_centres,
-        dead=generalised_loads(rect_centres, [0, 1, 2], rect_centres, np.column_stack([0 * areas, -areas])),
-        live=generalised_loads(rect_centres, [2], [[-1.0, 1.9]], [[1.0, 0.0]]),
-        joint_a=np.array([j[0] for j in joints], float), joint_b=np.array([j[1] for j in joints], float),
-        joint_left=np.array([j[2] for j in joints]), joint_right=np.array([j[3] for j in joints]),
-        friction=np.ones(len(joints)))
+    model = three_blocks(THREE_BLOCK_JOINTS)
     assoc = solve_blocks(model)
     non = solve_blocks(model, "non-associative")
     assert non.friction_model == "non-associative" and non.load_factor_associative == pytest.approx(assoc.load_factor)
     assert non.load_factor < 0.95 * assoc.load_factor
     assert non.load_factor == pytest.approx(30 / 19, rel=1e-6)  # alpha = 0.01 leaves a trace of dilatancy
     assert non.work_dead + non.load_factor * non.work_live == pytest.approx(non.dissipation, rel=1e-6)
+
+
+def test_non_associative_collapse_load_is_not_unique():
+    """The same three blocks collapse at 25/19 < 30/19 when nothing clamps the left block against the right one
+    (the contact at x = 0 carries no force): the right and top blocks tip about (1, 0), the right block's corner
+    (0, 0) moving up along the left block's face without dilatancy, 1.9 P = 2 x 1 + 1 x 0.5. That state is
+    statically admissible and its mechanism is admissible without dilatancy, so it is a non-associative collapse
+    state too: the iteration's 30/19 (full clamping) is one of several values, not a bound (docs/joints-and-lp.md).
+    Computed by the associative LP without the joint at x = 0 (the mechanism there needs no dilatancy)."""
+    unclamped = solve_blocks(three_blocks([j for k, j in enumerate(THREE_BLOCK_JOINTS) if k != 2]))
+    assert unclamped.load_factor == pytest.approx(25 / 19, rel=1e-9)
+    assert unclamped.hinge_positions[1] == "extrados"  # the right block turns about its toe (1, 0)
+    assert solve_blocks(three_blocks(THREE_BLOCK_JOINTS), "non-associative").load_factor > 1.19 * 25 / 19
 
 
 @pytest.mark.parametrize("friction, status", [(0.3, "unstable under self-weight"), (0.6, "limit load found")])
