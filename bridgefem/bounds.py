@@ -10,6 +10,7 @@ between the static bound of :mod:`bridgefem.bounds_lower` and the kinematic boun
 from __future__ import annotations
 
 import json
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -18,7 +19,7 @@ import numpy as np
 from .bounds_lower import lower_bound
 from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound
-from .scene import Scene
+from .scene import Scene, SceneError
 
 BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
                 "Mohr-Coulomb continuum (associated flow; cut-off on the in-plane mean stress), no-tension Coulomb "
@@ -107,17 +108,19 @@ def bounds_summary(b: Bounds) -> dict:
 
 def fill_bounds(scene: Scene) -> dict | None:
     """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
-    cover (elastic fill, point loads) ``{"lower": None, "upper": None, "status": reason}``."""
+    cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``."""
     if scene.fill is None:
         return None
     try:
         return bounds_summary(collapse_bounds(scene))
-    except ValueError as err:
+    except SceneError as err:
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
 
 
 def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0) -> int:
     """``bridgefem bounds``: print the bounds (text or one JSON object); exit code 1 on a solver failure."""
+    if not refine > 0 or not math.isfinite(refine):
+        raise SceneError(f"--refine {refine!r}: allowed is a positive number (mesh refinement factor)")
     b = collapse_bounds(scene, refine)
     data = bounds_summary(b)
     if as_json:

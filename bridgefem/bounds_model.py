@@ -26,7 +26,7 @@ from .bounds_mesh import FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, tria
 from .conic import NONNEG, SOC, ConicProgramme
 from .geometry import ArchRing, fill_outline
 from .rigid_block import BlockModel, _Programme, ring_model
-from .scene import Scene
+from .scene import Scene, SceneError
 
 FAR_SIZE = 4.0  # element size away from the ring and the loads, in multiples of the size near them
 LOAD_SIZE = 0.5  # element size at the edges of a loaded patch, in multiples of the size near the ring
@@ -127,10 +127,10 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
         return LimitProblem(ring_model(scene), width, live_total)
     f = scene.fill
     if f.material != "mohr-coulomb":
-        raise ValueError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')
+        raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')
     points = [ld for ld in scene.loads if ld.kind == "point"]
     if points:
-        raise ValueError(f"[[load]] kind = \"point\" at position {points[0].position:g}: the collapse bounds need "
+        raise SceneError(f"[[load]] kind = \"point\" at position {points[0].position:g}: the collapse bounds need "
                          "patch loads on a fill (a point load on a continuum has no finite lower bound)")
     ring = scene_ring(scene)
     size = scene.arch.thickness / (2 * refine)

@@ -132,12 +132,16 @@ def lp_check(scene, data: dict) -> dict:
     With a fill the LP carries it as dead load only, so the ratio measures the fill's strength and stiffness
     (the FE/LP range check applies to bare arches).
 
-    Returns the ``lp``, ``fe_lp_ratio`` and ``warnings`` entries of results.json.
+    Returns the ``lp``, ``fe_lp_ratio``, ``warnings`` and ``fill_bounds`` (:func:`bridgefem.bounds.fill_bounds`)
+    entries of results.json.
     """
     from .rigid_block import collapse_load
 
+    from .bounds import fill_bounds
+
     lp = collapse_load(scene)
-    out = {"lp": {**lp_summary(lp), "model": lp_label(scene)}, "fe_lp_ratio": None, "warnings": []}
+    out = {"lp": {**lp_summary(lp), "model": lp_label(scene)}, "fe_lp_ratio": None, "warnings": [],
+           "fill_bounds": fill_bounds(scene)}
     ring_joints = data["joints"][:scene.arch.voussoirs + 1]
     mid = np.array([0.5 * (np.array(j["intrados"]) + np.array(j["extrados"])) for j in ring_joints])
     shortest = float(np.linalg.norm(np.diff(mid, axis=0), axis=1).min())

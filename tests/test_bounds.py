@@ -2,16 +2,17 @@
 without fill, Prandtl's bearing capacity factor and the exact N_gamma of a rough strip footing."""
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
 
-from bridgefem.bounds import collapse_bounds, problem_bounds
+from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds
 from bridgefem.bounds_model import Soil, strip_footing_problem
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
-from conftest import scene_dict
+from conftest import bridgefem, scene_dict
 
 
 @pytest.mark.parametrize("sections", [
@@ -70,3 +71,30 @@ def test_rough_footing_on_cohesionless_soil_brackets_the_exact_n_gamma():
     with the exact N_gamma = 14.75 (Martin 2005, method of characteristics)."""
     lower, upper = _footing(0.05, rough=True, soil=Soil(0.0, 30.0, 1.0))
     assert 2 * lower <= 14.75 <= 2 * upper
+
+
+FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension": 2.0, "material": "mohr-coulomb",
+        "friction_angle": 30.0, "cohesion": 5000.0, "interface_friction": 0.5}
+PATCH = [{"kind": "patch", "position": 0.25, "length": 0.5}]
+
+
+def test_fill_bounds_entry_of_results():
+    """results.json's ``fill_bounds``: None without a fill; a bracket in N with a fill; a reason when the
+    bounds do not cover the scene (a point load on the road)."""
+    assert fill_bounds(scene_from_dict(scene_dict())) is None
+    data = fill_bounds(scene_from_dict(scene_dict(fill=FILL, load=PATCH)))
+    assert data["unit"] == "N" and 0 < data["lower"] <= data["upper"]
+    assert data["programmes"]["upper"]["cones"] == 3 * data["mesh"]["triangles"]
+    point = fill_bounds(scene_from_dict(scene_dict(fill=FILL)))
+    assert point["lower"] is None and "point" in point["status"]
+
+
+@pytest.mark.slow
+def test_bounds_command(tmp_scene):
+    scene = tmp_scene(scene_dict(fill=FILL, load=PATCH))
+    out = bridgefem("bounds", scene, "--json")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert 0 < data["lower"] <= data["upper"]
+    bad = bridgefem("bounds", tmp_scene(scene_dict(fill=FILL)))
+    assert bad.returncode == 2 and "point" in bad.stderr and not bad.stdout
