@@ -18,7 +18,7 @@ import numpy as np
 
 ROAD, ROLLER, FIXED, INTERFACE = 0, 1, 2, 3
 INTERIOR = -1
-FAN = 8  # triangles around a point where the boundary traction jumps
+FAN = 16  # triangles around a point where the boundary traction jumps
 
 
 @dataclass(frozen=True)
