@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from pathlib import Path
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +20,7 @@ import numpy as np
 from .bounds_lower import lower_bound
 from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound
+from .rigid_block import _MECH_TOL, _relative_motion
 from .scene import Scene, SceneError
 
 BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
@@ -97,10 +99,24 @@ def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
     return out
 
 
+def upper_mechanism(b: Bounds) -> dict | None:
+    """The upper bound's mechanism of the blocks: joints with a relative rotation (hinges) or slip (sliding),
+    as the rigid-block LP reports them (None without an upper bound)."""
+    if b.block_velocities is None or not b.problem.blocks.n_joints:
+        return None
+    model = b.problem.blocks
+    rot, slip = _relative_motion(model, b.block_velocities)
+    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()
+    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), 1e-300)
+    return {"hinges": [int(j) for j in np.nonzero(np.abs(rot) * size > _MECH_TOL * scale)[0]],
+            "sliding": [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]}
+
+
 def bounds_summary(b: Bounds) -> dict:
-    """The JSON form: lower, upper (N), unit, model, mesh, time (s), and per bound its status, sizes, seconds."""
+    """The JSON form: lower, upper (N), unit, model, mesh, time (s), the upper bound's mechanism, and per bound
+    its status, sizes, iterations and seconds."""
     return {"lower": b.lower.load, "upper": b.upper.load, "unit": "N", "model": BOUNDS_MODEL, "mesh": b.mesh,
-            "time": b.timings["total"],
+            "time": b.timings["total"], "mechanism": upper_mechanism(b),
             "programmes": {name: {"status": x.status, "load_factor": x.load_factor, "iterations": x.iterations,
                                   "seconds": x.seconds, **x.sizes} for name, x in (("lower", b.lower),
                                                                                     ("upper", b.upper))}}
@@ -117,12 +133,20 @@ def fill_bounds(scene: Scene) -> dict | None:
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
 
 
-def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0) -> int:
-    """``bridgefem bounds``: print the bounds (text or one JSON object); exit code 1 on a solver failure."""
+def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0, plot: Path | None = None) -> int:
+    """``bridgefem bounds``: print the bounds (text or one JSON object), optionally write the mechanism and the
+    stress field to the PNG ``plot`` (a scene with a fill); exit code 1 on a solver failure."""
     if not refine > 0 or not math.isfinite(refine):
         raise SceneError(f"--refine {refine!r}: allowed is a positive number (mesh refinement factor)")
+    if plot is not None and scene.fill is None:
+        raise SceneError(f"--plot {plot}: the plot shows the fill's mechanism and stresses; this scene has no fill "
+                         "(use bridgefem run for a bare arch's mechanism)")
     b = collapse_bounds(scene, refine)
     data = bounds_summary(b)
+    if plot is not None:
+        from .bounds_plot import plot_bounds
+
+        plot_bounds(scene, b, plot)
     if as_json:
         print(json.dumps(data))
     else:
@@ -131,6 +155,9 @@ def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0) -> int:
         mesh = "no fill" if b.mesh is None else f"{b.mesh['triangles']} fill triangles, size {b.mesh['size']:.3g} m"
         print(f"{scene.name}: collapse load in [{kn(b.lower)}, {kn(b.upper)}] "
               f"(lower: {b.lower.status}, upper: {b.upper.status}; {mesh}; {b.timings['total']:.2f} s)")
+        if data["mechanism"]:
+            print(f"  upper-bound mechanism: hinges at joints {data['mechanism']['hinges']}, sliding joints "
+                  f"{data['mechanism']['sliding']}")
         for name, x in (("lower", b.lower), ("upper", b.upper)):
             s = x.sizes
             print(f"  {name}: {s['unknowns']} unknowns, {s['equalities']} equalities, {s['inequalities']} "

@@ -42,6 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     bd.add_argument("scene", type=Path)
     bd.add_argument("--json", action="store_true", help="print one JSON object")
     bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
+    bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
     return p
 
 
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
             return _check(args)
         if args.command == "bounds":
             from .bounds import bounds_command
-            return bounds_command(load_scene(args.scene), args.json, args.refine)
+            return bounds_command(load_scene(args.scene), args.json, args.refine, args.plot)
         return _lp(args) if args.command == "lp" else _min_thickness(args)
     except SceneError as err:
         print(f"bridgefem: error: {err}", file=sys.stderr)

@@ -7,8 +7,9 @@ import math
 
 import pytest
 
-from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds
+from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.bounds_model import Soil, strip_footing_problem
+from bridgefem.bounds_plot import plot_bounds
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
@@ -98,3 +99,16 @@ def test_bounds_command(tmp_scene):
     assert 0 < data["lower"] <= data["upper"]
     bad = bridgefem("bounds", tmp_scene(scene_dict(fill=FILL)))
     assert bad.returncode == 2 and "point" in bad.stderr and not bad.stdout
+
+
+def test_upper_bound_mechanism_of_a_bare_arch_is_the_lp_mechanism():
+    scene = scene_from_dict(scene_dict())
+    lp = collapse_load(scene)
+    assert upper_mechanism(collapse_bounds(scene)) == {"hinges": sorted(lp.hinges), "sliding": sorted(lp.sliding)}
+
+
+def test_bounds_plot(tmp_path):
+    scene = scene_from_dict(scene_dict(fill=FILL, load=PATCH))
+    path = tmp_path / "bounds.png"
+    plot_bounds(scene, collapse_bounds(scene), path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
