@@ -135,9 +135,8 @@ def lp_check(scene, data: dict) -> dict:
     Returns the ``lp``, ``fe_lp_ratio``, ``warnings`` and ``fill_bounds`` (:func:`bridgefem.bounds.fill_bounds`)
     entries of results.json.
     """
-    from .rigid_block import collapse_load
-
     from .bounds import fill_bounds
+    from .rigid_block import collapse_load
 
     lp = collapse_load(scene)
     out = {"lp": {**lp_summary(lp), "model": lp_label(scene)}, "fe_lp_ratio": None, "warnings": [],
