@@ -101,13 +101,15 @@ def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
 
 def upper_mechanism(b: Bounds) -> dict | None:
     """The upper bound's mechanism of the blocks: joints with a relative rotation (hinges) or slip (sliding),
-    as the rigid-block LP reports them (None without an upper bound)."""
+    as the rigid-block LP reports them, relative to the largest block or fill speed (a local failure of the fill
+    moves no joint; None without an upper bound)."""
     if b.block_velocities is None or not b.problem.blocks.n_joints:
         return None
     model = b.problem.blocks
     rot, slip = _relative_motion(model, b.block_velocities)
     size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()
-    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), 1e-300)
+    fill = 0.0 if b.soil_velocities is None else float(np.linalg.norm(b.soil_velocities, axis=1).max())
+    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), fill, 1e-300)
     return {"hinges": [int(j) for j in np.nonzero(np.abs(rot) * size > _MECH_TOL * scale)[0]],
             "sliding": [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]}
 

@@ -2,20 +2,24 @@
 cone programme (Makrodimopoulos & Martin 2007, Int. J. Numer. Anal. Meth. Geomech. 31:835).
 
 The kinematic programme: velocities quadratic on the soil triangles (6 nodes, continuous), rigid-body
-velocities ``(u, v, omega)`` of the blocks, velocity jumps on the joints and on the soil-block interfaces;
-the fixed base at rest, the roller ends without normal velocity. The strain rate is linear on each triangle;
-the flow rule (the strain rate in the normal cone of the Mohr-Coulomb set) is enforced at its three vertices,
-hence everywhere, and the dissipation is bounded by ``(A/3) sum_vertices pi(strain rate)`` (``pi`` convex: the
-support function of the yield set). On an interface edge the jump (soil minus block velocity) is quadratic;
-its three Bernstein coefficients lie in the interface's flow cone, hence the jump everywhere, and the
-dissipation is bounded by ``(L/3) sum pi(coefficient)``. Joints as in the rigid-block LP. Minimise
-dissipation minus dead-load power with live-load power 1: any feasible velocity field gives an upper bound.
+velocities ``(u, v, omega)`` of the blocks, velocity jumps on the joints, on the soil-block interfaces and on
+the base (the ground at rest; a jump there dissipates as in the soil, ``|s| <= c + tan(phi) p``, which for a
+rigid-plastic soil is what a fixed base means), the roller ends without normal velocity. The strain rate is
+linear on each triangle; the flow rule (the strain rate in the normal cone of the Mohr-Coulomb set) is enforced
+at its three vertices, hence everywhere, and the dissipation is bounded by ``(A/3) sum_vertices pi(strain
+rate)`` (``pi`` convex: the support function of the yield set). On an interface or base edge the jump (soil
+minus block velocity) is quadratic; its three Bernstein coefficients lie in the flow cone, hence the jump
+everywhere, and the dissipation is bounded by ``(L/3) sum pi(coefficient)``. Joints as in the rigid-block LP.
+Minimise dissipation minus dead-load power with live-load power 1: any feasible velocity field gives an upper
+bound.
 
 The programme solved is its conic dual, a maximum load factor under *weak* equilibrium: for every free
 velocity unknown, ``-sum_T (w A/3) B_k^T sigma_k + sum_I (w L/3) dJ_k^T f_k + joint forces + dead + lambda live
 = 0``, with stresses ``sigma_k`` at the triangle vertices in the Mohr-Coulomb set, interface forces ``f_k``
-(per unit length) at the Bernstein points in the Coulomb cone, joint forces within their limits. Its optimum
-equals the kinematic minimum (strong duality); the velocities are its equality duals (live-load power 1).
+(per unit length) at the Bernstein points in the Coulomb cone (the Mohr-Coulomb one on the base), joint
+forces within their limits. Its optimum equals the kinematic minimum (strong duality); the velocities are its
+equality duals (live-load power 1). (The base's Coulomb envelope ignores the soil's tension cut-off: a stronger
+base, so the bound stays an upper bound.)
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     blocks, mesh = problem.blocks, problem.mesh
     nj, nb = blocks.n_joints, blocks.n_blocks
     ne = mesh.n_triangles if mesh is not None else 0
-    n_if = int((mesh.edge_kind == INTERFACE).sum()) if mesh is not None else 0
+    n_if = int(np.isin(mesh.edge_kind, (INTERFACE, FIXED)).sum()) if mesh is not None else 0
     cs, cf = 3 * nj, 3 * nj + 9 * ne
     lam = cf + 6 * n_if
     prog = ConicProgramme(lam + 1)
@@ -68,11 +72,10 @@ def _velocity_unknowns(problem: LimitProblem) -> tuple[np.ndarray, np.ndarray]:
     n_nodes = nv + len(mesh.edges)
     fixed = np.zeros((n_nodes, 2), bool)
     _, _, _, normal = mesh.edge_frames()
-    for kind in (FIXED, ROLLER):
-        e = np.nonzero(mesh.edge_kind == kind)[0]
-        nodes = np.column_stack([mesh.edges[e], nv + e])
-        comp = np.argmax(np.abs(normal[e]), axis=1)  # a roller stops the velocity along its (axis) normal
-        fixed[nodes, :] |= True if kind == FIXED else (np.arange(2) == comp[:, None])[:, None, :]
+    e = np.nonzero(mesh.edge_kind == ROLLER)[0]
+    nodes = np.column_stack([mesh.edges[e], nv + e])
+    comp = np.argmax(np.abs(normal[e]), axis=1)  # a roller stops the velocity along its (axis) normal
+    fixed[nodes, :] |= (np.arange(2) == comp[:, None])[:, None, :]
     free = np.nonzero(~fixed.ravel())[0]
     row_of = np.full(2 * n_nodes, -1)
     row_of[free] = np.arange(len(free))
@@ -115,9 +118,11 @@ def _soil(prog: ConicProgramme, problem: LimitProblem, row_of: np.ndarray, cs: i
     for comp in range(2):
         triplets.append((row_of[2 * nodes + comp].ravel(), np.full(nodes.size, lam),
                          (share * mesh.edge_traction[e, comp:comp + 1]).ravel()))
-    # interfaces: forces f_k = p_k n_in + s_k t per unit length at the Bernstein points (a, midpoint, b)
-    e = np.nonzero(mesh.edge_kind == INTERFACE)[0]
-    p = len(e)
+    # interfaces (then the base): forces f_k = p_k n_in + s_k t per unit length at the Bernstein points
+    # (a, midpoint, b) from the block (the ground) on the soil
+    on_block = np.nonzero(mesh.edge_kind == INTERFACE)[0]
+    e = np.concatenate([on_block, np.nonzero(mesh.edge_kind == FIXED)[0]])
+    p, nb_edges = len(e), len(on_block)
     col = cf + 6 * np.arange(p)[:, None, None] + 2 * np.arange(3)[None, :, None] + np.arange(2)  # (p, k, p|s)
     direction = np.stack([-normal[e], tangent[e]], axis=1)  # (p, p|s, xy)
     ell = w * length[e] / 3
@@ -129,16 +134,23 @@ def _soil(prog: ConicProgramme, problem: LimitProblem, row_of: np.ndarray, cs: i
             rows = np.repeat(row_of[2 * nodes[:, j] + comp], 6)
             vals = ell[:, None, None] * mix[j][None, :, None] * direction[:, None, :, comp]
             triplets.append((rows, col.reshape(p, 6).ravel(), vals.reshape(p, 6).ravel()))
-    pts = np.stack([mesh.x[ends[e, 0]], 0.5 * (mesh.x[ends[e, 0]] + mesh.x[ends[e, 1]]), mesh.x[ends[e, 1]]], axis=1)
-    n_free = n_rows
+    b, end_a, end_b = e[:nb_edges], mesh.x[ends[e[:nb_edges], 0]], mesh.x[ends[e[:nb_edges], 1]]
+    pts = np.stack([end_a, 0.5 * (end_a + end_b), end_b], axis=1)
     for k in range(3):
-        fx = -ell[:, None] * direction[:, :, 0]
-        fy = -ell[:, None] * direction[:, :, 1]
-        triplets.append(block_rows(problem.blocks, mesh.edge_block[e], pts[:, k], col[:, k], fx, col[:, k], fy,
-                                   row0=n_free))
+        fx = -ell[:nb_edges, None] * direction[:nb_edges, :, 0]
+        fy = -ell[:nb_edges, None] * direction[:nb_edges, :, 1]
+        triplets.append(block_rows(problem.blocks, mesh.edge_block[b], pts[:, k], col[:nb_edges, k], fx,
+                                   col[:nb_edges, k], fy, row0=n_rows))
+    # no-tension Coulomb on the blocks: p >= 0, |s| <= mu p; Mohr-Coulomb on the base: |s| <= c + tan(phi) p
     mu = problem.interface_friction
-    rows = 3 * np.arange(3 * p)[:, None] + np.array([0, 1, 1, 2, 2])
-    cols = col.reshape(-1, 2)[:, [0, 1, 0, 1, 0]]
-    prog.add(NONNEG, rows, cols, np.tile([-1.0, 1.0, -mu, -1.0, -mu], (3 * p, 1)), np.zeros(9 * p))
+    n = 3 * nb_edges
+    rows = 3 * np.arange(n)[:, None] + np.array([0, 1, 1, 2, 2])
+    cols = col[:nb_edges].reshape(-1, 2)[:, [0, 1, 0, 1, 0]]
+    prog.add(NONNEG, rows, cols, np.tile([-1.0, 1.0, -mu, -1.0, -mu], (n, 1)), np.zeros(3 * n))
+    n = 3 * (p - nb_edges)
+    tan_phi = np.tan(np.radians(soil.friction_angle))
+    rows = 2 * np.arange(n)[:, None] + np.array([0, 0, 1, 1])
+    cols = col[nb_edges:].reshape(-1, 2)[:, [1, 0, 1, 0]]
+    prog.add(NONNEG, rows, cols, np.tile([1.0, -tan_phi, -1.0, -tan_phi], (n, 1)), np.full(2 * n, soil.cohesion))
     soil_rows(prog, soil, cs, 3 * ne)
     return triplets, rhs
