@@ -31,8 +31,8 @@ BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), t
 @dataclass
 class Bound:
     """One bound: status ("optimal", "optimal (reduced accuracy)", "infeasible" = the dead load cannot be
-    carried, "unbounded" = no collapse, or "solver failure: ..."), load (N; None unless optimal), load_factor, Clarabel iterations,
-    seconds, sizes (unknowns, equalities, inequalities, cones)."""
+    carried, "unbounded" = no collapse, or "solver failure: ..."), load (N; None unless optimal), load_factor,
+    Clarabel iterations, seconds, sizes (unknowns, equalities, inequalities, cones)."""
 
     status: str
     load: float | None

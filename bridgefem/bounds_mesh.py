@@ -119,8 +119,8 @@ def triangulate(outline: Outline) -> SoilMesh:
     renumber = np.full(len(x), -1)
     renumber[used] = np.arange(len(used))
     x, triangles = x[used], triangles.reshape(-1, 3)
-    p = x[triangles]
-    signed = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
+    d1, d2 = x[triangles[:, 1]] - x[triangles[:, 0]], x[triangles[:, 2]] - x[triangles[:, 0]]
+    signed = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
     triangles[signed < 0] = triangles[signed < 0][:, [0, 2, 1]]
     return _classify(x, triangles, [renumber[s] for s in segments], o)
 
