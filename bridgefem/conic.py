@@ -16,9 +16,10 @@ import numpy as np
 import scipy.sparse as sp
 
 ZERO, NONNEG, SOC = "zero", "nonneg", "soc"
-MAX_ITERATIONS = 100  # interior-point iterations; past them Clarabel reports "AlmostSolved" if its relaxed
+MAX_ITERATIONS = 60  # interior-point iterations; past them Clarabel reports "AlmostSolved" if its relaxed
 # tolerances (1e-4 / 5e-5) are met: the upper-bound programmes of bridges with a fill can creep for hundreds of
-# iterations with a primal residual near 1e-6 while the load factor moves in its fourth digit
+# iterations with a primal residual near 1e-6 while the load factor falls in its fourth digit (Prestwood:
+# 234.52 kN at 60 iterations, 234.45 kN at 100)
 _CONES = (ZERO, NONNEG, SOC)
 
 
