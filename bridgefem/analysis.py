@@ -31,6 +31,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from .abutments import support_motion
+from .bounds import fill_bounds
 from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
@@ -111,6 +112,12 @@ class Analysis:
         if not self.lp.load or not s.upper:
             return None
         return 0.5 * (s.lower + s.upper) * self.load_total / self.lp.load
+
+    @cached_property
+    def fill_bounds(self) -> dict | None:
+        """Lower and upper collapse bounds of the bridge with its fill, rigid-plastic, by conic optimisation
+        (:func:`bridgefem.bounds.fill_bounds`; None without a fill)."""
+        return fill_bounds(self.scene)
 
     @cached_property
     def ring_check(self) -> TransmittedLoadCheck | None:

@@ -1,4 +1,4 @@
-"""Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
+"""Command line: ``bridgefem run | lp | min-thickness | bounds | check SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
@@ -48,6 +48,11 @@ def _parser() -> argparse.ArgumentParser:
     mt.add_argument("scene", type=Path)
     mt.add_argument("--json", action="store_true", help="print one JSON object")
     mt.add_argument("--friction-model", choices=["associative", "non-associative"], default="associative")
+    bd = sub.add_parser("bounds", help="lower and upper collapse bounds with the fill (conic optimisation)")
+    bd.add_argument("scene", type=Path)
+    bd.add_argument("--json", action="store_true", help="print one JSON object")
+    bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
+    bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
     return p
 
 
@@ -265,6 +270,10 @@ def main(argv: list[str] | None = None) -> int:
                 return _run(args, petsc)
             if args.command == "check":
                 return _check(args)
+            if args.command == "bounds":
+                from .bounds import bounds_command
+
+                return bounds_command(load_scene(args.scene), args.json, args.refine, args.plot)
             return _lp(args) if args.command == "lp" else _min_thickness(args)
     except (SceneError, OutputError) as err:
         _error(str(err))

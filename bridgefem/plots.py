@@ -50,6 +50,11 @@ def plot_load_deflection(data: dict, path: Path) -> None:
     if lp and lp.get("load"):
         ax.axhline(lp["load"] / 1e3, color="k", ls="--", lw=1,
                    label=f"rigid-block LP, {lp['model']}: {lp['load'] / 1e3:.2f} kN")
+    bounds = data.get("fill_bounds") or {}
+    for key, style in (("lower", ":"), ("upper", "-.")):
+        if bounds.get(key):
+            ax.axhline(bounds[key] / 1e3, color="tab:green", ls=style, lw=1,
+                       label=f"{key} bound, rigid-plastic fill (conic): {bounds[key] / 1e3:.1f} kN")
     if data["status"] == LIMIT_FOUND:
         low, high = ax.get_ylim()
         half = max(lim["upper"] - lim["lower"], BAND_MIN * (high - low) * 1e3) / 2e3

@@ -162,10 +162,10 @@ def lp_label(scene) -> str:
 
 
 def lp_entries(an: Analysis) -> dict:
-    """The ``lp``, ``fe_lp_ratio`` and ``warnings`` entries of results.json (:attr:`Analysis.lp`,
-    :attr:`Analysis.fe_lp_ratio`, :attr:`Analysis.warnings`)."""
+    """The ``lp``, ``fe_lp_ratio``, ``warnings`` and ``fill_bounds`` entries of results.json (:attr:`Analysis.lp`,
+    :attr:`Analysis.fe_lp_ratio`, :attr:`Analysis.warnings`, :attr:`Analysis.fill_bounds`)."""
     return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
-            "warnings": an.warnings}
+            "warnings": an.warnings, "fill_bounds": an.fill_bounds}
 
 
 def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
