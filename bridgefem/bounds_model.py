@@ -21,11 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .abutments import scene_ring
 from .bounds_mesh import FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
 from .conic import NONNEG, SOC, ConicProgramme
-from .geometry import ArchRing, fill_outline
-from .rigid_block import BlockModel, _Programme, ring_model
+from .geometry import ArchRing, fill_outline, scene_ring
+from .rigid_block import BlockModel, _Programme, collapse_load, ring_model
 from .scene import Scene, SceneError
 
 FAR_SIZE = 4.0  # element size away from the ring and the loads, in multiples of the size near them
@@ -123,8 +122,9 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     at the load patches' edges, ``FAR_SIZE`` times it far from them). Without a fill this is the LP's model."""
     width = scene.arch.width
     live_total = float(sum(ld.factor for ld in scene.loads))
-    if scene.fill is None:
-        return LimitProblem(ring_model(scene), width, live_total)
+    if scene.fill is None:  # a point load on a joint goes on the block the LP finds least favourable
+        sides = tuple(side or "split" for side in collapse_load(scene).load_sides)
+        return LimitProblem(ring_model(scene, load_at_joint=sides), width, live_total)
     f = scene.fill
     if f.material != "mohr-coulomb":
         raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
 
-from .abutments import scene_ring  # noqa: E402
+from .geometry import scene_ring  # noqa: E402
 from .bounds import Bounds  # noqa: E402
 from .scene import Scene  # noqa: E402
 
