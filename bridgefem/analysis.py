@@ -29,9 +29,11 @@ from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
+from .evidence import Verdict, confirm
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .rigid_block import LPResult, ring_under_forces, solve_blocks
+from .rigid_block import LPResult, collapse_load, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
+from .status import Status
 from .solver import ContactSolver, Iterate
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
@@ -68,6 +70,7 @@ class Analysis:
     search: LimitSearch
     joints: list[JointState]
     timings: dict = field(default_factory=dict)
+    verdict: Verdict | None = None
 
     @property
     def load_total(self) -> float:
@@ -115,16 +118,36 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                            FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
                            {**scene.solver.petsc, **(petsc_options or {})}, material, ground_offsets(pairs, motion))
     lap("solver setup")
+    lp = rigid_block_check(scene, comm)
+    lap("rigid-block LP")
     s = scene.solver
     search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
-                             max_steps=s.max_steps, guess_scene=scene,
+                             max_steps=s.max_steps, guess=lp.load_factor if lp.status == Status.LIMIT else None,
                              stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                              movement_steps=scene.abutments.movement_steps if motion else 0, report=report)
     lap("limit search")
+    verdict = None
+    if fill is None:  # the evidence rule (bridgefem.evidence); with a fill the LP cannot confirm the FE
+        total = sum(ld.factor for ld in scene.loads) or 1.0
+        verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.load_factor, total)
+        search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
-    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings)
+    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, timings, verdict)
+
+
+def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
+    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.rigid_block.collapse_load`,
+    associative friction), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
+    LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
+    lp = None
+    if comm.rank == 0:
+        try:
+            lp = collapse_load(scene)
+        except (RuntimeError, ValueError) as err:  # the LP is a check: its failure is reported, not raised
+            lp = LPResult(None, None, f"LP failed: {err}")
+    return comm.bcast(lp, root=0)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:

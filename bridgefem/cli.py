@@ -15,6 +15,7 @@ import traceback
 from pathlib import Path
 
 from .scene import Scene, SceneError, load_scene
+from .status import Status
 
 PETSC_PREFIX = "-bridgefem_"
 
@@ -93,9 +94,15 @@ def _run(args, petsc: dict) -> int:
     if comm.rank == 0:
         lim = data["limit_load"]
         digits = _decimals(lim["tolerance"] * lim["lower"] / 1e3)
-        upper = "none" if lim["upper"] is None else f"{lim['upper'] / 1e3:.{digits}f}"
-        print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.{digits}f}, {upper}] kN "
-              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        if Status.of(data["status"]) is Status.LIMIT:
+            print(f"{scene.name}: {data['status']}; limit load in [{lim['lower'] / 1e3:.{digits}f}, "
+                  f"{lim['upper'] / 1e3:.{digits}f}] kN (relative tolerance {lim['tolerance']:g}, width "
+                  f"{scene.arch.width:g} m)")
+        else:
+            print(f"{scene.name}: {data['status']}; last converged load {lim['lower'] / 1e3:.{digits}f} kN "
+                  f"(width {scene.arch.width:g} m)")
+        if data["evidence"]:
+            print(f"  evidence: {data['evidence']}")
         if data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
         print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
@@ -111,7 +118,7 @@ def _run(args, petsc: dict) -> int:
         for warning in data["warnings"]:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
-    return 1 if data["status"].startswith("solver failure") else 0
+    return Status.of(data["status"]).exit_code
 
 
 def _decimals(width: float) -> int:

@@ -76,20 +76,15 @@ import math
 import time
 from collections import deque
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import numpy as np
 from petsc4py import PETSc
 
 from .solver import ContactSolver, Iterate, StepOutcome
+from .status import Status
 
-if TYPE_CHECKING:
-    from .scene import Scene
-
-LIMIT_FOUND = "limit load found"
-UNSTABLE = "unstable under self-weight"
-LOCKED = "no collapse up to the maximum load (locked)"
-STABLE = "stable under self-weight"
+LIMIT_FOUND, UNSTABLE, LOCKED, STABLE = Status.LIMIT, Status.UNSTABLE, Status.LOCKED, Status.STABLE
 
 APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
 LANDING = 0.08  # an approach step that would stop within this fraction of T goes to T
@@ -135,7 +130,9 @@ class LimitSearch:
     """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
     the estimate of the limit level the search used (N per unit load factor; None: none); ``last`` is the last
     converged state, ``settled`` the converged state at live load 0 (after self-weight and any support movement)
-    from which the live-load search started (None when it was not reached)."""
+    from which the live-load search started (None when it was not reached); ``proved``: the failed step that ended
+    the search proved its mechanism (:class:`bridgefem.solver.StepOutcome`), else the verdict needs other evidence
+    (:mod:`bridgefem.evidence`)."""
 
     status: str
     lower: float
@@ -146,28 +143,17 @@ class LimitSearch:
     failure: str = ""
     guess: float | None = None
     settled: Iterate | None = None
-
-
-def rigid_block_level(scene: Scene) -> float | None:
-    """The rigid-block LP collapse level of a scene (N per unit load factor; :func:`bridgefem.rigid_block.
-    collapse_load`), or None when the LP finds no limit load or fails: an estimate, never a bound."""
-    from .rigid_block import collapse_load
-
-    try:
-        lp = collapse_load(scene)
-    except Exception:  # the estimate is optional: the FE search goes on without it
-        return None
-    return lp.load_factor if lp.status == LIMIT_FOUND else None
+    proved: bool = False
 
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    guess_scene: Scene | None = None, stiffness_drop: float = 0.0, movement_steps: int = 0,
+                    stiffness_drop: float = 0.0, movement_steps: int = 0,
                     report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
 
-    ``guess``: an estimate of the limit level (N per unit load factor); when None, the rigid-block level of
-    ``guess_scene`` (computed on rank 0 and broadcast) if given; no estimate when both are None.
+    ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
+    0), None for no estimate.
     ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m) is
     below this fraction of the tangent stiffness after self-weight counts as failed, like a step without
     equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
@@ -201,22 +187,22 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     if not first.converged and not first.mechanism and fill is not None and fill.cohesion < fill.overburden:
         first = _settle_self_weight(solver, attempt)
     if not first.converged:
-        status = UNSTABLE if first.mechanism else f"solver failure: {first.reason}"
-        return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason)
+        status = UNSTABLE if first.mechanism else Status.failure(first.reason)
+        return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,
+                           proved=first.proved)
     state = solver.converged_slip_reference(first.iterate)
     if movement_steps:
         state, failed = _impose_support_movement(solver, attempt, state, movement_steps)
         if failed is not None:
-            status = UNSTABLE if failed.mechanism else f"solver failure: {failed.reason}"
+            status = UNSTABLE if failed.mechanism else Status.failure(failed.reason)
             return LimitSearch(status, 0.0, 0.0 if failed.mechanism else None, tolerance, steps, state,
-                               f"support movement {solver.movement:.4g} of the whole: {failed.reason}")
+                               f"support movement {solver.movement:.4g} of the whole: {failed.reason}",
+                               proved=failed.proved)
     settled = state
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if stiffness_drop > 0:
         k_initial = _initial_stiffness(solver, deflection, state)
-    if guess is None and guess_scene is not None and solver.comm.rank == 0:
-        guess = rigid_block_level(guess_scene)
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
     target = math.inf if guess is None else (1.0 - tolerance) * guess
 
@@ -267,11 +253,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, retry = math.inf, False
         elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
                 and trial - lower <= (SUSPECT * width if suspect else width):
-            status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
-            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess, settled)
+            status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
+            return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
+                               guess, settled, out.proved)
         else:
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
-    status = f"solver failure: bracket not closed within {max_steps} load steps"
+    status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
 
 

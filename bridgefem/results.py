@@ -55,6 +55,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
                        "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
         "failure_reason": s.failure,
+        "evidence": an.verdict.evidence if an.verdict else "",
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
                       "sliding": [j.id for j in an.joints if j.sliding]},
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
@@ -163,6 +164,7 @@ def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
     try:
         data = summary(an, extra)
         data.update(lp_check(an.scene, data))
+        data["warnings"] += list(an.verdict.warnings) if an.verdict else []
         if an.search.last is not None:
             _write_fields(an, tmp / "fields.xdmf")
         motion = _voussoir_motion(an) if an.search.last is not None else None

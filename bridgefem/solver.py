@@ -117,6 +117,7 @@ REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode close
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
+BACKWARD_TOL = 1e-9  # a linear solve whose normwise backward error is above this did not solve (LU gives ~1e-16)
 
 
 @dataclass
@@ -144,6 +145,7 @@ class StepOutcome:
     iterate: Iterate | None = None
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
+    proved: bool = False
 
 
 class _Proposal(NamedTuple):
@@ -457,7 +459,23 @@ class ContactSolver:
             return _linear_failure(self.ksp, reason)
         if self._any(not np.all(np.isfinite(x.array))):
             return _Failure("NaN in the solution", False)
+        error = self._backward_error(x)
+        if not error <= BACKWARD_TOL:
+            self._matrix_key = None
+            return _Failure(f"linear solve inaccurate: backward error {error:.2e} above {BACKWARD_TOL:g} (the "
+                            f"{self.ksp.getType()}/{self.ksp.getPC().getType()} solver did not solve the system; not "
+                            "a proof of a mechanism)", False)
         return None
+
+    def _backward_error(self, x: PETSc.Vec) -> float:
+        """Normwise backward error of a solve, |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf): about the machine
+        precision times a modest growth factor for a backward-stable direct solve, even of a nearly singular system
+        (then x is large, not the residual). Collective."""
+        self.A.mult(x, self.r)
+        self.r.axpy(-1.0, self.b)
+        scale = self.A.norm(PETSc.NormType.INFINITY) * x.norm(PETSc.NormType.INFINITY) + \
+            self.b.norm(PETSc.NormType.INFINITY)
+        return self.r.norm(PETSc.NormType.INFINITY) / scale if scale > 0 else 0.0
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
@@ -530,7 +548,8 @@ class ContactSolver:
             failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
                 if failure.proof:
-                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True)
+                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
+                                       proved=True)
                 singular = failure if failure.mechanism else singular
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
