@@ -342,7 +342,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
 
     def voussoir(i):
         pa, pb = params[i], params[i + 1]
-        kinks = [k for k in curve.kinks if pa < k < pb]
+        kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
         loads = [k for k in load_params if pa + 1e-9 < k < pb - 1e-9]
         q = np.unique(np.concatenate([np.linspace(pa, pb, _EDGE_SAMPLES), kinks, loads]))
         split = tuple(int(k) for k in np.searchsorted(q, kinks))
