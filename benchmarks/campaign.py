@@ -130,14 +130,15 @@ def run_scene(choice: dict, out: Path, timeout: float) -> dict:
     """Write the scene, run ``bridgefem run`` on it in a subprocess, and judge the outcome."""
     thickness, least = thickness_of(choice)
     scene = scene_dict(choice, thickness)
-    folder = out / f"scene_{choice['index']:04d}"
+    folder = out.resolve() / f"scene_{choice['index']:04d}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
     row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
     t0 = time.perf_counter()
     try:
         proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(folder / "scene.toml"), "--out",
-                               str(folder / "results"), "--quiet"], capture_output=True, text=True, timeout=timeout)
+                               str(folder / "results"), "--quiet"], capture_output=True, text=True, timeout=timeout,
+                              cwd=folder)  # not the source tree: PYTHONPATH may point at another copy
         code, stderr = proc.returncode, proc.stderr
     except subprocess.TimeoutExpired:
         code, stderr = None, f"timeout after {timeout:g} s"

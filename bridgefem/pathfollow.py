@@ -50,21 +50,8 @@ recovering); trials that can close the bracket keep ``max_iterations``.
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
 stays for the live load.
 
-**Self-weight.** The self-weight is applied in one step. When that step fails without proof of a mechanism, the
-fill is plastic and its cohesion below its overburden stress (unit weight x fill height), the self-weight is
-reached by a *cohesion continuation* instead: the whole self-weight with the fill's cohesion first raised to
-the overburden stress (which keeps the fill nearly elastic), then lowered back to the scene's in steps, each
-keeping ``RAMP_RATIO`` of the excess, the excess dropped after ``RAMP_STEPS`` steps, a failed step halved (at
-most ``RAMP_HALVINGS`` times in all), every step solved from the last converged state. Scenes whose one-step
-self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion counts as
-"unstable under self-weight" (a weaker fill carries no more); any other failure is a solver failure
-that names the cohesion it failed at. With the line search of the plastic Newton iteration (:mod:`bridgefem.solver`)
-the cohesionless scenes tried (the tests' reference arch, Prestwood with c = 0) converge in one step; the
-continuation is the fallback for a fill whose one-step self-weight does not (tested on its own). A fraction of the
-self-weight would not help there: with c = 0 (and no tension) the fill, the joints' Coulomb friction and elasticity
-are all positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
-problem scaled and fails alike. A raised cohesion at the whole self-weight is what a self-weight fraction is for a
-cohesive fill (stresses scale with the load, so the weight g with cohesion c is the weight 1 with cohesion c / g).
+**Self-weight.** The search starts from the self-weight state of :func:`bridgefem.selfweight.carry_self_weight`
+(one step, or a continuation through a stronger structure when that step fails without proof).
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
@@ -75,12 +62,13 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 from petsc4py import PETSc
 
+from .selfweight import carry_self_weight
 from .solver import ContactSolver, Iterate, StepOutcome
 from .status import Status
 
@@ -95,9 +83,6 @@ EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations
 BACKTRACK = 4  # converged states kept for backtracking
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
-RAMP_RATIO = 0.5  # a cohesion-continuation step keeps this fraction of the cohesion's excess over the scene's
-RAMP_STEPS = 7  # steps with a raised cohesion (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
-RAMP_HALVINGS = 6  # failed cohesion-continuation steps halved at most this many times in all
 PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
 # iterations of the hardest converged step (a diverging plastic Newton iteration does not recover)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
@@ -108,7 +93,8 @@ class LoadStep:
     """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load;
     ``movement`` the fraction of the imposed support movement applied; ``cohesion`` the fill's raised cohesion (Pa)
     in a step of the self-weight's cohesion continuation (None: the scene's); ``mechanism``: a failed step that showed
-    no equilibrium (:class:`bridgefem.solver.StepOutcome`; a flat load-deflection curve counts)."""
+    no equilibrium (:class:`bridgefem.solver.StepOutcome`; a flat load-deflection curve counts); ``friction_factor``:
+    the joints' raised friction (multiple of the scene's) in a step of the friction continuation (None: the scene's)."""
 
     index: int
     level: float
@@ -123,6 +109,7 @@ class LoadStep:
     movement: float = 0.0
     cohesion: float | None = None
     mechanism: bool = False
+    friction_factor: float | None = None
 
 
 @dataclass
@@ -177,15 +164,13 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                            mechanism=True), None
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
-                        _raised_cohesion(solver), out.mechanism)
+                        _raised_cohesion(solver), out.mechanism,
+                        solver.friction_factor if solver.friction_factor != 1.0 else None)
         steps.append(step)
         report(step)
         return out
 
-    first = attempt(0.0, solver.initial_iterate())
-    fill = solver.material
-    if not first.converged and not first.mechanism and fill is not None and fill.cohesion < fill.overburden:
-        first = _settle_self_weight(solver, attempt)
+    first = carry_self_weight(solver, attempt)
     if not first.converged:
         status = UNSTABLE if first.mechanism else Status.failure(first.reason)
         return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,
@@ -285,31 +270,6 @@ def _raised_cohesion(solver: ContactSolver) -> float | None:
     if fill is None or fill.material.cohesion == fill.cohesion:
         return None
     return fill.material.cohesion
-
-
-def _settle_self_weight(solver: ContactSolver, attempt: Callable[[float, Iterate], StepOutcome]) -> StepOutcome:
-    """The self-weight by cohesion continuation (module docstring) from the unloaded state: the outcome of the
-    last step, at the scene's cohesion when it converged, else the failure with the cohesion it failed at."""
-    fill = solver.material
-    target, raised = fill.cohesion, fill.overburden
-    state, done, excess, halvings = solver.initial_iterate(), None, 1.0, 0  # done: the last converged excess
-    try:
-        while True:
-            fill.set_cohesion(target + excess * (raised - target))
-            out = attempt(0.0, state)
-            if out.converged and excess == 0.0:
-                return out
-            if out.converged:
-                state, done = solver.converged_slip_reference(out.iterate), excess
-                excess = excess * RAMP_RATIO if excess > 1.5 * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
-                continue
-            if done is None or out.mechanism or halvings == RAMP_HALVINGS:
-                where = (f"self-weight with the fill's cohesion raised to {fill.material.cohesion:.4g} Pa "
-                         f"(continuation to {target:.4g} Pa)")
-                return replace(out, reason=f"{where}: {out.reason}")
-            excess, halvings = 0.5 * (done + excess), halvings + 1
-    finally:
-        fill.set_cohesion(target)
 
 
 def _impose_support_movement(solver: ContactSolver, attempt: Callable[[float, Iterate], StepOutcome], state: Iterate,

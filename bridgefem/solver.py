@@ -48,28 +48,18 @@ fails as non-convergence when it cannot be.
 the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
 -10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
 diverges (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible
-mode. The diverging mode is the solution minus the step's converged start, normalised: its relative displacements
-d at the pairs and the work of the loads on it. It is *inadmissible*, a wrong active set and not a mechanism
-(a failure without proof, damped like any failed proposal), when
-
-- it is a hinge mode (no friction slip beyond ``ADMISSIBLE_TOL`` of its largest joint displacement) on which the
-  driving load (the live load; the self-weight at live load 0) does no work (below ``WORK_TOL`` of |f|_1 |u|_inf),
-  e.g. a part of the ring freed by opening a whole joint: such a singularity is no collapse of the structure;
-- or, in the sense in which the driving load pushes it (a hinge mode; for a mode with friction slip, whose sense is
-  not the loads' since the slip law makes the system unsymmetric, the sense that penetrates least), it closes a
-  pair of the active set's open pairs by more than ``ADMISSIBLE_TOL`` of its largest joint displacement
-  (interpenetration; the closed pairs keep d_n = 0 by their law).
-
-Such a failure carries a *repair*: the active set with the open pairs within ``REPAIR`` of the worst penetration
-closed and sticking. The repair is tried when damping has nothing left to halve, or when the iteration returns
-to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint gave a mode that rotates
-the springing voussoir into the ground: damping returns to it, the repair converges). An admissible diverging mode
-*proves* collapse, and ends the step at once whatever its history (a predicted or damped active set), when it is
-a rigid-block hinge mode without friction slip or interpenetration (both below ``PROOF_TOL``; mu = 0 pairs may
-slip) and the whole load does positive work on it (above ``WORK_TOL``; bare ring or elastic fill only): by
-virtual work, any equilibrium with compressive joint forces would give that work as -sum(lam_n d_n) <= 0. Other
-admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms as before: the damping
-chain or the cycle that returns to them decides.
+mode: :func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at
+the pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip
+against the friction force; a failure without proof, damped like any failed proposal, carrying a *repair* that
+closes and sticks the offending pairs), a mechanism, or a *proof* of collapse (``StepOutcome.proved``: an
+admissible rigid-block hinge mode on which the loads do positive work). A proof ends the step at once whatever its
+history (a predicted or damped active set). The repair is tried when damping has nothing left to halve, or when
+the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint
+gave a mode that rotates the springing voussoir into the ground: damping returns to it, the repair converges; the
+thick semicircle at mu = 0.35, whose damped iterations returned to modes that slip pairs backwards). Other
+admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms without proof: the
+damping chain or the cycle that returns to them decides, and the verdict needs other evidence
+(:mod:`bridgefem.evidence`).
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -96,6 +86,7 @@ from petsc4py import PETSc
 
 from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, classify,
                       complementarity_residual)
+from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
@@ -109,11 +100,6 @@ DEFAULT_PETSC_OPTIONS = {
 }
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
-ADMISSIBLE_TOL = 1e-3  # interpenetration (friction slip) of a diverging mode, of its largest joint displacement,
-# beyond which it is inadmissible (a slip mode)
-WORK_TOL = 1e-6  # load work on a diverging mode, of |f|_1 |u|_inf, below which the load does none
-PROOF_TOL = 1e-6  # interpenetration and friction slip of a proving mode, of its largest joint displacement
-REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode closes by this fraction of its worst
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
@@ -167,15 +153,6 @@ class _Failure(NamedTuple):
     proof: bool = False
 
 
-class _Verdict(NamedTuple):
-    """What a diverging mode shows: why it is no mechanism (None: admissible), the local pairs to close, and
-    whether it proves that no equilibrium exists."""
-
-    flaw: str | None
-    repair: np.ndarray | None
-    proof: bool
-
-
 class ContactSolver:
     """Builds the combined system once and solves load steps with the active-set Newton method."""
 
@@ -187,7 +164,8 @@ class ContactSolver:
         self.pairs, self.c = pairs, c
         self.support_motion = np.zeros((len(pairs), 2)) if support_motion is None else support_motion
         self.set_support_movement(0.0)
-        self.mu = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))
+        self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
+        self.set_friction(self.friction, 1.0)
         self.force_tol, self.max_iterations = force_tol, max_iterations
         self.f_dead, self.f_live = f_dead, f_live
         self.material = material
@@ -298,6 +276,11 @@ class ContactSolver:
         diag = np.concatenate([(~closed).astype(float), (~stick).astype(float), -mu * active.sign * slip])
         return np.concatenate([self._const, g_part, diag])[self._perm]
 
+    def set_friction(self, mu: np.ndarray, factor: float) -> None:
+        """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
+        self.mu, self.friction_factor = factor * np.asarray(mu), factor
+        self._matrix_key = None  # the slip rows hold mu
+
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
         self.movement = fraction
@@ -390,8 +373,8 @@ class ContactSolver:
             return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
 
-    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> "_Verdict":
-        """What the diverging direction x - origin of a solve shows (the module's *Mechanism verdicts*).
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> Verdict:
+        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`).
         Collective."""
         mode = self._mode
         x.copy(mode)
@@ -404,35 +387,8 @@ class ContactSolver:
         works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
                                               np.abs(total).sum()]))
         scales = works[2:] * self._norm_inf(u)
-        significant = np.abs(works[:2]) > WORK_TOL * scales
-        span = self._norm_inf(d.ravel())
-        slip = self._norm_inf(np.where(self.mu > 0, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
-        slipping = slip > ADMISSIBLE_TOL * span
-        # the sense in which the driving load pushes a hinge mode (else the whole load); a slip mode's sense is not
-        # the loads' (the friction law makes the system unsymmetric): the sense that penetrates least
-        senses = [np.sign(works[0])] if significant[0] and not slipping else \
-            [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
-        openings = np.where(active.state == OPEN, d[:, 0], np.nan)  # closed pairs keep d_n = 0
-        worst = [(-np.inf, 0)] * len(senses)
-        for k, sense in enumerate(senses):
-            excess = -sense * openings
-            if np.any(active.state == OPEN):
-                i = int(np.nanargmax(excess))
-                worst[k] = (float(excess[i]), int(self.pairs.joint[i]))
-            worst[k] = max(self.comm.allgather(worst[k]))
-        k = int(np.argmin([w[0] for w in worst]))
-        orient, (value, joint) = senses[k], worst[k]
-        flaw = None
-        if not significant[0] and not slipping:
-            flaw = f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
-        elif value > ADMISSIBLE_TOL * span:
-            flaw = f"interpenetration {value / span:.2g} of its largest joint displacement at joint {joint}"
-        if flaw is not None:
-            repair = np.nan_to_num(-orient * openings, nan=-np.inf) > max(ADMISSIBLE_TOL * span, REPAIR * value)
-            return _Verdict(flaw, repair, False)
-        proof = (self.material is None and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
-                 and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
-        return _Verdict(None, None, proof)
+        return judge(Mode(d, active.state, active.sign, self.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
+                          name), provable=self.material is None, comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
