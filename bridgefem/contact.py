@@ -33,7 +33,6 @@ from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG
 from .model import node_blocks
 
 OPEN, STICK, SLIP = 0, 1, 2
-STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
 GROUND = -1
 ARCH_FILL = -2  # joint id of the arch-fill interface pairs
 

@@ -17,7 +17,7 @@ that would stop within ``LANDING * T`` of T goes to T. The step after T is the w
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
 of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
 was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with a quarter of that step. A wrong guess therefore costs steps, never the bracket rule.
+``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step. A wrong guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
@@ -81,6 +81,7 @@ SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most th
 SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
+BACKTRACK_STEP = 0.25  # after a backtrack the step is this fraction of the step that reached the discarded state
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
 PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
@@ -233,7 +234,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             continue
         suspect = not plausible(trial)
         if suspect and trial - lower <= width and taken > SETTLED * width and history:
-            step = 0.25 * taken
+            step = BACKTRACK_STEP * taken
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
         elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \

@@ -32,6 +32,8 @@ from .solver import ContactSolver, Iterate, StepOutcome
 
 RAMP_RATIO = 0.5  # a continuation step keeps this fraction of the raised strength's excess over the scene's
 RAMP_STEPS = 7  # steps with a raised strength (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
+RAMP_END = 1.5  # an excess below this multiple of the last raised step's goes to 0 next (between that step's
+# excess and the one before it, so that rounding adds no step)
 RAMP_HALVINGS = 6  # failed continuation steps halved at most this many times in all
 FRICTION_RAISE = 8.0  # the friction continuation starts at this multiple of the joints' Coulomb coefficients
 # (mu = 0.3 -> 2.4: the bonded thrust of a thick ring is well inside that cone)
@@ -96,7 +98,7 @@ def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float],
             return out
         if out.converged:
             state, done = solver.converged_slip_reference(out.iterate), excess
-            excess = excess * RAMP_RATIO if excess > 1.5 * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
+            excess = excess * RAMP_RATIO if excess > RAMP_END * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
             continue
         if done is None or out.proved or halvings == RAMP_HALVINGS:
             return replace(out, reason=f"{describe()}: {out.reason}")

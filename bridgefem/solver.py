@@ -96,8 +96,8 @@ DEFAULT_PETSC_OPTIONS = {
     "ksp_type": "preonly",
     "pc_type": "lu",
     "pc_factor_mat_solver_type": "mumps",
-    "mat_mumps_icntl_14": 200,
-}
+    "mat_mumps_icntl_14": 200,  # % of workspace above MUMPS's estimate: the zero diagonal of the contact laws' rows
+}                               # forces delayed pivots that outgrow the default 20 % (INFOG(1) = -9)
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
@@ -242,7 +242,6 @@ class ContactSolver:
         self._n_k, self._k_elastic, self._K = len(kv), kv.copy(), K
         self._u_work, self._ku = K.createVecRight(), K.createVecLeft()
         self._g_rows, self._g_vals = g_rows, g_vals
-        self._n_diag = len(k)
         slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
         slots.sort_indices()
         self._perm = slots.data.astype(np.int64) - 1
