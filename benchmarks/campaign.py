@@ -188,6 +188,19 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     return {**out, "class": cls}
 
 
+def failure_cause(row: dict) -> str:
+    """A short name for why a scene has no confirmed verdict (groups the worst cases)."""
+    text = row["status"]
+    if "End of error message" in text:
+        return "Gmsh aborted (SIGABRT) while meshing"
+    for key in ("unproven instability under self-weight", "unproven mechanism", "contradicted",
+                "max iterations", "active set cycling", "no convergence", "bracket not closed", "timeout",
+                "no mesh node"):
+        if key in text:
+            return key
+    return text[:80]
+
+
 def report(rows: list[dict]) -> str:
     """The table, the classes, the success rate, solves per limit and the worst cases."""
     lines = [f"{'#':>4} {'shape':12} {'span':>6} {'t':>6} {'t_min':>6} {'n':>4} {'mu':>6} {'E':>8} {'load':>12} "
@@ -208,6 +221,17 @@ def report(rows: list[dict]) -> str:
     lines.append("")
     lines.append(f"scenes {n} (and {rejected} rejected as bad input): "
                  + ", ".join(f"{c} {k} ({100 * k / max(n, 1):.1f} %)" for c, k in classes.items()))
+    for shape in SHAPES:
+        mine = [r for r in rows if r["shape"] == shape and r["class"] != "rejected"]
+        if mine:
+            lines.append(f"  {shape:12}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    causes: dict[str, int] = {}
+    for r in rows:
+        if r["class"] in ("solver failure", "crash", "wrong"):
+            key = f"{r['class']}: {failure_cause(r)}"
+            causes[key] = causes.get(key, 0) + 1
+    for key, k in sorted(causes.items(), key=lambda kv: -kv[1]):
+        lines.append(f"  {k:3d} x {key}")
     limits = [r["solves"] for r in rows if r.get("status") == "limit load found" and r.get("solves")]
     if limits:
         lines.append(f"solves per limit (limit load found, {len(limits)} scenes): median {statistics.median(limits):g}, "

@@ -84,8 +84,7 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, classify,
-                      complementarity_residual)
+from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
 from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
@@ -161,12 +160,13 @@ class ContactSolver:
                  petsc_options: dict, material: "PlasticFill | None" = None,
                  support_motion: np.ndarray | None = None):
         self.comm = K.getComm().tompi4py()
-        self.pairs, self.c = pairs, c
+        self.pairs = pairs
         self.support_motion = np.zeros((len(pairs), 2)) if support_motion is None else support_motion
         self.set_support_movement(0.0)
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
+        self.law = CoulombJoints(self.friction.copy(), c, force_tol)
         self.set_friction(self.friction, 1.0)
-        self.force_tol, self.max_iterations = force_tol, max_iterations
+        self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
@@ -267,17 +267,16 @@ class ContactSolver:
 
     def _values(self, active: ContactState) -> np.ndarray:
         """Matrix values (CSR order) of the linear system of an active set."""
-        st, mu = active.state, self.mu
-        closed, stick, slip = st != OPEN, st == STICK, st == SLIP
+        rows = self.law.rows(active)
         pair = self._g_rows // 2
-        law_active = np.where(self._g_rows % 2 == 0, closed[pair], stick[pair])
-        g_part = self._g_vals * self.c[pair] * law_active
-        diag = np.concatenate([(~closed).astype(float), (~stick).astype(float), -mu * active.sign * slip])
+        law_active = np.where(self._g_rows % 2 == 0, rows.a_n[pair], rows.a_t[pair])
+        g_part = self._g_vals * self.law.c[pair] * law_active
+        diag = np.concatenate([rows.b_n, rows.b_t, rows.e_t])
         return np.concatenate([self._const, g_part, diag])[self._perm]
 
     def set_friction(self, mu: np.ndarray, factor: float) -> None:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
-        self.mu, self.friction_factor = factor * np.asarray(mu), factor
+        self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
         self._matrix_key = None  # the slip rows hold mu
 
     def set_support_movement(self, fraction: float) -> None:
@@ -289,8 +288,7 @@ class ContactSolver:
         b = self.b.array
         b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
         lam_rhs = np.zeros(self.n_lam)
-        lam_rhs[0::2] = np.where(active.state != OPEN, -self.c * self._ground[:, 0], 0.0)
-        lam_rhs[1::2] = np.where(active.state == STICK, self.c * (slip_ref - self._ground[:, 1]), 0.0)
+        lam_rhs[0::2], lam_rhs[1::2] = self.law.rhs(active, slip_ref, self._ground)
         b[self.n_u:] = lam_rhs
 
     def _ksp(self, options: dict) -> None:
@@ -386,7 +384,7 @@ class ContactSolver:
         works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
                                               np.abs(total).sum()]))
         scales = works[2:] * self._norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, self.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
+        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
                           name), provable=self.material is None, comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
@@ -539,11 +537,11 @@ class ContactSolver:
             else:
                 residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
-                ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
+                ncp = self.law.residual(lam, d, slip_ref)
                 ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
-                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
+                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
                 if self.material is not None:
@@ -608,7 +606,7 @@ class ContactSolver:
                  frozen: np.ndarray) -> "_Proposal":
         """The active set the Alart-Curnier functions propose from ``active`` for multipliers ``lam`` and relative
         displacements ``d`` (frozen pairs kept sticking), with the changed pairs and their violations."""
-        new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
+        new, violation = self.law.classify(active, lam, d, slip_ref)
         _stick(new, frozen)
         return _Proposal(active, new, _changes(new, active), violation)
 
@@ -638,7 +636,7 @@ class ContactSolver:
         residuals of the convergence test; and the fill's response at x (no tangent). Collective."""
         response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
         _, lam, d = self.split(x)
-        ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
+        ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
         return max(self._material_residual(x, response.f_int, level, f_scale),
                    self._norm_inf(ncp.ravel()) / f_scale), response
