@@ -36,9 +36,10 @@ active set is proposed from the damped iterate. Near the limit, where fill point
 iterations, full steps overshoot: Prestwood with 0.3 m of fill went from a residual of 1e-3 to 16 times the largest
 applied nodal force in one step, and then diverged.
 
-Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
-discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
-for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
+Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth,
+or stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair
+next to a crack tip, e.g. stick needing |lam_t| = 1.002 mu lam_n and slip going backwards at one springing pair of a
+thick ring at mu = 10) are frozen to stick for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
 friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
 mechanism; a cycle that returns to a set whose diverging mode was inadmissible goes to that set's repair (below);
 any other cycle is damped like a singular proposal (half of the changes from the last solved active set), and
@@ -563,7 +564,7 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
-                flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
+                flips = pending & ~frozen & (new.state != OPEN) & (active.state != OPEN)  # stick/slip, slip sign
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
                     damped = self._damp(proposal) if recovered < chains else None
                     if damped is None:
