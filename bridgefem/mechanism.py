@@ -10,7 +10,8 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
    loads' sense means nothing) is taken in the sense that violates the joint laws least.
 2. Its *violation* in that sense, per pair: an open pair that the mode closes (interpenetration, -d_n), a sliding
    pair that it slips against the pair's friction force (the slip law lam_t = s mu lam_n assumes slip d_t of sign
-   -s: s d_t > 0 is backwards). Closed pairs keep d_n = 0 and sticking pairs d_t = 0 by their laws.
+   -s: s d_t > 0 is backwards), measured by mu s d_t, the friction's work on it per unit normal force (mu = 0
+   pairs slip freely). Closed pairs keep d_n = 0 and sticking pairs d_t = 0 by their laws.
 3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a
    part of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
    displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes and sticks the pairs whose
@@ -79,7 +80,8 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
     senses = [np.sign(works[0])] if significant[0] and not slipping else \
         [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
     closing = np.where(mode.state == OPEN, -d[:, 0], np.nan)  # times the sense: > 0 interpenetrates
-    backwards = np.where(mode.state == SLIP, mode.sign * d[:, 1], np.nan)  # times the sense: > 0 slips backwards
+    backwards = np.where(mode.state == SLIP, mode.mu * mode.sign * d[:, 1], np.nan)  # times the sense: > 0 slips
+    # against the friction force; mu d_t is the friction's work on it per unit normal force (none where mu = 0)
     worst = []
     for sense in senses:
         violation = np.fmax(sense * closing, sense * backwards)

@@ -13,7 +13,9 @@
      opening at many joints at once and wanders into mechanisms. Lowering the friction lets the springings slip and
      the joints crack gradually, as the thrust falls to what friction can carry.
 
-   Each continuation step keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
+   When the continuation fails without showing a mechanism where the one step did, the one step's outcome is the
+   answer (its mechanism, proved or confirmed by the LP, or not: :mod:`bridgefem.evidence`). Each continuation step
+   keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
    ``RAMP_STEPS`` steps; a failed step is halved (at most ``RAMP_HALVINGS`` times in all). A mechanism at a raised
    strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver
    failure that names the strength it failed at.
@@ -27,6 +29,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 from typing import Callable
+
+import numpy as np
+from mpi4py import MPI
 
 from .solver import ContactSolver, Iterate, StepOutcome
 
@@ -48,9 +53,10 @@ def carry_self_weight(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
     if first.converged or first.proved:
         return first
     fill = solver.material
-    if fill is None:
-        return friction_continuation(solver, attempt)
-    if not first.mechanism and fill.cohesion < fill.overburden:
+    if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
+        out = friction_continuation(solver, attempt)
+        return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
+    if fill is not None and not first.mechanism and fill.cohesion < fill.overburden:
         return cohesion_continuation(solver, attempt)
     return first
 

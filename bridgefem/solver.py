@@ -403,7 +403,9 @@ class ContactSolver:
             self.ksp.solve(self.b, x)
         except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
             self._matrix_key = None
-            return _Failure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
+            failure = _linear_failure(self.ksp, f"PETSc error code {err.ierr}")
+            return failure if failure.mechanism else \
+                _Failure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
         finally:
             self.stats["time_factorise_solve"] += time.perf_counter() - t0
             self.stats["solves"] += 1
@@ -684,8 +686,9 @@ def _changes(new: ContactState, old: ContactState) -> np.ndarray:
     return (new.state != old.state) | (new.sign != old.sign)
 
 
-def _linear_failure(ksp: PETSc.KSP, reason: int) -> _Failure:
-    """Describe a failed linear solve; a mechanism only when it proves a singular system."""
+def _linear_failure(ksp: PETSc.KSP, reason: int | str) -> _Failure:
+    """Describe a failed linear solve (a KSP reason or an error's text); a mechanism only when MUMPS found the system
+    numerically singular."""
     names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
     pc = ksp.getPC()
     text = f"linear solver failed: {names.get(reason, reason)}"
