@@ -171,8 +171,11 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = "solver failure"
         if code != 1 or lim["upper"] is not None:
             cls = "wrong"  # a failure must exit 1 without a bracket
+    elif status.startswith("no collapse") and lp_status == "limit load found":
+        # locked at the search's maximum load: confirmed when the LP collapses only above it (or a fill carries it)
+        cls = "confirmed" if fill or lp["load"] >= (1 - NO_SLIP_TOL) * lim["lower"] else "wrong"
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
-        cls = "confirmed" if fill and status.startswith("no collapse") else "wrong"
+        cls = "wrong"
     elif status == "limit load found":
         if fill:
             ok = ratio is not None and ratio >= 1 - NO_SLIP_TOL
@@ -257,7 +260,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=Path("results/campaign"))
     p.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per scene (default %(default)g)")
     p.add_argument("--only", type=int, nargs="*", help="run only these scene indices")
+    p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     args = p.parse_args(argv)
+    if args.report:
+        rows = json.loads((args.out / "campaign.json").read_text())["rows"]
+        for r in rows:
+            path = args.out.resolve() / f"scene_{r['index']:04d}" / "results" / "results.json"
+            if r["class"] not in ("crash", "rejected") and path.exists():
+                r.update(judge(json.loads(path.read_text()), r["exit"], "", fill=r["fill"] is not None))
+        print(report(rows))
+        return 0
     indices = args.only if args.only else range(args.count)
     rows = []
 
