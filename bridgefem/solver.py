@@ -1,5 +1,25 @@
 """Semismooth Newton (primal-dual active set) for elasticity with joint contact and friction.
 
+One load step (:meth:`ContactSolver.solve_step`), from a converged state:
+
+1. Take the start's active set (or the one a predicted state proposes).
+2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
+   and solve it with the reused factorisation; check the solve's backward error (a solver that did not solve is a
+   failure, never a mechanism).
+3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
+   wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
+   without proof.
+4. With a plastic fill, backtrack the step (line search on the merit below).
+5. Classify the solution with the joint law; closed pairs that cycle between friction states are frozen to stick.
+6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
+
+Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
+campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 35 solves per limit load;
+its failures there are active-set cycles and near-limit stalls on rings with many voussoirs, measured and listed in
+``docs/robustness.md``. A condensed (Schur complement) or Tresca fixed-point solver was not needed for the cases
+fixed here (the evidence rule, the slip-direction check and the friction continuation were) and is the next step
+for the cycles left.
+
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
     K u - G^T lam = f                                   (equilibrium, N)
