@@ -4,7 +4,7 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
 
 1. Take the start's active set (or the one a predicted state proposes).
 2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
-   and solve it with the reused factorisation; check the solve's backward error (a solver that did not solve is a
+   and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism).
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
    wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
@@ -96,7 +96,6 @@ diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -106,24 +105,17 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
+from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
 
-PETSC_PREFIX = "bridgefem_"
-DEFAULT_PETSC_OPTIONS = {
-    "ksp_type": "preonly",
-    "pc_type": "lu",
-    "pc_factor_mat_solver_type": "mumps",
-    "mat_mumps_icntl_14": 200,  # % of workspace above MUMPS's estimate: the zero diagonal of the contact laws' rows
-}                               # forces delayed pivots that outgrow the default 20 % (INFOG(1) = -9)
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
-BACKWARD_TOL = 1e-9  # a linear solve whose normwise backward error is above this did not solve (LU gives ~1e-16)
 
 
 @dataclass
@@ -192,7 +184,6 @@ class ContactSolver:
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
-        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -313,19 +304,9 @@ class ContactSolver:
         b[self.n_u:] = lam_rhs
 
     def _ksp(self, options: dict) -> None:
-        opts = PETSc.Options()
-        merged = {**DEFAULT_PETSC_OPTIONS, **options}
-        for key, value in merged.items():
-            opts[PETSC_PREFIX + key] = value
-        self.ksp = PETSc.KSP().create(self.comm)
-        self.ksp.setOptionsPrefix(PETSC_PREFIX)
-        self.ksp.setOperators(self.A)
-        self.ksp.setFromOptions()
-        self.ksp.setUp()  # the factorisation reads its options (e.g. MUMPS ICNTL) now
+        self.linear = CheckedSolve(self.A, options)
+        self.stats, self.petsc_options = self.linear.stats, self.linear.options
         self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
-        for key in merged:
-            opts.delValue(PETSC_PREFIX + key)
-        self.petsc_options = {k: str(v) for k, v in merged.items()}
 
     # ----------------------------------------------------------------- Newton
     def initial_iterate(self) -> Iterate:
@@ -415,43 +396,13 @@ class ContactSolver:
         if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
             self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
             self.A.assemble()
-            self.ksp.setOperators(self.A)
+            self.linear.matrix_changed()
             self._matrix_key = key
-            self.stats["factorisations"] += 1
-        t0 = time.perf_counter()
-        try:
-            self.ksp.solve(self.b, x)
-        except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
-            self._matrix_key = None
-            failure = _linear_failure(self.ksp, f"PETSc error code {err.ierr}")
-            return failure if failure.mechanism else \
-                _Failure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
-        finally:
-            self.stats["time_factorise_solve"] += time.perf_counter() - t0
-            self.stats["solves"] += 1
-        reason = self.ksp.getConvergedReason()
-        if reason < 0:
-            self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
-            return _linear_failure(self.ksp, reason)
-        if self._any(not np.all(np.isfinite(x.array))):
-            return _Failure("NaN in the solution", False)
-        error = self._backward_error(x)
-        if not error <= BACKWARD_TOL:
-            self._matrix_key = None
-            return _Failure(f"linear solve inaccurate: backward error {error:.2e} above {BACKWARD_TOL:g} (the "
-                            f"{self.ksp.getType()}/{self.ksp.getPC().getType()} solver did not solve the system; not "
-                            "a proof of a mechanism)", False)
-        return None
-
-    def _backward_error(self, x: PETSc.Vec) -> float:
-        """Normwise backward error of a solve, |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf): about the machine
-        precision times a modest growth factor for a backward-stable direct solve, even of a nearly singular system
-        (then x is large, not the residual). Collective."""
-        self.A.mult(x, self.r)
-        self.r.axpy(-1.0, self.b)
-        scale = self.A.norm(PETSc.NormType.INFINITY) * x.norm(PETSc.NormType.INFINITY) + \
-            self.b.norm(PETSc.NormType.INFINITY)
-        return self.r.norm(PETSc.NormType.INFINITY) / scale if scale > 0 else 0.0
+        failure = self.linear.solve(self.b, x)
+        if failure is None:
+            return None
+        self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
+        return _Failure(failure.message, failure.singular)
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
@@ -704,18 +655,3 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
 def _changes(new: ContactState, old: ContactState) -> np.ndarray:
     """Local pairs whose state or slip sign differs between two active sets."""
     return (new.state != old.state) | (new.sign != old.sign)
-
-
-def _linear_failure(ksp: PETSc.KSP, reason: int | str) -> _Failure:
-    """Describe a failed linear solve (a KSP reason or an error's text); a mechanism only when MUMPS found the system
-    numerically singular."""
-    names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
-    pc = ksp.getPC()
-    text = f"linear solver failed: {names.get(reason, reason)}"
-    if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
-        infog = pc.getFactorMatrix().getMumpsInfog(1)
-        singular = infog == -10
-        detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
-                  "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
-        return _Failure(f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular)
-    return _Failure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)
