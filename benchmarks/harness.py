@@ -76,13 +76,10 @@ def scaled_guess(factor: float | None):
     """Within the block :func:`bridgefem.analysis.run_analysis` seeds the limit search with ``factor`` x the
     rigid-block LP level (None: no guess at all), by wrapping the search it calls."""
     from bridgefem import analysis
-    from bridgefem.pathfollow import rigid_block_level
-
     original = analysis.find_limit_load
 
-    def search(*args, guess_scene=None, **kwargs):
-        level = rigid_block_level(guess_scene) if guess_scene is not None and factor is not None else None
-        return original(*args, guess=None if level is None else factor * level, **kwargs)
+    def search(*args, guess=None, **kwargs):
+        return original(*args, guess=None if guess is None or factor is None else factor * guess, **kwargs)
 
     analysis.find_limit_load = search
     try:

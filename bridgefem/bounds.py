@@ -22,6 +22,7 @@ from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound
 from .rigid_block import _MECH_TOL, _relative_motion
 from .scene import Scene, SceneError
+from .status import Status
 
 BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
                 "Mohr-Coulomb continuum (associated flow; cut-off on the in-plane mean stress), no-tension Coulomb "
@@ -167,4 +168,4 @@ def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0, plot: Path 
             s = x.sizes
             print(f"  {name}: {s['unknowns']} unknowns, {s['equalities']} equalities, {s['inequalities']} "
                   f"inequalities, {s['cones']} cones; {x.iterations} iterations, {x.seconds:.2f} s")
-    return 1 if any(x.status.startswith("solver failure") for x in (b.lower, b.upper)) else 0
+    return 1 if any(x.status.startswith(Status.FAILURE) for x in (b.lower, b.upper)) else 0  # conic statuses

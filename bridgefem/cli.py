@@ -22,6 +22,7 @@ from . import PETSC_PREFIX, version
 from .output import OutputError, Terminated, claim, failed_target, sigterm_raises
 from .scene import SceneError, load_scene, resolved_toml
 from .sizing import LARGE_DOFS, MAX_DOFS, check_size
+from .status import Status
 
 
 
@@ -128,25 +129,27 @@ def _run(args, petsc: dict) -> int:
                           phase=_phase if announce else (lambda name: None))
         extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
                             "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
-        failed = an.search.status.startswith("solver failure")
+        failed = Status.of(an.search.status) is Status.FAILURE
         if failed:  # a failed run never replaces earlier results
             kept, out = out, failed_target(out)
         data = write_results(an, out, extra)
     if comm.rank == 0 and failed:
         print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
     if comm.rank == 0:
-        from .pathfollow import LIMIT_FOUND
         from .plots import format_bracket
 
         lim = data["limit_load"]
-        if data["status"] == LIMIT_FOUND:
+        limit = Status.of(data["status"]) is Status.LIMIT
+        if limit:
             print(f"{scene.name}: {data['status']}; limit load in "
                   f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
                   f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
         else:
             print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
                   f"width {scene.arch.width:g} m)")
-        if data["status"] == LIMIT_FOUND:
+        if data["evidence"]:
+            print(f"  evidence: {data['evidence']}")
+        if limit:
             print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
         elif data["failure_reason"]:
             print(f"  last failed step: {data['failure_reason']}")
@@ -163,7 +166,7 @@ def _run(args, petsc: dict) -> int:
         for warning in data["warnings"]:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
-    return 1 if data["status"].startswith("solver failure") else 0
+    return Status.of(data["status"]).exit_code
 
 
 def _phase(name: str) -> None:

@@ -15,11 +15,13 @@ tau = n rotated +90 degrees:
 
 The laws are written as Alart-Curnier complementarity functions with the constant c (N/m per pair):
 ``sigma_n = lam_n - c d_n`` (contact iff > 0), ``sigma_t = lam_t - c Delta d_t`` (stick iff |sigma_t| <= mu
-sigma_n). Their semismooth Newton method is the primal-dual active-set method in :mod:`bridgefem.solver`.
+sigma_n), in the law object :class:`CoulombJoints`. Their semismooth Newton method is the primal-dual active-set
+method in :mod:`bridgefem.solver`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import ufl
@@ -33,7 +35,6 @@ from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG
 from .model import node_blocks
 
 OPEN, STICK, SLIP = 0, 1, 2
-STATE_NAMES = {OPEN: "open", STICK: "stick", SLIP: "slip"}
 GROUND = -1
 ARCH_FILL = -2  # joint id of the arch-fill interface pairs
 
@@ -191,31 +192,68 @@ class ContactState:
         return self.state.tobytes() + self.sign.tobytes()
 
 
-def classify(prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
-             mu: float, c: np.ndarray, force_tol: float) -> tuple[ContactState, np.ndarray]:
-    """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` (N) so that pairs
-    carrying no force do not chatter between states. ``lam``, ``d``: (m, 2) arrays; ``slip_ref``: d_t at the
-    last converged step. Also returns each pair's violation (N), which ranks changes for damping."""
-    sig_n = lam[:, 0] - c * d[:, 0]
-    sig_t = lam[:, 1] - c * (d[:, 1] - slip_ref)
-    was_closed = prev.state != OPEN
-    closed = np.where(was_closed, sig_n >= -force_tol, sig_n > force_tol)
-    bound = mu * np.maximum(sig_n, 0.0)
-    excess = np.abs(sig_t) - bound
-    was_slip = prev.state == SLIP
-    sign = np.sign(sig_t).astype(np.int8)
-    reversed_slip = was_slip & (sign != prev.sign)
-    slip = np.where(was_slip & ~reversed_slip, excess > -force_tol, excess > force_tol)
-    state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
-    violation = np.maximum(np.abs(sig_n), np.abs(excess))
-    return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8)), violation
+class LawRows(NamedTuple):
+    """The two rows of a pair's law in the linear system of an active set (per local pair), with G the relative
+    displacement operator and c the Alart-Curnier constant:
+
+        normal:     a_n c G_n u + b_n lam_n              = r_n
+        tangential: a_t c G_t u + b_t lam_t + e_t lam_n  = r_t
+    """
+
+    a_n: np.ndarray
+    a_t: np.ndarray
+    b_n: np.ndarray
+    b_t: np.ndarray
+    e_t: np.ndarray
 
 
-def complementarity_residual(lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray, mu: float,
-                             c: np.ndarray) -> np.ndarray:
-    """Alart-Curnier residual (N) per pair: zero iff eqs. (1)-(6) hold."""
-    sig_n = np.maximum(lam[:, 0] - c * d[:, 0], 0.0)
-    sig_t = lam[:, 1] - c * (d[:, 1] - slip_ref)
-    r_n = lam[:, 0] - sig_n
-    r_t = lam[:, 1] - np.clip(sig_t, -mu * sig_n, mu * sig_n)
-    return np.column_stack([r_n, r_t])
+@dataclass
+class CoulombJoints:
+    """Unilateral contact with Coulomb friction at every pair (module docstring), with the Alart-Curnier constants
+    ``c`` (N/m per pair), the Coulomb coefficients ``mu`` and a hysteresis ``force_tol`` (N) against chattering.
+
+    A joint law is one object with three jobs: :meth:`classify` (the active set the complementarity functions
+    propose), :meth:`residual` (zero iff the law holds) and :meth:`rows` / :meth:`rhs` (its linear equations for an
+    active set). Another law (e.g. crushing) is another object with the same methods."""
+
+    mu: np.ndarray
+    c: np.ndarray
+    force_tol: float
+
+    def classify(self, prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray
+                 ) -> tuple[ContactState, np.ndarray]:
+        """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` so that pairs carrying
+        no force do not chatter between states. ``lam``, ``d``: (m, 2) arrays; ``slip_ref``: d_t at the last
+        converged step. Also returns each pair's violation (N), which ranks changes for damping."""
+        sig_n = lam[:, 0] - self.c * d[:, 0]
+        sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
+        tol = self.force_tol
+        was_closed = prev.state != OPEN
+        closed = np.where(was_closed, sig_n >= -tol, sig_n > tol)
+        excess = np.abs(sig_t) - self.mu * np.maximum(sig_n, 0.0)
+        was_slip = prev.state == SLIP
+        sign = np.sign(sig_t).astype(np.int8)
+        reversed_slip = was_slip & (sign != prev.sign)
+        slip = np.where(was_slip & ~reversed_slip, excess > -tol, excess > tol)
+        state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
+        violation = np.maximum(np.abs(sig_n), np.abs(excess))
+        return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8)), violation
+
+    def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:
+        """Alart-Curnier residual (N) per pair: zero iff eqs. (1)-(6) hold."""
+        sig_n = np.maximum(lam[:, 0] - self.c * d[:, 0], 0.0)
+        sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
+        return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -self.mu * sig_n, self.mu * sig_n)])
+
+    def rows(self, active: ContactState) -> LawRows:
+        """The law's rows for an active set: closed pairs keep d_n (open ones carry lam_n = 0), sticking pairs keep
+        d_t, sliding pairs carry lam_t = s mu lam_n (open ones lam_t = 0)."""
+        closed, stick = active.state != OPEN, active.state == STICK
+        return LawRows(closed.astype(float), stick.astype(float), (~closed).astype(float), (~stick).astype(float),
+                       -self.mu * active.sign * (active.state == SLIP))
+
+    def rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Right-hand sides (r_n, r_t) of the rows: a closed pair's gap and a sticking pair's slip stay those of the
+        last converged step, d = G u + ``ground`` (the imposed ground movement, m, (m, 2))."""
+        return (np.where(active.state != OPEN, -self.c * ground[:, 0], 0.0),
+                np.where(active.state == STICK, self.c * (slip_ref - ground[:, 1]), 0.0))

@@ -363,7 +363,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
 
     def voussoir(i):
         pa, pb = params[i], params[i + 1]
-        kinks = [k for k in curve.kinks if pa < k < pb]
+        kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
         inside = np.array([k for k in load_params if pa < k < pb])  # a load on a joint's corner is at the joint
         corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
         loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))

@@ -17,7 +17,7 @@ that would stop within ``LANDING * T`` of T goes to T. The step after T is the w
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
 of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
 was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with a quarter of that step. A wrong guess therefore costs steps, never the bracket rule.
+``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step. A wrong guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
@@ -50,21 +50,8 @@ recovering); trials that can close the bracket keep ``max_iterations``.
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
 stays for the live load.
 
-**Self-weight.** The self-weight is applied in one step. When that step fails without proof of a mechanism, the
-fill is plastic and its cohesion below its overburden stress (unit weight x fill height), the self-weight is
-reached by a *cohesion continuation* instead: the whole self-weight with the fill's cohesion first raised to
-the overburden stress (which keeps the fill nearly elastic), then lowered back to the scene's in steps, each
-keeping ``RAMP_RATIO`` of the excess, the excess dropped after ``RAMP_STEPS`` steps, a failed step halved (at
-most ``RAMP_HALVINGS`` times in all), every step solved from the last converged state. Scenes whose one-step
-self-weight converges (every bare arch) keep their path exactly. A mechanism at a raised cohesion counts as
-"unstable under self-weight" (a weaker fill carries no more); any other failure is a solver failure
-that names the cohesion it failed at. With the line search of the plastic Newton iteration (:mod:`bridgefem.solver`)
-the cohesionless scenes tried (the tests' reference arch, Prestwood with c = 0) converge in one step; the
-continuation is the fallback for a fill whose one-step self-weight does not (tested on its own). A fraction of the
-self-weight would not help there: with c = 0 (and no tension) the fill, the joints' Coulomb friction and elasticity
-are all positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
-problem scaled and fails alike. A raised cohesion at the whole self-weight is what a self-weight fraction is for a
-cohesive fill (stresses scale with the load, so the weight g with cohesion c is the weight 1 with cohesion c / g).
+**Self-weight.** The search starts from the self-weight state of :func:`bridgefem.selfweight.carry_self_weight`
+(one step, or a continuation through a stronger structure when that step fails without proof).
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
@@ -75,21 +62,17 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Callable
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from petsc4py import PETSc
 
+from .selfweight import carry_self_weight
 from .solver import ContactSolver, Iterate, StepOutcome
+from .status import Status
 
-if TYPE_CHECKING:
-    from .scene import Scene
-
-LIMIT_FOUND = "limit load found"
-UNSTABLE = "unstable under self-weight"
-LOCKED = "no collapse up to the maximum load (locked)"
-STABLE = "stable under self-weight"
+LIMIT_FOUND, UNSTABLE, LOCKED, STABLE = Status.LIMIT, Status.UNSTABLE, Status.LOCKED, Status.STABLE
 
 APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
 LANDING = 0.08  # an approach step that would stop within this fraction of T goes to T
@@ -98,11 +81,9 @@ SUSPECT = 0.25  # a suspect failure is decisive for a failing step of at most th
 SETTLED = 4.0  # ... from a state reached by a step of at most this many widths (else backtrack)
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
+BACKTRACK_STEP = 0.25  # after a backtrack the step is this fraction of the step that reached the discarded state
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
-RAMP_RATIO = 0.5  # a cohesion-continuation step keeps this fraction of the cohesion's excess over the scene's
-RAMP_STEPS = 7  # steps with a raised cohesion (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
-RAMP_HALVINGS = 6  # failed cohesion-continuation steps halved at most this many times in all
 PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
 # iterations of the hardest converged step (a diverging plastic Newton iteration does not recover)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
@@ -113,7 +94,8 @@ class LoadStep:
     """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load;
     ``movement`` the fraction of the imposed support movement applied; ``cohesion`` the fill's raised cohesion (Pa)
     in a step of the self-weight's cohesion continuation (None: the scene's); ``mechanism``: a failed step that showed
-    no equilibrium (:class:`bridgefem.solver.StepOutcome`; a flat load-deflection curve counts)."""
+    no equilibrium (:class:`bridgefem.solver.StepOutcome`; a flat load-deflection curve counts); ``friction_factor``:
+    the joints' raised friction (multiple of the scene's) in a step of the friction continuation (None: the scene's)."""
 
     index: int
     level: float
@@ -128,6 +110,7 @@ class LoadStep:
     movement: float = 0.0
     cohesion: float | None = None
     mechanism: bool = False
+    friction_factor: float | None = None
 
 
 @dataclass
@@ -135,7 +118,9 @@ class LimitSearch:
     """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
     the estimate of the limit level the search used (N per unit load factor; None: none); ``last`` is the last
     converged state, ``settled`` the converged state at live load 0 (after self-weight and any support movement)
-    from which the live-load search started (None when it was not reached)."""
+    from which the live-load search started (None when it was not reached); ``proved``: the failed step that ended
+    the search proved its mechanism (:class:`bridgefem.solver.StepOutcome`), else the verdict needs other evidence
+    (:mod:`bridgefem.evidence`)."""
 
     status: str
     lower: float
@@ -146,28 +131,17 @@ class LimitSearch:
     failure: str = ""
     guess: float | None = None
     settled: Iterate | None = None
-
-
-def rigid_block_level(scene: Scene) -> float | None:
-    """The rigid-block LP collapse level of a scene (N per unit load factor; :func:`bridgefem.rigid_block.
-    collapse_load`), or None when the LP finds no limit load or fails: an estimate, never a bound."""
-    from .rigid_block import collapse_load
-
-    try:
-        lp = collapse_load(scene)
-    except Exception:  # the estimate is optional: the FE search goes on without it
-        return None
-    return lp.load_factor if lp.status == LIMIT_FOUND else None
+    proved: bool = False
 
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    guess_scene: Scene | None = None, stiffness_drop: float = 0.0, movement_steps: int = 0,
+                    stiffness_drop: float = 0.0, movement_steps: int = 0,
                     report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
 
-    ``guess``: an estimate of the limit level (N per unit load factor); when None, the rigid-block level of
-    ``guess_scene`` (computed on rank 0 and broadcast) if given; no estimate when both are None.
+    ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
+    0), None for no estimate.
     ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m) is
     below this fraction of the tangent stiffness after self-weight counts as failed, like a step without
     equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
@@ -191,32 +165,30 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                            mechanism=True), None
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
-                        _raised_cohesion(solver), out.mechanism)
+                        _raised_cohesion(solver), out.mechanism,
+                        solver.friction_factor if solver.friction_factor != 1.0 else None)
         steps.append(step)
         report(step)
         return out
 
-    first = attempt(0.0, solver.initial_iterate())
-    fill = solver.material
-    if not first.converged and not first.mechanism and fill is not None and fill.cohesion < fill.overburden:
-        first = _settle_self_weight(solver, attempt)
+    first = carry_self_weight(solver, attempt)
     if not first.converged:
-        status = UNSTABLE if first.mechanism else f"solver failure: {first.reason}"
-        return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason)
+        status = UNSTABLE if first.mechanism else Status.failure(first.reason)
+        return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,
+                           proved=first.proved)
     state = solver.converged_slip_reference(first.iterate)
     if movement_steps:
         state, failed = _impose_support_movement(solver, attempt, state, movement_steps)
         if failed is not None:
-            status = UNSTABLE if failed.mechanism else f"solver failure: {failed.reason}"
+            status = UNSTABLE if failed.mechanism else Status.failure(failed.reason)
             return LimitSearch(status, 0.0, 0.0 if failed.mechanism else None, tolerance, steps, state,
-                               f"support movement {solver.movement:.4g} of the whole: {failed.reason}")
+                               f"support movement {solver.movement:.4g} of the whole: {failed.reason}",
+                               proved=failed.proved)
     settled = state
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if stiffness_drop > 0:
         k_initial = _initial_stiffness(solver, deflection, state)
-    if guess is None and guess_scene is not None and solver.comm.rank == 0:
-        guess = rigid_block_level(guess_scene)
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
     target = math.inf if guess is None else (1.0 - tolerance) * guess
 
@@ -262,16 +234,17 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             continue
         suspect = not plausible(trial)
         if suspect and trial - lower <= width and taken > SETTLED * width and history:
-            step = 0.25 * taken
+            step = BACKTRACK_STEP * taken
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
         elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
                 and trial - lower <= (SUSPECT * width if suspect else width):
-            status = LIMIT_FOUND if out.mechanism else f"solver failure: {out.reason}"
-            return LimitSearch(status, lower, trial, tolerance, steps, state, out.reason, guess, settled)
+            status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
+            return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
+                               guess, settled, out.proved)
         else:
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
-    status = f"solver failure: bracket not closed within {max_steps} load steps"
+    status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
 
 
@@ -298,31 +271,6 @@ def _raised_cohesion(solver: ContactSolver) -> float | None:
     if fill is None or fill.material.cohesion == fill.cohesion:
         return None
     return fill.material.cohesion
-
-
-def _settle_self_weight(solver: ContactSolver, attempt: Callable[[float, Iterate], StepOutcome]) -> StepOutcome:
-    """The self-weight by cohesion continuation (module docstring) from the unloaded state: the outcome of the
-    last step, at the scene's cohesion when it converged, else the failure with the cohesion it failed at."""
-    fill = solver.material
-    target, raised = fill.cohesion, fill.overburden
-    state, done, excess, halvings = solver.initial_iterate(), None, 1.0, 0  # done: the last converged excess
-    try:
-        while True:
-            fill.set_cohesion(target + excess * (raised - target))
-            out = attempt(0.0, state)
-            if out.converged and excess == 0.0:
-                return out
-            if out.converged:
-                state, done = solver.converged_slip_reference(out.iterate), excess
-                excess = excess * RAMP_RATIO if excess > 1.5 * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
-                continue
-            if done is None or out.mechanism or halvings == RAMP_HALVINGS:
-                where = (f"self-weight with the fill's cohesion raised to {fill.material.cohesion:.4g} Pa "
-                         f"(continuation to {target:.4g} Pa)")
-                return replace(out, reason=f"{where}: {out.reason}")
-            excess, halvings = 0.5 * (done + excess), halvings + 1
-    finally:
-        fill.set_cohesion(target)
 
 
 def _impose_support_movement(solver: ContactSolver, attempt: Callable[[float, Iterate], StepOutcome], state: Iterate,

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .geometry import ArchRing  # noqa: E402
-from .pathfollow import LIMIT_FOUND  # noqa: E402
+from .status import Status  # noqa: E402
 
 BAND_MIN = 0.015  # the bracket band is drawn at least this fraction of the load axis high (1e-4 wide is invisible)
 MODE_SIZE = 0.08  # the collapse mode is amplified until its largest block motion is this fraction of the span
@@ -55,7 +55,7 @@ def plot_load_deflection(data: dict, path: Path) -> None:
         if bounds.get(key):
             ax.axhline(bounds[key] / 1e3, color="tab:green", ls=style, lw=1,
                        label=f"{key} bound, rigid-plastic fill (conic): {bounds[key] / 1e3:.1f} kN")
-    if data["status"] == LIMIT_FOUND:
+    if Status.of(data["status"]) is Status.LIMIT:
         low, high = ax.get_ylim()
         half = max(lim["upper"] - lim["lower"], BAND_MIN * (high - low) * 1e3) / 2e3
         mid = (lim["lower"] + lim["upper"]) / 2e3

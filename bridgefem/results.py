@@ -75,6 +75,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
                        "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
         "failure_reason": s.failure,
+        "evidence": an.verdict.evidence if an.verdict else "",
         "units": UNITS,
         "conventions": CONVENTIONS,
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},

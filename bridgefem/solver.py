@@ -1,5 +1,25 @@
 """Semismooth Newton (primal-dual active set) for elasticity with joint contact and friction.
 
+One load step (:meth:`ContactSolver.solve_step`), from a converged state:
+
+1. Take the start's active set (or the one a predicted state proposes).
+2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
+   and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
+   failure, never a mechanism).
+3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
+   wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
+   without proof.
+4. With a plastic fill, backtrack the step (line search on the merit below).
+5. Classify the solution with the joint law; closed pairs that cycle between friction states are frozen to stick.
+6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
+
+Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
+campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 35 solves per limit load;
+its failures there are active-set cycles and near-limit stalls on rings with many voussoirs, measured and listed in
+``docs/robustness.md``. A condensed (Schur complement) or Tresca fixed-point solver was not needed for the cases
+fixed here (the evidence rule, the slip-direction check and the friction continuation were) and is the next step
+for the cycles left.
+
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
     K u - G^T lam = f                                   (equilibrium, N)
@@ -36,9 +56,10 @@ active set is proposed from the damped iterate. Near the limit, where fill point
 iterations, full steps overshoot: Prestwood with 0.3 m of fill went from a residual of 1e-3 to 16 times the largest
 applied nodal force in one step, and then diverged.
 
-Sliding pairs whose slip direction flips back and forth between Newton iterations (with large friction the
-discrete Coulomb law can have no consistent slip direction at a pair next to a crack tip) are frozen to stick
-for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
+Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth,
+or stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair
+next to a crack tip, e.g. stick needing |lam_t| = 1.002 mu lam_n and slip going backwards at one springing pair of a
+thick ring at mu = 10) are frozen to stick for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
 friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
 mechanism; a cycle that returns to a set whose diverging mode was inadmissible goes to that set's repair (below);
 any other cycle is damped like a singular proposal (half of the changes from the last solved active set), and
@@ -48,28 +69,18 @@ fails as non-convergence when it cannot be.
 the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
 -10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
 diverges (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible
-mode. The diverging mode is the solution minus the step's converged start, normalised: its relative displacements
-d at the pairs and the work of the loads on it. It is *inadmissible*, a wrong active set and not a mechanism
-(a failure without proof, damped like any failed proposal), when
-
-- it is a hinge mode (no friction slip beyond ``ADMISSIBLE_TOL`` of its largest joint displacement) on which the
-  driving load (the live load; the self-weight at live load 0) does no work (below ``WORK_TOL`` of |f|_1 |u|_inf),
-  e.g. a part of the ring freed by opening a whole joint: such a singularity is no collapse of the structure;
-- or, in the sense in which the driving load pushes it (a hinge mode; for a mode with friction slip, whose sense is
-  not the loads' since the slip law makes the system unsymmetric, the sense that penetrates least), it closes a
-  pair of the active set's open pairs by more than ``ADMISSIBLE_TOL`` of its largest joint displacement
-  (interpenetration; the closed pairs keep d_n = 0 by their law).
-
-Such a failure carries a *repair*: the active set with the open pairs within ``REPAIR`` of the worst penetration
-closed and sticking. The repair is tried when damping has nothing left to halve, or when the iteration returns
-to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint gave a mode that rotates
-the springing voussoir into the ground: damping returns to it, the repair converges). An admissible diverging mode
-*proves* collapse, and ends the step at once whatever its history (a predicted or damped active set), when it is
-a rigid-block hinge mode without friction slip or interpenetration (both below ``PROOF_TOL``; mu = 0 pairs may
-slip) and the whole load does positive work on it (above ``WORK_TOL``; bare ring or elastic fill only): by
-virtual work, any equilibrium with compressive joint forces would give that work as -sum(lam_n d_n) <= 0. Other
-admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms as before: the damping
-chain or the cycle that returns to them decides.
+mode: :func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at
+the pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip
+against the friction force; a failure without proof, damped like any failed proposal, carrying a *repair* that
+closes and sticks the offending pairs), a mechanism, or a *proof* of collapse (``StepOutcome.proved``: an
+admissible rigid-block hinge mode on which the loads do positive work). A proof ends the step at once whatever its
+history (a predicted or damped active set). The repair is tried when damping has nothing left to halve, or when
+the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint
+gave a mode that rotates the springing voussoir into the ground: damping returns to it, the repair converges; the
+thick semicircle at mu = 0.35, whose damped iterations returned to modes that slip pairs backwards). Other
+admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms without proof: the
+damping chain or the cycle that returns to them decides, and the verdict needs other evidence
+(:mod:`bridgefem.evidence`).
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -85,7 +96,6 @@ diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -94,26 +104,15 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .contact import (GROUND, OPEN, SLIP, STICK, ContactState, JointPairs, classify,
-                      complementarity_residual)
+from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
+from .linsolve import CheckedSolve
+from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
 
-PETSC_PREFIX = "bridgefem_"
-DEFAULT_PETSC_OPTIONS = {
-    "ksp_type": "preonly",
-    "pc_type": "lu",
-    "pc_factor_mat_solver_type": "mumps",
-    "mat_mumps_icntl_14": 200,
-}
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
 DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
-ADMISSIBLE_TOL = 1e-3  # interpenetration (friction slip) of a diverging mode, of its largest joint displacement,
-# beyond which it is inadmissible (a slip mode)
-WORK_TOL = 1e-6  # load work on a diverging mode, of |f|_1 |u|_inf, below which the load does none
-PROOF_TOL = 1e-6  # interpenetration and friction slip of a proving mode, of its largest joint displacement
-REPAIR = 0.5  # the repair closes the open pairs that an inadmissible mode closes by this fraction of its worst
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
@@ -144,6 +143,7 @@ class StepOutcome:
     iterate: Iterate | None = None
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
+    proved: bool = False
 
 
 class _Proposal(NamedTuple):
@@ -165,15 +165,6 @@ class _Failure(NamedTuple):
     proof: bool = False
 
 
-class _Verdict(NamedTuple):
-    """What a diverging mode shows: why it is no mechanism (None: admissible), the local pairs to close, and
-    whether it proves that no equilibrium exists."""
-
-    flaw: str | None
-    repair: np.ndarray | None
-    proof: bool
-
-
 class ContactSolver:
     """Builds the combined system once and solves load steps with the active-set Newton method."""
 
@@ -182,16 +173,17 @@ class ContactSolver:
                  petsc_options: dict, material: "PlasticFill | None" = None,
                  support_motion: np.ndarray | None = None):
         self.comm = K.getComm().tompi4py()
-        self.pairs, self.c = pairs, c
+        self.pairs = pairs
         self.support_motion = np.zeros((len(pairs), 2)) if support_motion is None else support_motion
         self.set_support_movement(0.0)
-        self.mu = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))
-        self.force_tol, self.max_iterations = force_tol, max_iterations
+        self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
+        self.law = CoulombJoints(self.friction.copy(), c, force_tol)
+        self.set_friction(self.friction, 1.0)
+        self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
-        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -262,7 +254,6 @@ class ContactSolver:
         self._n_k, self._k_elastic, self._K = len(kv), kv.copy(), K
         self._u_work, self._ku = K.createVecRight(), K.createVecLeft()
         self._g_rows, self._g_vals = g_rows, g_vals
-        self._n_diag = len(k)
         slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
         slots.sort_indices()
         self._perm = slots.data.astype(np.int64) - 1
@@ -288,13 +279,17 @@ class ContactSolver:
 
     def _values(self, active: ContactState) -> np.ndarray:
         """Matrix values (CSR order) of the linear system of an active set."""
-        st, mu = active.state, self.mu
-        closed, stick, slip = st != OPEN, st == STICK, st == SLIP
+        rows = self.law.rows(active)
         pair = self._g_rows // 2
-        law_active = np.where(self._g_rows % 2 == 0, closed[pair], stick[pair])
-        g_part = self._g_vals * self.c[pair] * law_active
-        diag = np.concatenate([(~closed).astype(float), (~stick).astype(float), -mu * active.sign * slip])
+        law_active = np.where(self._g_rows % 2 == 0, rows.a_n[pair], rows.a_t[pair])
+        g_part = self._g_vals * self.law.c[pair] * law_active
+        diag = np.concatenate([rows.b_n, rows.b_t, rows.e_t])
         return np.concatenate([self._const, g_part, diag])[self._perm]
+
+    def set_friction(self, mu: np.ndarray, factor: float) -> None:
+        """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
+        self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
+        self._matrix_key = None  # the slip rows hold mu
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
@@ -305,24 +300,13 @@ class ContactSolver:
         b = self.b.array
         b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
         lam_rhs = np.zeros(self.n_lam)
-        lam_rhs[0::2] = np.where(active.state != OPEN, -self.c * self._ground[:, 0], 0.0)
-        lam_rhs[1::2] = np.where(active.state == STICK, self.c * (slip_ref - self._ground[:, 1]), 0.0)
+        lam_rhs[0::2], lam_rhs[1::2] = self.law.rhs(active, slip_ref, self._ground)
         b[self.n_u:] = lam_rhs
 
     def _ksp(self, options: dict) -> None:
-        opts = PETSc.Options()
-        merged = {**DEFAULT_PETSC_OPTIONS, **options}
-        for key, value in merged.items():
-            opts[PETSC_PREFIX + key] = value
-        self.ksp = PETSc.KSP().create(self.comm)
-        self.ksp.setOptionsPrefix(PETSC_PREFIX)
-        self.ksp.setOperators(self.A)
-        self.ksp.setFromOptions()
-        self.ksp.setUp()  # the factorisation reads its options (e.g. MUMPS ICNTL) now
+        self.linear = CheckedSolve(self.A, options)
+        self.stats, self.petsc_options = self.linear.stats, self.linear.options
         self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
-        for key in merged:
-            opts.delValue(PETSC_PREFIX + key)
-        self.petsc_options = {k: str(v) for k, v in merged.items()}
 
     # ----------------------------------------------------------------- Newton
     def initial_iterate(self) -> Iterate:
@@ -388,8 +372,8 @@ class ContactSolver:
             return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
 
-    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> "_Verdict":
-        """What the diverging direction x - origin of a solve shows (the module's *Mechanism verdicts*).
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> Verdict:
+        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`).
         Collective."""
         mode = self._mode
         x.copy(mode)
@@ -402,35 +386,8 @@ class ContactSolver:
         works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
                                               np.abs(total).sum()]))
         scales = works[2:] * self._norm_inf(u)
-        significant = np.abs(works[:2]) > WORK_TOL * scales
-        span = self._norm_inf(d.ravel())
-        slip = self._norm_inf(np.where(self.mu > 0, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
-        slipping = slip > ADMISSIBLE_TOL * span
-        # the sense in which the driving load pushes a hinge mode (else the whole load); a slip mode's sense is not
-        # the loads' (the friction law makes the system unsymmetric): the sense that penetrates least
-        senses = [np.sign(works[0])] if significant[0] and not slipping else \
-            [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
-        openings = np.where(active.state == OPEN, d[:, 0], np.nan)  # closed pairs keep d_n = 0
-        worst = [(-np.inf, 0)] * len(senses)
-        for k, sense in enumerate(senses):
-            excess = -sense * openings
-            if np.any(active.state == OPEN):
-                i = int(np.nanargmax(excess))
-                worst[k] = (float(excess[i]), int(self.pairs.joint[i]))
-            worst[k] = max(self.comm.allgather(worst[k]))
-        k = int(np.argmin([w[0] for w in worst]))
-        orient, (value, joint) = senses[k], worst[k]
-        flaw = None
-        if not significant[0] and not slipping:
-            flaw = f"the {name} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
-        elif value > ADMISSIBLE_TOL * span:
-            flaw = f"interpenetration {value / span:.2g} of its largest joint displacement at joint {joint}"
-        if flaw is not None:
-            repair = np.nan_to_num(-orient * openings, nan=-np.inf) > max(ADMISSIBLE_TOL * span, REPAIR * value)
-            return _Verdict(flaw, repair, False)
-        proof = (self.material is None and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
-                 and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
-        return _Verdict(None, None, proof)
+        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
+                          name), provable=self.material is None, comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec):
         """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
@@ -439,25 +396,13 @@ class ContactSolver:
         if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
             self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
             self.A.assemble()
-            self.ksp.setOperators(self.A)
+            self.linear.matrix_changed()
             self._matrix_key = key
-            self.stats["factorisations"] += 1
-        t0 = time.perf_counter()
-        try:
-            self.ksp.solve(self.b, x)
-        except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
-            self._matrix_key = None
-            return _Failure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
-        finally:
-            self.stats["time_factorise_solve"] += time.perf_counter() - t0
-            self.stats["solves"] += 1
-        reason = self.ksp.getConvergedReason()
-        if reason < 0:
-            self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
-            return _linear_failure(self.ksp, reason)
-        if self._any(not np.all(np.isfinite(x.array))):
-            return _Failure("NaN in the solution", False)
-        return None
+        failure = self.linear.solve(self.b, x)
+        if failure is None:
+            return None
+        self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
+        return _Failure(failure.message, failure.singular)
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
@@ -530,7 +475,8 @@ class ContactSolver:
             failure = self._solve_active(level, active, slip_ref, x, start.x)
             if failure is not None:
                 if failure.proof:
-                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True)
+                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
+                                       proved=True)
                 singular = failure if failure.mechanism else singular
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
@@ -565,11 +511,11 @@ class ContactSolver:
             else:
                 residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
-                ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
+                ncp = self.law.residual(lam, d, slip_ref)
                 ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
                 comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum()))}
-                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.force_tol:
+                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
                 if self.material is not None:
@@ -591,7 +537,7 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
-                flips = pending & ~frozen & (new.state == SLIP) & (active.state == SLIP)
+                flips = pending & ~frozen & (new.state != OPEN) & (active.state != OPEN)  # stick/slip, slip sign
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
                     damped = self._damp(proposal) if recovered < chains else None
                     if damped is None:
@@ -634,7 +580,7 @@ class ContactSolver:
                  frozen: np.ndarray) -> "_Proposal":
         """The active set the Alart-Curnier functions propose from ``active`` for multipliers ``lam`` and relative
         displacements ``d`` (frozen pairs kept sticking), with the changed pairs and their violations."""
-        new, violation = classify(active, lam, d, slip_ref, self.mu, self.c, self.force_tol)
+        new, violation = self.law.classify(active, lam, d, slip_ref)
         _stick(new, frozen)
         return _Proposal(active, new, _changes(new, active), violation)
 
@@ -664,7 +610,7 @@ class ContactSolver:
         residuals of the convergence test; and the fill's response at x (no tangent). Collective."""
         response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
         _, lam, d = self.split(x)
-        ncp = complementarity_residual(lam, d, slip_ref, self.mu, self.c)
+        ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
         return max(self._material_residual(x, response.f_int, level, f_scale),
                    self._norm_inf(ncp.ravel()) / f_scale), response
@@ -709,17 +655,3 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
 def _changes(new: ContactState, old: ContactState) -> np.ndarray:
     """Local pairs whose state or slip sign differs between two active sets."""
     return (new.state != old.state) | (new.sign != old.sign)
-
-
-def _linear_failure(ksp: PETSc.KSP, reason: int) -> _Failure:
-    """Describe a failed linear solve; a mechanism only when it proves a singular system."""
-    names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
-    pc = ksp.getPC()
-    text = f"linear solver failed: {names.get(reason, reason)}"
-    if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
-        infog = pc.getFactorMatrix().getMumpsInfog(1)
-        singular = infog == -10
-        detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
-                  "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
-        return _Failure(f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}", singular)
-    return _Failure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)

@@ -15,7 +15,8 @@ from petsc4py import PETSc
 from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.mesh import FILL_BASE_TAG
 from bridgefem.model import cell_constant, lame, strain
-from bridgefem.pathfollow import LIMIT_FOUND, _settle_self_weight
+from bridgefem.pathfollow import LIMIT_FOUND
+from bridgefem.selfweight import cohesion_continuation
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 
@@ -96,12 +97,12 @@ def cohesionless_analysis():
 def cohesionless(request):
     """The cohesionless fill's converged self-weight state, reached in one step (the search: with the plastic
     Newton line search it converges) or by the search's fallback, the cohesion continuation from the unloaded
-    state (pathfollow._settle_self_weight, run on the same solver): the scene, analysis, state, the joints'
+    state (selfweight.cohesion_continuation, run on the same solver): the scene, analysis, state, the joints'
     resultants, the converged stress [sxx, syy, sxy] at the P1 points and its quadrature measure."""
     scene, an = cohesionless_analysis()
     state = an.search.last
     if request.param == "cohesion continuation":
-        state = _settle_self_weight(an.solver, lambda level, start: an.solver.solve_step(level, start)).iterate
+        state = cohesion_continuation(an.solver, lambda level, start: an.solver.solve_step(level, start)).iterate
     fill = an.solver.material
     fill.evaluate(state.x.array[:an.solver.n_u], state.plastic_strain, tangent=False)
     dxq = ufl.Measure("dx", domain=an.block_mesh.mesh, metadata={"quadrature_degree": 1,
@@ -131,7 +132,7 @@ def test_cohesion_continuation_lowers_the_cohesion_to_the_scenes():
         tried.append(fill.material.cohesion)
         return an.solver.solve_step(level, start)
 
-    out = _settle_self_weight(an.solver, attempt)
+    out = cohesion_continuation(an.solver, attempt)
     assert out.converged, out.reason
     assert tried[0] == pytest.approx(fill.overburden) and tried[-1] == 0.0
     assert tried == sorted(tried, reverse=True) and len(tried) > 2

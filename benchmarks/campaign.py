@@ -1,0 +1,292 @@
+"""Seeded random-scene campaign: does every arch a user can write end in a verdict the rigid-block LP confirms?
+
+Each scene is drawn from the seed and its index alone (so one scene can be re-run with ``--only``):
+
+- shape: all five; span 3-30 m; rise/span 0.15-0.5 (segmental 0.1-0.45, pointed 0.55-1.0);
+- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.rigid_block.
+  min_thickness`, at the scene's mu) to 0.4 of the centreline radius (circular shapes) or of the rise (others); when
+  no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
+- voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
+- one point load (70 %) or patch (up to 0.3 of the span) anywhere on the span; ``joint_at_loads`` true or false;
+- ``FILL_SHARE`` of the scenes with a shallow fill (elastic, or Mohr-Coulomb).
+
+Every scene is run by the command line (``bridgefem run``) in a subprocess with a timeout, and judged against the
+rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
+
+- *confirmed*: FE and LP give the same verdict; for a limit load, FE within ``NO_SLIP_TOL`` of the LP when no joint
+  slides (FE or LP), FE at most ``1 + NO_SLIP_TOL`` x LP when one does (and below ``1 - NO_SLIP_TOL`` x LP only
+  with a proved mechanism: results.json ``evidence``); with a fill (LP: fill as dead load only) any
+  FE verdict at or above the LP;
+- *solver failure*: the run says so (exit 1): honest, but no answer;
+- *wrong*: a verdict the LP contradicts (e.g. "unstable" while the LP stands, or FE far from the LP);
+- *crash*: a traceback, a signal, another exit code, or the timeout;
+- *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
+  leave a voussoir of zero length; not counted in the success rate.
+
+Prints one row per scene, the success rate, the classes, solves per limit (median, max) and the worst cases; writes
+``campaign.json`` beside the scenes. Run::
+
+    ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
+RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
+FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
+NO_SLIP_TOL = 0.005  # FE within this fraction of the LP where no joint slides (issue 12)
+TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
+
+
+def draw(seed: int, index: int) -> dict:
+    """The random choices of scene ``index`` (everything but the thickness, which needs the LP)."""
+    rng = np.random.default_rng([seed, index])
+    shape = SHAPES[rng.integers(len(SHAPES))]
+    span = float(rng.uniform(3.0, 30.0))
+    rise = span / 2 if shape == "semicircular" else float(span * rng.uniform(*RISE_RATIO[shape]))
+    patch = round(float(rng.uniform(0.02, 0.3)) * span, 3) if rng.random() > 0.7 else 0.0
+    edge = patch / 2 / span  # a patch lies on the span
+    return {
+        "index": index, "shape": shape, "span": round(span, 3), "rise": round(rise, 3),
+        "thickness_fraction": float(rng.random()),
+        "voussoirs": int(round(math.exp(rng.uniform(math.log(4), math.log(256))))),
+        "friction": round(float(math.exp(rng.uniform(math.log(0.3), math.log(10.0)))), 3),
+        "young": float(f"{math.exp(rng.uniform(math.log(1e8), math.log(1e11))):.3g}"),
+        "position": round(float(edge + (1 - 2 * edge) * rng.random()), 4),
+        "patch": patch,
+        "joint_at_loads": bool(rng.random() > 0.3),
+        "fill": ("mohr-coulomb" if rng.random() < 0.5 else "elastic") if rng.random() < FILL_SHARE else None,
+    }
+
+
+def scene_dict(choice: dict, thickness: float) -> dict:
+    """The scene file (as a dictionary) of a draw at a thickness (m)."""
+    load = {"kind": "patch" if choice["patch"] else "point", "position": choice["position"]}
+    if choice["patch"]:
+        load["length"] = choice["patch"]
+    d = {"scene": {"name": f"campaign_{choice['index']}"},
+         "arch": {"shape": choice["shape"], "span": choice["span"],
+                  **({} if choice["shape"] == "semicircular" else {"rise": choice["rise"]}),
+                  "thickness": round(thickness, 4), "width": 1.0, "voussoirs": choice["voussoirs"],
+                  "joint_at_loads": choice["joint_at_loads"]},
+         "masonry": {"young": choice["young"], "poisson": 0.2, "density": 2000.0},
+         "joints": {"friction": choice["friction"]},
+         "load": [load]}
+    if choice["fill"]:
+        d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
+                     "extension": round(0.2 * choice["span"], 3), "material": choice["fill"], "cohesion": 5e3}
+    return d
+
+
+def reference_length(choice: dict, thickness: float) -> float:
+    """The centreline radius (circular shapes) or the rise (others), m: the scale of the thickest ring drawn."""
+    span, rise = choice["span"], choice["rise"]
+    if choice["shape"] in ("semicircular", "segmental"):
+        return (span ** 2 / 4 + rise ** 2) / (2 * rise) + thickness / 2
+    return rise
+
+
+def thickness_of(choice: dict) -> tuple[float, float | None]:
+    """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
+    from bridgefem.rigid_block import min_thickness
+    from bridgefem.scene import scene_from_dict
+
+    try:
+        bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None}  # loads do not change it
+        least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
+    except (RuntimeError, ValueError):  # no thickness stands at this mu
+        least = None
+    top = 0.4 * reference_length(choice, 0.0)
+    bottom = 0.05 * top / 0.4 if least is None or least >= top else least
+    return bottom + choice["thickness_fraction"] * (top - bottom), least
+
+
+def to_toml(d: dict) -> str:
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        return json.dumps(v)
+
+    lines = []
+    for section, body in d.items():
+        for entry in body if isinstance(body, list) else [body]:
+            lines.append(f"[[{section}]]" if isinstance(body, list) else f"[{section}]")
+            lines += [f"{k} = {value(v)}" for k, v in entry.items()]
+    return "\n".join(lines) + "\n"
+
+
+def run_scene(choice: dict, out: Path, timeout: float) -> dict:
+    """Write the scene, run ``bridgefem run`` on it in a subprocess, and judge the outcome."""
+    thickness, least = thickness_of(choice)
+    scene = scene_dict(choice, thickness)
+    folder = out.resolve() / f"scene_{choice['index']:04d}"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "scene.toml").write_text(to_toml(scene))
+    row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(folder / "scene.toml"), "--out",
+                               str(folder / "results"), "--quiet"], capture_output=True, text=True, timeout=timeout,
+                              cwd=folder)  # not the source tree: PYTHONPATH may point at another copy
+        code, stderr = proc.returncode, proc.stderr
+    except subprocess.TimeoutExpired:
+        code, stderr = None, f"timeout after {timeout:g} s"
+    row["seconds"] = time.perf_counter() - t0
+    row["exit"] = code
+    data = None
+    if (folder / "results" / "results.json").exists():
+        data = json.loads((folder / "results" / "results.json").read_text())
+    row.update(judge(data, code, stderr, fill=choice["fill"] is not None))
+    return row
+
+
+def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) -> dict:
+    """The class of a run (confirmed / solver failure / wrong / crash) and its numbers, from results.json."""
+    if code == 2 and data is None and "Traceback" not in stderr:
+        return {"class": "rejected", "status": stderr.strip()[:160], "fe": None, "lp": None, "ratio": None,
+                "solves": None}
+    if code not in (0, 1) or data is None or "Traceback" in stderr:
+        tail = stderr.strip().splitlines()[-1] if stderr.strip() else f"exit {code}"
+        return {"class": "crash", "status": tail[:160], "fe": None, "lp": None, "ratio": None, "solves": None}
+    lim, lp = data["limit_load"], data["lp"]
+    status, lp_status = data["status"], lp["status"]
+    mid = 0.5 * (lim["lower"] + lim["upper"]) if lim["upper"] is not None else None
+    ratio = mid / lp["load"] if mid and lp["load"] else None
+    sliding = bool(data["mechanism"]["sliding"] or lp["mechanism"]["sliding"])
+    proved = data.get("evidence", "").startswith("proof")  # below the associative LP only with a proof
+    out = {"status": status, "lp_status": lp_status, "fe": mid, "lp": lp["load"], "ratio": ratio,
+           "sliding": sliding, "solves": data["solver"]["solves"], "reason": data.get("failure_reason", "")}
+    if status.startswith("solver failure"):
+        cls = "solver failure"
+        if code != 1 or lim["upper"] is not None:
+            cls = "wrong"  # a failure must exit 1 without a bracket
+    elif status.startswith("no collapse") and lp_status == "limit load found":
+        # locked at the search's maximum load: confirmed when the LP collapses only above it (or a fill carries it)
+        cls = "confirmed" if fill or lp["load"] >= (1 - NO_SLIP_TOL) * lim["lower"] else "wrong"
+    elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
+        cls = "wrong"
+    elif status == "limit load found":
+        if fill:
+            ok = ratio is not None and ratio >= 1 - NO_SLIP_TOL
+        elif sliding:
+            ok = ratio is not None and ratio <= 1 + NO_SLIP_TOL and (ratio >= 1 - NO_SLIP_TOL or proved)
+        else:
+            ok = ratio is not None and abs(ratio - 1) <= NO_SLIP_TOL
+        cls = "confirmed" if ok else "wrong"
+    else:
+        cls = "confirmed"
+    if cls != "solver failure" and code != 0:
+        cls = "wrong"  # a verdict must exit 0
+    return {**out, "class": cls}
+
+
+def failure_cause(row: dict) -> str:
+    """A short name for why a scene has no confirmed verdict (groups the worst cases)."""
+    text = row["status"]
+    if "End of error message" in text:
+        return "Gmsh aborted (SIGABRT) while meshing"
+    for key in ("unproven instability under self-weight", "unproven mechanism", "contradicted",
+                "max iterations", "active set cycling", "no convergence", "bracket not closed", "timeout",
+                "no mesh node"):
+        if key in text:
+            return key
+    return text[:80]
+
+
+def report(rows: list[dict]) -> str:
+    """The table, the classes, the success rate, solves per limit and the worst cases."""
+    lines = [f"{'#':>4} {'shape':12} {'span':>6} {'t':>6} {'t_min':>6} {'n':>4} {'mu':>6} {'E':>8} {'load':>12} "
+             f"{'jal':>3} {'fill':>5} {'status':28} {'FE/LP':>7} {'solves':>6} {'s':>6}  class"]
+    for r in sorted(rows, key=lambda r: r["index"]):
+        load = f"{'patch' if r['patch'] else 'point'}@{r['position']:.3f}"
+        least = f"{r['least_thickness']:.3f}" if r["least_thickness"] else "none"
+        ratio = f"{r['ratio']:.4f}" if r.get("ratio") else "-"
+        lines.append(f"{r['index']:4d} {r['shape']:12} {r['span']:6.2f} {r['thickness']:6.3f} {least:>6} "
+                     f"{r['voussoirs']:4d} {r['friction']:6.3f} {r['young']:8.2g} {load:>12} "
+                     f"{'T' if r['joint_at_loads'] else 'F':>3} {str(r['fill'] or '-')[:5]:>5} "
+                     f"{r['status'][:28]:28} {ratio:>7} {str(r.get('solves') or '-'):>6} {r['seconds']:6.1f}  "
+                     f"{r['class']}")
+    n = len(rows)
+    classes = {c: sum(r["class"] == c for r in rows) for c in ("confirmed", "solver failure", "wrong", "crash")}
+    rejected = sum(r["class"] == "rejected" for r in rows)
+    n -= rejected
+    lines.append("")
+    lines.append(f"scenes {n} (and {rejected} rejected as bad input): "
+                 + ", ".join(f"{c} {k} ({100 * k / max(n, 1):.1f} %)" for c, k in classes.items()))
+    for shape in SHAPES:
+        mine = [r for r in rows if r["shape"] == shape and r["class"] != "rejected"]
+        if mine:
+            lines.append(f"  {shape:12}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    causes: dict[str, int] = {}
+    for r in rows:
+        if r["class"] in ("solver failure", "crash", "wrong"):
+            key = f"{r['class']}: {failure_cause(r)}"
+            causes[key] = causes.get(key, 0) + 1
+    for key, k in sorted(causes.items(), key=lambda kv: -kv[1]):
+        lines.append(f"  {k:3d} x {key}")
+    limits = [r["solves"] for r in rows if r.get("status") == "limit load found" and r.get("solves")]
+    if limits:
+        lines.append(f"solves per limit (limit load found, {len(limits)} scenes): median {statistics.median(limits):g}, "
+                     f"max {max(limits)}")
+    times = [r["seconds"] for r in rows]
+    lines.append(f"time per scene: median {statistics.median(times):.1f} s, max {max(times):.1f} s, "
+                 f"total {sum(times):.0f} s")
+    bad = [r for r in rows if r["class"] not in ("confirmed", "rejected")]
+    off = sorted((r for r in rows if r["class"] == "confirmed" and r.get("ratio") and not r["fill"]),
+                 key=lambda r: -abs(r["ratio"] - 1))[:5]
+    lines.append("worst cases:")
+    for r in bad + off:
+        lines.append(f"  #{r['index']} {r['class']}: {r['status'][:200]} (LP {r.get('lp_status')}, "
+                     f"FE/LP {r.get('ratio')}, {r.get('reason', '')[:160]})")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--count", type=int, default=50, help="scenes (default 50)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--jobs", type=int, default=2, help="scenes run at once (default 2)")
+    p.add_argument("--out", type=Path, default=Path("results/campaign"))
+    p.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per scene (default %(default)g)")
+    p.add_argument("--only", type=int, nargs="*", help="run only these scene indices")
+    p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
+    args = p.parse_args(argv)
+    if args.report:
+        rows = json.loads((args.out / "campaign.json").read_text())["rows"]
+        for r in rows:
+            path = args.out.resolve() / f"scene_{r['index']:04d}" / "results" / "results.json"
+            if r["class"] not in ("crash", "rejected") and path.exists():
+                r.update(judge(json.loads(path.read_text()), r["exit"], "", fill=r["fill"] is not None))
+        print(report(rows))
+        return 0
+    indices = args.only if args.only else range(args.count)
+    rows = []
+
+    def one(i):
+        row = run_scene(draw(args.seed, i), args.out, args.timeout)
+        print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)
+        return row
+
+    with ThreadPoolExecutor(args.jobs) as pool:
+        rows = list(pool.map(one, indices))
+    text = report(rows)
+    print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "campaign.json").write_text(json.dumps({"seed": args.seed, "rows": rows}, indent=1))
+    (args.out / "campaign.txt").write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,77 @@
+"""Evidence for a verdict of the FE limit search: a proved mechanism, or agreement with the rigid-block LP.
+
+The search ends a bracket (or calls a ring unstable) on a failed load step that showed a mechanism. That is
+evidence of collapse only when
+
+1. the step's diverging mode *proves* it (:mod:`bridgefem.solver`, *Mechanism verdicts*: an admissible rigid-block
+   hinge mode on which the loads do positive work, so that no equilibrium with compressive joints exists); or
+2. the rigid-block LP on the same joints (:func:`bridgefem.rigid_block.collapse_load`, associative friction) gives
+   the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket.
+
+Otherwise the verdict is a solver failure that names the unproven mechanism and the LP's answer (a singular or
+diverging solve alone is no proof: a wrong active set, or a linear solver that did not solve, looks the same).
+A proved verdict that the LP contradicts (an FE limit above the LP's level by more than ``AGREEMENT``, or
+"unstable" where the LP stands) is reported with a warning; "unstable" where the LP stands is never a verdict
+(the LP's equilibrium of the same joints is a certificate that the ring stands, up to its rigid blocks).
+Converged verdicts (stable, locked) are equilibria the search found; a contradicting LP gives a warning.
+
+Applies to rings without a fill; with a fill the LP carries it as dead load only and cannot confirm the FE limit
+(the search's flat load-deflection curve and the ring check of :func:`bridgefem.analysis.transmitted_load_check`
+are the evidence there).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .status import Status
+
+AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A confirmed (or refused) status text, the bracket's upper end (None: no bracket), the evidence (empty for a
+    failure) and warnings for the user."""
+
+    status: str
+    upper: float | None
+    evidence: str
+    warnings: tuple[str, ...] = ()
+
+
+def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
+            lp_level: float | None, unit: float = 1.0) -> Verdict:
+    """The evidence rule (module docstring) for a search's ``status`` and bracket [``lower``, ``upper``] (levels in N
+    per unit load factor), ``proved`` when its last failed step proved the mechanism, against the LP's status and
+    collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN)."""
+    kind = Status.of(status)
+    lp = Status.of(lp_status) if lp_status in set(Status) else None
+    lp_text = (f"the rigid-block LP on the same joints gives {lp_level * unit / 1e3:.6g} kN" if lp is Status.LIMIT
+               else f"the rigid-block LP on the same joints finds '{lp_status}'" if lp_status
+               else "no rigid-block LP answer")
+    if kind is Status.LIMIT:
+        agrees = lp is Status.LIMIT and lower <= (1 + AGREEMENT) * lp_level and upper >= (1 - AGREEMENT) * lp_level
+        above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level
+        if proved:
+            warn = (f"FE limit above the rigid-block LP by more than {AGREEMENT:.1%} ({lp_text})",) if above else ()
+            return Verdict(status, upper, "proof: an admissible rigid-block mode on which the loads do positive work",
+                           warn)
+        if agrees:
+            return Verdict(status, upper, f"agreement: {lp_text}")
+        return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN (no admissible mode with "
+                                      f"positive work, and {lp_text})"), None, "")
+    if kind is Status.UNSTABLE:
+        if lp is Status.UNSTABLE:
+            return Verdict(status, upper, "proof: an admissible rigid-block mode on which the self-weight does "
+                           "positive work" if proved else f"agreement: {lp_text}")
+        reason = "contradicted" if proved else "unproven"
+        return Verdict(Status.failure(f"{reason} instability under self-weight ({lp_text})"), None, "",
+                       (f"the FE found a mechanism under self-weight but {lp_text}",) if proved else ())
+    if kind in (Status.STABLE, Status.LOCKED):
+        warn = ()
+        if lp is Status.UNSTABLE:
+            warn = (f"the FE stands under self-weight but {lp_text}",)
+        elif kind is Status.LOCKED and lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level:
+            warn = (f"the FE carries {lower * unit / 1e3:.6g} kN, above the collapse load: {lp_text}",)
+        return Verdict(status, upper, "equilibrium found", warn)
+    return Verdict(status, upper, "")

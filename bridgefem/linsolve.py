@@ -1,0 +1,109 @@
+"""The linear solve of a load step: a PETSc KSP (by default MUMPS LU) whose factorisation is reused while the matrix
+does not change, and a check of every solve before its result is used.
+
+A solve fails (:class:`SolveFailure`) when PETSc raises, when the KSP reports divergence, when the solution holds
+NaN, or when its normwise backward error |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf) is above ``BACKWARD_TOL``: a
+solver that did not solve the system (e.g. ``pc_type = none``) is a failure, never a mechanism. Only MUMPS finding
+the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``.
+"""
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import PETSC_PREFIX
+
+DEFAULT_PETSC_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 200,  # % of workspace above MUMPS's estimate: the zero diagonal of the contact laws' rows
+}                               # forces delayed pivots that outgrow the default 20 % (INFOG(1) = -9)
+BACKWARD_TOL = 1e-9  # a linear solve whose normwise backward error is above this did not solve (LU gives ~1e-16)
+
+
+class SolveFailure(NamedTuple):
+    """Why a solve failed; ``singular``: MUMPS found the matrix numerically singular."""
+
+    message: str
+    singular: bool
+
+
+class CheckedSolve:
+    """The KSP of a matrix ``A`` (options: the defaults overridden by ``options``, given without the prefix) and
+    counters ``stats`` (factorisations, solves, seconds factorising and solving)."""
+
+    def __init__(self, A: PETSc.Mat, options: dict):
+        self.A = A
+        self.comm = A.getComm().tompi4py()
+        opts = PETSc.Options()
+        merged = {**DEFAULT_PETSC_OPTIONS, **options}
+        for key, value in merged.items():
+            opts[PETSC_PREFIX + key] = value
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOptionsPrefix(PETSC_PREFIX)
+        self.ksp.setOperators(A)
+        self.ksp.setFromOptions()
+        self.ksp.setUp()  # the factorisation reads its options (e.g. MUMPS ICNTL) now
+        for key in merged:
+            opts.delValue(PETSC_PREFIX + key)
+        self.options = {k: str(v) for k, v in merged.items()}
+        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
+        self._r = A.createVecLeft()
+
+    def matrix_changed(self) -> None:
+        """The matrix's values changed: the next solve refactorises."""
+        self.ksp.setOperators(self.A)
+        self.stats["factorisations"] += 1
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
+        """Solve A x = b; None when the solve is good (module docstring). After a failure the caller must not reuse
+        the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective."""
+        t0 = time.perf_counter()
+        try:
+            self.ksp.solve(b, x)
+        except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
+            failure = self._failure(f"PETSc error code {err.ierr}")
+            return failure if failure.singular else \
+                SolveFailure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
+        finally:
+            self.stats["time_factorise_solve"] += time.perf_counter() - t0
+            self.stats["solves"] += 1
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            return self._failure(reason)
+        if self.comm.allreduce(int(not np.all(np.isfinite(x.array))), op=MPI.MAX):
+            return SolveFailure("NaN in the solution", False)
+        error = self.backward_error(b, x)
+        if not error <= BACKWARD_TOL:
+            return SolveFailure(f"linear solve inaccurate: backward error {error:.2e} above {BACKWARD_TOL:g} (the "
+                                f"{self.ksp.getType()}/{self.ksp.getPC().getType()} solver did not solve the system; "
+                                "not a proof of a mechanism)", False)
+        return None
+
+    def backward_error(self, b: PETSc.Vec, x: PETSc.Vec) -> float:
+        """Normwise backward error of a solve, |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf): about the machine
+        precision times a modest growth factor for a backward-stable direct solve, even of a nearly singular system
+        (then x is large, not the residual). Collective."""
+        self.A.mult(x, self._r)
+        self._r.axpy(-1.0, b)
+        inf = PETSc.NormType.INFINITY
+        scale = self.A.norm(inf) * x.norm(inf) + b.norm(inf)
+        return self._r.norm(inf) / scale if scale > 0 else 0.0
+
+    def _failure(self, reason: int | str) -> SolveFailure:
+        """Describe a failed solve (a KSP reason or an error's text); singular only when MUMPS says so."""
+        names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
+        pc = self.ksp.getPC()
+        text = f"linear solver failed: {names.get(reason, reason)}"
+        if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
+            infog = pc.getFactorMatrix().getMumpsInfog(1)
+            detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
+                      "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
+            return SolveFailure(f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}",
+                                infog == -10)
+        return SolveFailure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)

@@ -1,0 +1,99 @@
+"""The limit search's bracket logic (bridgefem.pathfollow) on a one-degree-of-freedom fake solver whose limit is
+known exactly (milliseconds): equilibrium exists up to LIMIT and not above; the fake Newton method may also fail,
+without proof, on steps longer than ``reach`` (as the active-set method does on large steps)."""
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from bridgefem.contact import ContactState
+from bridgefem.pathfollow import find_limit_load
+from bridgefem.solver import Iterate, StepOutcome
+from bridgefem.status import Status
+
+LIMIT = 1234.5  # N per unit load factor
+WEIGHT = 1000.0  # N: the initial step is a quarter of it, as in bridgefem.analysis
+
+
+class OneDof:
+    """A structure with one displacement equal to its load level; no equilibrium above ``limit``."""
+
+    comm = MPI.COMM_SELF
+    material = None
+    movement = 0.0
+    friction_factor = 1.0
+
+    def __init__(self, limit=LIMIT, reach=math.inf, proves=True, stalls_at=math.inf):
+        self.limit, self.reach, self.proves, self.stalls_at = limit, reach, proves, stalls_at
+        self.solves = 0
+
+    def _iterate(self, level):
+        x = PETSc.Vec().createSeq(1, comm=PETSc.COMM_SELF)
+        x.array[0] = level
+        return Iterate(x, ContactState.all_stick(0), np.zeros(0))
+
+    def initial_iterate(self):
+        return self._iterate(0.0)
+
+    def converged_slip_reference(self, it):
+        return it
+
+    def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
+        self.solves += 1
+        if level > self.limit:
+            return StepOutcome(False, "no equilibrium", 3, 0.0, 1, mechanism=True, proved=self.proves)
+        if level - start.x.array[0] > self.reach or level > self.stalls_at:
+            return StepOutcome(False, "no convergence", 9, 0.0, 1)
+        return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
+
+
+def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT):
+    return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=tolerance, initial_step=WEIGHT / 4,
+                           max_load=max_load, max_steps=200, guess=guess)
+
+
+def assert_bracket(s, tolerance=1e-4):
+    assert s.status == Status.LIMIT, s.status
+    assert s.lower <= LIMIT < s.upper and s.upper - s.lower <= tolerance * s.lower * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("guess", [None, LIMIT, 0.7 * LIMIT, 1.4 * LIMIT, 10 * LIMIT])
+def test_the_bracket_holds_the_limit_whatever_the_guess(guess):
+    solver = OneDof()
+    s = search(solver, guess=guess)
+    assert_bracket(s)
+    assert s.proved and len(s.steps) == solver.solves
+
+
+def test_a_good_guess_is_cheap():
+    """With the exact limit as the guess the search lands on (1 - tolerance) x guess and closes in a few steps."""
+    solver = OneDof()
+    assert_bracket(search(solver, guess=LIMIT))
+    assert solver.solves <= 12, solver.solves
+
+
+@pytest.mark.parametrize("reach", [LIMIT / 3, LIMIT / 40])
+def test_failures_without_proof_on_long_steps_never_close_the_bracket(reach):
+    """The fake Newton method fails (no proof) on steps longer than ``reach``: the search shortens its steps and
+    still brackets the true limit."""
+    s = search(OneDof(reach=reach), guess=1.3 * LIMIT)
+    assert_bracket(s)
+
+
+def test_an_unproven_mechanism_is_reported_as_such():
+    s = search(OneDof(proves=False))
+    assert_bracket(s)
+    assert not s.proved  # the verdict then needs the LP (bridgefem.evidence)
+
+
+def test_a_newton_method_that_stalls_below_the_limit_is_a_solver_failure():
+    s = search(OneDof(stalls_at=0.8 * LIMIT), guess=LIMIT)
+    assert Status.of(s.status) is Status.FAILURE and s.upper is None
+    assert s.lower <= 0.8 * LIMIT
+
+
+def test_no_collapse_up_to_the_maximum_load_is_locked():
+    s = search(OneDof(), max_load=0.5 * LIMIT)
+    assert s.status == Status.LOCKED and s.lower == 0.5 * LIMIT and s.upper is None

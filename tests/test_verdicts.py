@@ -1,0 +1,107 @@
+"""The verdict rules on small made-up cases (milliseconds): the mechanism verdict on a diverging mode
+(bridgefem.mechanism), the evidence rule against the rigid-block LP (bridgefem.evidence) and the status vocabulary."""
+import numpy as np
+import pytest
+
+from bridgefem.contact import OPEN, SLIP, STICK
+from bridgefem.evidence import confirm
+from bridgefem.mechanism import Mode, judge
+from bridgefem.status import Status
+
+
+def mode(d, state, sign=None, mu=0.6, works=(1.0, 1.0), scales=(1.0, 1.0)):
+    d = np.asarray(d, dtype=float)
+    n = len(d)
+    return Mode(d, np.asarray(state, dtype=np.int8), np.zeros(n, np.int8) if sign is None else np.asarray(sign, np.int8),
+                np.full(n, mu), np.arange(n), works, scales)
+
+
+def test_a_hinge_that_opens_under_positive_work_proves_collapse():
+    """Two pairs open, two closed (d_n = 0, d_t = 0): a rigid-block hinge mode; the load does positive work."""
+    v = judge(mode([[1.0, 0.0], [0.5, 0.0], [0.0, 0.0], [0.0, 0.0]], [OPEN, OPEN, STICK, STICK]))
+    assert v.flaw is None and v.proof
+
+
+def test_the_sense_follows_the_load_work():
+    """The same hinge with the load pushing the other way closes the open pairs into their partners."""
+    v = judge(mode([[1.0, 0.0], [0.6, 0.0], [0.0, 0.0]], [OPEN, OPEN, STICK], works=(-1.0, -1.0)))
+    assert v.flaw.startswith("interpenetration") and not v.proof
+    assert v.repair.tolist() == [True, True, False]  # both beyond REPAIR of the worst (1.0 and 0.6)
+
+
+def test_a_mode_without_load_work_is_no_mechanism():
+    v = judge(mode([[1.0, 0.0], [0.0, 0.0]], [OPEN, STICK], works=(1e-9, 1e-9)))
+    assert v.flaw.startswith("the live load does no work") and not v.proof
+
+
+def test_a_slide_along_its_friction_law_is_a_mechanism_without_proof():
+    """Both sliding pairs (sign s = +1: friction pushes +, slip d_t < 0) slide the way their law assumes in one sense:
+    admissible, but a slip mode is never a proof (non-associative friction)."""
+    v = judge(mode([[0.0, -1.0], [0.0, -1.0], [0.0, 0.0]], [SLIP, SLIP, STICK], sign=[1, 1, 0]))
+    assert v.flaw is None and not v.proof
+
+
+def test_pairs_sliding_against_each_others_law_are_a_wrong_active_set():
+    """Two pairs assumed to slide the same way but moving in opposite senses: whichever sense the mode is taken
+    in, one of them slips against its friction force; the repair sticks that one."""
+    v = judge(mode([[0.0, -1.0], [0.0, 0.5]], [SLIP, SLIP], sign=[1, 1]))
+    assert v.flaw.startswith("a slip against the friction force") and not v.proof
+    assert v.repair.tolist() == [False, True]
+
+
+def test_friction_free_pairs_may_slip_in_a_proof():
+    v = judge(mode([[1.0, 0.3], [0.0, 0.3]], [OPEN, SLIP], sign=[0, -1], mu=0.0))
+    assert v.flaw is None and v.proof
+
+
+def test_no_proof_for_a_yielding_fill():
+    v = judge(mode([[1.0, 0.0], [0.0, 0.0]], [OPEN, STICK]), provable=False)
+    assert v.flaw is None and not v.proof
+
+
+# ------------------------------------------------------------------------------------ evidence rule (LP: 100 N)
+LP = (Status.LIMIT, 100.0)
+
+
+def test_a_proved_limit_stands_and_one_far_above_the_lp_warns():
+    assert confirm(Status.LIMIT, 99.9, 100.0, True, *LP).status == Status.LIMIT
+    high = confirm(Status.LIMIT, 120.0, 120.1, True, *LP)
+    assert high.status == Status.LIMIT and "above the rigid-block LP" in high.warnings[0]
+
+
+@pytest.mark.parametrize("lower,upper,agrees", [(99.9, 100.0, True), (100.4, 100.45, True), (99.4, 99.6, True),
+                                                (90.0, 90.1, False), (101.0, 101.1, False)])
+def test_an_unproven_limit_needs_the_lp_within_half_a_percent(lower, upper, agrees):
+    v = confirm(Status.LIMIT, lower, upper, False, *LP)
+    if agrees:
+        assert v.status == Status.LIMIT and v.evidence.startswith("agreement") and v.upper == upper
+    else:
+        assert Status.of(v.status) is Status.FAILURE and "unproven mechanism" in v.status and v.upper is None
+
+
+def test_unstable_needs_the_lp_to_agree_even_with_a_proof():
+    assert confirm(Status.UNSTABLE, 0.0, 0.0, False, Status.UNSTABLE, None).status == Status.UNSTABLE
+    for proved in (True, False):
+        v = confirm(Status.UNSTABLE, 0.0, 0.0, proved, *LP)
+        assert Status.of(v.status) is Status.FAILURE and v.upper is None
+        assert Status.of(v.status).exit_code == 1
+
+
+def test_without_an_lp_answer_only_a_proof_counts():
+    assert Status.of(confirm(Status.LIMIT, 99.0, 99.1, False, "LP failed: x", None).status) is Status.FAILURE
+    assert confirm(Status.LIMIT, 99.0, 99.1, True, "LP failed: x", None).status == Status.LIMIT
+
+
+def test_an_equilibrium_is_its_own_evidence_and_a_contradicting_lp_warns():
+    v = confirm(Status.STABLE, 0.0, None, False, Status.UNSTABLE, None)
+    assert v.status == Status.STABLE and v.warnings
+    assert confirm(Status.LOCKED, 500.0, None, False, Status.UNBOUNDED, None).warnings == ()
+
+
+def test_status_texts_read_back():
+    assert Status.of("solver failure: anything") is Status.FAILURE
+    assert Status.of(Status.failure("x")) is Status.FAILURE and Status.failure("x") == "solver failure: x"
+    assert Status.of("limit load found") is Status.LIMIT and Status.LIMIT.exit_code == 0
+    assert Status.of("no collapse (unbounded)").no_collapse and Status.LOCKED.no_collapse
+    with pytest.raises(ValueError):
+        Status.of("collapsed")
