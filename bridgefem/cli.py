@@ -116,6 +116,7 @@ def _run(args, petsc: dict) -> int:
     from mpi4py import MPI
 
     from .analysis import run_analysis
+    from .linsolve import check_petsc_options
     from .results import write_results
 
     comm = MPI.COMM_WORLD
@@ -178,47 +179,6 @@ def _check(args) -> int:
     size = check_size(scene)
     print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
     return 0
-
-
-def check_petsc_options(options: dict, comm) -> None:
-    """Set each PETSc option (the scene's and the command line's) on a throw-away solver of a tiny matrix, so that a
-    value PETSc rejects (an unknown type, a malformed number, a solver package not installed) stops the run before
-    anything is written (collective)."""
-    if not options:
-        return
-    from petsc4py import PETSc
-
-    from .solver import DEFAULT_PETSC_OPTIONS
-
-    prefix = "bridgefem_check_"
-    A = PETSc.Mat().createAIJ([(2, None), (2, None)], nnz=1, comm=comm)
-    first, last = A.getOwnershipRange()
-    for i in range(first, last):
-        A.setValue(i, i, 1.0)
-    A.assemble()
-    opts = PETSc.Options()
-    PETSc.Sys.pushErrorHandler("python")  # raise, without PETSc's own error print
-    try:
-        for key, value in options.items():
-            merged = {**DEFAULT_PETSC_OPTIONS, key: value}
-            for k, v in merged.items():
-                opts[prefix + k] = v
-            ksp = PETSc.KSP().create(comm)
-            try:
-                ksp.setOptionsPrefix(prefix)
-                ksp.setOperators(A)
-                ksp.setFromOptions()
-                ksp.setUp()
-            except PETSc.Error as err:
-                reason = str(err).strip().splitlines()[-1].split("] ", 1)[-1].strip()
-                raise SceneError(f"PETSc option {key} = {value!r}: rejected by PETSc ({reason})") from None
-            finally:
-                ksp.destroy()
-                for k in merged:
-                    opts.delValue(prefix + k)
-    finally:
-        PETSc.Sys.popErrorHandler()
-        A.destroy()
 
 
 def _lp(args) -> int:
