@@ -58,7 +58,8 @@ class PlasticFill:
     def __init__(self, V: fem.FunctionSpace, bm: BlockMesh, scene: Scene, bcs: list):
         mesh = bm.mesh
         f = scene.fill
-        self.material = MohrCoulomb(f.young, f.poisson, f.friction_angle, f.cohesion, f.tension_cutoff)
+        self.material = MohrCoulomb(f.young, f.poisson, f.friction_angle, f.cohesion, f.tension_cutoff,
+                                    f.dilation_angle)
         self.cohesion = f.cohesion  # the scene's (Pa); set_cohesion changes the material's for a while
         self.bcs = bcs
         degree = max(1, 2 * (scene.mesh.degree - 1))

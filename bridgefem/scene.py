@@ -55,7 +55,8 @@ class Fill:
     unit_weight (N/m^3); young (Pa), poisson; depth (m): road level above the crown's extrados; extension (m):
     horizontal reach beyond each springing's extrados corner; material: "elastic" or "mohr-coulomb" (Drucker-Prager
     cone matched to Mohr-Coulomb in plane strain, see :mod:`bridgefem.plasticity`) with friction_angle (degrees),
-    cohesion (Pa) and tension_cutoff (Pa, limit of the mean stress); interface_friction: Coulomb coefficient of
+    cohesion (Pa), tension_cutoff (Pa, limit of the mean stress) and dilation_angle (degrees, 0 to friction_angle;
+    None: equal to friction_angle, associated flow); interface_friction: Coulomb coefficient of
     the arch-fill interface (the extrados); element_size (m): mesh size away from the ring.
     """
 
@@ -68,6 +69,7 @@ class Fill:
     friction_angle: float = 30.0
     cohesion: float = 0.0
     tension_cutoff: float = 0.0
+    dilation_angle: float | None = None
     interface_friction: float = 0.5
     element_size: float = 0.0
 
@@ -263,6 +265,8 @@ _SCHEMA: dict[str, dict[str, _Key]] = {
         "friction_angle": _Key(float, 30.0, lambda v: 0 <= v <= 60, "an angle from 0 to 60 degrees"),
         "cohesion": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
         "tension_cutoff": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a stress >= 0 in Pa"),
+        "dilation_angle": _Key(float, None, lambda v: 0 <= v <= 60, "an angle from 0 to friction_angle in degrees "
+                               "(default: friction_angle, associated flow)"),
         "interface_friction": _Key(float, 0.5, lambda v: 0 <= v < math.inf, "a number >= 0"),
         "element_size": _Key(float, 0.0, lambda v: 0 <= v < math.inf, "a length >= 0 in m (0: automatic)"),
     },
@@ -391,6 +395,9 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     fill = Fill(**sec["fill"]) if "fill" in sec else None
     if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
         raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
+    if fill is not None and fill.dilation_angle is not None and fill.dilation_angle > fill.friction_angle:
+        raise SceneError(f"[fill] dilation_angle = {fill.dilation_angle!r}: allowed is an angle from 0 to "
+                         f"friction_angle = {fill.friction_angle:g} degrees")
     abutments = _abutments(sec["abutments"], data["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
     return Scene(name=sec["scene"]["name"] or default_name, gravity=sec["scene"]["gravity"], fill=fill,
                  abutments=abutments,
