@@ -1,4 +1,4 @@
-"""Command line: ``bridgefem run | lp | min-thickness | check SCENE.toml``.
+"""Command line: ``bridgefem run | converge | lp | min-thickness | check SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure, 2 bad input (nothing written).
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (they override the
@@ -28,6 +28,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
                      help="PETSc option for the contact solver, without the prefix (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
+    conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
+    conv.add_argument("scene", type=Path)
+    conv.add_argument("--levels", default="2,4,8", help="elements through the ring, each twice the previous")
+    conv.add_argument("--out", type=Path, help="folder for convergence.json (default: none written)")
     check = sub.add_parser("check", help="validate a scene file and print it")
     check.add_argument("scene", type=Path)
     lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
@@ -114,6 +118,17 @@ def _run(args, petsc: dict) -> int:
     return 1 if data["status"].startswith("solver failure") else 0
 
 
+def _levels(text: str) -> list[int]:
+    from .convergence import check_levels
+
+    try:
+        levels = [int(v) for v in text.split(",")]
+        check_levels(levels)
+    except ValueError as err:
+        raise SceneError(f"--levels {text!r}: {err}") from None
+    return levels
+
+
 def _decimals(width: float) -> int:
     """Decimals that show a bracket of this width (at least 2): one digit below its leading one."""
     return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
@@ -164,6 +179,10 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args, petsc)
         if args.command == "check":
             return _check(args)
+        if args.command == "converge":
+            from .convergence import command
+            levels = _levels(args.levels)
+            return command(load_scene(args.scene), levels, args.out)
         return _lp(args) if args.command == "lp" else _min_thickness(args)
     except SceneError as err:
         print(f"bridgefem: error: {err}", file=sys.stderr)
