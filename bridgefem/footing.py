@@ -27,7 +27,7 @@ plateau of the load-settlement curve (:attr:`PushResult.plateau` measures how fl
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import cos, exp, pi, radians, sin, sqrt, tan
+from math import exp, pi, radians, tan
 
 import numpy as np
 import ufl
@@ -96,11 +96,13 @@ def graded(n: int, length: float, at: float, power: float) -> np.ndarray:
 
 class SoilBox:
     """The soil box's mesh, displacement space and quadrature-point state (module docstring): ``x`` and ``y``
-    are the graded grid lines (m), ``degree`` the Lagrange degree of the displacements, ``unit_weight`` (N/m^3)."""
+    are the graded grid lines (m), ``degree`` the Lagrange degree of the displacements, ``unit_weight`` (N/m^3),
+    ``size`` (m) the length over which the cohesion makes the force scale of the Newton tolerance."""
 
     def __init__(self, soil: MohrCoulomb, x: np.ndarray, y: np.ndarray, degree: int, unit_weight: float,
-                 comm: MPI.Comm = MPI.COMM_WORLD):
+                 size: float, comm: MPI.Comm = MPI.COMM_WORLD):
         self.soil = soil
+        self.size = size
         nx, ny = len(x) - 1, len(y) - 1
         self.mesh = create_rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [nx, ny], CellType.triangle)
         geo = self.mesh.geometry.x  # map the unit square's uniform grid onto the graded lines (exact at nodes)
@@ -114,7 +116,6 @@ class SoilBox:
         f_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.f_ext = f_ext.array.copy()
         self.n_owned = self.points.n_owned
-        self.size = 1.0  # m: length over which the cohesion makes the force scale of the Newton tolerance
         self._apex = APEX_STIFFNESS * elastic_tangent(soil)
 
     def dofs_on(self, where, component: int) -> np.ndarray:
@@ -216,8 +217,7 @@ def strip_footing(soil: MohrCoulomb, width: float, rough: bool, cells: int, degr
     length, depth = extent[0] * width, extent[1] * width
     x = graded(cells, length, b, power)
     y = graded(cells, depth, 0.0, power)[::-1] * -1.0  # from -H up to the surface, fine at the top
-    box = SoilBox(soil, x, y, degree, unit_weight)
-    box.size = b
+    box = SoilBox(soil, x, y, degree, unit_weight, b)
     tol = 1e-9 * width
     under = box.dofs_on(lambda p: np.isclose(p[1], 0.0, atol=tol) & (p[0] <= b + tol), 1)
     held = [(box.dofs_on(lambda p: np.isclose(p[1], -depth, atol=tol), c), c) for c in (0, 1)]
@@ -238,8 +238,7 @@ def retaining_wall(soil: MohrCoulomb, height: float, unit_weight: float, passive
     ``steps`` increments; ``cells`` per side. The reaction is the horizontal wall force (N/m)."""
     width = height if width is None else width
     box = SoilBox(soil, np.linspace(0.0, width, cells + 1), np.linspace(0.0, height, cells + 1), degree,
-                  unit_weight)
-    box.size = height
+                  unit_weight, height)
     tol = 1e-9 * height
     wall = box.dofs_on(lambda p: np.isclose(p[0], 0.0, atol=tol), 0)
     held = [(box.dofs_on(lambda p: np.isclose(p[1], 0.0, atol=tol), 1), 1),

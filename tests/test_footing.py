@@ -11,8 +11,9 @@ References (all associated flow, psi = phi, which the bound theorems and the clo
   | phi | base | cells/side 8 | 16 | 32 | Richardson (8-16-32) |
   |---|---|---|---|---|---|
   | 0 | smooth | 1.091 | 1.027 | 1.008 | 1.000 (order 1.75) |
-  | 30 | smooth | 1.094 | 1.032 | see docs/fill.md | |
-  | 30 | rough | | 1.063 | see docs/fill.md | |
+  | 0 | rough | 1.120 | 1.038 | | |
+  | 30 | smooth | 1.094 | 1.032 | 1.011 | 1.000 (order 1.53) |
+  | 30 | rough | 1.153 | 1.063 | 1.029 | 1.010 (order 1.44) |
 
   so the tests run 16 cells per side and allow the measured 16-cell error plus 1 %. The same mesh with P1
   displacements overestimates N_c by 28 % at phi = 0: linear triangles lock under plastic flow (Sloan &
@@ -62,12 +63,12 @@ def footing(phi, rough, degree=2, cells=16):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("rough", [False, True], ids=["smooth", "rough"])
-def test_tresca_footing_reaches_prandtl(rough):
-    """phi = 0: q / c -> 2 + pi; measured 1.027 x on 16 cells per side (smooth), 1.008 on 32."""
+@pytest.mark.parametrize("rough,measured", [(False, 0.027), (True, 0.038)], ids=["smooth", "rough"])
+def test_tresca_footing_reaches_prandtl(rough, measured):
+    """phi = 0: q / c -> 2 + pi; measured 1.027 x (smooth) and 1.038 x (rough) on 16 cells per side, converging
+    from above (a displacement method overstates the collapse load)."""
     result = footing(0.0, rough)
-    assert result.limit / C == pytest.approx(prandtl_nc(0.0), rel=0.04)
-    assert result.limit / C >= prandtl_nc(0.0) * 0.995  # a displacement method approaches from above
+    assert 1.0 < result.limit / C / prandtl_nc(0.0) < 1.0 + measured + 0.01
     assert result.plateau < 0.005
 
 
