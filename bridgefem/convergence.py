@@ -10,8 +10,8 @@ limit of a mesh is the midpoint of its bracket. With the three finest limits L1 
 - uncertainty of L3 and of L* ``U = 1.25 |L* - L3|``: the grid convergence index of Roache (1994) with its
   safety factor for three meshes, plus the half widths of the brackets.
 
-Without monotone convergence (the differences change sign) no order is defined: L* is L3 and U the largest
-difference between the three, so the study says it has not converged instead of extrapolating.
+Without monotone convergence (the differences change sign, or do not shrink) no order is defined: L* is L3 and U
+the largest difference between the three, so the study says it has not converged instead of extrapolating.
 """
 from __future__ import annotations
 
@@ -71,7 +71,7 @@ def richardson(limits: list[float], half_widths: list[float] | None = None) -> E
     d12, d23 = l1 - l2, l2 - l3
     if d23 == 0.0:
         return Extrapolation(None, l3, spread)
-    if d12 == 0.0 or d12 / d23 <= 0.0 or d12 / d23 == 1.0:
+    if d12 / d23 <= 1.0:  # differences of opposite sign or not shrinking: not in the asymptotic range
         return Extrapolation(None, l3, max(abs(d12), abs(d23), abs(l1 - l3)) + spread)
     order = log(d12 / d23) / log(RATIO)
     value = l3 - d23 / (RATIO ** order - 1.0)
@@ -131,7 +131,7 @@ def table(scene: Scene, meshes: list[MeshLimit], ex: Extrapolation) -> str:
             f"last converged {m.lower / 1e3:.1f}"
         rows.append(f"| {m.elements_through_thickness} (P{scene.mesh.degree}) | {bracket} | {m.status} | {m.dofs} "
                     f"| {m.solves} | {m.factorisations} | {m.seconds:.1f} | {100 * ex.error_of(m.limit):.1f} % |")
-    order = "none (not monotone)" if ex.order is None else f"{ex.order:.2f}"
+    order = "none (not converging monotonically)" if ex.order is None else f"{ex.order:.2f}"
     rows.append(f"\nobserved order {order}; extrapolated limit L* = {ex.value / 1e3:.1f} +- "
                 f"{ex.uncertainty / 1e3:.1f} kN")
     return "\n".join(rows)

@@ -24,10 +24,14 @@ def test_richardson_uses_the_three_finest_and_adds_the_bracket_widths():
     assert ex.uncertainty == pytest.approx(1.25 * 25.0 + 2.0)
 
 
-def test_oscillating_limits_have_no_order():
-    """Differences of opposite sign: no extrapolation, the finest value with the largest difference as U."""
-    ex = richardson([230.0, 220.0, 226.0])
-    assert ex.order is None and ex.value == 226.0 and ex.uncertainty == pytest.approx(10.0)
+@pytest.mark.parametrize("limits,spread", [([230.0, 220.0, 226.0], 10.0), ([244.0, 240.0, 228.0], 16.0),
+                                           ([230.0, 220.0, 210.0], 20.0)],
+                         ids=["oscillating", "growing differences", "constant differences"])
+def test_limits_outside_the_asymptotic_range_have_no_order(limits, spread):
+    """Differences of opposite sign, growing or not shrinking: no extrapolation, the finest value with the largest
+    difference as U."""
+    ex = richardson(limits)
+    assert ex.order is None and ex.value == limits[-1] and ex.uncertainty == pytest.approx(spread)
 
 
 def test_study_needs_three_meshes_refined_by_two():
