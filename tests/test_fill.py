@@ -106,7 +106,7 @@ def cohesionless(request):
     fill.evaluate(state.x.array[:an.solver.n_u], state.plastic_strain, tangent=False)
     dxq = ufl.Measure("dx", domain=an.block_mesh.mesh, metadata={"quadrature_degree": 1,
                                                                    "quadrature_scheme": "default"})
-    return scene, an, state, joint_states(an.solver, an.pairs, an.ring, state), fill.stress.copy(), dxq
+    return scene, an, state, joint_states(an.solver, an.pairs, an.ring, state), fill.points.stress.copy(), dxq
 
 
 def test_cohesionless_fill_carries_its_self_weight():
