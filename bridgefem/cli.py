@@ -1,4 +1,4 @@
-"""Command line: ``bridgefem run | lp | min-thickness | bounds | check SCENE.toml``.
+"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
@@ -38,6 +38,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
     run.add_argument("--no-size-limit", action="store_true",
                      help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
+    conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
+    conv.add_argument("scene", type=Path)
+    conv.add_argument("--levels", default="2,4,8", help="elements through the ring, each twice the previous")
+    conv.add_argument("--out", type=Path, help="folder for convergence.json (default: none written)")
     check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
                                           "filled in, with units)")
     check.add_argument("scene", type=Path)
@@ -174,6 +178,18 @@ def _phase(name: str) -> None:
     print(f"  {name} ...", flush=True)
 
 
+def _levels(text: str) -> list[int]:
+    from .convergence import check_levels
+
+    try:
+        levels = [int(v) for v in text.split(",")]
+        check_levels(levels)
+    except ValueError as err:
+        raise SceneError(f"--levels {text!r}: {err}") from None
+    return levels
+
+
+
 def _check(args) -> int:
     scene = load_scene(args.scene)
     size = check_size(scene)
@@ -233,6 +249,10 @@ def main(argv: list[str] | None = None) -> int:
                 return _run(args, petsc)
             if args.command == "check":
                 return _check(args)
+            if args.command == "converge":
+                from .convergence import command
+
+                return command(load_scene(args.scene), _levels(args.levels), args.out)
             if args.command == "bounds":
                 from .bounds import bounds_command
 

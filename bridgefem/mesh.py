@@ -33,6 +33,7 @@ FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill int
 ROAD_TAG = 1_000_002
 FILL_END_TAG = 1_000_003  # vertical ends of the fill (rollers)
 FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
+LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the ring's element size
 BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG)
 
 
@@ -115,7 +116,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             extrados_curves += extra
         abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
                              for ab in ring.abutments]
-        fill_curves = _add_fill(geo, outline, outer, extrados_curves, h_fill) if outline is not None else {}
+        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, h * LOAD_REFINEMENT)
+                       if outline is not None else {})
         geo.synchronize()
         if outline is not None or ring.abutments:
             gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
@@ -155,13 +157,17 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.finalize()
 
 
-def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float) -> dict:
-    """The fill surface over the extrados: its Gmsh surface and its boundary curves per facet tag."""
+def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float,
+              h_load: float) -> dict:
+    """The fill surface over the extrados: its Gmsh surface and its boundary curves per facet tag. Mesh sizes (m):
+    ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point loads), where the
+    bearing stress is singular; the ring's size along the extrados; Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
                                                                                          h_fill)
     road_x = [o.x_right, *sorted((x for x in o.road_x if o.x_left < x < o.x_right), reverse=True), o.x_left]
-    road = [geo.addPoint(x, o.y_road, 0.0, h_fill) for x in road_x]
+    road = [geo.addPoint(x, o.y_road, 0.0, h_fill if i in (0, len(road_x) - 1) else h_load)
+            for i, x in enumerate(road_x)]
     bases = [geo.addLine(base_left, outer[0]), geo.addLine(outer[-1], base_right)]
     ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
     road_lines = [geo.addLine(a, b) for a, b in zip(road[:-1], road[1:])]

@@ -9,12 +9,19 @@ Material: isotropic linear elasticity (Young's modulus E, Poisson's ratio nu) wi
   "plane strain match") this is ``sqrt(J2) + eta p - xi c`` with ``eta = 3 alpha``, ``xi c = k``;
 - cut-off: ``p = I1 / 3 <= sigma_t`` (``tension_cutoff``; 0 = no-tension soil).
 
-Associated flow on both surfaces, no hardening. Why the cone is *the* plane-strain match: with associated
-flow, plane-strain collapse has zero plastic out-of-plane strain rate, ``s_zz = -2 alpha sqrt(J2)``. Writing
-the in-plane principal stresses ``s1 >= s3`` with centre ``m = (s1 + s3)/2`` and radius ``R = (s1 - s3)/2``,
-that gives ``J2 = R^2 / (1 - 3 alpha^2)`` and ``f = 0`` becomes ``R sqrt(1 - 3 alpha^2) + 3 alpha m = k``,
-i.e. with the constants above exactly the Mohr-Coulomb criterion ``R = c cos(phi) - m sin(phi)``; so the
-matched cone gives the Mohr-Coulomb plane-strain collapse loads (associated flow, dilatancy angle = phi).
+Plastic flow on the cone follows the potential ``g = sqrt(J2) + alpha_psi I1`` with the dilation angle psi
+(``alpha_psi`` = the formula of alpha with psi for phi): associated (psi = phi) by default, non-associated for
+0 <= psi < phi; on the cut-off the flow is volumetric. No hardening.
+
+Why the cone is *the* plane-strain match. At plane-strain collapse the plastic out-of-plane strain rate is zero:
+``s_zz = -2 alpha_psi q`` with ``q = sqrt(J2)``. Writing the in-plane principal stresses ``s1 >= s3`` with
+centre ``m = (s1 + s3)/2`` and radius ``R = (s1 - s3)/2``, that gives ``q = R / sqrt(1 - 3 alpha_psi^2)`` and
+``p = m - alpha_psi q``, so ``f = 0`` becomes ``R beta^-1 + 3 alpha m = k`` with
+``beta = 1 / (sqrt(1 - 3 alpha_psi^2) + alpha_psi sin(phi))``, the Mohr-Coulomb criterion
+``R = c cos(phi) - m sin(phi)`` exactly when ``alpha = beta sin(phi) / 3`` and ``k = beta c cos(phi)``.
+Associated (psi = phi) this is ``alpha = tan(phi) / sqrt(9 + 12 tan^2 phi)`` (above); psi = 0 gives
+``alpha = sin(phi) / 3``, ``k = c cos(phi)``. So the cone gives the Mohr-Coulomb plane-strain strength whatever
+psi, and with psi = phi the Mohr-Coulomb plane-strain collapse loads of the bound theorems.
 phi = 0 is the plane-strain match of Tresca (von Mises with ``sqrt(J2) <= c``); c = 0 a cohesionless soil.
 
 Conventions: SI units (Pa, strain dimensionless), tension positive (soil under self-weight has negative
@@ -23,7 +30,8 @@ stresses). Stresses and strains are 4-vectors ``[xx, yy, zz, xy]``; the strain v
 tracked. Tangents are 3x3 on the in-plane Voigt components ``[xx, yy, xy]`` with engineering shear, so that
 ``d sigma = D d strain``.
 
-The return map is the closest-point projection in the energy norm, integrated by backward Euler in one step
+The return map is the closest-point projection in the energy norm (associated; along the potential's normal
+otherwise), integrated by backward Euler in one step
 (exact for perfect plasticity with a linear flow vector): elastic, return to the smooth cone, to the
 cap ``p = sigma_t`` (deviator kept), or to the corner where the cap meets the cone (deviator scaled to the
 cone radius). If ``sigma_t`` is at or beyond the cone apex ``p = c cot(phi)``, the corner is the apex itself
@@ -32,7 +40,7 @@ cone radius). If ``sigma_t`` is at or beyond the cone apex ``p = c cot(phi)``, t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import isfinite, radians, sqrt, tan
+from math import cos, isfinite, radians, sin, sqrt, tan
 
 import numpy as np
 
@@ -50,7 +58,8 @@ class MohrCoulomb:
     """Backfill soil: elasticity, plane-strain matched Drucker-Prager cone and mean-stress cut-off.
 
     ``young`` (Pa), ``poisson`` (-), ``friction_angle`` phi (degrees, 0 <= phi < 90), ``cohesion`` c (Pa),
-    ``tension_cutoff`` sigma_t >= 0 (Pa), the limit of the mean stress ``p = tr(sigma)/3`` (tension positive).
+    ``tension_cutoff`` sigma_t >= 0 (Pa), the limit of the mean stress ``p = tr(sigma)/3`` (tension positive),
+    ``dilation_angle`` psi (degrees, 0 <= psi <= phi; None: psi = phi, associated flow).
     """
 
     young: float
@@ -58,6 +67,7 @@ class MohrCoulomb:
     friction_angle: float
     cohesion: float
     tension_cutoff: float = 0.0
+    dilation_angle: float | None = None
 
     def __post_init__(self):
         values = (self.young, self.poisson, self.friction_angle, self.cohesion, self.tension_cutoff)
@@ -67,6 +77,8 @@ class MohrCoulomb:
             raise ValueError(f"need young > 0 and -1 < poisson < 0.5, got {self.young}, {self.poisson}")
         if not 0.0 <= self.friction_angle < 90.0:
             raise ValueError(f"need 0 <= friction_angle < 90 degrees, got {self.friction_angle}")
+        if self.dilation_angle is not None and not 0.0 <= self.dilation_angle <= self.friction_angle:
+            raise ValueError(f"need 0 <= dilation_angle <= friction_angle, got {self.dilation_angle}")
         if self.cohesion < 0 or self.tension_cutoff < 0:
             raise ValueError(f"need cohesion >= 0 and tension_cutoff >= 0, got {self.cohesion}, "
                              f"{self.tension_cutoff}")
@@ -87,16 +99,29 @@ class MohrCoulomb:
         return self.bulk_modulus - 2.0 * self.shear_modulus / 3.0
 
     @property
-    def alpha(self) -> float:
-        """Cone slope alpha = tan(phi) / sqrt(9 + 12 tan^2 phi) (-), multiplying I1 = tr(sigma)."""
-        t = tan(radians(self.friction_angle))
+    def alpha_dilation(self) -> float:
+        """Slope alpha_psi = tan(psi) / sqrt(9 + 12 tan^2 psi) (-) of the plastic potential."""
+        psi = self.friction_angle if self.dilation_angle is None else self.dilation_angle
+        t = tan(radians(psi))
         return t / sqrt(9.0 + 12.0 * t * t)
 
     @property
+    def _beta(self) -> float:
+        """beta = 1 / (sqrt(1 - 3 alpha_psi^2) + alpha_psi sin(phi)) of the plane-strain match (module docstring)."""
+        a = self.alpha_dilation
+        return 1.0 / (sqrt(1.0 - 3.0 * a * a) + a * sin(radians(self.friction_angle)))
+
+    @property
+    def alpha(self) -> float:
+        """Cone slope alpha = beta sin(phi) / 3 (-), multiplying I1 = tr(sigma); tan(phi) / sqrt(9 + 12 tan^2 phi)
+        when associated."""
+        return self._beta * sin(radians(self.friction_angle)) / 3.0
+
+    @property
     def k(self) -> float:
-        """Cone intercept k = 3 c / sqrt(9 + 12 tan^2 phi) (Pa), the limit of sqrt(J2) at I1 = 0."""
-        t = tan(radians(self.friction_angle))
-        return 3.0 * self.cohesion / sqrt(9.0 + 12.0 * t * t)
+        """Cone intercept k = beta c cos(phi) (Pa), the limit of sqrt(J2) at I1 = 0; 3 c / sqrt(9 + 12 tan^2 phi)
+        when associated."""
+        return self._beta * self.cohesion * cos(radians(self.friction_angle))
 
     @property
     def mean_stress_limit(self) -> float:
@@ -120,7 +145,7 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
     ``plastic_strain``: (n, 4) converged plastic strain of the last load step, same layout. Returns the
     stress (n, 4) ``[sxx, syy, szz, sxy]`` (Pa, tension positive), the consistent (algorithmic) tangent
     (n, 3, 3) ``d[sxx, syy, sxy] / d[exx, eyy, gamma_xy]`` (Pa) and the updated plastic strain (n, 4).
-    The tangent is singular off the smooth cone: no bulk stiffness on the cut-off, zero at the apex (a
+    The tangent is unsymmetric on the cone if the flow is non-associated, singular off the smooth cone: no bulk stiffness on the cut-off, zero at the apex (a
     stress held at a fixed vertex of the elastic domain); a global solver needs elastic neighbours or
     regularisation where whole regions sit there.
     """
@@ -130,6 +155,7 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
         raise ValueError(f"strain and plastic_strain must both be (n, 4), got {strain.shape} and "
                          f"{plastic_strain.shape}")
     g, bulk, alpha, k = material.shear_modulus, material.bulk_modulus, material.alpha, material.k
+    alpha_g = material.alpha_dilation
     p_max = material.mean_stress_limit
     r_corner = k - 3.0 * alpha * p_max  # sqrt(J2) where the cap meets the cone (0 at the apex)
 
@@ -142,9 +168,9 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
     f_tr = q_tr + 3.0 * alpha * p_tr - k
 
     # Regime selection: disjoint regions of the trial state (normal cones of the closest-point projection).
-    h_cone = g + 9.0 * bulk * alpha * alpha
+    h_cone = g + 9.0 * bulk * alpha * alpha_g
     d_gamma = np.maximum(f_tr, 0.0) / h_cone  # cone multiplier (valid where the cone return applies)
-    p_cone = p_tr - 3.0 * bulk * alpha * d_gamma
+    p_cone = p_tr - 3.0 * bulk * alpha_g * d_gamma
     cone = (f_tr > 0.0) & (p_cone <= p_max)
     cap = ~cone & (p_tr > p_max) & (q_tr <= r_corner)
     corner = ~cone & ~cap & ((f_tr > 0.0) | (p_tr > p_max))
@@ -160,18 +186,20 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
     d_plastic = ((1.0 - scale)[:, None] * s_tr / (2.0 * g) + ((p_tr - p) / (3.0 * bulk))[:, None] * _M)
     new_plastic = plastic_strain + d_plastic * _ENGINEERING
 
-    # Consistent tangent D = a 2G Idev + b N N + c h h + d K m m with the unit trial direction N, in which
-    #   cone:   a = 1 - beta, b = 2G beta, c = -1/(G + 9 K alpha^2), h = sqrt(2) G N + 3 alpha K m, d = 1;
+    # Consistent tangent D = a 2G Idev + b N N + c h_g h_f + d K m m with the unit trial direction N, in which
+    #   cone:   a = 1 - beta, b = 2G beta, c = -1/(G + 9 K alpha alpha_psi), h_f = sqrt(2) G N + 3 alpha K m
+    #           (yield normal) and h_g the same with alpha_psi (flow direction), d = 1;
     #   cap:    a = 1, d = 0 (p fixed);   corner: a = rho, b = -2G rho, d = 0;   elastic: a = 1, d = 1.
     unit = s_tr / (np.sqrt(2.0) * q_safe)[:, None]
-    h = np.sqrt(2.0) * g * unit + 3.0 * alpha * bulk * _M
+    h_f = np.sqrt(2.0) * g * unit + 3.0 * alpha * bulk * _M
+    h_g = np.sqrt(2.0) * g * unit + 3.0 * alpha_g * bulk * _M
     b = np.select([cone, corner], [2.0 * g * beta, -2.0 * g * rho], 0.0)
     c = np.where(cone, -1.0 / h_cone, 0.0)
     d = np.where(cap | corner, 0.0, 1.0)
     ip = _IN_PLANE
-    unit, h = unit[:, ip], h[:, ip]
+    unit, h_f, h_g = unit[:, ip], h_f[:, ip], h_g[:, ip]
     tangent = (scale[:, None, None] * (2.0 * g * _DEV[np.ix_(ip, ip)])  # a = scale
                + b[:, None, None] * unit[:, :, None] * unit[:, None, :]
-               + c[:, None, None] * h[:, :, None] * h[:, None, :]
+               + c[:, None, None] * h_g[:, :, None] * h_f[:, None, :]
                + d[:, None, None] * (bulk * np.outer(_M[ip], _M[ip])))
     return stress, tangent, new_plastic

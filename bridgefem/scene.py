@@ -184,6 +184,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "cohesion": Key(float, "cohesion of the fill", 0.0, "Pa", low=0.0, high=1e10, only=_MC),
         "tension_cutoff": Key(float, "limit of the fill's mean tensile stress", 0.0, "Pa", low=0.0, high=1e10,
                               only=_MC),
+        "dilation_angle": Key(float, "dilation angle of the fill's plastic flow (0 to friction_angle)", None,
+                              "degrees", low=0.0, high=60.0, only=_MC,
+                              derived="friction_angle (associated flow, the bound theorems' assumption)"),
         "interface_friction": _coefficient("Coulomb coefficient of the arch-fill interface (the extrados)", 0.5),
         "element_size": Key(float, "fill mesh size away from the ring (0: twice the ring's element size)", 0.0,
                             "m", low=0.0, high=MAX_LENGTH),
@@ -323,7 +326,8 @@ class Fill:
     unit_weight (N/m^3); young (Pa), poisson; depth (m): road level above the crown's extrados; extension (m):
     horizontal reach beyond each springing's extrados corner; material: "elastic" or "mohr-coulomb" (Drucker-Prager
     cone matched to Mohr-Coulomb in plane strain, see :mod:`bridgefem.plasticity`) with friction_angle (degrees),
-    cohesion (Pa) and tension_cutoff (Pa, limit of the mean stress); interface_friction: Coulomb coefficient of
+    cohesion (Pa), tension_cutoff (Pa, limit of the mean stress) and dilation_angle (degrees, 0 to friction_angle;
+    None: equal to friction_angle, associated flow); interface_friction: Coulomb coefficient of
     the arch-fill interface (the extrados); element_size (m): mesh size away from the ring.
     """
 
@@ -336,6 +340,7 @@ class Fill:
     friction_angle: float = _default("fill", "friction_angle")
     cohesion: float = _default("fill", "cohesion")
     tension_cutoff: float = _default("fill", "tension_cutoff")
+    dilation_angle: float | None = _default("fill", "dilation_angle")
     interface_friction: float = _default("fill", "interface_friction")
     element_size: float = _default("fill", "element_size")
 
@@ -568,6 +573,9 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     fill = Fill(**sec["fill"]) if "fill" in sec else None
     if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
         raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
+    if fill is not None and fill.dilation_angle is not None and fill.dilation_angle > fill.friction_angle:
+        raise SceneError(f"[fill] dilation_angle = {fill.dilation_angle!r}: allowed is an angle from 0 to "
+                         f"friction_angle = {fill.friction_angle:g} degrees")
     abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),

@@ -1,12 +1,16 @@
 """Prestwood bridge (TRRL RR110): the limit load with the fill modelled three ways, against the 228 kN test.
 
+0. **bare ring**: the rigid-block LP of the ring alone (fill removed) under the same load on its extrados;
 1. **fill as dead load only**: the rigid-block LP on the same joints with the fill's weight on the voussoirs
    and the load on the extrados below the loading beam (the classical bare-arch assessment);
 2. **elastic fill**: FE with a linear elastic fill behind an arch-fill contact interface (no strength limit);
-3. **Mohr-Coulomb fill**: FE with the elastic-plastic fill of the scene (demos/prestwood.toml).
+3. **Mohr-Coulomb fill**: FE with the elastic-plastic fill of the scene (demos/prestwood.toml), associated flow,
+   and with the dilation angle psi = phi/2 and 0 (non-associated flow).
 
 Then the sensitivity of the Mohr-Coulomb limit load to the three least certain inputs (fill friction angle,
-fill cohesion and fill depth over the crown; each varied alone from the scene's value).
+fill cohesion and fill depth over the crown; each varied alone from the scene's value). The published predictions
+of the same bridge are listed with the table (PUBLISHED). ``--degree 2`` runs the FE cases with quadratic
+displacements (locking-free fill, docs/fill.md; about 5 x the time).
 
 Run:
 
@@ -36,6 +40,8 @@ from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import Scene, load_scene
 
 TEST_LOAD_KN = 228.0  # TRRL RR110: maximum load of the collapse test
+PUBLISHED = {"nonlinear FE, Mohr-Coulomb fill (Simoncello et al. 2020, Front. Built Environ. 6:7)": 245.0,
+             "limit analysis with backfill (Zampieri et al. 2020, Eng. Struct. 225:111135)": 220.0}  # kN
 HERE = Path(__file__).resolve().parent
 
 
@@ -44,6 +50,9 @@ def variants(scene: Scene, sensitivity: bool) -> dict[str, Scene]:
     fill = scene.fill
     cases = {"elastic fill": dataclasses.replace(scene, fill=dataclasses.replace(fill, material="elastic")),
              "Mohr-Coulomb fill": scene}
+    for psi in (fill.friction_angle / 2, 0.0):
+        cases[f"Mohr-Coulomb fill, dilation angle {psi:g} deg"] = dataclasses.replace(
+            scene, fill=dataclasses.replace(fill, dilation_angle=psi))
     if sensitivity:
         for label, change in ((f"friction angle {fill.friction_angle - 5:g} deg", {"friction_angle": -5.0}),
                               (f"friction angle {fill.friction_angle + 5:g} deg", {"friction_angle": 5.0}),
@@ -73,10 +82,10 @@ def fe_row(label: str, scene: Scene, out: Path, comm: MPI.Comm) -> dict:
             "curve": [(h["deflection"], h["load"] / 1e3) for h in data["history"] if h["converged"]]}
 
 
-def lp_row(scene: Scene) -> dict:
+def lp_row(scene: Scene, label: str = "fill as dead load only (LP)") -> dict:
     lp = collapse_load(scene)
     load = lp.load / 1e3 if lp.load else None
-    return {"case": "fill as dead load only (LP)", "status": lp.status, "lower_kN": load, "upper_kN": load,
+    return {"case": label, "status": lp.status, "lower_kN": load, "upper_kN": load,
             "ratio_to_test": load / TEST_LOAD_KN if load else None,
             "hinges": " ".join(f"{j}{p[0]}" for j, p in sorted(lp.hinge_positions.items())),
             "steps": None, "solves": None, "seconds": lp.time_s, "curve": []}
@@ -94,6 +103,8 @@ def markdown(rows: list[dict]) -> str:
                    f"[{_num(r['lower_kN'], '.1f')}, {_num(r['upper_kN'], '.1f')}]")
         lines.append(f"| {r['case']} | {r['status']} | {bracket} | {_num(r['ratio_to_test'], '.3f')} | {r['hinges']} "
                      f"| {_num(r['steps'], 'd')} | {_num(r['solves'], 'd')} | {r['seconds']:.1f} |")
+    lines += ["", "| published prediction | limit load (kN) | / test |", "|---|---|---|"]
+    lines += [f"| {name} | {load:.0f} | {load / TEST_LOAD_KN:.3f} |" for name, load in PUBLISHED.items()]
     return "\n".join(lines)
 
 
@@ -108,7 +119,7 @@ def plot(rows: list[dict], path: Path) -> None:
             d, p = zip(*r["curve"])
             ax.plot([1e3 * v for v in d], p, marker=".", ms=3, label=r["case"])
     ax.axhline(TEST_LOAD_KN, color="k", ls="--", lw=1, label="test maximum (228 kN)")
-    lp = [r for r in rows if r["case"].endswith("(LP)")]
+    lp = [r for r in rows if r["case"].startswith("fill as dead load")]
     if lp and lp[0]["lower_kN"]:
         ax.axhline(lp[0]["lower_kN"], color="grey", ls=":", lw=1, label="LP, fill as dead load only")
     ax.set_xlabel("arch deflection under the load (mm)")
@@ -129,13 +140,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default=str(HERE / "prestwood.toml"))
     parser.add_argument("--no-sensitivity", action="store_true", help="only the three fill models")
     parser.add_argument("--out", default="results/prestwood")
+    parser.add_argument("--degree", type=int, choices=(1, 2), help="Lagrange degree of the FE cases "
+                        "(default: the scene's)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     scene = load_scene(args.scene)
+    if args.degree:
+        scene = dataclasses.replace(scene, mesh=dataclasses.replace(scene.mesh, degree=args.degree))
     out = Path(args.out)
     try:
         with results_folder(out, comm) as work:  # checked before the study; replaces out when all is written
-            rows = [lp_row(scene)]
+            rows = [lp_row(dataclasses.replace(scene, fill=None), "bare ring, fill removed (LP)"), lp_row(scene)]
             for label, case in variants(scene, not args.no_sensitivity).items():
                 rows.append(fe_row(label, case, work, comm))
                 if comm.rank == 0:

@@ -107,7 +107,7 @@ def cohesionless(request):
     fill.evaluate(state.x.array[:an.solver.n_u], state.plastic_strain, tangent=False)
     dxq = ufl.Measure("dx", domain=an.block_mesh.mesh, metadata={"quadrature_degree": 1,
                                                                    "quadrature_scheme": "default"})
-    return scene, an, state, joint_states(an.solver, an.pairs, an.ring, state), fill.stress.copy(), dxq
+    return scene, an, state, joint_states(an.solver, an.pairs, an.ring, state), fill.points.stress.copy(), dxq
 
 
 def test_cohesionless_fill_carries_its_self_weight():
@@ -309,3 +309,19 @@ def test_prestwood_same_bracket_under_mpi(prestwood):
     for bound in ("lower", "upper"):
         assert mpi["limit_load"][bound] == pytest.approx(serial["limit_load"][bound], rel=1e-9)
     assert mpi["mechanism"] == serial["mechanism"]
+
+
+@pytest.mark.parametrize("psi,phi,ok", [(None, 30.0, True), (0.0, 30.0, True), (30.0, 30.0, True),
+                                        (31.0, 30.0, False), (-1.0, 30.0, False)])
+def test_dilation_angle_is_checked_against_the_friction_angle(psi, phi, ok):
+    """[fill] dilation_angle: 0 <= psi <= phi (non-associated to associated flow); absent means psi = phi."""
+    from bridgefem.scene import SceneError
+    fill = {**FILL, "material": "mohr-coulomb", "friction_angle": phi, "cohesion": 1e3}
+    if psi is not None:
+        fill["dilation_angle"] = psi
+    if ok:
+        scene = scene_from_dict(scene_dict(fill=fill))
+        assert scene.fill.dilation_angle == psi
+    else:
+        with pytest.raises(SceneError, match="dilation_angle"):
+            scene_from_dict(scene_dict(fill=fill))

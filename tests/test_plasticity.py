@@ -254,13 +254,18 @@ def test_return_and_consistent_tangent_per_regime(mat, regime):
     strain, plastic, expected = regime_states(mat, regime, 20, seed=5)
     stress, tangent, _ = return_map(mat, strain, plastic)
     np.testing.assert_allclose(stress, expected, rtol=0, atol=1e-9 * L)
+    assert_tangent_is_the_derivative(mat, strain, plastic, tangent, 1e-6 * E)
+
+
+def assert_tangent_is_the_derivative(mat, strain, plastic, tangent, atol):
+    """The tangent (n, 3, 3) equals central differences of the returned stress, step h = 1e-8."""
     h = 1e-8
     for j, component in enumerate(IN_PLANE):
         step = np.zeros(4)
         step[component] = h
         upper, _, _ = return_map(mat, strain + step, plastic)
         lower, _, _ = return_map(mat, strain - step, plastic)
-        np.testing.assert_allclose(tangent[:, :, j], (upper - lower)[:, IN_PLANE] / (2 * h), rtol=0, atol=1e-6 * E)
+        np.testing.assert_allclose(tangent[:, :, j], (upper - lower)[:, IN_PLANE] / (2 * h), rtol=0, atol=atol)
 
 
 # ---- loading paths with Mohr-Coulomb closed forms -----------------------------------------------------
@@ -369,3 +374,75 @@ def test_degenerate_materials_stay_finite_and_admissible(mat):
     assert cone(mat, stress).max() <= 1e-8 * L
     assert stress[:, :3].mean(axis=1).max() <= mat.tension_cutoff + 1e-8 * L
     np.testing.assert_allclose(stress, hooke(mat, strain - new_plastic), rtol=0, atol=1e-9 * L)
+
+
+# ---- non-associated flow (dilation angle psi < phi) ----------------------------------------------------
+DILATANT = {f"phi{phi:g}-psi{psi:g}-c{c / 1e3:g}k": MohrCoulomb(E, 0.3, phi, c, dilation_angle=psi)
+            for phi, c in ((30.0, 5e3), (35.0, 0.0), (20.0, 10e3)) for psi in (0.0, phi / 2)}
+dilatant_cases = pytest.mark.parametrize("mat", DILATANT.values(), ids=DILATANT.keys())
+
+
+@dilatant_cases
+def test_biaxial_compression_strength_does_not_depend_on_the_dilation_angle(mat):
+    """The cone is matched to Mohr-Coulomb in plane strain for every psi: the biaxial test's passive limit
+    sigma_yy = -(s_c (1 + sin phi) + 2 c cos phi) / (1 - sin phi) is reached with psi = 0 and phi/2 too."""
+    phi, s_c = np.radians(mat.friction_angle), L
+    stress = mixed_control(mat, 60, lambda i: {1: -(i + 1) * 5e-3}, [0], [-s_c])
+    expected = -(s_c * (1 + np.sin(phi)) + 2 * mat.cohesion * np.cos(phi)) / (1 - np.sin(phi))
+    assert stress[0, 1] == pytest.approx(expected, rel=1e-9)
+
+
+@dilatant_cases
+def test_simple_shear_strength_with_dilation_is_davis(mat):
+    """Simple shear under a constant normal stress s_n, x not extending: Davis (1968) for plane-strain flow with
+    dilation angle psi gives tau = (c cos phi cos psi + s_n sin phi cos psi) / (1 - sin phi sin psi), the
+    associated Coulomb value c + s_n tan(phi) at psi = phi and less for psi < phi."""
+    phi, psi, s_n = np.radians(mat.friction_angle), np.radians(mat.dilation_angle), L
+    stress = mixed_control(mat, 80, lambda i: {0: 0.0, 3: (i + 1) * 5e-3}, [1], [-s_n])
+    expected = (mat.cohesion * np.cos(phi) + s_n * np.sin(phi)) * np.cos(psi) / (1 - np.sin(phi) * np.sin(psi))
+    assert stress[0, 3] == pytest.approx(expected, rel=1e-9)
+
+
+@dilatant_cases
+def test_plastic_volume_change_follows_the_dilation_angle(mat):
+    """In plane-strain flow on the cone the plastic strain increment has volumetric part / principal difference
+    = -sin(psi) (tension positive: dilation under shear), i.e. no plastic volume change at psi = 0."""
+    psi = np.radians(mat.dilation_angle)
+    strain, plastic, states = np.zeros((1, 4)), np.zeros((1, 4)), []
+    for i in range(60):  # simple shear in steps of 5e-3, sigma_yy = -L held by Newton on eps_yy
+        strain[0, 3] = (i + 1) * 5e-3
+        for _ in range(20):
+            stress, tangent, new_plastic = return_map(mat, strain, plastic)
+            strain[0, 1] -= (stress[0, 1] + L) / tangent[0, 1, 1]
+        plastic = new_plastic
+        states.append(plastic[0].copy())
+    d = states[-1] - states[-2]  # one step of steady flow
+    radius = np.sqrt(((d[0] - d[1]) / 2) ** 2 + (d[3] / 2) ** 2)  # engineering shear -> tensor
+    assert abs(d[2]) < 1e-12 * radius
+    assert (d[0] + d[1]) / (2 * radius) == pytest.approx(np.sin(psi), abs=1e-9)
+
+
+@dilatant_cases
+def test_non_associated_tangent_is_the_derivative_and_unsymmetric(mat):
+    """Random plastic states: the consistent tangent equals central differences of the returned stress (step and
+    tolerance as for the associated regimes), and is unsymmetric on the cone."""
+    rng = np.random.default_rng(11)
+    strain = rng.normal(0, 2 * L / E, (200, 4))
+    strain[:, 2] = 0.0
+    strain[:, :2] -= 3 * L / E  # mostly compressed: cone returns
+    plastic = np.zeros_like(strain)
+    stress, tangent, _ = return_map(mat, strain, plastic)
+    on_cone = np.abs(cone_of(mat, stress)) < 1e-9 * L
+    assert_tangent_is_the_derivative(mat, strain, plastic, tangent, 1e-5 * E)
+    asymmetry = np.abs(tangent - tangent.transpose(0, 2, 1)).max(axis=(1, 2))
+    assert on_cone.sum() > 20 and np.median(asymmetry[on_cone]) > 1e-3 * E
+
+
+def cone_of(mat, stress):
+    """The cone f = q + 3 alpha p - k with the psi-dependent plane-strain match (module docstring of plasticity):
+    alpha = beta sin(phi) / 3, k = beta c cos(phi), beta = 1 / (sqrt(1 - 3 a^2) + a sin(phi)), a = alpha_psi."""
+    phi, psi = np.radians(mat.friction_angle), np.radians(mat.dilation_angle)
+    a = np.tan(psi) / np.sqrt(9 + 12 * np.tan(psi) ** 2)
+    beta = 1 / (np.sqrt(1 - 3 * a * a) + a * np.sin(phi))
+    p, _, q = invariants(stress)
+    return q + beta * np.sin(phi) * p - beta * mat.cohesion * np.cos(phi)
