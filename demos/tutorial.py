@@ -80,9 +80,10 @@ solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.
 # first failed one bracket the limit load, to the relative tolerance. The rigid-block LP of the scene is only the
 # search's first guess, never a bound.
 
+lp = collapse_load(scene)
 search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=scene.solver.tolerance,
                          initial_step=model.dead_weight / 4, max_load=100 * model.dead_weight,
-                         max_steps=scene.solver.max_steps, guess_scene=scene)
+                         max_steps=scene.solver.max_steps, guess=lp.load_factor)
 
 # ## 7. The mechanism and the independent check
 #
@@ -91,7 +92,6 @@ search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tole
 # it.
 
 hinges = [j.id for j in joint_states(solver, pairs, ring, search.last) if j.hinge]
-lp = collapse_load(scene)
 say(f"{search.status}: limit load in [{search.lower / 1e3:.3f}, {search.upper / 1e3:.3f}] kN "
     f"(tolerance {search.tolerance:g}) after {len(search.steps)} load steps; hinges at joints {hinges}")
-say(f"rigid-block LP: {lp.load / 1e3:.3f} kN, hinges at joints {sorted(lp.hinges)}")
+say(f"rigid-block LP: {lp.load / 1e3:.3f} kN, hinges at joints {sorted(lp.hinges)}, sliding {sorted(lp.sliding)}")

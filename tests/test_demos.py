@@ -61,11 +61,13 @@ def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the
 
 def test_tutorial_brackets_the_rigid_block_collapse_load():
     """demos/tutorial.py walks the pipeline by hand: its bracket lies within 0.1 % of the rigid-block collapse load
-    of this joint layout (137.095 kN, the LP on the same joints; docs/validation.md), with the LP's four hinges."""
+    of this joint layout (129.627 kN, the LP on the same joints, the load on the voussoir right of joint 6), with the
+    LP's hinges among the FE's."""
     proc = subprocess.run([sys.executable, "demos/tutorial.py"], cwd=ROOT, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stderr
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("limit load found: limit load in ["))
     lower, upper = (float(v) for v in line.split("[")[1].split("]")[0].split(","))
-    assert lower <= 137.095 * 1.001 and upper >= 137.095 * 0.999, line
-    assert line.endswith("hinges at joints [2, 6, 12, 16]")
+    assert lower <= 129.627 * 1.001 and upper >= 129.627 * 0.999, line
+    fe_hinges = set(map(int, line.split("hinges at joints [")[1].rstrip("]").split(",")))
+    assert fe_hinges >= {6, 12, 16}, line
