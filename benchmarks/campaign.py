@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bridgefem.output import failed_target
+
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
 FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
@@ -85,7 +87,8 @@ def scene_dict(choice: dict, thickness: float) -> dict:
          "load": [load]}
     if choice["fill"]:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
-                     "extension": round(0.2 * choice["span"], 3), "material": choice["fill"], "cohesion": 5e3}
+                     "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
+                     **({"cohesion": 5e3} if choice["fill"] == "mohr-coulomb" else {})}
     return d
 
 
@@ -144,11 +147,17 @@ def run_scene(choice: dict, out: Path, timeout: float) -> dict:
         code, stderr = None, f"timeout after {timeout:g} s"
     row["seconds"] = time.perf_counter() - t0
     row["exit"] = code
-    data = None
-    if (folder / "results" / "results.json").exists():
-        data = json.loads((folder / "results" / "results.json").read_text())
-    row.update(judge(data, code, stderr, fill=choice["fill"] is not None))
+    row.update(judge(results_of(folder), code, stderr, fill=choice["fill"] is not None))
     return row
+
+
+def results_of(folder: Path) -> dict | None:
+    """A scene's results.json: in ``results/``, or in ``results-failed/`` after a solver failure (the output
+    policy: a failed run never replaces results); None when the run wrote neither."""
+    for path in (folder / "results", failed_target(folder / "results")):
+        if (path / "results.json").exists():
+            return json.loads((path / "results.json").read_text())
+    return None
 
 
 def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) -> dict:
@@ -265,9 +274,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.report:
         rows = json.loads((args.out / "campaign.json").read_text())["rows"]
         for r in rows:
-            path = args.out.resolve() / f"scene_{r['index']:04d}" / "results" / "results.json"
-            if r["class"] not in ("crash", "rejected") and path.exists():
-                r.update(judge(json.loads(path.read_text()), r["exit"], "", fill=r["fill"] is not None))
+            data = results_of(args.out.resolve() / f"scene_{r['index']:04d}")
+            if r["class"] not in ("crash", "rejected") and data is not None:
+                r.update(judge(data, r["exit"], "", fill=r["fill"] is not None))
         print(report(rows))
         return 0
     indices = args.only if args.only else range(args.count)

@@ -138,7 +138,7 @@ def write_outputs(rows: list[dict], title: str, out: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scene", type=Path, default=Path("demos/bare_arch.toml"))
+    p.add_argument("--scene", type=Path, default=Path(__file__).resolve().parent / "bare_arch.toml")
     p.add_argument("--voussoirs", type=int, nargs="+", default=[4, 8, 16, 32, 64, 128], metavar="N")
     p.add_argument("--friction", type=float, metavar="MU", help="joint friction coefficient (default: the scene's)")
     p.add_argument("--out", type=Path, default=Path("results/interface_study"))
