@@ -52,9 +52,9 @@ def _footing(size: float, rough=None, soil=Soil(1.0, 20.0, 0.0)):
 
 def test_prandtl_strip_footing_is_bracketed():
     """Weightless soil, c = 1 Pa, phi = 20 deg, uniform pressure on B = 1 m: q_u = c N_c = 14.83 Pa."""
-    lower, upper = _footing(0.1)
+    lower, upper = _footing(0.2)
     assert lower <= _prandtl(20.0) <= upper
-    assert upper - lower < 0.1 * _prandtl(20.0)
+    assert upper - lower < 0.2 * _prandtl(20.0)
 
 
 @pytest.mark.slow
