@@ -18,7 +18,9 @@ import numpy as np
 
 ROAD, ROLLER, FIXED, INTERFACE = 0, 1, 2, 3
 INTERIOR = -1
-FAN = 16  # triangles around a point where the boundary traction jumps
+FAN = 32  # triangles around a point where the boundary traction jumps
+FAN_GROWTH = 1.5  # ratio of the radii of successive rings of the fan
+FAN_REACH = 0.9  # the fan's outer radius, in multiples of the distance to the nearest other side
 
 
 @dataclass(frozen=True)
@@ -26,8 +28,10 @@ class Outline:
     """A counter-clockwise polygon (m): ``points`` (n, 2), mesh ``sizes`` (n,) at the points (m), and per side
     ``i`` (from point i to i + 1, cyclically) its ``kind``, its ``block`` (the rigid block behind an INTERFACE
     side, else -1) and its ``traction`` (2,) per unit load factor (Pa; ROAD sides only). ``fans``: points (on straight
-    stretches) where the traction jumps: the mesh has a fan of ``FAN`` triangles there, so that the stress can
-    turn through the discontinuities a lower bound needs at such a singular point (Sloan 1988)."""
+    stretches) where the traction jumps: the mesh has a fan of ``FAN`` rays there, out into the region, so that the
+    stress can turn through the discontinuities a lower bound needs at such a singular point (Sloan 1988) and the
+    velocity can shear along the rays of the mechanism's radial zone. The mesh changes neither bound's rigour: every
+    mesh gives a statically admissible field and a kinematically admissible mechanism; the fan makes them better."""
 
     points: np.ndarray
     sizes: np.ndarray
@@ -126,17 +130,34 @@ def triangulate(outline: Outline) -> SoilMesh:
 
 
 def _fan_points(o: Outline) -> list:
-    """Points (and sizes) on a half circle of radius = the point's size inside the region around each fan
-    point, ``FAN - 1`` of them evenly spaced in angle."""
+    """Points (and sizes) of the fan around each fan point: ``FAN - 1`` rays evenly spaced in angle over the half
+    plane inside the region, with a point on each ray at the radii ``size x FAN_GROWTH^k`` up to ``FAN_REACH``
+    times the distance to the nearest side not at the point (the centred fan of stress discontinuities of the
+    exact solution, Prandtl's radial shear zone, reaches out to the edge of the plastic zone)."""
     out = []
+    n = len(o.points)
     for i in o.fans:
-        along = o.points[(i + 1) % len(o.points)] - o.points[i]
+        p = o.points[i]
+        along = o.points[(i + 1) % n] - p
         t = along / np.linalg.norm(along)
         inward = np.array([-t[1], t[0]])
-        r = o.sizes[i]
-        for angle in np.pi * np.arange(1, FAN) / FAN:
-            out.append((o.points[i] + r * (np.cos(angle) * t + np.sin(angle) * inward), r))
+        reach = FAN_REACH * min(_distance(p, o.points[j], o.points[(j + 1) % n]) for j in range(n)
+                                if j not in (i, (i - 1) % n))
+        radii = o.sizes[i] * FAN_GROWTH ** np.arange(max(1, int(np.log(max(reach / o.sizes[i], 1.0))
+                                                                 / np.log(FAN_GROWTH)) + 1))
+        angle = np.pi * np.arange(1, FAN) / FAN
+        ray = np.cos(angle)[:, None] * t + np.sin(angle)[:, None] * inward
+        for r in radii:
+            h = max(o.sizes[i], r * np.pi / FAN)
+            out += [(q, h) for q in p + r * ray]
     return out
+
+
+def _distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance (m) from the point p to the segment a-b."""
+    d = b - a
+    s = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
+    return float(np.linalg.norm(p - a - s * d))
 
 
 def _classify(x: np.ndarray, triangles: np.ndarray, segments: list[np.ndarray], o: Outline) -> SoilMesh:
