@@ -79,3 +79,10 @@ def tmp_scene(tmp_path):
     def make(d: dict, name: str = "scene") -> Path:
         return write_toml(tmp_path / f"{name}.toml", d)
     return make
+
+
+def pytest_collection_modifyitems(items):
+    """A case run under ``mpirun -n 2`` is an end-to-end run (two new processes that import DOLFINx): slow."""
+    for item in items:
+        if item.get_closest_marker("mpi"):
+            item.add_marker(pytest.mark.slow)

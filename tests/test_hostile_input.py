@@ -13,6 +13,7 @@ import os
 import re
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -150,8 +151,20 @@ def test_the_valid_scene_reaches_the_analysis(tmp_path, monkeypatch, capsys):
         cli.main(["run", str(scene), "--out", str(tmp_path / "out")])
 
 
+@pytest.fixture(scope="module")
+def cases_root(tmp_path_factory):
+    return tmp_path_factory.mktemp("cases")
+
+
 @pytest.fixture
-def trapped(tmp_path, monkeypatch):
+def case_dir(cases_root):
+    """A new empty folder per case (pytest's tmp_path scans every earlier folder of the same test name, which
+    grows quadratically over hundreds of cases)."""
+    return Path(tempfile.mkdtemp(dir=cases_root))
+
+
+@pytest.fixture
+def trapped(case_dir, monkeypatch):
     """An empty working folder as the cwd, and the analysis replaced by a trap."""
     import bridgefem.analysis
 
@@ -159,7 +172,7 @@ def trapped(tmp_path, monkeypatch):
         raise AssertionError("the analysis was reached")
 
     monkeypatch.setattr(bridgefem.analysis, "run_analysis", reached)
-    work = tmp_path / "work"
+    work = case_dir / "work"
     work.mkdir()
     monkeypatch.chdir(work)
     return work
@@ -177,14 +190,14 @@ def assert_refused(capsys, argv: list[str], must_name: str, work: Path) -> str:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
-def test_a_malformed_scene_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, trapped, case):
+def test_a_malformed_scene_exits_2_with_one_line_and_writes_nothing(case_dir, capsys, trapped, case):
     _, d, must_name = case
-    scene = write_toml(tmp_path / "scene.toml", d)
-    before = sorted(os.listdir(tmp_path))
+    scene = write_toml(case_dir / "scene.toml", d)
+    before = sorted(os.listdir(case_dir))
     err = assert_refused(capsys, ["run", str(scene)], must_name, trapped)
     assert "allowed" in err or "expected" in err or "only for" in err, err
     assert len(err) < 1000, len(err)
-    assert sorted(os.listdir(tmp_path)) == before
+    assert sorted(os.listdir(case_dir)) == before
 
 
 def bad_files(tmp: Path) -> list[tuple[str, Path, str]]:
