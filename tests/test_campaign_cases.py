@@ -1,0 +1,83 @@
+"""Scenes of the random campaign (benchmarks/campaign.py, seed 1) that crashed or got a wrong verdict, reduced to
+the smallest case that shows each cause; checked against geometry and the rigid-block LP, not the code's output."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bridgefem.geometry import AT_JOINT_TOL, polygon_area_centroid, scene_ring
+from bridgefem.scene import scene_from_dict
+
+from conftest import scene_dict
+
+# campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
+# 2.5 m either side of the apex, and the chords to the apex close the crown's cap
+POINTED = {"shape": "pointed", "span": 19.395, "rise": 16.264, "thickness": 4.8644, "voussoirs": 9}
+
+
+def pointed(position, joint_at_loads, voussoirs=9):
+    return scene_from_dict(scene_dict(arch={**POINTED, "voussoirs": voussoirs, "joint_at_loads": joint_at_loads},
+                                      load=[{"kind": "point", "position": position}]))
+
+
+def fe_live_load(sc):
+    """The FE live-load vector's nodes and their coordinates (m) for ``sc`` meshed with one element through the
+    thickness, and its total (N per unit load level)."""
+    from mpi4py import MPI
+
+    from bridgefem.mesh import build_block_mesh
+    from bridgefem.model import build_elastic_model
+
+    ring = scene_ring(sc)
+    model = build_elastic_model(build_block_mesh(ring, 1), ring, sc)
+    fy = model.f_live.array[1::2]
+    loaded = np.flatnonzero(fy)
+    return ring, model.V.tabulate_dof_coordinates()[loaded, :2], MPI.COMM_WORLD.allreduce(fy.sum())
+
+
+@pytest.mark.parametrize("position, joint_at_loads, voussoirs", [(0.5171, False, 9), (0.5171, True, 9),
+                                                                 (0.49, False, 10), (0.5005, True, 21)])
+def test_load_on_the_pointed_crown_cap_gets_a_vertex_on_the_chord(position, joint_at_loads, voussoirs):
+    """A load whose x lies between the ends of the two arcs' extrados offsets (no intrados point has its extrados
+    there) acts on the cap's chord: a vertex at exactly x, on the straight line between its neighbours, the
+    voussoir's area unchanged by it (campaign scenes 43, 199, 211, 235, 259, 286, 294 crashed: "no mesh node")."""
+    sc = pointed(position, joint_at_loads, voussoirs)
+    x = sc.loads[0].x_range(sc.arch.span)[0]
+    ring = scene_ring(sc)
+    bare = scene_ring(scene_from_dict(scene_dict(arch={**POINTED, "voussoirs": voussoirs,
+                                                       "joint_at_loads": joint_at_loads}, load=[])))
+    vertex = ring.extrados_vertex(x)
+    assert vertex[0] == pytest.approx(x, abs=1e-12)
+    (v,) = [v for v in ring.voussoirs if np.any(np.all(v.extrados == vertex, axis=1))]
+    k = int(np.flatnonzero(np.all(v.extrados == vertex, axis=1))[0])
+    assert k in v.extrados_splits
+    a, b = v.extrados[k - 1], v.extrados[k + 1]
+    assert np.cross(b - a, vertex - a) == pytest.approx(0.0, abs=1e-9)
+    assert len(v.intrados) == len(v.extrados)
+    if not joint_at_loads:
+        assert polygon_area_centroid(v.polygon)[0] == pytest.approx(bare.voussoirs[v.id].area, rel=1e-4)
+
+
+def test_load_off_the_cap_is_on_the_offset_curve_to_round_off():
+    """Elsewhere the load's vertex is the extrados point whose x is the load's to 1e-9 m, far inside the 1e-6 m
+    within which a mesh node carries the load (scene 205, x = 11.16 m: linear interpolation of x(p) was 1.1e-6 m
+    off)."""
+    sc = scene_from_dict(scene_dict(arch={"shape": "semicircular", "span": 22.949, "rise": 11.4745,
+                                          "thickness": 3.1991, "voussoirs": 6, "joint_at_loads": False},
+                                    load=[{"kind": "point", "position": 0.9863}]))
+    x = sc.loads[0].x_range(sc.arch.span)[0]
+    vertex = scene_ring(sc).extrados_vertex(x)
+    radius = sc.arch.span / 2 + sc.arch.thickness
+    assert vertex[0] == pytest.approx(x, abs=1e-9)
+    assert np.hypot(*vertex) == pytest.approx(radius, abs=1e-9)
+
+
+@pytest.mark.parametrize("position, joint_at_loads", [(0.5171, False), (0.5005, True)])
+def test_fe_carries_a_cap_load_at_its_vertex(position, joint_at_loads):
+    """The FE live-load vector puts the whole unit load on mesh nodes at the cap's vertex."""
+    sc = pointed(position, joint_at_loads, 9 if not joint_at_loads else 21)
+    ring, xy, total = fe_live_load(sc)
+    x = sc.loads[0].x_range(sc.arch.span)[0]
+    assert total == pytest.approx(-1.0)
+    assert np.allclose(xy, ring.extrados_vertex(x), atol=1e-9)
+    assert abs(x) > AT_JOINT_TOL * sc.arch.span  # off the apex: the cap's own vertex, not a corner
