@@ -28,6 +28,12 @@ from .status import Status
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
 
 
+def reaches(lower: float, upper: float, level: float) -> bool:
+    """Whether the bracket [``lower``, ``upper``] comes within ``AGREEMENT`` of ``level`` (same unit): the FE limit,
+    somewhere in its bracket, can be within that fraction of the LP's."""
+    return lower <= (1 + AGREEMENT) * level and upper >= (1 - AGREEMENT) * level
+
+
 @dataclass(frozen=True)
 class Verdict:
     """A confirmed (or refused) status text, the bracket's upper end (None: no bracket), the evidence (empty for a
@@ -50,7 +56,7 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                else f"the rigid-block LP on the same joints finds '{lp_status}'" if lp_status
                else "no rigid-block LP answer")
     if kind is Status.LIMIT:
-        agrees = lp is Status.LIMIT and lower <= (1 + AGREEMENT) * lp_level and upper >= (1 - AGREEMENT) * lp_level
+        agrees = lp is Status.LIMIT and reaches(lower, upper, lp_level)
         above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level
         if proved:
             warn = (f"FE limit above the rigid-block LP by more than {AGREEMENT:.1%} ({lp_text})",) if above else ()
