@@ -127,3 +127,43 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
     below = {**data, "limit_load": {"lower": 95270.0, "upper": 95280.0}}  # the whole bracket 0.5 % below, no proof
     assert campaign.judge(below, 0, "")["class"] == "wrong"
     assert campaign.judge({**below, "evidence": "proof: ..."}, 0, "")["class"] == "confirmed"
+
+
+class FailingPreconditioner:
+    """A PETSc python preconditioner (exact for a diagonal matrix) that raises a PETSc error in its first two
+    applications, as MUMPS's solve phase did after a failed factorisation (INFOG(1) = -3, PETSc error 76)."""
+
+    failures = 2
+
+    def setUp(self, pc):
+        self.diagonal = pc.getOperators()[0].getDiagonal()
+
+    def apply(self, pc, x, y):
+        from petsc4py import PETSc
+
+        if FailingPreconditioner.failures > 0:
+            FailingPreconditioner.failures -= 1
+            raise PETSc.Error(76)
+        y.pointwiseDivide(x, self.diagonal)
+
+
+def test_a_solve_after_a_petsc_error_is_a_fresh_solve():
+    """An error inside KSPSolve leaves PCPreSolve's nesting count raised; after two, every later solve of that KSP
+    failed with PETSc error 56 ("Cannot embed PCPreSolve() more than twice"): campaign scenes 161 and 184 failed
+    every live-load trial that way. The next solve now uses a new KSP and solves the system."""
+    from petsc4py import PETSc
+
+    from bridgefem.linsolve import CheckedSolve
+
+    A = PETSc.Mat().createAIJ([4, 4], nnz=1, comm=PETSc.COMM_SELF)
+    for i in range(4):
+        A.setValue(i, i, 2.0 + i)
+    A.assemble()
+    solve = CheckedSolve(A, {"pc_type": "python", "pc_python_type": f"{__name__}.FailingPreconditioner"})
+    b, x = A.createVecLeft(), A.createVecRight()
+    b.set(1.0)
+    try:
+        assert [solve.solve(b, x) is None for _ in range(4)] == [False, False, True, True]
+        assert x.array == pytest.approx(1.0 / (2.0 + np.arange(4)))
+    finally:
+        solve.ksp.destroy()
