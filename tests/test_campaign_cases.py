@@ -167,3 +167,54 @@ def test_a_solve_after_a_petsc_error_is_a_fresh_solve():
         assert x.array == pytest.approx(1.0 / (2.0 + np.arange(4)))
     finally:
         solve.ksp.destroy()
+
+
+@pytest.mark.parametrize("lp_status, lp_level", [("no collapse (unbounded)", None), ("limit load found", 100.0),
+                                                 ("stable under self-weight", None)])
+def test_with_a_fill_unstable_where_the_lp_stands_is_a_solver_failure(lp_status, lp_level):
+    """Scene 136 (Mohr-Coulomb fill): the FE search said "unstable under self-weight" (exit 0, no proof: a yielding
+    fill proves nothing) while the rigid-block LP with the fill as dead load stands. That LP is a lower bound of the
+    bridge: where it stands the ring with its fill stands, so the unproven "unstable" is a solver failure."""
+    from bridgefem.evidence import confirm
+    from bridgefem.status import Status
+
+    v = confirm(Status.UNSTABLE, 0.0, None, False, lp_status, lp_level, fill=True)
+    assert Status.of(v.status) is Status.FAILURE and v.upper is None
+    assert "fill as dead load" in v.status
+    agreed = confirm(Status.UNSTABLE, 0.0, None, False, Status.UNSTABLE, None, fill=True)
+    assert agreed.status == Status.UNSTABLE
+
+
+def test_with_a_fill_a_limit_is_not_refused_by_the_lp_but_one_below_it_warns():
+    """With a fill the LP (fill as dead load) is a lower bound: a limit above it stands without agreement; one below
+    it stands with a warning; the search's maximum load above it is no contradiction."""
+    from bridgefem.evidence import confirm
+    from bridgefem.status import Status
+
+    above = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True)
+    assert above.status == Status.LIMIT and above.upper == 181.0 and not above.warnings
+    below = confirm(Status.LIMIT, 60.0, 61.0, False, Status.LIMIT, 100.0, fill=True)
+    assert below.status == Status.LIMIT and "lower bound" in below.warnings[0]
+    assert not confirm(Status.LOCKED, 900.0, None, False, Status.LIMIT, 100.0, fill=True).warnings
+
+
+@pytest.mark.slow
+def test_scene_136_is_no_false_unstable(tmp_path):
+    """Campaign scene 136 end to end: a 14 m thick segmental ring under a Mohr-Coulomb fill, which the LP with the
+    fill as dead load finds unbounded (no live load collapses it): never "unstable under self-weight"."""
+    import json
+
+    from conftest import bridgefem, write_toml
+
+    scene = write_toml(tmp_path / "s.toml", {
+        "arch": {"shape": "segmental", "span": 27.756, "rise": 2.782, "thickness": 14.0229, "width": 1.0,
+                 "voussoirs": 19},
+        "masonry": {"young": 2.99e9, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.403},
+        "load": [{"kind": "point", "position": 0.5778}],
+        "fill": {"unit_weight": 18000.0, "young": 5e7, "depth": 1.388, "extension": 5.551,
+                 "material": "mohr-coulomb", "cohesion": 5000.0}})
+    out = tmp_path / "out"
+    proc = bridgefem("run", str(scene), "--out", str(out))
+    data = json.loads(next(tmp_path.glob("out*/results.json")).read_text())
+    assert data["status"] != "unstable under self-weight"
+    assert proc.returncode == (1 if data["status"].startswith("solver failure") else 0)
