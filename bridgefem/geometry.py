@@ -312,23 +312,15 @@ def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray
 
 
 def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, bool]:
-    """The curve parameter whose extrados point is at horizontal position x (m), to round-off (bisection in the
-    bracket of the fine samples), and whether that point exists: at a kink the extrados jumps (the pointed crown's
-    cap between the offsets of its two arcs, closed by chords to the apex), and a load on the cap gets the kink's
-    parameter and False."""
+    """The curve parameter whose extrados point is at horizontal position x (m), interpolated in fine samples (about
+    span / 4000^2 off: the load's vertex is the extrados vertex nearest to x, :meth:`ArchRing.extrados_vertex`), and
+    whether that point exists: at a kink the extrados jumps (the pointed crown's cap between the offsets of its two
+    arcs, closed by chords to the apex), and a load on the cap, farther than ``AT_JOINT_TOL`` x the ring's width from
+    the interpolated point, gets the kink's parameter and False."""
     p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
     xs = _ring_point(shape, thickness, p, 1.0)[:, 0]
-
-    def x_of(q):
-        return float(_ring_point(shape, thickness, q, 1.0)[0])
-
-    k = int(np.clip(np.searchsorted(xs, x), 1, len(p) - 1))
-    lo, hi = float(p[k - 1]), float(p[k])
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if x_of(mid) < x else (lo, mid)
-    q = min((lo, hi), key=lambda v: abs(x_of(v) - x))
-    if abs(x_of(q) - x) <= 1e-9 * (xs[-1] - xs[0]):
+    q = float(np.interp(x, xs, p))
+    if abs(_ring_point(shape, thickness, q, 1.0)[0] - x) <= AT_JOINT_TOL * (xs[-1] - xs[0]):
         return q, True
     return min(shape.kinks, key=lambda v: abs(v - q)), False
 
