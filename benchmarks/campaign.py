@@ -13,8 +13,9 @@ Each scene is drawn from the seed and its index alone (so one scene can be re-ru
 Every scene is run by the command line (``bridgefem run``) in a subprocess with a timeout, and judged against the
 rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
 
-- *confirmed*: FE and LP give the same verdict; for a limit load, FE within ``NO_SLIP_TOL`` of the LP when no joint
-  slides (FE or LP), FE at most ``1 + NO_SLIP_TOL`` x LP when one does (and below ``1 - NO_SLIP_TOL`` x LP only
+- *confirmed*: FE and LP give the same verdict; for a limit load, the FE bracket within ``NO_SLIP_TOL`` of the LP
+  (:func:`bridgefem.evidence.reaches`, the evidence rule's agreement) when no joint slides (FE or LP), its lower end
+  at most ``1 + NO_SLIP_TOL`` x LP when one does (and its upper end below ``1 - NO_SLIP_TOL`` x LP only
   with a proved mechanism: results.json ``evidence``); with a fill (LP: fill as dead load only) any
   FE verdict at or above the LP;
 - *solver failure*: the run says so (exit 1): honest, but no answer;
@@ -42,12 +43,13 @@ from pathlib import Path
 
 import numpy as np
 
+from bridgefem.evidence import AGREEMENT, reaches
 from bridgefem.output import failed_target
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
 FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
-NO_SLIP_TOL = 0.005  # FE within this fraction of the LP where no joint slides (issue 12)
+NO_SLIP_TOL = AGREEMENT  # FE within this fraction of the LP where no joint slides (issue 12)
 TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
 
 
@@ -186,12 +188,13 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
         cls = "wrong"
     elif status == "limit load found":
+        lower, upper, level = lim["lower"], lim["upper"], lp["load"]
         if fill:
-            ok = ratio is not None and ratio >= 1 - NO_SLIP_TOL
+            ok = upper >= (1 - NO_SLIP_TOL) * level
         elif sliding:
-            ok = ratio is not None and ratio <= 1 + NO_SLIP_TOL and (ratio >= 1 - NO_SLIP_TOL or proved)
+            ok = lower <= (1 + NO_SLIP_TOL) * level and (upper >= (1 - NO_SLIP_TOL) * level or proved)
         else:
-            ok = ratio is not None and abs(ratio - 1) <= NO_SLIP_TOL
+            ok = reaches(lower, upper, level)
         cls = "confirmed" if ok else "wrong"
     else:
         cls = "confirmed"

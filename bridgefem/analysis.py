@@ -257,11 +257,10 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                              stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                              movement_steps=scene.abutments.movement_steps if motion else 0, report=keep.report)
     lap("limit search")
-    verdict = None
-    if fill is None:  # the evidence rule (bridgefem.evidence); with a fill the LP cannot confirm the FE
-        total = sum(ld.factor for ld in scene.loads) or 1.0
-        verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.load_factor, total)
-        search.status, search.upper = verdict.status, verdict.upper
+    total = sum(ld.factor for ld in scene.loads) or 1.0  # the evidence rule (bridgefem.evidence)
+    verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.load_factor, total,
+                      fill=fill is not None)
+    search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, keep.states, verdict)
 

@@ -15,9 +15,10 @@ A proved verdict that the LP contradicts (an FE limit above the LP's level by mo
 (the LP's equilibrium of the same joints is a certificate that the ring stands, up to its rigid blocks).
 Converged verdicts (stable, locked) are equilibria the search found; a contradicting LP gives a warning.
 
-Applies to rings without a fill; with a fill the LP carries it as dead load only and cannot confirm the FE limit
-(the search's flat load-deflection curve and the ring check of :func:`bridgefem.analysis.transmitted_load_check`
-are the evidence there).
+With a fill the LP carries the fill as dead load only (its strength and stiffness ignored), which makes it a
+lower bound rather than a second estimate: it cannot confirm an FE limit (the search's flat load-deflection curve
+and the ring check of :func:`bridgefem.analysis.transmitted_load_check` are the evidence there; an FE limit below
+the LP gets a warning), but where that LP stands, "unstable under self-weight" is refused as for a bare ring.
 """
 from __future__ import annotations
 
@@ -26,6 +27,12 @@ from dataclasses import dataclass
 from .status import Status
 
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
+
+
+def reaches(lower: float, upper: float, level: float) -> bool:
+    """Whether the bracket [``lower``, ``upper``] comes within ``AGREEMENT`` of ``level`` (same unit): the FE limit,
+    somewhere in its bracket, can be within that fraction of the LP's."""
+    return lower <= (1 + AGREEMENT) * level and upper >= (1 - AGREEMENT) * level
 
 
 @dataclass(frozen=True)
@@ -40,17 +47,23 @@ class Verdict:
 
 
 def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
-            lp_level: float | None, unit: float = 1.0) -> Verdict:
+            lp_level: float | None, unit: float = 1.0, fill: bool = False) -> Verdict:
     """The evidence rule (module docstring) for a search's ``status`` and bracket [``lower``, ``upper``] (levels in N
     per unit load factor), ``proved`` when its last failed step proved the mechanism, against the LP's status and
-    collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN)."""
+    collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN);
+    ``fill``: the bridge has a fill, which the LP carries as dead load only."""
     kind = Status.of(status)
     lp = Status.of(lp_status) if lp_status in set(Status) else None
-    lp_text = (f"the rigid-block LP on the same joints gives {lp_level * unit / 1e3:.6g} kN" if lp is Status.LIMIT
-               else f"the rigid-block LP on the same joints finds '{lp_status}'" if lp_status
-               else "no rigid-block LP answer")
+    lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
+    lp_text = (f"{lp_name} gives {lp_level * unit / 1e3:.6g} kN" if lp is Status.LIMIT
+               else f"{lp_name} finds '{lp_status}'" if lp_status else "no rigid-block LP answer")
+    if kind is Status.LIMIT and fill:
+        below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
+        return Verdict(status, upper, "proof: an admissible rigid-block mode on which the loads do positive work"
+                       if proved else "the search's load-deflection curve (with a fill the LP is a lower bound, "
+                       "no confirmation)", (f"FE limit below the rigid-block lower bound: {lp_text}",) if below else ())
     if kind is Status.LIMIT:
-        agrees = lp is Status.LIMIT and lower <= (1 + AGREEMENT) * lp_level and upper >= (1 - AGREEMENT) * lp_level
+        agrees = lp is Status.LIMIT and reaches(lower, upper, lp_level)
         above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level
         if proved:
             warn = (f"FE limit above the rigid-block LP by more than {AGREEMENT:.1%} ({lp_text})",) if above else ()
@@ -71,7 +84,7 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
         warn = ()
         if lp is Status.UNSTABLE:
             warn = (f"the FE stands under self-weight but {lp_text}",)
-        elif kind is Status.LOCKED and lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level:
+        elif kind is Status.LOCKED and lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level and not fill:
             warn = (f"the FE carries {lower * unit / 1e3:.6g} kN, above the collapse load: {lp_text}",)
         return Verdict(status, upper, "equilibrium found", warn)
     return Verdict(status, upper, "")

@@ -271,6 +271,13 @@ class ArchRing:
         """Height (m) of the highest extrados point."""
         return max(float(v.extrados[:, 1].max()) for v in self.voussoirs)
 
+    def extrados_vertex(self, x: float) -> np.ndarray:
+        """The vertex of the voussoirs' extrados polylines nearest to horizontal position x (m): where a point load
+        at x acts, since :func:`build_ring` puts a vertex (a mesh node) under every load unless the load is within
+        ``AT_JOINT_TOL`` x span of a joint's corner or the pointed crown's apex, where it acts at that corner."""
+        ext = np.vstack([v.extrados for v in self.voussoirs])
+        return ext[np.argmin(np.abs(ext[:, 0] - x))]
+
     def extrados_point(self, x: float) -> np.ndarray:
         """The extrados point above horizontal position x (m)."""
         ext = np.vstack([v.extrados for v in self.voussoirs])
@@ -304,9 +311,18 @@ def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray
     return shape.point(p) + offset * thickness * shape.normal(p)
 
 
-def _extrados_x_to_param(shape: _Shape, thickness: float, x: float) -> float:
-    p = np.linspace(0.0, 1.0, _FINE)
-    return float(np.interp(x, _ring_point(shape, thickness, p, 1.0)[:, 0], p))
+def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, bool]:
+    """The curve parameter whose extrados point is at horizontal position x (m), interpolated in fine samples (about
+    span / 4000^2 off: the load's vertex is the extrados vertex nearest to x, :meth:`ArchRing.extrados_vertex`), and
+    whether that point exists: at a kink the extrados jumps (the pointed crown's cap between the offsets of its two
+    arcs, closed by chords to the apex), and a load on the cap, farther than ``AT_JOINT_TOL`` x the ring's width from
+    the interpolated point, gets the kink's parameter and False."""
+    p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
+    xs = _ring_point(shape, thickness, p, 1.0)[:, 0]
+    q = float(np.interp(x, xs, p))
+    if abs(_ring_point(shape, thickness, q, 1.0)[0] - x) <= AT_JOINT_TOL * (xs[-1] - xs[0]):
+        return q, True
+    return min(shape.kinks, key=lambda v: abs(v - q)), False
 
 
 def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float]) -> np.ndarray:
@@ -352,7 +368,10 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
         raise ValueError(f"point loads or patch edges at x = {xs[k]:.9g} and {xs[k + 1]:.9g} m are {gaps[k]:.3g} m "
                          f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
                          "have an edge that short; put them at one position or further apart")
-    load_params = [_extrados_x_to_param(curve, thickness, x) for x in xs]
+    located = [_extrados_param(curve, thickness, x) for x in xs]
+    load_params = [q for q, _ in located]  # a load on a kink's cap gets a joint at the kink
+    curve_params = [q for q, on_curve in located if on_curve]
+    cap_x = [x for x, (_, on_curve) in zip(xs, located) if not on_curve]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
     if joint_at_loads and len(load_params):
@@ -364,7 +383,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def voussoir(i):
         pa, pb = params[i], params[i + 1]
         kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
-        inside = np.array([k for k in load_params if pa < k < pb])  # a load on a joint's corner is at the joint
+        inside = np.array([k for k in curve_params if pa < k < pb])  # a load on a joint's corner is at the joint
         corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
         loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
         special = np.array(sorted(kinks + loads))
@@ -373,9 +392,19 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
             gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
             regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
         q = np.unique(np.concatenate([regular, special]))
-        split = tuple(int(k) for k in np.searchsorted(q, kinks))
-        return Voussoir(i, _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0), split,
-                        tuple(int(k) for k in np.searchsorted(q, sorted(kinks + loads))))
+        intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
+        kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
+        for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
+            if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
+                continue
+            k = int(np.searchsorted(extra[:, 0], xc))
+            f = (xc - extra[k - 1, 0]) / (extra[k, 0] - extra[k - 1, 0])
+            qc = q[k - 1] + f * (q[k] - q[k - 1])
+            intra = np.insert(intra, k, _ring_point(curve, thickness, qc, 0.0), axis=0)
+            extra = np.insert(extra, k, extra[k - 1] + f * (extra[k] - extra[k - 1]), axis=0)
+            q, kink_at, split_at = np.insert(q, k, qc), np.insert(kink_at, k, False), np.insert(split_at, k, True)
+        return Voussoir(i, intra, extra, tuple(np.flatnonzero(kink_at).tolist()),
+                        tuple(np.flatnonzero(split_at).tolist()))
 
     voussoirs = [voussoir(i) for i in range(n_voussoirs)]
     joints = []

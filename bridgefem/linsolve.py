@@ -41,20 +41,28 @@ class CheckedSolve:
     def __init__(self, A: PETSc.Mat, options: dict):
         self.A = A
         self.comm = A.getComm().tompi4py()
-        opts = PETSc.Options()
-        merged = {**DEFAULT_PETSC_OPTIONS, **options}
-        for key, value in merged.items():
-            opts[PETSC_PREFIX + key] = value
-        self.ksp = PETSc.KSP().create(self.comm)
-        self.ksp.setOptionsPrefix(PETSC_PREFIX)
-        self.ksp.setOperators(A)
-        self.ksp.setFromOptions()
-        self.ksp.setUp()  # the factorisation reads its options (e.g. MUMPS ICNTL) now
-        for key in merged:
-            opts.delValue(PETSC_PREFIX + key)
-        self.options = {k: str(v) for k, v in merged.items()}
+        self.options = {k: str(v) for k, v in {**DEFAULT_PETSC_OPTIONS, **options}.items()}
+        self.ksp = self._new_ksp()
         self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._r = A.createVecLeft()
+        self._broken = False
+
+    def _new_ksp(self) -> PETSc.KSP:
+        """A KSP of ``A`` with ``options`` under the prefix, set up (the factorisation reads its options, e.g. MUMPS
+        ICNTL, now; they are then removed from the global options database)."""
+        opts = PETSc.Options()
+        for key, value in self.options.items():
+            opts[PETSC_PREFIX + key] = value
+        ksp = PETSc.KSP().create(self.comm)
+        try:
+            ksp.setOptionsPrefix(PETSC_PREFIX)
+            ksp.setOperators(self.A)
+            ksp.setFromOptions()
+            ksp.setUp()
+        finally:
+            for key in self.options:
+                opts.delValue(PETSC_PREFIX + key)
+        return ksp
 
     def matrix_changed(self) -> None:
         """The matrix's values changed: the next solve refactorises."""
@@ -66,8 +74,14 @@ class CheckedSolve:
         the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective."""
         t0 = time.perf_counter()
         try:
+            if self._broken:
+                self.ksp.destroy()
+                self.ksp, self._broken = self._new_ksp(), False
             self.ksp.solve(b, x)
         except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
+            # an error inside KSPSolve leaves the KSP unusable (PCPreSolve's nesting count is never reset: after two
+            # such errors every solve fails with PETSc error 56): the next solve builds a new one
+            self._broken = True
             failure = self._failure(f"PETSc error code {err.ierr}")
             return failure if failure.singular else \
                 SolveFailure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)

@@ -183,7 +183,7 @@ def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> t
     if scene.fill is not None:
         return np.array([x, ring.crown_extrados + scene.fill.depth]), (ring.n_blocks,)
     j = joint_under(ring, x)
-    point = ring.extrados_point(x) if j is None else ring.joints[j].extrados
+    point = ring.extrados_vertex(x) if j is None else ring.joints[j].extrados
     return point, point_load_blocks(ring, x, side)
 
 
