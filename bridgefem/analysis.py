@@ -29,6 +29,7 @@ from typing import Callable
 import numpy as np
 from dolfinx import fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from .abutments import support_motion
 from .bounds import fill_bounds
@@ -248,7 +249,11 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     lap("solver setup")
     s = scene.solver
     phase("limit search")
-    keep = _ConvergedStates(monitor_deflection(solver, model.monitor), solver.n_u,
+    # a plastic fill can fail under the load before the ring does: watch the load's own displacement; an elastic
+    # fill cannot, and its elastic settlement would hide the ring's mechanism from the flat-curve test
+    under_load = (load_displacement(solver, model.f_live, model.live_per_level)
+                  if material is not None and model.live_per_level > 0 else monitor_deflection(solver, model.monitor))
+    keep = _ConvergedStates(under_load, solver.n_u,
                             sum(ld.factor for ld in scene.loads) or 1.0, report)
     search = find_limit_load(solver, keep.deflection, tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
@@ -263,6 +268,19 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, keep.states, verdict)
+
+
+def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> Callable[[Iterate], float]:
+    """The live load's work-conjugate displacement (m, down positive): delta = f_live . u / P, P = ``live`` (N per
+    unit level), i.e. the load-weighted mean settlement of the loaded road. P delta is the live load's work, so the
+    curve of P against delta is the one whose flattening (tangent stiffness (f_live' K_t^-1 f_live)^-1 / P^2 -> 0)
+    marks plastic collapse, whichever part (the ring's hinges or the fill under the load) gives way. Collective."""
+    comm, f = solver.comm, f_live.array.copy()
+
+    def displacement(it: Iterate) -> float:
+        return comm.allreduce(float(f @ it.x.array[:solver.n_u])) / live
+
+    return displacement
 
 
 class _ConvergedStates:
