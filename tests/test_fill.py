@@ -256,6 +256,7 @@ def test_very_soft_fill_only_passes_loads_to_the_ring(variant):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_ring_check_same_under_mpi(tmp_path):
     """The ring under the transmitted loads through the command line on 2 MPI ranks (the interface forces gathered
     from both): results.json holds the serial in-process values (1e-6: the same active sets and steps)."""
@@ -282,6 +283,7 @@ def prestwood(tmp_path_factory):
     return out, json.loads((out / "serial/results.json").read_text())
 
 
+@pytest.mark.slow
 def test_prestwood_limit_load_against_the_collapse_test(prestwood):
     """TRRL RR110: 228 kN. The Mohr-Coulomb fill must give a limit load within 15 % of the test (the fill's
     stiffness, depth and extent are assumed, see demos/prestwood.toml) and well above the LP with the fill as
@@ -294,6 +296,8 @@ def test_prestwood_limit_load_against_the_collapse_test(prestwood):
     assert len(data["mechanism"]["hinges"]) == 4
 
 
+@pytest.mark.mpi
+@pytest.mark.slow
 def test_prestwood_same_bracket_under_mpi(prestwood):
     """2 ranks follow the serial load path trial by trial and give the same bracket and hinges. The partitions
     only round differently (states agree to ~1e-10), and the levels tried are computed from the same LP guess:
