@@ -53,6 +53,7 @@ RING_JOINT_SCALE = 0.1  # Alart-Curnier constant of the ring's joints, of E w L 
 # displacements when the active set is classified; on the seeded campaign (benchmarks/campaign.py, seed 1, the 34
 # scenes both finished) 0.1 gave no solver failure where 1 gave two, and at most 106 solves per limit against 231
 LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP flagged outside it: elastic blocks stop <= 2 % below the LP, never 1 % above
+FILL_BOUND_TOL = 0.01  # FE carrying more than this above the rigid-plastic upper bound: a discretisation error
 SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void the small-displacement model
 
 
@@ -130,8 +131,8 @@ class Analysis:
     @property
     def warnings(self) -> list[str]:
         """What a user must know before trusting the bracket: voussoirs shorter than an element, a deflection
-        beyond :data:`SMALL_DISPLACEMENT` of the span, and an FE/LP ratio outside :data:`LP_RATIO_RANGE` on a bare
-        ring without FE sliding."""
+        beyond :data:`SMALL_DISPLACEMENT` of the span, an FE/LP ratio outside :data:`LP_RATIO_RANGE` on a bare
+        ring without FE sliding, an FE limit above the conic upper bound of a fill, and the verdict's warnings."""
         out = []
         deflections = [abs(st.deflection) for st in self.search.steps if st.converged and st.deflection is not None]
         span = self.scene.arch.span
@@ -150,6 +151,10 @@ class Analysis:
                 and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
             out.append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a case without FE "
                        "sliding: check the mesh, the tolerance and the mechanism")
+        bounds = self.fill_bounds or {}
+        if bounds.get("upper") and self.search.lower * self.load_total > (1 + FILL_BOUND_TOL) * bounds["upper"]:
+            out.append(f"FE limit above the conic upper bound of the bridge with its fill ({bounds['upper'] / 1e3:.6g} "
+                       "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
         return out + (list(self.verdict.warnings) if self.verdict else [])
 
     def voussoir_motion(self, u: np.ndarray) -> np.ndarray:

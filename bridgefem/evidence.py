@@ -15,10 +15,14 @@ A proved verdict that the LP contradicts (an FE limit above the LP's level by mo
 (the LP's equilibrium of the same joints is a certificate that the ring stands, up to its rigid blocks).
 Converged verdicts (stable, locked) are equilibria the search found; a contradicting LP gives a warning.
 
-With a fill the LP carries the fill as dead load only (its strength and stiffness ignored), which makes it a
-lower bound rather than a second estimate: it cannot confirm an FE limit (the search's flat load-deflection curve
-and the ring check of :func:`bridgefem.analysis.transmitted_load_check` are the evidence there; an FE limit below
-the LP gets a warning), but where that LP stands, "unstable under self-weight" is refused as for a bare ring.
+With a fill the LP carries the fill as dead load only: it ignores the fill's strength and stiffness, which
+usually raise the collapse load, and the fill's own failure under the load (a bearing failure under a patch or a
+point load), which can lower it far below the LP (campaign scene 125: FE 1430 kN, conic upper bound of the bridge
+with its fill 1029 kN, the LP 23 929 kN). So it cannot confirm an FE limit either way: the search's flat
+load-deflection curve is the FE's evidence, the conic bounds (``fill_bounds``, :mod:`bridgefem.bounds`) the
+independent check, and an FE limit below the LP gets a warning that names the likely cause. Under self-weight
+alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
+as for a bare ring.
 """
 from __future__ import annotations
 
@@ -60,8 +64,9 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
     if kind is Status.LIMIT and fill:
         below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         return Verdict(status, upper, "proof: an admissible rigid-block mode on which the loads do positive work"
-                       if proved else "the search's load-deflection curve (with a fill the LP is a lower bound, "
-                       "no confirmation)", (f"FE limit below the rigid-block lower bound: {lp_text}",) if below else ())
+                       if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the conic "
+                       "bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before the "
+                       "ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
     if kind is Status.LIMIT:
         agrees = lp is Status.LIMIT and reaches(lower, upper, lp_level)
         above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level

@@ -175,8 +175,8 @@ def test_a_solve_after_a_petsc_error_is_a_fresh_solve():
                                                  ("stable under self-weight", None)])
 def test_with_a_fill_unstable_where_the_lp_stands_is_a_solver_failure(lp_status, lp_level):
     """Scene 136 (Mohr-Coulomb fill): the FE search said "unstable under self-weight" (exit 0, no proof: a yielding
-    fill proves nothing) while the rigid-block LP with the fill as dead load stands. That LP is a lower bound of the
-    bridge: where it stands the ring with its fill stands, so the unproven "unstable" is a solver failure."""
+    fill proves nothing) while the rigid-block LP with the fill as dead load stands: the ring carries the fill's
+    weight, so the unproven "unstable" is a solver failure."""
     from bridgefem.evidence import confirm
     from bridgefem.status import Status
 
@@ -188,15 +188,16 @@ def test_with_a_fill_unstable_where_the_lp_stands_is_a_solver_failure(lp_status,
 
 
 def test_with_a_fill_a_limit_is_not_refused_by_the_lp_but_one_below_it_warns():
-    """With a fill the LP (fill as dead load) is a lower bound: a limit above it stands without agreement; one below
-    it stands with a warning; the search's maximum load above it is no contradiction."""
+    """With a fill the LP (fill as dead load) cannot confirm a limit: one above it stands without agreement; one
+    below it stands with a warning naming the fill's own failure; the search's maximum load above it is no
+    contradiction."""
     from bridgefem.evidence import confirm
     from bridgefem.status import Status
 
     above = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True)
     assert above.status == Status.LIMIT and above.upper == 181.0 and not above.warnings
     below = confirm(Status.LIMIT, 60.0, 61.0, False, Status.LIMIT, 100.0, fill=True)
-    assert below.status == Status.LIMIT and "lower bound" in below.warnings[0]
+    assert below.status == Status.LIMIT and "the fill fails before the ring" in below.warnings[0]
     assert not confirm(Status.LOCKED, 900.0, None, False, Status.LIMIT, 100.0, fill=True).warnings
 
 
