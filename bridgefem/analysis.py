@@ -14,7 +14,7 @@ With a fill, the forces the fill exerts on the ring across the arch-fill interfa
 the ring's rigid-block LP in :func:`transmitted_load_check`: the ring under the loads the fill transmits.
 
 Load vocabulary: the *load level* P (N per unit ``factor``; ``LoadStep.level`` in :mod:`bridgefem.pathfollow`,
-``LPResult.load_factor`` in :mod:`bridgefem.rigid_block`) scales the scene's live loads, each ``factor`` x P; the
+``LPResult.level`` in :mod:`bridgefem.rigid_block`) scales the scene's live loads, each ``factor`` x P; the
 *live load* is P x the sum of the factors (N, ``Analysis.load_total`` per unit level), the ``load`` of results.json.
 """
 from __future__ import annotations
@@ -263,12 +263,12 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     search = find_limit_load(solver, keep.deflection, tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
-                             max_steps=s.max_steps, guess=lp.load_factor if lp.status == Status.LIMIT else None,
+                             max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
                              stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                              movement_steps=scene.abutments.movement_steps if motion else 0, report=keep.report)
     lap("limit search")
     total = sum(ld.factor for ld in scene.loads) or 1.0  # the evidence rule (bridgefem.evidence)
-    verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.load_factor, total,
+    verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
                       fill=fill is not None)
     search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
@@ -414,13 +414,13 @@ def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
 class TransmittedLoadCheck:
     """The ring's rigid-block LP under the loads the fill transmits (:func:`transmitted_load_check`).
 
-    ``level``: the FE's last converged load level P_L (N per unit load factor); ``load_factor``: the LP's
+    ``fe_level``: the FE's last converged load level P_L (N per unit load factor); ``lp_level``: the LP's
     collapse load level lambda (same unit) under dead load = ring weight + interface forces after self-weight and live
     load = (interface forces at P_L - those after self-weight) / P_L; ``ratio`` = lambda / P_L (None when the LP
     finds no limit load); ``lp``: the LP result (its mechanism)."""
 
-    level: float
-    load_factor: float | None
+    fe_level: float
+    lp_level: float | None
     ratio: float | None
     lp: LPResult
 
@@ -450,8 +450,8 @@ def transmitted_load_check(an: Analysis, friction_model: str = "associative") ->
             lp = solve_blocks(model, friction_model)
         except RuntimeError as err:  # a check, never the reason a run fails: report it
             lp = LPResult(None, None, f"LP failed: {err}", friction_model)
-        ratio = lp.load_factor / s.lower if lp.load_factor is not None else None
-        out = TransmittedLoadCheck(s.lower, lp.load_factor, ratio, lp)
+        ratio = lp.level / s.lower if lp.level is not None else None
+        out = TransmittedLoadCheck(s.lower, lp.level, ratio, lp)
     return an.solver.comm.bcast(out, root=0)
 
 

@@ -32,12 +32,12 @@ BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), t
 @dataclass
 class Bound:
     """One bound: status ("optimal", "optimal (reduced accuracy)", "infeasible" = the dead load cannot be
-    carried, "unbounded" = no collapse, or "solver failure: ..."), load (N; None unless optimal), load_factor,
+    carried, "unbounded" = no collapse, or "solver failure: ..."), load (N; None unless optimal), level,
     Clarabel iterations, seconds, sizes (unknowns, equalities, inequalities, cones)."""
 
     status: str
     load: float | None
-    load_factor: float | None
+    level: float | None
     iterations: int
     seconds: float
     sizes: dict
@@ -120,7 +120,7 @@ def bounds_summary(b: Bounds) -> dict:
     its status, sizes, iterations and seconds."""
     return {"lower": b.lower.load, "upper": b.upper.load, "unit": "N", "model": BOUNDS_MODEL, "mesh": b.mesh,
             "time": b.timings["total"], "mechanism": upper_mechanism(b),
-            "programmes": {name: {"status": x.status, "load_factor": x.load_factor, "iterations": x.iterations,
+            "programmes": {name: {"status": x.status, "level": x.level, "iterations": x.iterations,
                                   "seconds": x.seconds, **x.sizes} for name, x in (("lower", b.lower),
                                                                                     ("upper", b.upper))}}
 

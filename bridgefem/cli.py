@@ -213,8 +213,8 @@ def _lp(args) -> int:
                  for i, s in enumerate(res.load_sides) if s is not None]
         if sides:
             print(f"  point loads on joints (least favourable): {', '.join(sides)}")
-        if res.friction_model != "associative" and res.load_factor_associative is not None:
-            print(f"  associative friction: {res.load_factor_associative * res.load / res.load_factor / 1e3:.3f} kN "
+        if res.friction_model != "associative" and res.level_associative is not None:
+            print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN "
                   "(non-associative collapse loads need not be unique: docs/joints-and-lp.md)")
     return 0
 

@@ -132,8 +132,8 @@ def ring_check_summary(an: Analysis) -> dict | None:
     if check is None:
         return None
     lp, total = check.lp, an.load_total
-    return {"model": RING_CHECK_MODEL, "fe_load": check.level * total,
-            "load": None if check.load_factor is None else check.load_factor * total, "unit": "N",
+    return {"model": RING_CHECK_MODEL, "fe_load": check.fe_level * total,
+            "load": None if check.lp_level is None else check.lp_level * total, "unit": "N",
             "ratio": check.ratio, "status": lp.status, "mechanism": _mechanism(lp)}
 
 

@@ -126,9 +126,9 @@ def generalised_loads(ref: np.ndarray, blocks, points, forces) -> np.ndarray:
 class LPResult:
     """Outcome of a rigid-block analysis (all arrays over joints/blocks in model order).
 
-    load: total live load at collapse, N (load_factor x sum of live forces; None without live load);
-    load_factor: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
-    the load level in N); load_factor_associative: the associative value (differs only for non-associative runs);
+    load: total live load at collapse, N (level x sum of live forces; None without live load);
+    level: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
+    the load level in N); level_associative: the associative value (differs only for non-associative runs);
     status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
     hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
     "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
@@ -141,10 +141,10 @@ class LPResult:
     """
 
     load: float | None
-    load_factor: float | None
+    level: float | None
     status: str
     friction_model: str = "associative"
-    load_factor_associative: float | None = None
+    level_associative: float | None = None
     hinges: list[int] = field(default_factory=list)
     hinge_positions: dict[int, str] = field(default_factory=dict)
     sliding: list[int] = field(default_factory=list)
@@ -269,7 +269,7 @@ def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesi
     q = sol.x[:3 * nj].reshape(nj, 3) * prog.fref
     res.joint_forces = {"n": q[:, 0], "s": q[:, 1], "m": q[:, 2]}
     vel = -np.asarray(sol.eqlin.marginals).reshape(-1, 3)
-    if res.load_factor is None:  # dead load only: largest block speed = 1
+    if res.level is None:  # dead load only: largest block speed = 1
         speed = np.hypot(vel[:, 0], vel[:, 1]).max()
         vel = vel / speed if speed > 0 else vel
     rot, slip = _relative_motion(model, vel)
@@ -283,7 +283,7 @@ def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesi
     res.work_dead = float(model.dead.ravel() @ vel.ravel())
     res.work_live = float(model.live.ravel() @ vel.ravel())
     z = np.asarray(sol.ineqlin.marginals)
-    res.dissipation = float(-(prog.rhs(cohesion) @ z) * prog.fref) if res.load_factor is not None else 0.0
+    res.dissipation = float(-(prog.rhs(cohesion) @ z) * prog.fref) if res.level is not None else 0.0
 
 
 def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LPResult:
@@ -351,8 +351,8 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alph
     sol, cohesion, iterations, converged, first = _solve(prog, False, friction_model, alpha, beta, rtol,
                                                          max_iterations)
     res = _status(sol, model, prog, friction_model)
-    res.load_factor_associative = first if res.load_factor is not None else None
-    if res.load_factor is not None:
+    res.level_associative = first if res.level is not None else None
+    if res.level is not None:
         _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
     return res
@@ -486,7 +486,7 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
 
 def _level(res: LPResult) -> float:
     """The collapse load factor as a number to compare (an unbounded load is +inf)."""
-    return np.inf if res.load_factor is None and res.status == "no collapse (unbounded)" else (res.load_factor or 0.0)
+    return np.inf if res.level is None and res.status == "no collapse (unbounded)" else (res.level or 0.0)
 
 
 def _least_favourable(solve, on_joint: list[int]) -> LPResult:

@@ -83,7 +83,7 @@ solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.
 lp = collapse_load(scene)
 search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=scene.solver.tolerance,
                          initial_step=model.dead_weight / 4, max_load=100 * model.dead_weight,
-                         max_steps=scene.solver.max_steps, guess=lp.load_factor)
+                         max_steps=scene.solver.max_steps, guess=lp.level)
 
 # ## 7. The mechanism and the independent check
 #

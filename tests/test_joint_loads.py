@@ -90,11 +90,11 @@ def test_split_is_never_least_favourable():
                        joints={"friction": rng.uniform(0.35, 0.8)},
                        load=[{"kind": "point", "position": rng.uniform(0.05, 0.95)}])
         sc = scene_from_dict(d)
-        loads = {side: collapse_load(sc, load_at_joint=side).load_factor for side in ("left", "right", "split")}
+        loads = {side: collapse_load(sc, load_at_joint=side).level for side in ("left", "right", "split")}
         if None in loads.values():
             continue
         assert loads["split"] >= min(loads["left"], loads["right"]) * (1 - 1e-7)
-        assert collapse_load(sc).load_factor == pytest.approx(min(loads.values()), rel=1e-12)
+        assert collapse_load(sc).level == pytest.approx(min(loads.values()), rel=1e-12)
 
 
 def test_point_load_blocks():

@@ -72,7 +72,7 @@ def test_equilibrium_and_work_balance(joint_at_loads):
     for k, v in enumerate(ring.voussoirs):
         total[k] += [0.0, -weight[k], -v.centroid[0] * weight[k]]
     for k in live_blocks:
-        total[k] += np.array([0.0, -1.0, -p_load[0]]) * res.load_factor / len(live_blocks)
+        total[k] += np.array([0.0, -1.0, -p_load[0]]) * res.level / len(live_blocks)
     for jt in ring.joints:
         n, s, m = (res.joint_forces[key][jt.id] for key in "nsm")
         force = n * jt.normal + s * jt.tangent
@@ -92,7 +92,7 @@ def test_equilibrium_and_work_balance(joint_at_loads):
     w_dead = -(weight * v_c).sum()
     w_live = sum(-(vel[k, 1] + vel[k, 2] * (p_load[0] - centroids[k, 0])) / len(live_blocks) for k in live_blocks)
     assert w_live == pytest.approx(1.0, rel=1e-6)
-    assert w_dead + res.load_factor * w_live == pytest.approx(0.0, abs=1e-6 * res.load_factor)
+    assert w_dead + res.level * w_live == pytest.approx(0.0, abs=1e-6 * res.level)
 
 
 # Least thickness of a complete semicircle with radial joints under self-weight: t/R = 0.107426 (Cocchetti & Rizzi
@@ -140,13 +140,13 @@ def test_single_block_tipping_or_sliding(friction, friction_model):
     weight, b, h = 10.0, 1.0, 1.5
     res = solve_blocks(single_block(friction), friction_model)
     tipping, sliding = weight * b / (2 * h), friction * weight
-    assert res.load_factor == pytest.approx(min(tipping, sliding), rel=1e-9)  # exact statics, LP round-off only
+    assert res.level == pytest.approx(min(tipping, sliding), rel=1e-9)  # exact statics, LP round-off only
     if sliding < tipping:
         assert res.sliding == [0] and res.hinges == []
     else:
         assert res.hinge_positions == {0: "extrados"} and res.sliding == []  # the toe at x = +b/2
     assert res.work_live == pytest.approx(1.0)
-    assert res.work_dead + res.load_factor * res.work_live == pytest.approx(res.dissipation, abs=1e-9)
+    assert res.work_dead + res.level * res.work_live == pytest.approx(res.dissipation, abs=1e-9)
 
 
 THREE_BLOCK_JOINTS = [((-1, 0), (0, 0), 0, -1), ((0, 0), (1, 0), 1, -1), ((0, 0), (0, 1), 0, 1),
@@ -176,10 +176,10 @@ def test_non_associative_below_associative():
     model = three_blocks(THREE_BLOCK_JOINTS)
     assoc = solve_blocks(model)
     non = solve_blocks(model, "non-associative")
-    assert non.friction_model == "non-associative" and non.load_factor_associative == pytest.approx(assoc.load_factor)
-    assert non.load_factor < 0.95 * assoc.load_factor
-    assert non.load_factor == pytest.approx(30 / 19, rel=1e-6)  # alpha = 0.01 leaves a trace of dilatancy
-    assert non.work_dead + non.load_factor * non.work_live == pytest.approx(non.dissipation, rel=1e-6)
+    assert non.friction_model == "non-associative" and non.level_associative == pytest.approx(assoc.level)
+    assert non.level < 0.95 * assoc.level
+    assert non.level == pytest.approx(30 / 19, rel=1e-6)  # alpha = 0.01 leaves a trace of dilatancy
+    assert non.work_dead + non.level * non.work_live == pytest.approx(non.dissipation, rel=1e-6)
 
 
 def test_non_associative_collapse_load_is_not_unique():
@@ -190,9 +190,9 @@ def test_non_associative_collapse_load_is_not_unique():
     state too: the iteration's 30/19 (full clamping) is one of several values, not a bound (docs/joints-and-lp.md).
     Computed by the associative LP without the joint at x = 0 (the mechanism there needs no dilatancy)."""
     unclamped = solve_blocks(three_blocks([j for k, j in enumerate(THREE_BLOCK_JOINTS) if k != 2]))
-    assert unclamped.load_factor == pytest.approx(25 / 19, rel=1e-9)
+    assert unclamped.level == pytest.approx(25 / 19, rel=1e-9)
     assert unclamped.hinge_positions[1] == "extrados"  # the right block turns about its toe (1, 0)
-    assert solve_blocks(three_blocks(THREE_BLOCK_JOINTS), "non-associative").load_factor > 1.19 * 25 / 19
+    assert solve_blocks(three_blocks(THREE_BLOCK_JOINTS), "non-associative").level > 1.19 * 25 / 19
 
 
 @pytest.mark.parametrize("friction, status", [(0.3, "unstable under self-weight"), (0.6, "limit load found")])
@@ -226,9 +226,9 @@ def test_ring_under_forces_is_the_ring_under_the_given_forces():
     block = int(np.flatnonzero(model.live[:, 1])[0])
     point = model.joint_b[block + 1]  # joint j lies between blocks j - 1 and j
     filled = replace(bare, fill=Fill(unit_weight=18000.0, young=1e5, depth=0.5, extension=2.0))
-    assert collapse_load(filled, load_at_joint="left").load_factor > 1.5 * ref.load_factor  # the overburden helps
+    assert collapse_load(filled, load_at_joint="left").level > 1.5 * ref.level  # the overburden helps
     for s in (bare, filled):
         res = solve_blocks(ring_under_forces(s, [block], [point], [[0.0, 0.0]], [[0.0, -1.0]]))
-        assert res.load_factor == pytest.approx(ref.load_factor, rel=1e-9)
+        assert res.level == pytest.approx(ref.level, rel=1e-9)
     shifted = solve_blocks(ring_under_forces(bare, [block], [point], [[0.0, -1e4]], [[0.0, -1e4]]))
-    assert shifted.load_factor == pytest.approx(ref.load_factor / 1e4 - 1, rel=1e-9)
+    assert shifted.level == pytest.approx(ref.level / 1e4 - 1, rel=1e-9)

@@ -27,7 +27,7 @@ def assert_limit_agrees_with_lp(scene, tolerance=0.005):
     s = run_analysis(scene).search
     lp = collapse_load(scene)
     assert s.status == Status.LIMIT, s.status
-    assert abs(0.5 * (s.lower + s.upper) / lp.load_factor - 1) <= tolerance, (s.lower, s.upper, lp.load_factor)
+    assert abs(0.5 * (s.lower + s.upper) / lp.level - 1) <= tolerance, (s.lower, s.upper, lp.level)
 
 
 @pytest.mark.parametrize("case", [
