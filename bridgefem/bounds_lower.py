@@ -39,7 +39,7 @@ def lower_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     """Solve the static programme; returns the solution and the column layout {"joints", "stress", "factor"}
     (stress columns: ``9 triangle + 3 vertex + component``)."""
     blocks, mesh = problem.blocks, problem.mesh
-    nj, nb = blocks.n_joints, blocks.n_blocks
+    nj = blocks.n_joints
     ne = mesh.n_triangles if mesh is not None else 0
     cs, lam = 3 * nj, 3 * nj + 9 * ne
     prog = ConicProgramme(lam + 1)

@@ -126,8 +126,8 @@ def study(scene: Scene, levels: list[int], comm=None, progress=None) -> tuple[li
 
 def table(scene: Scene, meshes: list[MeshLimit], ex: Extrapolation) -> str:
     """The study as a Markdown table (kN) with the extrapolation below it."""
-    rows = [f"| elements through the ring | limit (kN) | status | unknowns | solves | factorisations | wall (s) "
-            f"| distance to L* |", "|---|---|---|---|---|---|---|---|"]
+    rows = ["| elements through the ring | limit (kN) | status | unknowns | solves | factorisations | wall (s) "
+            "| distance to L* |", "|---|---|---|---|---|---|---|---|"]
     for m in meshes:
         bracket = f"[{m.lower / 1e3:.1f}, {m.upper / 1e3:.1f}]" if m.upper is not None else \
             f"last converged {m.lower / 1e3:.1f}"

@@ -716,7 +716,7 @@ def keys_markdown() -> str:
            "Generated from `bridgefem/scene.py` (`SCHEMA`) by `./run python -m bridgefem.scene`; a test checks "
            "that this file is up to date. Units are SI; *required* keys have no default.", ""]
     for section, keys in SCHEMA.items():
-        out += [f"## [[load]]" if section == "load" else f"## [{section}]", "",
+        out += ["## [[load]]" if section == "load" else f"## [{section}]", "",
                 "| key | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
         for k, key in keys.items():
             default = ("*required*" if key.default is REQUIRED else key.derived if key.derived

@@ -149,7 +149,7 @@ def test_lp_min_thickness_and_check_commands(tmp_path):
 def test_run_script_works_from_any_folder(tmp_path):
     """./run bridgefem run SCENE from another folder: the scene path is relative to that folder and results/ is
     written there, not in the repository."""
-    scene = write_toml(tmp_path / "my.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
+    write_toml(tmp_path / "my.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
                                                         solver={"tolerance": 0.01}))
     proc = subprocess.run([str(ROOT / "run"), "bridgefem", "run", "my.toml", "--quiet"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=300)

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -21,7 +19,7 @@ import pytest
 from bridgefem import cli
 from bridgefem.scene import SCHEMA, scene_from_dict
 
-from conftest import ROOT, bridgefem, scene_dict, write_toml
+from conftest import bridgefem, scene_dict, write_toml
 
 
 def valid_scene() -> dict:
