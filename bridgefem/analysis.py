@@ -120,8 +120,9 @@ class Analysis:
     @cached_property
     def fill_bounds(self) -> dict | None:
         """Lower and upper collapse bounds of the bridge with its fill, rigid-plastic, by conic optimisation
-        (:func:`bridgefem.bounds.fill_bounds`; None without a fill)."""
-        return fill_bounds(self.scene)
+        (:func:`bridgefem.bounds.fill_bounds`; None without a fill). Solved on rank 0 and broadcast (collective)."""
+        comm = self.solver.comm
+        return comm.bcast(fill_bounds(self.scene) if comm.rank == 0 else None, root=0)
 
     @cached_property
     def ring_check(self) -> TransmittedLoadCheck | None:
@@ -258,21 +259,26 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     # fill cannot, and its elastic settlement would hide the ring's mechanism from the flat-curve test
     under_load = (load_displacement(solver, model.f_live, model.live_per_level)
                   if material is not None and model.live_per_level > 0 else monitor_deflection(solver, model.monitor))
-    keep = _ConvergedStates(under_load, solver.n_u,
-                            sum(ld.factor for ld in scene.loads) or 1.0, report)
-    search = find_limit_load(solver, keep.deflection, tolerance=s.tolerance,
+    total = sum(ld.factor for ld in scene.loads) or 1.0  # N of live load per unit level
+    states: list[ConvergedState] = []
+
+    def keep(step: LoadStep, it: Iterate) -> None:  # every converged state, for the fields' time series
+        states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
+                                     it.active.state.copy()))
+
+    search = find_limit_load(solver, under_load, tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
                              max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
                              max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
                              stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
-                             movement_steps=scene.abutments.movement_steps if motion else 0, report=keep.report)
+                             movement_steps=scene.abutments.movement_steps if motion else 0, report=report,
+                             converged=keep)
     lap("limit search")
-    total = sum(ld.factor for ld in scene.loads) or 1.0  # the evidence rule (bridgefem.evidence)
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
                       fill=fill is not None)
     search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
-    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, keep.states, verdict)
+    return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict)
 
 
 def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> Callable[[Iterate], float]:
@@ -286,32 +292,6 @@ def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> 
         return comm.allreduce(float(f @ it.x.array[:solver.n_u])) / live
 
     return displacement
-
-
-class _ConvergedStates:
-    """Keeps the state of every converged load step, through the search's two callbacks: it evaluates the
-    deflection of a converged iterate before it reports the step, so the iterate whose deflection the step
-    reports is that step's state."""
-
-    def __init__(self, deflection: Callable[[Iterate], float], n_u: int, load_per_level: float,
-                 report: Callable[[LoadStep], None]):
-        self._deflection, self._n_u, self._per_level, self._report = deflection, n_u, load_per_level, report
-        self._seen: list[tuple[float, Iterate]] = []
-        self.states: list[ConvergedState] = []
-
-    def deflection(self, it: Iterate) -> float:
-        value = self._deflection(it)
-        self._seen.append((value, it))
-        return value
-
-    def report(self, step: LoadStep) -> None:
-        if step.converged:
-            it = next((it for value, it in self._seen if value is step.deflection or value == step.deflection), None)
-            if it is not None:
-                self.states.append(ConvergedState(step.index, step.level * self._per_level,
-                                                  it.x.array[:self._n_u].copy(), it.active.state.copy()))
-        self._seen.clear()
-        self._report(step)
 
 
 def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:

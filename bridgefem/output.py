@@ -35,7 +35,7 @@ from . import version
 
 MARKER = ".bridgefem-results"
 """The file bridgefem writes into every results folder: JSON with its version and the files it wrote."""
-TMP_TAG = ".bridgefem-tmp-"  # temporary folder: .<name>.bridgefem-tmp-XXXXXXXX beside the target
+TMP_TAG = ".bridgefem-tmp-"  # temporary folder: .<name>.bridgefem-tmp-<random suffix> beside the target
 OLD_TAG = ".bridgefem-old-"  # earlier results moved aside where the atomic exchange is not supported
 _RENAME_EXCHANGE = 2  # renameat2 flag (linux/fs.h)
 _AT_FDCWD = -100

@@ -137,7 +137,8 @@ class LimitSearch:
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0,
-                    report: Callable[[LoadStep], None] = lambda s: None) -> LimitSearch:
+                    report: Callable[[LoadStep], None] = lambda s: None,
+                    converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
 
     ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
@@ -145,7 +146,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m) is
     below this fraction of the tangent stiffness after self-weight counts as failed, like a step without
     equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
-    fill, which never becomes exactly singular). Collective.
+    fill, which never becomes exactly singular).
+    ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
+    with its state. Collective.
     """
     steps: list[LoadStep] = []
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
@@ -169,6 +172,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                         solver.friction_factor if solver.friction_factor != 1.0 else None)
         steps.append(step)
         report(step)
+        if step.converged:
+            converged(step, out.iterate)
         return out
 
     first = carry_self_weight(solver, attempt)

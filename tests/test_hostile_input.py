@@ -235,11 +235,20 @@ def test_a_file_that_is_no_scene_exits_2_with_one_line(tmp_path, capsys, trapped
         assert_refused(capsys, [command, str(path)], must_name, trapped)
 
 
-def test_an_unreadable_scene_exits_2(tmp_path, capsys, trapped):
-    if os.geteuid() == 0:
-        pytest.skip("root reads every file")
+def test_an_unreadable_scene_exits_2(tmp_path, capsys, trapped, monkeypatch):
+    """A file without read permission. Root reads every file whatever its mode, so the open is made to fail the way
+    the kernel fails it for other users (EACCES); without root the mode alone does it."""
     scene = write_toml(tmp_path / "s.toml", valid_scene())
     scene.chmod(0)
+    if os.geteuid() == 0:
+        real_open = os.open
+
+        def denied(path, *args, **kwargs):
+            if os.fspath(path) == str(scene):
+                raise PermissionError(13, "Permission denied", str(path))
+            return real_open(path, *args, **kwargs)
+
+        monkeypatch.setattr(os, "open", denied)
     assert_refused(capsys, ["run", str(scene)], "permission denied", trapped)
 
 
