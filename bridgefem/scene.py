@@ -190,6 +190,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "interface_friction": _coefficient("Coulomb coefficient of the arch-fill interface (the extrados)", 0.5),
         "element_size": Key(float, "fill mesh size away from the ring (0: twice the ring's element size)", 0.0,
                             "m", low=0.0, high=MAX_LENGTH),
+        "loading_beam": Key(bool, "each patch load reaches the road through a rigid loading beam of the patch's "
+                            "length, bonded to the road (false: a flexible uniform pressure)", True),
     },
     "abutments": {
         "model": Key(str, "rigid: the springings bear on the ground; elastic: a block below each springing",
@@ -328,7 +330,9 @@ class Fill:
     cone matched to Mohr-Coulomb in plane strain, see :mod:`bridgefem.plasticity`) with friction_angle (degrees),
     cohesion (Pa), tension_cutoff (Pa, limit of the mean stress) and dilation_angle (degrees, 0 to friction_angle;
     None: equal to friction_angle, associated flow); interface_friction: Coulomb coefficient of
-    the arch-fill interface (the extrados); element_size (m): mesh size away from the ring.
+    the arch-fill interface (the extrados); element_size (m): mesh size away from the ring; loading_beam: patch
+    loads reach the road through rigid loading beams (a test's spreader beam, a wheel's footprint) rather than as a
+    flexible pressure, whose edge a frictional fill cannot carry (q <= c N_c at the edge of a uniform pressure).
     """
 
     unit_weight: float
@@ -343,6 +347,7 @@ class Fill:
     dilation_angle: float | None = _default("fill", "dilation_angle")
     interface_friction: float = _default("fill", "interface_friction")
     element_size: float = _default("fill", "element_size")
+    loading_beam: bool = _default("fill", "loading_beam")
 
 
 @dataclass(frozen=True)
@@ -576,6 +581,12 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     if fill is not None and fill.dilation_angle is not None and fill.dilation_angle > fill.friction_angle:
         raise SceneError(f"[fill] dilation_angle = {fill.dilation_angle!r}: allowed is an angle from 0 to "
                          f"friction_angle = {fill.friction_angle:g} degrees")
+    if fill is not None and fill.material == "mohr-coulomb":
+        for i, ld in enumerate(loads):
+            if ld.kind == "point":
+                raise SceneError(f"[[load]] #{i + 1} kind = \"point\": a point force on a Mohr-Coulomb fill has no "
+                                 "finite collapse load; allowed is kind = \"patch\" with the length of the wheel or "
+                                 "loading beam")
     abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),

@@ -12,7 +12,7 @@ from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds, upper
 from bridgefem.bounds_model import Soil, strip_footing_problem
 from bridgefem.bounds_plot import plot_bounds
 from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
+from bridgefem.scene import SceneError, scene_from_dict
 
 from conftest import bridgefem, scene_dict
 
@@ -79,18 +79,21 @@ def test_rough_footing_on_cohesionless_soil_brackets_the_exact_n_gamma():
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension": 2.0, "material": "mohr-coulomb",
         "friction_angle": 30.0, "cohesion": 5000.0, "interface_friction": 0.5}
+ELASTIC_FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension": 2.0}
 PATCH = [{"kind": "patch", "position": 0.25, "length": 0.5}]
 
 
 def test_fill_bounds_entry_of_results():
     """results.json's ``fill_bounds``: None without a fill; a bracket in N with a fill; a reason when the
-    bounds do not cover the scene (a point load on the road)."""
+    bounds do not cover the scene (an elastic fill); a point load on a Mohr-Coulomb fill is refused by the scene."""
     assert fill_bounds(scene_from_dict(scene_dict())) is None
     data = fill_bounds(scene_from_dict(scene_dict(fill=FILL, load=PATCH)))
     assert data["unit"] == "N" and 0 < data["lower"] <= data["upper"]
     assert data["programmes"]["upper"]["cones"] == 3 * data["mesh"]["triangles"]
-    point = fill_bounds(scene_from_dict(scene_dict(fill=FILL)))
-    assert point["lower"] is None and "point" in point["status"]
+    elastic = fill_bounds(scene_from_dict(scene_dict(fill=ELASTIC_FILL, load=PATCH)))
+    assert elastic["lower"] is None and "elastic" in elastic["status"]
+    with pytest.raises(SceneError, match="point"):
+        scene_from_dict(scene_dict(fill=FILL))
 
 
 @pytest.mark.slow

@@ -323,9 +323,10 @@ def test_dilation_angle_is_checked_against_the_friction_angle(psi, phi, ok):
     fill = {**FILL, "material": "mohr-coulomb", "friction_angle": phi, "cohesion": 1e3}
     if psi is not None:
         fill["dilation_angle"] = psi
+    patch = [{"kind": "patch", "position": 0.25, "length": 0.5}]
     if ok:
-        scene = scene_from_dict(scene_dict(fill=fill))
+        scene = scene_from_dict(scene_dict(fill=fill, load=patch))
         assert scene.fill.dilation_angle == psi
     else:
         with pytest.raises(SceneError, match="dilation_angle"):
-            scene_from_dict(scene_dict(fill=fill))
+            scene_from_dict(scene_dict(fill=fill, load=patch))
