@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK
-from bridgefem.evidence import confirm
+from bridgefem.evidence import SlipCheck, confirm, needs_slip_check
 from bridgefem.mechanism import Mode, judge
 from bridgefem.status import Status
 
@@ -105,3 +105,31 @@ def test_status_texts_read_back():
     assert Status.of("no collapse (unbounded)").no_collapse and Status.LOCKED.no_collapse
     with pytest.raises(ValueError):
         Status.of("collapsed")
+
+
+# ------------------------------------------------- evidence rule 3: a sliding limit below the associative LP
+def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,)):
+    return SlipCheck(fe_sliding, converged, level, sliding, (1, 5), 12)
+
+
+def test_a_sliding_limit_below_the_lp_needs_the_non_associative_fixed_point():
+    """FE [90.0, 90.1] N, associative LP 100 N: agreement only with a fixed point within 0.5 % of the bracket that
+    slides at exactly the FE's sliding joints; otherwise a failure that names the check's answer."""
+    ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip())
+    assert ok.status == Status.LIMIT and ok.upper == 90.1
+    assert ok.evidence.startswith("agreement: the non-associative rigid-block LP") and "seeded with the FE" in ok.evidence
+    for bad in (slip(level=92.0), slip(converged=False), slip(sliding=(3, 7)), slip(level=None),
+                slip(fe_sliding=(), sliding=())):
+        v = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=bad)
+        assert Status.of(v.status) is Status.FAILURE and v.upper is None
+        assert "unproven mechanism" in v.status and "non-associative" in v.status
+
+
+def test_the_slip_check_runs_only_where_nothing_else_confirms():
+    """Only an unproven limit of a bare ring with FE sliding that the associative LP does not confirm."""
+    assert needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=False, sliding=True)
+    assert not needs_slip_check(Status.LIMIT, 99.9, 100.0, False, *LP, fill=False, sliding=True)  # LP agrees
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, True, *LP, fill=False, sliding=True)  # proved
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=True, sliding=True)
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=False, sliding=False)
+    assert not needs_slip_check(Status.UNSTABLE, 0.0, 0.0, False, *LP, fill=False, sliding=True)
