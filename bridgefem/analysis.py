@@ -322,9 +322,10 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult,
         normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
             res = collapse_state_from(scene, normal, lp.load_sides)
-            out = SlipCheck(sliding, res.converged, res.level, tuple(res.sliding), tuple(res.hinges), res.iterations)
+            out = SlipCheck(sliding, res.level_seeded, res.converged, res.level, tuple(res.sliding),
+                            tuple(res.hinges), res.iterations)
         except (RuntimeError, ValueError):  # a check that fails confirms nothing
-            out = SlipCheck(sliding, False, None, (), (), 0)
+            out = SlipCheck(sliding, None, False, None, (), (), 0)
     return comm.bcast(out, root=0)
 
 

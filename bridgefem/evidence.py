@@ -9,8 +9,10 @@ evidence of collapse only when
    the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
 3. for a limit with sliding joints below the associative LP: the *non-associative* rigid-block check
    (:func:`bridgefem.rigid_block.collapse_state_from`, the Tresca fixed point of Gilbert, Casapulla & Ahmed 2006,
-   seeded with the FE's joint normal forces at its last converged step) reaches a fixed point within
-   ``AGREEMENT`` of the FE bracket whose mechanism slides at exactly the FE's sliding joints (:class:`SlipCheck`).
+   seeded with the FE's joint normal forces at its last converged step) agrees twice within ``AGREEMENT`` of the
+   FE bracket (:class:`SlipCheck`): its first LP (shear capacities frozen at mu x the FE's normal forces: the FE's
+   state has no rigid-block reserve), and its fixed point, whose mechanism slides at exactly the FE's sliding
+   joints (the FE's limit is a non-associative collapse state of the rigid blocks).
 
 A fixed point is a non-associative rigid-block collapse state: joint forces in equilibrium at its level that obey
 no tension and ``|s| <= mu n``, and a mechanism (hinges, slips without dilatancy) on which the loads' work equals
@@ -48,10 +50,12 @@ AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (i
 class SlipCheck:
     """The non-associative rigid-block check of an FE limit with sliding joints (evidence 3 of the module
     docstring): the FE's sliding joints at its last converged step (``fe_sliding``), and the Tresca fixed point
-    seeded with its joint normal forces: ``converged`` (a fixed point was reached), its ``level`` (N per unit load
-    factor, None without a limit), ``sliding`` and ``hinges`` (joint ids) and ``iterations`` (LPs)."""
+    seeded with its joint normal forces: ``seeded_level`` the first LP's level (capacities mu x the FE's normal
+    forces), ``converged`` (a fixed point was reached), its ``level`` (levels in N per unit load factor, None
+    without a limit), ``sliding`` and ``hinges`` (joint ids) and ``iterations`` (LPs)."""
 
     fe_sliding: tuple[int, ...]
+    seeded_level: float | None
     converged: bool
     level: float | None
     sliding: tuple[int, ...]
@@ -59,17 +63,20 @@ class SlipCheck:
     iterations: int
 
     def agrees(self, lower: float, upper: float) -> bool:
-        """A fixed point within ``AGREEMENT`` of the bracket, sliding at exactly the FE's sliding joints."""
-        return (self.converged and self.level is not None and bool(self.fe_sliding)
-                and set(self.sliding) == set(self.fe_sliding) and reaches(lower, upper, self.level))
+        """The first LP and a fixed point within ``AGREEMENT`` of the bracket, the fixed point sliding at exactly
+        the FE's sliding joints."""
+        return (self.converged and self.level is not None and self.seeded_level is not None
+                and bool(self.fe_sliding) and set(self.sliding) == set(self.fe_sliding)
+                and reaches(lower, upper, self.seeded_level) and reaches(lower, upper, self.level))
 
     def describe(self, unit: float) -> str:
         """The check's answer in words (``unit``: N per unit level)."""
         name = ("the non-associative rigid-block LP (Tresca fixed point, Gilbert, Casapulla & Ahmed 2006) seeded "
                 "with the FE's joint forces")
-        if self.level is None:
+        if self.level is None or self.seeded_level is None:
             return f"{name} finds no limit load"
-        what = f"{name} gives {self.level * unit / 1e3:.6g} kN, sliding at joints {list(self.sliding)}"
+        what = (f"{name} gives {self.seeded_level * unit / 1e3:.6g} kN with the FE's friction capacities and "
+                f"{self.level * unit / 1e3:.6g} kN at its fixed point, sliding at joints {list(self.sliding)}")
         if not self.converged:
             return f"{what} without reaching a fixed point in {self.iterations} LPs"
         return f"{what} (FE: {list(self.fe_sliding)}), hinges {list(self.hinges)}"

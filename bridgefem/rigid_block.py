@@ -129,6 +129,8 @@ class LPResult:
     load: total live load at collapse, N (level x sum of live forces; None without live load);
     level: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
     the load level in N); level_associative: the associative value (differs only for non-associative runs);
+    level_seeded: non-associative runs, the level of the first Tresca LP (shear capacities mu x the seed's normal
+    forces; None without an optimum);
     status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
     hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
     "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
@@ -145,6 +147,7 @@ class LPResult:
     status: str
     friction_model: str = "associative"
     level_associative: float | None = None
+    level_seeded: float | None = None
     hinges: list[int] = field(default_factory=list)
     hinge_positions: dict[int, str] = field(default_factory=dict)
     sliding: list[int] = field(default_factory=list)
@@ -304,8 +307,9 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rt
     """Solve the associative LP, then (non-associative) the Tresca fixed point of the module docstring.
 
     Returns the last solution, its shear capacities (N, the ``cohesion`` of the Tresca rows; zero for the
-    associative LP), the number of LPs, whether the iteration reached a fixed point, and the associative value of
-    the extra unknown (unscaled; None if that LP has no optimum).
+    associative LP), the number of LPs, whether the iteration reached a fixed point, and the values of the extra
+    unknown (unscaled; None without an optimum) of the associative LP and of the first Tresca LP (capacities
+    ``mu`` x the seed; None for the associative programme).
 
     Iteration k solves the LP with ``|s| <= mu n~`` (capacities fixed, no ``n`` term) and relaxes
     ``n~ <- n~ + beta (n - n~)``, from ``n~`` = ``seed`` (N, per joint) or the associative normal forces. It stops
@@ -321,9 +325,9 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rt
     iterations = 1
     first = sol.x[-1] * prog.fref if sol.status == 0 else None
     if friction_model == "associative" or (sol.status != 0 and seed is None):
-        return sol, cohesion, iterations, True, first
+        return sol, cohesion, iterations, True, (first, None)
     n_tilde = np.asarray(seed, float) / prog.fref if seed is not None else sol.x[0:-1:3].copy()
-    history = []
+    history, seeded = [], None
     for _ in range(max_iterations):
         cohesion = mu * n_tilde * prog.fref
         sol = prog.solve(np.zeros_like(mu), cohesion, deficit)
@@ -332,12 +336,13 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rt
             break
         n = sol.x[0:-1:3]
         history.append(sol.x[-1])
+        seeded = history[0] * prog.fref
         last = history[-_WINDOW:]
         steady = len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0)
         if steady and _coulomb_excess(sol.x, mu) <= rtol:
-            return sol, cohesion, iterations, True, first
+            return sol, cohesion, iterations, True, (first, seeded)
         n_tilde = n_tilde + beta * (n - n_tilde)
-    return sol, cohesion, iterations, False, first
+    return sol, cohesion, iterations, False, (first, seeded)
 
 
 def _coulomb_excess(x: np.ndarray, mu: np.ndarray) -> float:
@@ -358,10 +363,10 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     """
     start = time.perf_counter()
     prog = _Programme(model)
-    sol, cohesion, iterations, converged, first = _solve(prog, False, friction_model, beta, rtol, max_iterations,
-                                                         seed)
+    sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
+                                                          seed)
     res = _status(sol, model, prog, friction_model)
-    res.level_associative = first
+    res.level_associative, res.level_seeded = levels
     if res.level is not None:
         _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start

@@ -108,17 +108,19 @@ def test_status_texts_read_back():
 
 
 # ------------------------------------------------- evidence rule 3: a sliding limit below the associative LP
-def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,)):
-    return SlipCheck(fe_sliding, converged, level, sliding, (1, 5), 12)
+def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,), seeded=90.02):
+    return SlipCheck(fe_sliding, seeded, converged, level, sliding, (1, 5), 12)
 
 
 def test_a_sliding_limit_below_the_lp_needs_the_non_associative_fixed_point():
-    """FE [90.0, 90.1] N, associative LP 100 N: agreement only with a fixed point within 0.5 % of the bracket that
-    slides at exactly the FE's sliding joints; otherwise a failure that names the check's answer."""
+    """FE [90.0, 90.1] N, associative LP 100 N: agreement only when the first LP (the FE's friction capacities) and
+    a fixed point are within 0.5 % of the bracket, the fixed point sliding at exactly the FE's sliding joints;
+    otherwise a failure that names the check's answer (e.g. a fixed point back at the associative state)."""
     ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip())
     assert ok.status == Status.LIMIT and ok.upper == 90.1
     assert ok.evidence.startswith("agreement: the non-associative rigid-block LP") and "seeded with the FE" in ok.evidence
-    for bad in (slip(level=92.0), slip(converged=False), slip(sliding=(3, 7)), slip(level=None),
+    for bad in (slip(level=92.0), slip(level=100.0), slip(seeded=95.0), slip(seeded=None), slip(converged=False),
+                slip(sliding=(3, 7)), slip(level=None),
                 slip(fe_sliding=(), sliding=())):
         v = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=bad)
         assert Status.of(v.status) is Status.FAILURE and v.upper is None
