@@ -35,16 +35,19 @@ Virtual work: ``d . u + lambda l . u = D`` where ``D = sum c_j |z_j|`` is the co
 associative programme, hence ``d . u = -lambda``).
 
 **Non-associative friction** (Gilbert, Casapulla & Ahmed 2006, Computers & Structures 84:873): associative
-friction lets sliding joints dilate and overestimates the collapse load. The iterative scheme starts from the
-associative solution and replaces the Coulomb line of every joint by ``|s| <= alpha mu n + (1 - alpha) mu n~``
-with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <- n~ + beta (n - n~)``), so that
-the shear capacity no longer grows with dilatancy; it repeats until the load factor settles. At a fixed point
-(``n = n~``) the state obeys ``|s| <= mu n``, so the non-associative load factor does not exceed the associative
-one; where the collapse state is statically determinate (e.g. an arch mechanism of two hinges and two sliding
-joints, or hinges plus a sliding springing) the two coincide: on a single ring every case measured does
-(docs/joints-and-lp.md). Where they differ, non-associative collapse loads need not be unique (they depend on
-the clamping forces left in the blocks): the iteration returns one of them, not a bound (three blocks in the
-tests: 30/19 from the iteration, 25/19 without clamping).
+friction lets sliding joints dilate and overestimates the collapse load. The *Tresca fixed point* replaces the
+Coulomb line of every joint by a fixed shear capacity ``|s| <= mu n~`` (no ``n`` term: the LP's flow rule then
+slides without opening, no dilatancy) with the normal forces ``n~`` of a seed (given, e.g. an FE state's joint
+forces, or the associative solution's), solves the LP, relaxes ``n~ <- n~ + beta (n - n~)`` and repeats until
+the load factor is steady *and* the LP's own state obeys ``|s| <= mu n`` (:func:`_solve`). That state and the
+LP's mechanism form a non-associative collapse state: equilibrium with no tension and Coulomb friction, and a
+mechanism of hinges and slips without dilatancy on which the loads' work equals the friction dissipation
+``mu n~ |slip|`` at the sliding joints, where ``|s| = mu n~`` and ``n ~ n~``. Its load factor never exceeds the
+associative one (its state is admissible there). Non-associative collapse states are not unique (they depend on
+the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
+never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
+freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
+in tests/test_nonassociative.py; how the FE uses it: :mod:`bridgefem.evidence`, docs/joints-and-lp.md.
 
 **Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
