@@ -103,6 +103,24 @@ def test_ring_without_sliding_keeps_the_associative_load():
         assert res.level == pytest.approx(assoc.level, rel=1e-6)
 
 
+SCENE_124 = {  # campaign seed 1, scene 124
+    "arch": {"shape": "pointed", "span": 14.929, "rise": 11.901, "thickness": 4.2291, "voussoirs": 49,
+             "joint_at_loads": False},
+    "masonry": {"young": 2.35e8, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 1.775},
+    "load": [{"kind": "point", "position": 0.7744}]}
+
+
+def test_ring_where_non_associative_friction_matters():
+    """Scene 124's ring: from the associative seed the fixed point is a different mechanism (joint 28 sliding with
+    hinges 0, 29, 44 instead of 0, 19, 44) 2.4 % below the associative load, and a collapse state."""
+    sc = scene_from_dict(SCENE_124)
+    res = collapse_load(sc, "non-associative")
+    assert res.converged and res.sliding == [28] and res.hinges == [0, 29, 44]
+    assert 0.97 * res.level_associative < res.level < 0.98 * res.level_associative
+    assert collapse_load(sc).hinges == [0, 19, 44]
+    assert_collapse_state(res, ring_model(sc))
+
+
 @pytest.mark.slow
 def test_fe_sliding_limit_below_the_associative_lp_is_confirmed_by_the_fixed_point():
     """Campaign seed 1, scene 124 (pointed, 49 voussoirs, mu 1.775, point load at 0.774): the FE stops 2.4 %
@@ -112,11 +130,7 @@ def test_fe_sliding_limit_below_the_associative_lp_is_confirmed_by_the_fixed_poi
     from bridgefem.analysis import run_analysis
     from bridgefem.status import Status
 
-    sc = scene_from_dict({
-        "arch": {"shape": "pointed", "span": 14.929, "rise": 11.901, "thickness": 4.2291, "voussoirs": 49,
-                 "joint_at_loads": False},
-        "masonry": {"young": 2.35e8, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 1.775},
-        "load": [{"kind": "point", "position": 0.7744}]})
+    sc = scene_from_dict(SCENE_124)
     an = run_analysis(sc)
     s = an.search
     assert s.status == Status.LIMIT, s.status
