@@ -69,6 +69,13 @@ class SlipCheck:
                 and bool(self.fe_sliding) and set(self.sliding) == set(self.fe_sliding)
                 and reaches(lower, upper, self.seeded_level) and reaches(lower, upper, self.level))
 
+    def back_at(self, lp_level: float) -> bool:
+        """A fixed point that slides at the FE's sliding joints at the associative LP's level (within
+        ``AGREEMENT``): the FE found the associative mechanism, at a load its mesh moves (a limit much smaller than
+        the forces that decide it; docs/joints-and-lp.md)."""
+        return (self.converged and self.level is not None and bool(self.fe_sliding)
+                and set(self.sliding) == set(self.fe_sliding) and abs(self.level - lp_level) <= AGREEMENT * lp_level)
+
     def describe(self, unit: float) -> str:
         """The check's answer in words (``unit``: N per unit level)."""
         name = ("the non-associative rigid-block LP (Tresca fixed point, Gilbert, Casapulla & Ahmed 2006) seeded "
@@ -138,6 +145,9 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}, a non-associative collapse state "
                            f"(with associative friction {lp_text})")
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
+        if slip is not None and lp is Status.LIMIT and slip.back_at(lp_level):
+            checked += ("; the FE's mechanism is the associative one, at a load that depends on the mesh: raise "
+                        "[mesh] elements_through_thickness")
         return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN (no admissible mode with "
                                       f"positive work, and {lp_text}{checked})"), None, "")
     if kind is Status.UNSTABLE:

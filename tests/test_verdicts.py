@@ -135,3 +135,12 @@ def test_the_slip_check_runs_only_where_nothing_else_confirms():
     assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=True, sliding=True)
     assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=False, sliding=False)
     assert not needs_slip_check(Status.UNSTABLE, 0.0, 0.0, False, *LP, fill=False, sliding=True)
+
+
+def test_a_fixed_point_back_at_the_associative_state_suggests_a_finer_mesh():
+    """The FE below the LP with the LP's own mechanism (the fixed point returns to the associative level with the
+    FE's sliding joints): a failure that says the load depends on the mesh; not for another mechanism."""
+    back = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0))
+    assert Status.of(back.status) is Status.FAILURE and "elements_through_thickness" in back.status
+    other = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, sliding=(0, 3)))
+    assert Status.of(other.status) is Status.FAILURE and "elements_through_thickness" not in other.status
