@@ -118,7 +118,8 @@ def test_a_sliding_limit_below_the_lp_needs_the_non_associative_fixed_point():
     otherwise a failure that names the check's answer (e.g. a fixed point back at the associative state)."""
     ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip())
     assert ok.status == Status.LIMIT and ok.upper == 90.1
-    assert ok.evidence.startswith("agreement: the non-associative rigid-block LP") and "seeded with the FE" in ok.evidence
+    assert ok.evidence.startswith("agreement: the non-associative rigid-block LP")
+    assert "seeded with the FE" in ok.evidence
     for bad in (slip(level=92.0), slip(level=100.0), slip(seeded=95.0), slip(seeded=None), slip(converged=False),
                 slip(sliding=(3, 7)), slip(level=None),
                 slip(fe_sliding=(), sliding=())):
