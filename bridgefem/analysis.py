@@ -38,9 +38,9 @@ from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
-from .evidence import Verdict, confirm
+from .evidence import SlipCheck, Verdict, confirm, needs_slip_check
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .rigid_block import LPResult, collapse_load, ring_under_forces, solve_blocks
+from .rigid_block import LPResult, collapse_load, collapse_state_from, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
 from .status import Status
 from .solver import ContactSolver, Iterate
@@ -274,10 +274,10 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                              movement_steps=scene.abutments.movement_steps if motion else 0, report=report,
                              converged=keep)
     lap("limit search")
-    verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
-                      fill=fill is not None)
-    search.status, search.upper = verdict.status, verdict.upper
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
+    verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
+                      fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints))
+    search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict)
 
 
@@ -305,6 +305,28 @@ def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
         except (RuntimeError, ValueError) as err:  # the LP is a check: its failure is reported, not raised
             lp = LPResult(None, None, f"LP failed: {err}")
     return comm.bcast(lp, root=0)
+
+
+def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult,
+               joints: list[JointState]) -> SlipCheck | None:
+    """The non-associative rigid-block check of an unproven limit with sliding joints that the associative LP does
+    not confirm (:func:`bridgefem.evidence.needs_slip_check`), seeded with the joint normal forces of the last
+    converged step (:func:`bridgefem.rigid_block.collapse_state_from`, on rank 0, broadcast); None otherwise."""
+    sliding = tuple(j.id for j in joints if j.sliding)
+    if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
+                            scene.fill is not None, bool(sliding)):
+        return None
+    out = None
+    if comm.rank == 0:
+        normal = np.zeros(len(scene_ring(scene).joints))
+        normal[[j.id for j in joints]] = [j.normal_force for j in joints]
+        try:
+            res = collapse_state_from(scene, normal, lp.load_sides)
+            out = SlipCheck(sliding, res.level_seeded, res.converged, res.level, tuple(res.sliding),
+                            tuple(res.hinges), res.iterations)
+        except (RuntimeError, ValueError):  # a check that fails confirms nothing
+            out = SlipCheck(sliding, None, False, None, (), (), 0)
+    return comm.bcast(out, root=0)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:

@@ -214,8 +214,9 @@ def _lp(args) -> int:
         if sides:
             print(f"  point loads on joints (least favourable): {', '.join(sides)}")
         if res.friction_model != "associative" and res.level_associative is not None:
-            print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN "
-                  "(non-associative collapse loads need not be unique: docs/joints-and-lp.md)")
+            fixed = "a fixed point" if res.converged else f"no fixed point in {res.iterations} LPs"
+            print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN; "
+                  f"non-associative: {fixed} (one collapse state of several, not a bound: docs/joints-and-lp.md)")
     return 0
 
 

@@ -6,7 +6,20 @@ evidence of collapse only when
 1. the step's diverging mode *proves* it (:mod:`bridgefem.solver`, *Mechanism verdicts*: an admissible rigid-block
    hinge mode on which the loads do positive work, so that no equilibrium with compressive joints exists); or
 2. the rigid-block LP on the same joints (:func:`bridgefem.rigid_block.collapse_load`, associative friction) gives
-   the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket.
+   the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
+3. for a limit with sliding joints below the associative LP: the *non-associative* rigid-block check
+   (:func:`bridgefem.rigid_block.collapse_state_from`, the Tresca fixed point of Gilbert, Casapulla & Ahmed 2006,
+   seeded with the FE's joint normal forces at its last converged step) agrees twice within ``AGREEMENT`` of the
+   FE bracket (:class:`SlipCheck`): its first LP (shear capacities frozen at mu x the FE's normal forces: the FE's
+   state has no rigid-block reserve), and its fixed point, whose mechanism slides at exactly the FE's sliding
+   joints (the FE's limit is a non-associative collapse state of the rigid blocks).
+
+A fixed point is a non-associative rigid-block collapse state: joint forces in equilibrium at its level that obey
+no tension and ``|s| <= mu n``, and a mechanism (hinges, slips without dilatancy) on which the loads' work equals
+the friction dissipation ``mu n |slip|`` of those forces. Such states are not unique (non-associative friction has
+no bound theorems), so this agreement says that the FE's limit is one of them, the one its elastic path reaches,
+reproduced by an independent rigid-block model; the associative LP stays the upper bound
+(docs/joints-and-lp.md, *Sliding collapses below the associative LP*).
 
 Otherwise the verdict is a solver failure that names the unproven mechanism and the LP's answer (a singular or
 diverging solve alone is no proof: a wrong active set, or a linear solver that did not solve, looks the same).
@@ -33,6 +46,49 @@ from .status import Status
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
 
 
+@dataclass(frozen=True)
+class SlipCheck:
+    """The non-associative rigid-block check of an FE limit with sliding joints (evidence 3 of the module
+    docstring): the FE's sliding joints at its last converged step (``fe_sliding``), and the Tresca fixed point
+    seeded with its joint normal forces: ``seeded_level`` the first LP's level (capacities mu x the FE's normal
+    forces), ``converged`` (a fixed point was reached), its ``level`` (levels in N per unit load factor, None
+    without a limit), ``sliding`` and ``hinges`` (joint ids) and ``iterations`` (LPs)."""
+
+    fe_sliding: tuple[int, ...]
+    seeded_level: float | None
+    converged: bool
+    level: float | None
+    sliding: tuple[int, ...]
+    hinges: tuple[int, ...]
+    iterations: int
+
+    def agrees(self, lower: float, upper: float) -> bool:
+        """The first LP and a fixed point within ``AGREEMENT`` of the bracket, the fixed point sliding at exactly
+        the FE's sliding joints."""
+        return (self.converged and self.level is not None and self.seeded_level is not None
+                and bool(self.fe_sliding) and set(self.sliding) == set(self.fe_sliding)
+                and reaches(lower, upper, self.seeded_level) and reaches(lower, upper, self.level))
+
+    def back_at(self, lp_level: float) -> bool:
+        """A fixed point that slides at the FE's sliding joints at the associative LP's level (within
+        ``AGREEMENT``): the FE found the associative mechanism, at a load its mesh moves (a limit much smaller than
+        the forces that decide it; docs/joints-and-lp.md)."""
+        return (self.converged and self.level is not None and bool(self.fe_sliding)
+                and set(self.sliding) == set(self.fe_sliding) and abs(self.level - lp_level) <= AGREEMENT * lp_level)
+
+    def describe(self, unit: float) -> str:
+        """The check's answer in words (``unit``: N per unit level)."""
+        name = ("the non-associative rigid-block LP (Tresca fixed point, Gilbert, Casapulla & Ahmed 2006) seeded "
+                "with the FE's joint forces")
+        if self.level is None or self.seeded_level is None:
+            return f"{name} finds no limit load"
+        what = (f"{name} gives {self.seeded_level * unit / 1e3:.6g} kN with the FE's friction capacities and "
+                f"{self.level * unit / 1e3:.6g} kN at its fixed point, sliding at joints {list(self.sliding)}")
+        if not self.converged:
+            return f"{what} without reaching a fixed point in {self.iterations} LPs"
+        return f"{what} (FE: {list(self.fe_sliding)}), hinges {list(self.hinges)}"
+
+
 def reaches(lower: float, upper: float, level: float) -> bool:
     """Whether the bracket [``lower``, ``upper``] comes within ``AGREEMENT`` of ``level`` (same unit): the FE limit,
     somewhere in its bracket, can be within that fraction of the LP's."""
@@ -50,12 +106,21 @@ class Verdict:
     warnings: tuple[str, ...] = ()
 
 
+def needs_slip_check(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
+                     lp_level: float | None, fill: bool, sliding: bool) -> bool:
+    """Whether a search's verdict can only be confirmed by the non-associative check: an unproven limit of a bare
+    ring with sliding joints (``sliding``: at its last converged step) that the associative LP does not confirm."""
+    return (Status.of(status) is Status.LIMIT and not proved and not fill and sliding and upper is not None
+            and lp_status == Status.LIMIT and lp_level is not None and not reaches(lower, upper, lp_level))
+
+
 def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
-            lp_level: float | None, unit: float = 1.0, fill: bool = False) -> Verdict:
+            lp_level: float | None, unit: float = 1.0, fill: bool = False, slip: SlipCheck | None = None) -> Verdict:
     """The evidence rule (module docstring) for a search's ``status`` and bracket [``lower``, ``upper``] (levels in N
     per unit load factor), ``proved`` when its last failed step proved the mechanism, against the LP's status and
     collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN);
-    ``fill``: the bridge has a fill, which the LP carries as dead load only."""
+    ``fill``: the bridge has a fill, which the LP carries as dead load only; ``slip``: the non-associative check of
+    a limit with sliding joints (:func:`needs_slip_check`), None when it did not run."""
     kind = Status.of(status)
     lp = Status.of(lp_status) if lp_status in set(Status) else None
     lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
@@ -76,8 +141,15 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                            warn)
         if agrees:
             return Verdict(status, upper, f"agreement: {lp_text}")
+        if slip is not None and slip.agrees(lower, upper):
+            return Verdict(status, upper, f"agreement: {slip.describe(unit)}, a non-associative collapse state "
+                           f"(with associative friction {lp_text})")
+        checked = f"; {slip.describe(unit)}" if slip is not None else ""
+        if slip is not None and lp is Status.LIMIT and slip.back_at(lp_level):
+            checked += ("; the FE's mechanism is the associative one, at a load that depends on the mesh: raise "
+                        "[mesh] elements_through_thickness")
         return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN (no admissible mode with "
-                                      f"positive work, and {lp_text})"), None, "")
+                                      f"positive work, and {lp_text}{checked})"), None, "")
     if kind is Status.UNSTABLE:
         if lp is Status.UNSTABLE:
             return Verdict(status, upper, "proof: an admissible rigid-block mode on which the self-weight does "

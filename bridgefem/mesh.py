@@ -72,9 +72,20 @@ def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: 
 
 
 def _segment_counts(lengths: list[float], total: int) -> list[int]:
-    """Split ``total`` segments over curves in proportion to length, at least one each."""
+    """Split ``total`` (at least one per curve) segments over curves in proportion to length, at least one each.
+
+    Rounding and the minimum of one can exceed ``total``; the curve with the most segments then gives up the
+    excess, and when it would keep none (a long chord beside short curves, e.g. a patch's edges on a pointed
+    crown's cap) the curves with the most segments give it theirs back one at a time: Gmsh aborts on a
+    transfinite curve without a segment."""
     raw = np.maximum(1, np.round(np.asarray(lengths) / sum(lengths) * total)).astype(int)
-    raw[np.argmax(raw)] += total - raw.sum()
+    top = int(np.argmax(raw))
+    raw[top] += total - raw.sum()
+    others = np.arange(len(raw)) != top
+    while raw[top] < 1:
+        donor = int(np.argmax(np.where(others, raw, 0)))
+        raw[donor] -= 1
+        raw[top] += 1
     return [int(v) for v in raw]
 
 

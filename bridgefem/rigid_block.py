@@ -35,16 +35,19 @@ Virtual work: ``d . u + lambda l . u = D`` where ``D = sum c_j |z_j|`` is the co
 associative programme, hence ``d . u = -lambda``).
 
 **Non-associative friction** (Gilbert, Casapulla & Ahmed 2006, Computers & Structures 84:873): associative
-friction lets sliding joints dilate and overestimates the collapse load. The iterative scheme starts from the
-associative solution and replaces the Coulomb line of every joint by ``|s| <= alpha mu n + (1 - alpha) mu n~``
-with the normal forces ``n~`` of the previous iterations (under-relaxed: ``n~ <- n~ + beta (n - n~)``), so that
-the shear capacity no longer grows with dilatancy; it repeats until the load factor settles. At a fixed point
-(``n = n~``) the state obeys ``|s| <= mu n``, so the non-associative load factor does not exceed the associative
-one; where the collapse state is statically determinate (e.g. an arch mechanism of two hinges and two sliding
-joints, or hinges plus a sliding springing) the two coincide: on a single ring every case measured does
-(docs/joints-and-lp.md). Where they differ, non-associative collapse loads need not be unique (they depend on
-the clamping forces left in the blocks): the iteration returns one of them, not a bound (three blocks in the
-tests: 30/19 from the iteration, 25/19 without clamping).
+friction lets sliding joints dilate and overestimates the collapse load. The *Tresca fixed point* replaces the
+Coulomb line of every joint by a fixed shear capacity ``|s| <= mu n~`` (no ``n`` term: the LP's flow rule then
+slides without opening, no dilatancy) with the normal forces ``n~`` of a seed (given, e.g. an FE state's joint
+forces, or the associative solution's), solves the LP, relaxes ``n~ <- n~ + beta (n - n~)`` and repeats until
+the load factor is steady *and* the LP's own state obeys ``|s| <= mu n`` (:func:`_solve`). That state and the
+LP's mechanism form a non-associative collapse state: equilibrium with no tension and Coulomb friction, and a
+mechanism of hinges and slips without dilatancy on which the loads' work equals the friction dissipation
+``mu n~ |slip|`` at the sliding joints, where ``|s| = mu n~`` and ``n ~ n~``. Its load factor never exceeds the
+associative one (its state is admissible there). Non-associative collapse states are not unique (they depend on
+the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
+never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
+freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
+in tests/test_nonassociative.py; how the FE uses it: :mod:`bridgefem.evidence`, docs/joints-and-lp.md.
 
 **Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
@@ -129,6 +132,8 @@ class LPResult:
     load: total live load at collapse, N (level x sum of live forces; None without live load);
     level: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
     the load level in N); level_associative: the associative value (differs only for non-associative runs);
+    level_seeded: non-associative runs, the level of the first Tresca LP (shear capacities mu x the seed's normal
+    forces; None without an optimum);
     status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
     hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
     "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
@@ -145,6 +150,7 @@ class LPResult:
     status: str
     friction_model: str = "associative"
     level_associative: float | None = None
+    level_seeded: float | None = None
     hinges: list[int] = field(default_factory=list)
     hinge_positions: dict[int, str] = field(default_factory=dict)
     sliding: list[int] = field(default_factory=list)
@@ -299,19 +305,20 @@ def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LP
     return LPResult(lam * total_live, lam, "limit load found", friction_model)
 
 
-def _solve(prog: _Programme, deficit: bool, friction_model: str, alpha: float, beta: float, rtol: float,
-           max_iterations: int):
-    """Solve the associative LP, then (non-associative) iterate the friction rows.
+def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rtol: float, max_iterations: int,
+           seed: np.ndarray | None = None):
+    """Solve the associative LP, then (non-associative) the Tresca fixed point of the module docstring.
 
-    Returns the last solution, its cohesions (N), the number of LPs, whether the iteration converged and the
-    associative value of the extra unknown (unscaled; None if that LP has no optimum).
+    Returns the last solution, its shear capacities (N, the ``cohesion`` of the Tresca rows; zero for the
+    associative LP), the number of LPs, whether the iteration reached a fixed point, and the values of the extra
+    unknown (unscaled; None without an optimum) of the associative LP and of the first Tresca LP (capacities
+    ``mu`` x the seed; None for the associative programme).
 
-    Iteration k replaces ``|s| <= mu n`` by ``|s| <= alpha mu n + (1 - alpha) mu n~`` and relaxes
-    ``n~ <- n~ + beta (n - n~)``, from ``n~`` = the associative normal forces, until the extra unknown (lambda or
-    tau, scaled by the dead weight) varies by less than ``rtol`` over the last ``_WINDOW`` LPs. (The LP optimum is
-    often degenerate, so the normal forces of joints off the mechanism may keep changing; the load factor is
-    what converges. The first iterations may repeat the associative value before the normal forces drift.)
-    An iteration LP without optimum ends the iteration and is reported as such.
+    Iteration k solves the LP with ``|s| <= mu n~`` (capacities fixed, no ``n`` term) and relaxes
+    ``n~ <- n~ + beta (n - n~)``, from ``n~`` = ``seed`` (N, per joint) or the associative normal forces. It stops
+    at a fixed point: the extra unknown (lambda or tau, scaled by the dead weight) steady to ``rtol`` over the last
+    ``_WINDOW`` LPs *and* the LP's own state Coulomb-admissible, ``|s| <= mu n`` on every joint to ``rtol`` x the
+    largest normal force (:func:`_coulomb_excess`). An iteration LP without optimum ends the iteration.
     """
     if friction_model not in FRICTION_MODELS:
         raise ValueError(f"friction_model = {friction_model!r}: allowed are {', '.join(FRICTION_MODELS)}")
@@ -320,38 +327,49 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, alpha: float, b
     sol = prog.solve(mu, cohesion, deficit)
     iterations = 1
     first = sol.x[-1] * prog.fref if sol.status == 0 else None
-    if friction_model == "associative" or sol.status != 0:
-        return sol, cohesion, iterations, True, first
-    history, n_tilde = [sol.x[-1]], sol.x[0:-1:3].copy()
+    if friction_model == "associative" or (sol.status != 0 and seed is None):
+        return sol, cohesion, iterations, True, (first, None)
+    n_tilde = np.asarray(seed, float) / prog.fref if seed is not None else sol.x[0:-1:3].copy()
+    history, seeded = [], None
     for _ in range(max_iterations):
-        cohesion = (1 - alpha) * mu * n_tilde * prog.fref
-        sol = prog.solve(alpha * mu, cohesion, deficit)
+        cohesion = mu * n_tilde * prog.fref
+        sol = prog.solve(np.zeros_like(mu), cohesion, deficit)
         iterations += 1
         if sol.status != 0:
             break
-        n_tilde = n_tilde + beta * (sol.x[0:-1:3] - n_tilde)
+        n = sol.x[0:-1:3]
         history.append(sol.x[-1])
+        seeded = history[0] * prog.fref
         last = history[-_WINDOW:]
-        if len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0):
-            return sol, cohesion, iterations, True, first
-    return sol, cohesion, iterations, False, first
+        steady = len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0)
+        if steady and _coulomb_excess(sol.x, mu) <= rtol:
+            return sol, cohesion, iterations, True, (first, seeded)
+        n_tilde = n_tilde + beta * (n - n_tilde)
+    return sol, cohesion, iterations, False, (first, seeded)
 
 
-def solve_blocks(model: BlockModel, friction_model: str = "associative", *, alpha: float = 0.01,
+def _coulomb_excess(x: np.ndarray, mu: np.ndarray) -> float:
+    """Largest excess of a state's shear over its own Coulomb limit, ``max(|s| - mu n)`` / the largest ``n``."""
+    q = x[:-1].reshape(-1, 3)
+    return float(np.max(np.abs(q[:, 1]) - mu * q[:, 0]) / max(q[:, 0].max(), 1e-300))
+
+
+def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed: np.ndarray | None = None,
                  beta: float = 0.6, rtol: float = 1e-6, max_iterations: int = 200) -> LPResult:
     """Collapse load factor of a block model (see the module docstring for the programme).
 
-    friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the iterative
-    LP of Gilbert, Casapulla & Ahmed 2006: ``alpha`` is the share of friction kept on the current normal force,
-    ``beta`` the under-relaxation of the normal forces, ``rtol`` the tolerance on lambda, ``max_iterations`` the
-    number of iteration LPs after the associative one).
+    friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the Tresca fixed
+    point of Gilbert, Casapulla & Ahmed 2006: ``seed`` the starting normal forces, N per joint, default the
+    associative ones; ``beta`` the under-relaxation of the normal forces, ``rtol`` the tolerance on lambda and on
+    the Coulomb condition, ``max_iterations`` the number of Tresca LPs). ``converged`` says whether a fixed point
+    (a non-associative collapse state) was reached.
     """
     start = time.perf_counter()
     prog = _Programme(model)
-    sol, cohesion, iterations, converged, first = _solve(prog, False, friction_model, alpha, beta, rtol,
-                                                         max_iterations)
+    sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
+                                                          seed)
     res = _status(sol, model, prog, friction_model)
-    res.level_associative = first if res.level is not None else None
+    res.level_associative, res.level_seeded = levels
     if res.level is not None:
         _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
@@ -484,6 +502,21 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     return _least_favourable(solve, on_joint)
 
 
+def collapse_state_from(scene: Scene, normal_forces: np.ndarray, load_sides: list[str | None] | None = None,
+                        **options) -> LPResult:
+    """The non-associative rigid-block collapse state of a scene's ring reached from given joint normal forces.
+
+    ``normal_forces`` (N, one per joint of :func:`ring_model`, e.g. an FE state's joint resultants) seed the Tresca
+    fixed point (:func:`solve_blocks`, ``friction_model="non-associative"``); ``load_sides``: the block carrying
+    each point load on a joint (:func:`collapse_load`'s ``load_sides``; None entries and None: shared). The
+    result's ``converged`` says whether a fixed point was reached; ``options`` go to :func:`solve_blocks`.
+    """
+    sides = tuple(side or "split" for side in (load_sides or [None] * len(scene.loads)))
+    res = solve_blocks(ring_model(scene, load_at_joint=sides), "non-associative", seed=normal_forces, **options)
+    res.load_sides = list(load_sides or [None] * len(scene.loads))
+    return res
+
+
 def _level(res: LPResult) -> float:
     """The collapse load factor as a number to compare (an unbounded load is +inf)."""
     return np.inf if res.level is None and res.status == "no collapse (unbounded)" else (res.level or 0.0)
@@ -546,8 +579,8 @@ class ThicknessResult:
                 "evaluations": self.evaluations}
 
 
-def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, alpha: float = 0.01,
-                      beta: float = 0.6, rtol: float = 1e-6, max_iterations: int = 200) -> tuple[float, LPResult]:
+def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, beta: float = 0.6,
+                      rtol: float = 1e-6, max_iterations: int = 200) -> tuple[float, LPResult]:
     """Smallest uniform joint tensile strength and cohesion ``tau`` (N) that the dead load needs, and the LP outcome.
 
     ``tau = 0``: the blocks carry their dead load ("stable under self-weight"); ``tau > 0``: they do not
@@ -556,7 +589,7 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     """
     start = time.perf_counter()
     prog = _Programme(model)
-    sol, cohesion, iterations, converged, _ = _solve(prog, True, friction_model, alpha, beta, rtol, max_iterations)
+    sol, cohesion, iterations, converged, _ = _solve(prog, True, friction_model, beta, rtol, max_iterations)
     if sol.status != 0:
         raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
     tau = float(sol.x[-1] * prog.fref)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK
-from bridgefem.evidence import confirm
+from bridgefem.evidence import SlipCheck, confirm, needs_slip_check
 from bridgefem.mechanism import Mode, judge
 from bridgefem.status import Status
 
@@ -105,3 +105,43 @@ def test_status_texts_read_back():
     assert Status.of("no collapse (unbounded)").no_collapse and Status.LOCKED.no_collapse
     with pytest.raises(ValueError):
         Status.of("collapsed")
+
+
+# ------------------------------------------------- evidence rule 3: a sliding limit below the associative LP
+def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,), seeded=90.02):
+    return SlipCheck(fe_sliding, seeded, converged, level, sliding, (1, 5), 12)
+
+
+def test_a_sliding_limit_below_the_lp_needs_the_non_associative_fixed_point():
+    """FE [90.0, 90.1] N, associative LP 100 N: agreement only when the first LP (the FE's friction capacities) and
+    a fixed point are within 0.5 % of the bracket, the fixed point sliding at exactly the FE's sliding joints;
+    otherwise a failure that names the check's answer (e.g. a fixed point back at the associative state)."""
+    ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip())
+    assert ok.status == Status.LIMIT and ok.upper == 90.1
+    assert ok.evidence.startswith("agreement: the non-associative rigid-block LP")
+    assert "seeded with the FE" in ok.evidence
+    for bad in (slip(level=92.0), slip(level=100.0), slip(seeded=95.0), slip(seeded=None), slip(converged=False),
+                slip(sliding=(3, 7)), slip(level=None),
+                slip(fe_sliding=(), sliding=())):
+        v = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=bad)
+        assert Status.of(v.status) is Status.FAILURE and v.upper is None
+        assert "unproven mechanism" in v.status and "non-associative" in v.status
+
+
+def test_the_slip_check_runs_only_where_nothing_else_confirms():
+    """Only an unproven limit of a bare ring with FE sliding that the associative LP does not confirm."""
+    assert needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=False, sliding=True)
+    assert not needs_slip_check(Status.LIMIT, 99.9, 100.0, False, *LP, fill=False, sliding=True)  # LP agrees
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, True, *LP, fill=False, sliding=True)  # proved
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=True, sliding=True)
+    assert not needs_slip_check(Status.LIMIT, 90.0, 90.1, False, *LP, fill=False, sliding=False)
+    assert not needs_slip_check(Status.UNSTABLE, 0.0, 0.0, False, *LP, fill=False, sliding=True)
+
+
+def test_a_fixed_point_back_at_the_associative_state_suggests_a_finer_mesh():
+    """The FE below the LP with the LP's own mechanism (the fixed point returns to the associative level with the
+    FE's sliding joints): a failure that says the load depends on the mesh; not for another mechanism."""
+    back = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0))
+    assert Status.of(back.status) is Status.FAILURE and "elements_through_thickness" in back.status
+    other = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, sliding=(0, 3)))
+    assert Status.of(other.status) is Status.FAILURE and "elements_through_thickness" not in other.status

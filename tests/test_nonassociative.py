@@ -1,0 +1,146 @@
+"""The non-associative rigid-block check (bridgefem.rigid_block, ``friction_model="non-associative"``: the Tresca
+fixed point of Gilbert, Casapulla & Ahmed 2006) against closed forms and hand-derived collapse states, and its use
+as evidence for an FE limit with sliding joints (bridgefem.evidence, rule 3).
+
+A fixed point is a non-associative collapse state: joint forces in equilibrium obeying no tension and
+|s| <= mu n, and a mechanism of hinges and slips without dilatancy whose load work equals the friction
+dissipation mu n |slip| of those same forces. The tests check that property directly, and the level against
+independent values: a block on an incline (W tan(theta + phi)), the keystone pushed through between two voussoirs
+(tests/test_joint_loads.py's closed form), three blocks wedged by friction (30/19, hand-derived), whatever the
+seed of the normal forces."""
+import numpy as np
+import pytest
+
+from bridgefem.rigid_block import (BlockModel, _relative_motion, collapse_load, collapse_state_from,
+                                   generalised_loads, ring_model, solve_blocks)
+from bridgefem.scene import scene_from_dict
+
+from test_joint_loads import push_through, three_voussoirs
+from test_rigid_block import THREE_BLOCK_JOINTS, three_blocks
+
+
+def incline(theta, friction, weight=10.0, b=2.0, h=1.0):
+    """A b x h block (weight ``weight``, N) on a plane rising at ``theta`` (rad) to the right, pushed horizontally
+    (unit load, +x, up the slope) through its centroid. The base joint runs up the slope, so its normal
+    (T_y, -T_x) points down into the ground: the block is its left side."""
+    t, up = np.array([np.cos(theta), np.sin(theta)]), np.array([-np.sin(theta), np.cos(theta)])
+    centre = (b / 2) * t + (h / 2) * up
+    ref = centre[None, :]
+    return BlockModel(ref=ref, dead=generalised_loads(ref, [0], ref, [[0.0, -weight]]),
+                      live=generalised_loads(ref, [0], ref, [[1.0, 0.0]]),
+                      joint_a=np.zeros((1, 2)), joint_b=(b * t)[None, :], joint_left=np.array([0]),
+                      joint_right=np.array([-1]), friction=np.array([friction]))
+
+
+def assert_collapse_state(res, model, rtol=1e-6):
+    """The fixed-point property: |s| <= mu n, and load work = friction dissipation of the state's own forces,
+    with no dilatancy (the mechanism's slips are tangential; its hinges open at the thrust's edge)."""
+    n, s = res.joint_forces["n"], res.joint_forces["s"]
+    scale = n.max()
+    assert np.all(np.abs(s) <= model.friction * n + rtol * scale)
+    _, slip = _relative_motion(model, res.block_velocities)
+    dissipation = float(np.sum(model.friction * n * np.abs(slip)))
+    assert res.work_dead + res.level * res.work_live == pytest.approx(dissipation, rel=1e-5, abs=1e-6 * res.level)
+
+
+@pytest.mark.parametrize("theta_deg, friction", [(0.0, 0.5), (20.0, 0.5), (10.0, 0.3)])
+@pytest.mark.parametrize("seed", [None, 0.0, 50.0])
+def test_block_on_incline(theta_deg, friction, seed):
+    """Sliding up the slope: P cos(theta) = W sin(theta) + mu (W cos(theta) + P sin(theta)), P = W tan(theta + phi),
+    from any starting normal force (None: the associative one)."""
+    theta = np.radians(theta_deg)
+    model = incline(theta, friction)
+    res = solve_blocks(model, "non-associative", seed=None if seed is None else np.array([seed]))
+    assert res.converged and res.sliding == [0] and res.hinges == []
+    assert res.level == pytest.approx(10.0 * np.tan(theta + np.arctan(friction)), rel=1e-6)
+    assert_collapse_state(res, model)
+
+
+@pytest.mark.parametrize("thickness, friction", [(2.0, 0.33), (2.5, 0.35)])
+@pytest.mark.parametrize("seed_scale", [1.0, 1.5, 3.0])
+def test_keystone_push_through(thickness, friction, seed_scale):
+    """The keystone pushed down between the two side voussoirs (closed form of tests/test_joint_loads.py; 1e-3:
+    the voussoirs' polygonal edges) from seeds 1, 1.5 and 3 x the associative normal forces (with much less,
+    the friction cannot carry the self-weight and the first LP has no solution)."""
+    sc = three_voussoirs(thickness, friction)
+    assoc = collapse_load(sc, load_at_joint="right")
+    res = collapse_state_from(sc, seed_scale * assoc.joint_forces["n"], ["right"])
+    assert res.converged and res.load_sides == ["right"]
+    assert res.load == pytest.approx(push_through(thickness, friction), rel=1e-3)
+    assert res.hinges == [] and len(res.sliding) == 3
+    assert_collapse_state(res, ring_model(sc, load_at_joint="right"))
+
+
+@pytest.mark.parametrize("seed", [None, [0, 0, 0, 0, 0], [3, 3, 0, 2, 2], [1, 3, 0.5, 0, 2]])
+def test_three_blocks_wedged_by_friction(seed):
+    """Three blocks (tests/test_rigid_block.py): the associative LP gives 25/14 (dilatancy at the sliding joints);
+    without dilatancy the left block is wedged by friction at its limit on both contacts and the top and right
+    blocks tip about (1, 0): 1.9 P = 2 x 1 + 1 x 0.5 + 0.5, P = 30/19, from every seed tried."""
+    model = three_blocks(THREE_BLOCK_JOINTS)
+    res = solve_blocks(model, "non-associative", seed=None if seed is None else np.array(seed, float))
+    assert res.level_associative == pytest.approx(25 / 14, rel=1e-9)
+    assert res.converged and res.level == pytest.approx(30 / 19, rel=1e-6)
+    assert_collapse_state(res, model)
+
+
+def test_no_fixed_point_is_reported():
+    """An iteration stopped before its fixed point says so (converged False): the evidence rule refuses it."""
+    res = solve_blocks(three_blocks(THREE_BLOCK_JOINTS), "non-associative", seed=np.zeros(5), max_iterations=2)
+    assert not res.converged
+
+
+def test_ring_without_sliding_keeps_the_associative_load():
+    """A four-hinge collapse (reference arch, mu = 10) slides nowhere: the fixed point is the associative
+    state, from the associative normal forces and from twice them."""
+    sc = scene_from_dict({
+        "arch": {"shape": "semicircular", "span": 9.0, "rise": 4.5, "thickness": 1.0, "voussoirs": 16},
+        "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 10.0},
+        "load": [{"kind": "point", "position": 0.22222}]})
+    assoc = collapse_load(sc)
+    for seed in (assoc.joint_forces["n"], 2 * assoc.joint_forces["n"]):
+        res = collapse_state_from(sc, seed, assoc.load_sides)
+        assert res.converged and res.sliding == []
+        assert res.level == pytest.approx(assoc.level, rel=1e-6)
+
+
+SCENE_124 = {  # campaign seed 1, scene 124
+    "arch": {"shape": "pointed", "span": 14.929, "rise": 11.901, "thickness": 4.2291, "voussoirs": 49,
+             "joint_at_loads": False},
+    "masonry": {"young": 2.35e8, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 1.775},
+    "load": [{"kind": "point", "position": 0.7744}]}
+
+
+def test_ring_where_non_associative_friction_matters():
+    """Scene 124's ring: from the associative seed the fixed point is a different mechanism (joint 28 sliding with
+    hinges 0, 29, 44 instead of 0, 19, 44) 2.4 % below the associative load, and a collapse state."""
+    sc = scene_from_dict(SCENE_124)
+    res = collapse_load(sc, "non-associative")
+    assert res.converged and res.sliding == [28] and res.hinges == [0, 29, 44]
+    assert 0.97 * res.level_associative < res.level < 0.98 * res.level_associative
+    assert collapse_load(sc).hinges == [0, 19, 44]
+    assert_collapse_state(res, ring_model(sc))
+
+
+@pytest.mark.slow
+def test_fe_sliding_limit_below_the_associative_lp_is_confirmed_by_the_fixed_point():
+    """Campaign seed 1, scene 124 (pointed, 49 voussoirs, mu 1.775, point load at 0.774): the FE stops 2.4 %
+    below the associative LP with joint 28 sliding. The fixed point seeded with the FE's joint forces is a
+    non-associative collapse state at the FE's load (within 0.5 %), sliding at joint 28 only, so the verdict
+    stands (evidence rule 3); the associative collapse state (hinges 0, 19, 44) is a different mechanism."""
+    from bridgefem.analysis import run_analysis
+    from bridgefem.status import Status
+
+    sc = scene_from_dict(SCENE_124)
+    an = run_analysis(sc)
+    s = an.search
+    assert s.status == Status.LIMIT, s.status
+    assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block LP")
+    assert [j.id for j in an.joints if j.sliding] == [28]
+    assert s.upper < 0.98 * an.lp.level and an.lp.hinges == [0, 19, 44]
+    normal = np.zeros(len(an.ring.joints))
+    normal[[j.id for j in an.joints]] = [j.normal_force for j in an.joints]
+    check = collapse_state_from(sc, normal, an.lp.load_sides)
+    assert check.converged and check.sliding == [28]
+    for level in (check.level_seeded, check.level):  # the FE's friction capacities, and the fixed point
+        assert s.lower * (1 - 5e-3) <= level <= s.upper * (1 + 5e-3)
+    assert_collapse_state(check, ring_model(sc, load_at_joint=tuple(x or "split" for x in an.lp.load_sides)))
