@@ -83,6 +83,8 @@ def _bonded_nodes(problem: LimitProblem, row_of: np.ndarray, n_free: int) -> sp.
     xy = np.vstack([mesh.x, mesh.x[mesh.edges].mean(axis=1)])[node]
     arm = xy - blocks.ref[block]
     rx, ry = row_of[2 * node], row_of[2 * node + 1]
+    if np.any(rx < 0) or np.any(ry < 0):
+        raise ValueError("a bonded block reaches a roller end of the soil (a loading beam at the fill's end)")
     tied = np.zeros(n_ext, bool)
     tied[np.concatenate([rx, ry])] = True
     kept = np.nonzero(~tied)[0]

@@ -11,6 +11,7 @@ import pytest
 from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.bounds_model import Soil, strip_footing_problem
 from bridgefem.bounds_plot import plot_bounds
+from bridgefem.footing import MARTIN_N_GAMMA
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import SceneError, scene_from_dict
 
@@ -74,12 +75,12 @@ def test_prandtl_gap_closes_with_the_mesh(rough):
 @pytest.mark.slow
 def test_rough_footing_on_cohesionless_soil_brackets_the_exact_n_gamma():
     """The loading beam as a rigid rough footing B = 1 m on soil with gamma = 1 N/m^3, phi = 30 deg, c = 0:
-    q_u = gamma B N_gamma / 2 with N_gamma = 14.75 of the method of characteristics (C.M. Martin 2005, "Exact
+    q_u = gamma B N_gamma / 2 with N_gamma = 14.75 (``MARTIN_N_GAMMA``) of the method of characteristics (C.M. Martin 2005, "Exact
     bearing capacity calculations using the method of characteristics", Proc. 11th Int. Conf. of the IACMAG, Turin;
     his program ABC: User Guide, OUEL Report 2261/03, University of Oxford, 2004; the value is cited, not re-read
     from the paper: docs/bounds.md)."""
     lower, upper = _footing(0.1, rough=True, soil=Soil(0.0, 30.0, 1.0))
-    assert 2 * lower <= 14.75 <= 2 * upper
+    assert 2 * lower <= MARTIN_N_GAMMA[30.0][0] <= 2 * upper
 
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension": 2.0, "material": "mohr-coulomb",
