@@ -47,8 +47,8 @@ class Bound:
 class Bounds:
     """Lower and upper bounds of a scene, the mesh (triangles, size near the ring in m; None without fill),
     wall time per phase (s), and the fields: fill stresses (ne, 3 vertices, sx sy txy; Pa) of the lower bound,
-    block velocities (nb, 3: u, v, omega; live-load power 1) and soil node velocities (n, 2) of the upper
-    bound (for plots)."""
+    block velocities (nb, 3: u, v, omega; live-load power 1; voussoirs, abutment blocks, then the loading
+    beams) and soil node velocities (n, 2) of the upper bound (for plots)."""
 
     lower: Bound
     upper: Bound
