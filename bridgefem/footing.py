@@ -148,8 +148,8 @@ class SoilBox:
              steps: int, max_newton: int = MAX_NEWTON, tolerance: float = NEWTON_TOL) -> PushResult:
         """Self-weight, then the ``driven`` dofs (of one component, as ``(dofs, component)``) displaced to
         ``displacement`` (m) in ``steps`` equal increments, the ``held`` dofs fixed at 0, at most ``max_newton``
-        Newton iterations each, to an out-of-balance force of ``tolerance`` x the force scale. Returns the reaction on the driven dofs (N/m, positive against the push) after each
-        converged increment."""
+        Newton iterations each, to an out-of-balance force of ``tolerance`` x the force scale. Returns the reaction
+        on the driven dofs (N/m, positive against the push) after each converged increment."""
         value = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
         bcs = [fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V.sub(c)) for dofs, c in held]
         bcs.append(fem.dirichletbc(value, driven[0], self.V.sub(driven[1])))

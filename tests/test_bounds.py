@@ -75,10 +75,8 @@ def test_prandtl_gap_closes_with_the_mesh(rough):
 @pytest.mark.slow
 def test_rough_footing_on_cohesionless_soil_brackets_the_exact_n_gamma():
     """The loading beam as a rigid rough footing B = 1 m on soil with gamma = 1 N/m^3, phi = 30 deg, c = 0:
-    q_u = gamma B N_gamma / 2 with N_gamma = 14.75 (``MARTIN_N_GAMMA``) of the method of characteristics (C.M. Martin 2005, "Exact
-    bearing capacity calculations using the method of characteristics", Proc. 11th Int. Conf. of the IACMAG, Turin;
-    his program ABC: User Guide, OUEL Report 2261/03, University of Oxford, 2004; the value is cited, not re-read
-    from the paper: docs/bounds.md)."""
+    q_u = gamma B N_gamma / 2 with N_gamma = 14.75 (``MARTIN_N_GAMMA``, the method of characteristics, C.M. Martin
+    2005; cited, not re-read from the paper: docs/bounds.md)."""
     lower, upper = _footing(0.1, rough=True, soil=Soil(0.0, 30.0, 1.0))
     assert 2 * lower <= MARTIN_N_GAMMA[30.0][0] <= 2 * upper
 
