@@ -11,7 +11,7 @@ on 2 cores (printed as the ratio time / 10 s; wall time, so a loaded machine inf
 
 Run:
 
-    ./run python benchmarks/bounds_size.py                 # both studies, about 2.5 min on a quiet machine
+    ./run python benchmarks/bounds_size.py                 # both studies, about 4 min on a quiet machine
     ./run python benchmarks/bounds_size.py --refine 0.5 1  # Prestwood meshes only these
     ./run python benchmarks/bounds_size.py --no-footing
 """
