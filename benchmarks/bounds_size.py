@@ -1,15 +1,17 @@
 """Sizes and times of the collapse-bound programmes (bridgefem.bounds) per mesh, and their brackets.
 
-For the Prestwood bridge (demos/prestwood.toml, the TRRL test: 228 kN) at mesh refinement factors 0.5, 1
-(the default: element size ring thickness / 2 near the extrados) and 2, and for Prandtl's strip footing
-(weightless soil, phi = 20 deg, c = 1 Pa; exact N_c = 14.83) at element sizes B/5, B/10, B/20 near its edges:
+For the Prestwood bridge (demos/prestwood.toml, the TRRL test: 228 kN; its load through a rigid loading beam,
+``[fill] loading_beam``) at mesh refinement factors 0.5, 1 (the default: element size ring thickness / 2 near the
+extrados) and 2, and for Prandtl's strip footing (weightless soil, phi = 20 deg, c = 1 Pa; exact N_c = 14.83, the
+same for a flexible pressure and a rigid rough footing, the loading beam) at element sizes B/5, B/10, B/20 near its
+edges:
 triangles, unknowns, equalities, inequalities, second-order cones, interior-point iterations and seconds of each
 programme, the lower and upper bounds and their gap. Target: Prestwood's bounds at the default mesh within 10 s
 on 2 cores (printed as the ratio time / 10 s; wall time, so a loaded machine inflates it).
 
 Run:
 
-    ./run python benchmarks/bounds_size.py                 # both studies, about 2.5 min on a quiet machine
+    ./run python benchmarks/bounds_size.py                 # both studies, about 4 min on a quiet machine
     ./run python benchmarks/bounds_size.py --refine 0.5 1  # Prestwood meshes only these
     ./run python benchmarks/bounds_size.py --no-footing
 """
@@ -67,11 +69,12 @@ def main() -> None:
     phi = 20.0
     t = math.tan(math.radians(phi))
     nc = (math.exp(math.pi * t) * math.tan(math.radians(45 + phi / 2)) ** 2 - 1) / t
-    print(f"\nPrandtl strip footing, phi = {phi:g} deg (N_c; exact {nc:.3f})\n\n{HEADER}")
-    for size in (0.2, 0.1, 0.05):
-        b = problem_bounds(strip_footing_problem(Soil(1.0, phi, 0.0), 1.0, 3.0, 1.5, size))
-        b.mesh["size"] = size
-        print(_row(f"size B/{1 / size:g}", b, 1.0), flush=True)
+    for rough, name in ((None, "flexible pressure"), (True, "rigid rough footing (the loading beam)")):
+        print(f"\nPrandtl strip footing, {name}, phi = {phi:g} deg (N_c; exact {nc:.3f})\n\n{HEADER}")
+        for size in (0.2, 0.1, 0.05):
+            b = problem_bounds(strip_footing_problem(Soil(1.0, phi, 0.0), 1.0, 3.0, 1.5, size, rough=rough))
+            b.mesh["size"] = size
+            print(_row(f"size B/{1 / size:g}", b, 1.0), flush=True)
 
 
 if __name__ == "__main__":

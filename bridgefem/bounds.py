@@ -47,8 +47,8 @@ class Bound:
 class Bounds:
     """Lower and upper bounds of a scene, the mesh (triangles, size near the ring in m; None without fill),
     wall time per phase (s), and the fields: fill stresses (ne, 3 vertices, sx sy txy; Pa) of the lower bound,
-    block velocities (nb, 3: u, v, omega; live-load power 1) and soil node velocities (n, 2) of the upper
-    bound (for plots)."""
+    block velocities (nb, 3: u, v, omega; live-load power 1; voussoirs, abutment blocks, then the loading
+    beams) and soil node velocities (n, 2) of the upper bound (for plots)."""
 
     lower: Bound
     upper: Bound
@@ -81,11 +81,12 @@ def problem_bounds(problem: LimitProblem) -> Bounds:
     if lower.load is not None and mesh is not None:
         out.stress = sol_lo.x[lay_lo["stress"]].reshape(-1, 3, 3)
     if upper.load is not None:
-        z = sol_up.z["zero"]
-        out.block_velocities = z[lay_up["blocks"]].reshape(-1, 3)
+        z = lay_up["velocities"] @ sol_up.z["zero"]
+        n_free = len(lay_up["free"])
+        out.block_velocities = z[n_free:].reshape(-1, 3)
         if mesh is not None:
             v = np.zeros(2 * (len(mesh.x) + len(mesh.edges)))
-            v[lay_up["free"]] = z[:len(lay_up["free"])]
+            v[lay_up["free"]] = z[:n_free]
             out.soil_velocities = v.reshape(-1, 2)
     return out
 

@@ -10,8 +10,9 @@ stress triangles).
 4. Road edges carry their traction (load factor x traction per unit factor); roller ends carry no shear;
    the fixed base carries anything.
 5. Interface edges: the traction at both ends lies in the no-tension Coulomb cone of the interface
-   (``p = -n.sigma.n >= 0``, ``|t.sigma.n| <= mu p``); its resultant (linear along the edge: consistent
-   nodal forces ``L (t_a/3 + t_b/6)`` at ``a``) acts, reversed, on the block.
+   (``p = -n.sigma.n >= 0``, ``|t.sigma.n| <= mu p``); bonded edges (a loading beam, a rough footing) carry
+   any traction (only the soil's cones bound it). The resultant (linear along the edge: consistent nodal forces
+   ``L (t_a/3 + t_b/6)`` at ``a``) acts, reversed, on the block.
 6. Every block is in equilibrium under its dead and live loads, the joint forces (the rigid-block LP's) and the
    interface forces; joint forces within their yield limits; Mohr-Coulomb cones at the triangle vertices (the
    stress is linear and the cone convex, so it then holds everywhere).
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bounds_mesh import INTERFACE, INTERIOR, ROAD, ROLLER
+from .bounds_mesh import INTERFACE, INTERIOR, ON_BLOCK, ROAD, ROLLER
 from .bounds_model import LimitProblem, block_rows, joint_rows, soil_rows
 from .conic import NONNEG, ZERO, ConicProgramme, ConicSolution
 
@@ -109,8 +110,10 @@ def _soil(prog: ConicProgramme, problem: LimitProblem, cs: int, lam: int):
                 vals.append(tangent[e, :1] * tx[e] + tangent[e, 1:] * ty[e])
         prog.add(ZERO, np.concatenate(rows), np.concatenate(cols), np.concatenate(vals),
                  np.zeros((4 if kind == ROAD else 2) * len(e)))
-    # 5. interface: no-tension Coulomb at both ends; forces on the blocks
-    e = np.nonzero(mesh.edge_kind == INTERFACE)[0]
+    # 5. interface: no-tension Coulomb at both ends (bonded edges: no condition); forces on the blocks
+    e = np.nonzero(np.isin(mesh.edge_kind, ON_BLOCK))[0]
+    e = e[np.argsort(mesh.edge_kind[e] != INTERFACE, kind="stable")]  # Coulomb interfaces first
+    n_coulomb = int((mesh.edge_kind[e] == INTERFACE).sum())
     nx, ny, t_x, t_y = normal[e, 0], normal[e, 1], tangent[e, 0], tangent[e, 1]
     nn = np.column_stack([nx * nx, ny * ny, 2 * nx * ny])
     nt = np.column_stack([t_x * nx, t_y * ny, t_x * ny + t_y * nx])
@@ -119,8 +122,9 @@ def _soil(prog: ConicProgramme, problem: LimitProblem, cs: int, lam: int):
     forces = []
     rows = 6 * np.arange(len(e))[:, None, None] + 3 * np.arange(2)[None, :, None] + np.arange(3)
     c_ab = np.stack([col[tri[e, 0], local[e, 0]], col[tri[e, 0], local[e, 1]]], axis=1)  # (p, 2, 3)
-    prog.add(NONNEG, np.repeat(rows, 3, axis=2), np.repeat(c_ab[:, :, None, :], 3, axis=2),
-             np.repeat(coef[:, None], 2, axis=1), np.zeros(6 * len(e)))
+    k = n_coulomb
+    prog.add(NONNEG, np.repeat(rows[:k], 3, axis=2), np.repeat(c_ab[:k, :, None, :], 3, axis=2),
+             np.repeat(coef[:k, None], 2, axis=1), np.zeros(6 * k))
     w = problem.width
     blk = mesh.edge_block[e]
     for at in range(2):  # force on the block at end `at` from the traction at end `by`: -w L (1/3 or 1/6) t

@@ -5,7 +5,8 @@ The region is a simple polygon given counter-clockwise by its corner points; eve
 * ``ROAD``: a traction boundary (free, or carrying a live load: a traction per unit load factor);
 * ``ROLLER``: the normal velocity is zero, the shear traction zero (the fill's vertical ends);
 * ``FIXED``: velocity zero, any traction (the fill's base);
-* ``INTERFACE``: contact with a rigid block (a voussoir or a footing) through a no-tension Coulomb interface.
+* ``INTERFACE``: contact with a rigid block (a voussoir or a smooth footing) through a no-tension Coulomb interface;
+* ``BONDED``: bonded to a rigid block (a loading beam, a rough footing): no velocity jump, any traction.
 
 Lengths in m. Triangles are counter-clockwise; side ``s`` of a triangle runs from its local vertex ``s`` to
 ``(s + 1) % 3``, and its outward unit normal is the side's direction turned clockwise by 90 degrees.
@@ -16,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ROAD, ROLLER, FIXED, INTERFACE = 0, 1, 2, 3
+ROAD, ROLLER, FIXED, INTERFACE, BONDED = 0, 1, 2, 3, 4
+ON_BLOCK = (INTERFACE, BONDED)  # sides against a rigid block
 INTERIOR = -1
 FAN = 32  # triangles around a point where the boundary traction jumps
 FAN_GROWTH = 1.5  # ratio of the radii of successive rings of the fan
@@ -26,12 +28,13 @@ FAN_REACH = 0.9  # the fan's outer radius, in multiples of the distance to the n
 @dataclass(frozen=True)
 class Outline:
     """A counter-clockwise polygon (m): ``points`` (n, 2), mesh ``sizes`` (n,) at the points (m), and per side
-    ``i`` (from point i to i + 1, cyclically) its ``kind``, its ``block`` (the rigid block behind an INTERFACE
-    side, else -1) and its ``traction`` (2,) per unit load factor (Pa; ROAD sides only). ``fans``: points (on straight
-    stretches) where the traction jumps: the mesh has a fan of ``FAN`` rays there, out into the region, so that the
-    stress can turn through the discontinuities a lower bound needs at such a singular point (Sloan 1988) and the
-    velocity can shear along the rays of the mechanism's radial zone. The mesh changes neither bound's rigour: every
-    mesh gives a statically admissible field and a kinematically admissible mechanism; the fan makes them better."""
+    ``i`` (from point i to i + 1, cyclically) its ``kind``, its ``block`` (the rigid block behind an INTERFACE or
+    BONDED side, else -1) and its ``traction`` (2,) per unit load factor (Pa; ROAD sides only). ``fans``: points
+    (on straight stretches) where the traction jumps: the mesh has a fan of ``FAN`` rays there, out into the region,
+    so that the stress can turn through the discontinuities a lower bound needs at such a singular point (Sloan
+    1988) and the velocity can shear along the rays of the mechanism's radial zone. The mesh changes neither bound's
+    rigour: every mesh gives a statically admissible field and a kinematically admissible mechanism; the fan makes
+    them better."""
 
     points: np.ndarray
     sizes: np.ndarray
@@ -48,7 +51,7 @@ class SoilMesh:
     x (nv, 2) vertices (m); triangles (ne, 3) counter-clockwise; edges (ned, 2) vertex pairs; triangle_edges
     (ne, 3) the edge of each side; edge_triangles (ned, 2) the triangles on each edge (second -1 on the boundary)
     with edge_sides (ned, 2) the local side number in each; edge_kind (ned,) INTERIOR or the boundary kind;
-    edge_block (ned,) the block behind an INTERFACE edge (else -1); edge_traction (ned, 2) Pa per unit load
+    edge_block (ned,) the block behind an INTERFACE or BONDED edge (else -1); edge_traction (ned, 2) Pa per unit load
     factor on ROAD edges.
     """
 

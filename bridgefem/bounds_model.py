@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bounds_mesh import FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
+from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
 from .conic import NONNEG, SOC, ConicProgramme
 from .geometry import ArchRing, fill_outline, scene_ring
 from .rigid_block import BlockModel, _Programme, collapse_load, ring_model
@@ -100,6 +100,20 @@ def joint_rows(prog: ConicProgramme, blocks: BlockModel) -> np.ndarray:
     return lp.A
 
 
+def with_loading_beams(blocks: BlockModel, spans, loads, road: float) -> BlockModel:
+    """``blocks`` with a rigid, weightless loading beam appended per patch: ``spans`` (k, 2) its x-range on the
+    road at height ``road`` (m), ``loads`` (k,) its vertical live load (N per unit load factor) acting downwards
+    at the patch centre, its reference point. The beam is bonded to the road under it (BONDED sides of the soil
+    outline) and free to translate and rotate: its equilibrium makes the road tractions under it add up to the
+    load, with no horizontal resultant and no moment about the centre."""
+    spans, loads = np.asarray(spans, float).reshape(-1, 2), np.asarray(loads, float)
+    k = len(loads)
+    centre = np.column_stack([spans.mean(axis=1), np.full(k, road)])
+    return dataclasses.replace(blocks, ref=np.vstack([blocks.ref, centre]), dead=np.vstack([blocks.dead,
+                                                                                           np.zeros((k, 3))]),
+                               live=np.vstack([blocks.live, np.column_stack([np.zeros(k), -loads, np.zeros(k)])]))
+
+
 def soil_rows(prog: ConicProgramme, soil: Soil, col0: int, n_points: int) -> None:
     """Mohr-Coulomb cones (and the tension cut-off) on stress triples ``(sx, sy, txy)`` at columns
     ``col0 + 3 i + (0, 1, 2)``, i < n_points."""
@@ -134,18 +148,24 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
                          "patch loads on a fill (a point load on a continuum has no finite lower bound)")
     ring = scene_ring(scene)
     size = scene.arch.thickness / (2 * refine)
-    outline = _bridge_outline(scene, ring, size)
+    blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)
+    outline = _bridge_outline(scene, ring, size, blocks.n_blocks)
+    if f.loading_beam:
+        blocks = with_loading_beams(blocks, [ld.x_range(scene.arch.span) for ld in scene.loads],
+                                    [ld.factor for ld in scene.loads], outline.points[-1, 1])
     soil = Soil(f.cohesion, f.friction_angle, f.unit_weight, f.tension_cutoff)
-    return LimitProblem(ring_model(dataclasses.replace(scene, fill=None), live=False), width, live_total, soil,
-                        triangulate(outline), f.interface_friction, size)
+    return LimitProblem(blocks, width, live_total, soil, triangulate(outline), f.interface_friction, size)
 
 
-def _bridge_outline(scene: Scene, ring: ArchRing, size: float) -> Outline:
+def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) -> Outline:
     """The fill region of :func:`bridgefem.geometry.fill_outline` as a counter-clockwise :class:`Outline`: base
     (fixed) from the left end to the left springing's extrados corner, the extrados (interface, on the voussoirs'
-    own extrados points), base to the right end, right end (roller), road (traction) leftwards, left end."""
+    own extrados points), base to the right end, right end (roller), road leftwards, left end. The road under
+    patch ``k`` is bonded to loading beam ``n_blocks + k`` (``[fill] loading_beam``) or carries its pressure."""
     f, span = scene.fill, scene.arch.span
     ranges = [ld.x_range(span) for ld in scene.loads]
+    if f.loading_beam:
+        _no_overlap(scene, ranges)
     o = fill_outline(ring, f.depth, f.extension, [x for r in ranges for x in r])
     ext, owner = _extrados_points(ring, size)
     n_ext = len(ext)
@@ -157,15 +177,30 @@ def _bridge_outline(scene: Scene, ring: ArchRing, size: float) -> Outline:
                            np.full(len(road_x) - 1, ROAD), [ROLLER]])
     block = np.concatenate([[-1], owner, [-1, -1], np.full(len(road_x), -1)])
     mid = 0.5 * (road_x[:-1] + road_x[1:])
-    pressure = sum(ld.factor / (ld.length * scene.arch.width) * ((lo < mid) & (mid < hi))
-                   for ld, (lo, hi) in zip(scene.loads, ranges)) if ranges else np.zeros(len(mid))
+    under = np.array([(lo < mid) & (mid < hi) for lo, hi in ranges]).reshape(-1, len(mid))  # (patches, sides)
+    road = slice(n_ext + 2, n_ext + 1 + len(road_x))
     traction = np.zeros((len(points), 2))
-    traction[n_ext + 2:n_ext + 1 + len(road_x), 1] = -pressure
+    if f.loading_beam:
+        beam = under.any(axis=0)
+        kind[road][beam] = BONDED
+        block[road][beam] = n_blocks + np.argmax(under, axis=0)[beam]
+    else:
+        traction[road, 1] = -sum(ld.factor / (ld.length * scene.arch.width) * u for ld, u in zip(scene.loads, under))
     loaded = np.isin(road_x, o.road_x)
     sizes = np.concatenate([[FAR_SIZE * size], np.full(n_ext, size), [FAR_SIZE * size],
                             np.where(loaded, LOAD_SIZE * size, FAR_SIZE * size)])
     fans = tuple(int(i) for i in n_ext + 2 + np.nonzero(loaded[1:-1])[0] + 1)
     return Outline(points, sizes, kind, block, traction, fans)
+
+
+def _no_overlap(scene: Scene, ranges) -> None:
+    """A loading beam per patch: two patches may not share road or an end."""
+    order = np.argsort([lo for lo, _ in ranges])
+    for a, b in zip(order[:-1], order[1:]):
+        if ranges[b][0] <= ranges[a][1]:
+            raise SceneError(f"[[load]] patches at positions {scene.loads[a].position:g} and "
+                             f"{scene.loads[b].position:g} overlap or touch: with [fill] loading_beam = true "
+                             "each patch has its own rigid beam on the road (loading_beam = false: pressures)")
 
 
 def _extrados_points(ring: ArchRing, size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -185,28 +220,28 @@ def _extrados_points(ring: ArchRing, size: float) -> tuple[np.ndarray, np.ndarra
 
 
 def strip_footing_problem(soil: Soil, breadth: float, half_width: float, depth: float, size: float,
-                          rough: bool | None = None, friction: float = 100.0) -> LimitProblem:
+                          rough: bool | None = None) -> LimitProblem:
     """A strip footing of ``breadth`` (m) at the surface of a soil layer ``2 half_width`` wide and ``depth``
-    deep (fixed base, roller ends), unit width, mesh size ``size`` (m) at the footing's edges.
+    deep (fixed base, roller ends), unit width, mesh size ``size`` (m) at the footing's edges; load factor = the
+    footing's force (N per m).
 
-    ``rough`` None: a uniform pressure (a flexible smooth footing; load factor = the total force, N);
-    otherwise a weightless rigid footing (a block centred at the origin, loaded by a unit vertical force at its
-    centre) on an interface of Coulomb coefficient ``friction`` (rough) or 0 (smooth)."""
+    ``rough`` None: a uniform pressure (a flexible smooth footing); True: a rigid rough footing, the bridge's
+    loading beam (:func:`with_loading_beams`: weightless, bonded to the soil, loaded at its centre, free to
+    translate and rotate); False: the same rigid footing on a smooth no-tension interface."""
     b2, w, d = breadth / 2, half_width, depth
     points = np.array([[-w, -d], [w, -d], [w, 0.0], [b2, 0.0], [-b2, 0.0], [-w, 0.0]])
-    kind = np.array([FIXED, ROLLER, ROAD, ROAD if rough is None else INTERFACE, ROAD, ROLLER])
+    under = {None: ROAD, True: BONDED, False: INTERFACE}[rough]
+    kind = np.array([FIXED, ROLLER, ROAD, under, ROAD, ROLLER])
     block = np.array([-1, -1, -1, -1 if rough is None else 0, -1, -1])
     traction = np.zeros((6, 2))
+    blocks = _no_blocks()
     if rough is None:
         traction[3, 1] = -1.0 / breadth
+    else:
+        blocks = with_loading_beams(blocks, [[-b2, b2]], [1.0], 0.0)
     sizes = np.array([FAR_SIZE * 2, FAR_SIZE * 2, FAR_SIZE, 1.0, 1.0, FAR_SIZE]) * size
     mesh = triangulate(Outline(points, sizes, kind, block, traction, (3, 4)))
-    if rough is None:
-        blocks = _no_blocks()
-    else:
-        blocks = dataclasses.replace(_no_blocks(), ref=np.zeros((1, 2)), dead=np.zeros((1, 3)),
-                                     live=np.array([[0.0, -1.0, 0.0]]))
-    return LimitProblem(blocks, 1.0, 1.0, soil, mesh, friction if rough else 0.0, size)
+    return LimitProblem(blocks, 1.0, 1.0, soil, mesh, 0.0, size)
 
 
 def _no_blocks() -> BlockModel:

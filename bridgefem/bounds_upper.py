@@ -10,8 +10,10 @@ at its three vertices, hence everywhere, and the dissipation is bounded by ``(A/
 rate)`` (``pi`` convex: the support function of the yield set). On an interface or base edge the jump (soil
 minus block velocity) is quadratic; its three Bernstein coefficients lie in the flow cone, hence the jump
 everywhere, and the dissipation is bounded by ``(L/3) sum pi(coefficient)``. Joints as in the rigid-block LP.
-Minimise dissipation minus dead-load power with live-load power 1: any feasible velocity field gives an upper
-bound.
+On a bonded edge (a loading beam, a rough footing) the soil moves with its block: the velocity of every node
+there is the block's rigid-body velocity at the node, ``(u - omega (y - y_ref), v + omega (x - x_ref))`` (no jump,
+no dissipation). Minimise dissipation minus dead-load power with live-load power 1: any feasible velocity field
+gives an upper bound.
 
 The programme solved is its conic dual, a maximum load factor under *weak* equilibrium: for every free
 velocity unknown, ``-sum_T (w A/3) B_k^T sigma_k + sum_I (w L/3) dJ_k^T f_k + joint forces + dead + lambda live
@@ -24,16 +26,18 @@ base, so the bound stays an upper bound.)
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
-from .bounds_mesh import FIXED, INTERFACE, ROAD, ROLLER
+from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER
 from .bounds_model import LimitProblem, block_rows, joint_rows, soil_rows
 from .conic import NONNEG, ZERO, ConicProgramme, ConicSolution
 
 
 def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     """Solve the kinematic programme (in its dual form); returns the solution and the layout: {"free": the
-    free velocity unknowns (2 node + component; nodes: vertices, then edge midpoints), "blocks": the rows of
-    the block velocities in the equality duals, "factor": the load-factor column}."""
+    free velocity unknowns (2 node + component; nodes: vertices, then edge midpoints), "velocities": the matrix
+    taking the equality duals to the free velocity unknowns followed by the block velocities (3 per block),
+    "factor": the load-factor column}."""
     blocks, mesh = problem.blocks, problem.mesh
     nj, nb = blocks.n_joints, blocks.n_blocks
     ne = mesh.n_triangles if mesh is not None else 0
@@ -54,14 +58,43 @@ def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
                  (on + n_free, np.full(len(on), lam), live[on])]
     r, c, v = (np.concatenate(t) for t in zip(*triplets))
     keep = r >= 0  # rows of fixed velocity unknowns are dropped
-    prog.add(ZERO, r[keep], c[keep], v[keep], np.concatenate([rhs, -blocks.dead.ravel()]))
+    tie = _bonded_nodes(problem, row_of, n_free) if mesh is not None else sp.identity(3 * nb, format="csr")
+    rows = (tie @ sp.csr_matrix((v[keep], (r[keep], c[keep])), shape=(tie.shape[1], lam + 1))).tocoo()
+    prog.add(ZERO, rows.row, rows.col, rows.data, tie @ np.concatenate([rhs, -blocks.dead.ravel()]))
     prog.add(NONNEG, [0], [lam], [-1.0], [0.0])
     cost = np.zeros(lam + 1)
     cost[lam] = -1.0
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), np.full(6 * n_if, f / max(np.ptp(
         mesh.x, axis=0).max() * problem.width, 1e-300) if mesh is not None else 1.0), [f]])
-    return prog.solve(cost, scale), {"free": free, "blocks": slice(n_free, n_free + 3 * nb), "factor": lam}
+    return prog.solve(cost, scale), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
+
+
+def _bonded_nodes(problem: LimitProblem, row_of: np.ndarray, n_free: int) -> sp.csr_matrix:
+    """The matrix (kept rows, ``n_free + 3 nb``) that folds the weak-equilibrium rows of the velocity unknowns of
+    nodes on BONDED edges into their block's rows (u, v, omega), weighted by the rigid-body map
+    ``(u - omega (y - y_ref), v + omega (x - x_ref))``, and keeps every other row; its transpose takes the kept
+    rows' duals (velocities) back to all unknowns."""
+    mesh, blocks = problem.mesh, problem.blocks
+    nv, n_ext = len(mesh.x), n_free + 3 * blocks.n_blocks
+    e = np.nonzero(mesh.edge_kind == BONDED)[0]
+    node, first = np.unique(np.concatenate([mesh.edges[e, 0], mesh.edges[e, 1], nv + e]), return_index=True)
+    block = np.tile(mesh.edge_block[e], 3)[first]
+    xy = np.vstack([mesh.x, mesh.x[mesh.edges].mean(axis=1)])[node]
+    arm = xy - blocks.ref[block]
+    rx, ry = row_of[2 * node], row_of[2 * node + 1]
+    if np.any(rx < 0) or np.any(ry < 0):
+        raise ValueError("a bonded block reaches a roller end of the soil (a loading beam at the fill's end)")
+    tied = np.zeros(n_ext, bool)
+    tied[np.concatenate([rx, ry])] = True
+    kept = np.nonzero(~tied)[0]
+    new = np.full(n_ext, -1)
+    new[kept] = np.arange(len(kept))
+    u = new[n_free + 3 * block]
+    rows = np.concatenate([new[kept], u, u + 2, u + 1, u + 2])
+    cols = np.concatenate([kept, rx, rx, ry, ry])
+    vals = np.concatenate([np.ones(len(kept) + len(node)), -arm[:, 1], np.ones(len(node)), arm[:, 0]])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(kept), n_ext))
 
 
 def _velocity_unknowns(problem: LimitProblem) -> tuple[np.ndarray, np.ndarray]:

@@ -20,6 +20,9 @@ MAX_ITERATIONS = 60  # interior-point iterations; past them Clarabel reports "Al
 # tolerances (1e-4 / 5e-5) are met: the upper-bound programmes of bridges with a fill can creep for hundreds of
 # iterations with a primal residual near 1e-6 while the load factor falls in its fourth digit (Prestwood:
 # 234.52 kN at 60 iterations, 234.45 kN at 100)
+RETRY_REGULARIZATION = 1e-7  # Clarabel's static KKT regularisation (default 1e-8) for a second attempt after a
+# numerical failure: the rigid rough footing (a block bonded to weightless soil, fans of tiny triangles at its edges)
+# stops with NumericalError / InsufficientProgress at size B/20 under the default and solves with this
 _CONES = (ZERO, NONNEG, SOC)
 
 
@@ -66,7 +69,9 @@ class ConicProgramme:
 
     def solve(self, cost: np.ndarray, scale: np.ndarray, max_iter: int = MAX_ITERATIONS) -> ConicSolution:
         """Minimise ``cost . x``; ``scale`` (n,) are typical magnitudes of the unknowns. Clarabel's defaults
-        (tolerances 1e-8) with the supernodal ``faer`` factorisation on one thread (MPI ranks run their own)."""
+        (tolerances 1e-8) with the supernodal ``faer`` factorisation on one thread (MPI ranks run their own); a
+        numerical failure is retried once with the static regularisation ``RETRY_REGULARIZATION`` (iterations
+        and seconds then count both attempts)."""
         import clarabel
 
         blocks, rhs, row_scale = [], [], []
@@ -87,25 +92,31 @@ class ConicProgramme:
         if self.rows[NONNEG]:
             cones.append(clarabel.NonnegativeConeT(self.rows[NONNEG]))
         cones += [clarabel.SecondOrderConeT(3)] * (self.rows[SOC] // 3)
-        settings = clarabel.DefaultSettings()
-        settings.verbose = False
-        settings.max_iter = max_iter
-        settings.direct_solve_method = "faer"
-        settings.max_threads = 1
         sizes = {"unknowns": self.n, "equalities": self.rows[ZERO], "inequalities": self.rows[NONNEG],
                  "cones": self.rows[SOC] // 3}
-        start = time.perf_counter()
-        solver = clarabel.DefaultSolver(sp.csc_matrix((self.n, self.n)), cost * scale, a, np.concatenate(rhs),
-                                        cones, settings)
-        sol = solver.solve()
+        start, iterations = time.perf_counter(), 0
+        for regularization in (None, RETRY_REGULARIZATION):
+            settings = clarabel.DefaultSettings()
+            settings.verbose = False
+            settings.max_iter = max_iter
+            settings.direct_solve_method = "faer"
+            settings.max_threads = 1
+            if regularization is not None:
+                settings.static_regularization_constant = regularization
+            solver = clarabel.DefaultSolver(sp.csc_matrix((self.n, self.n)), cost * scale, a, np.concatenate(rhs),
+                                            cones, settings)
+            sol = solver.solve()
+            iterations += sol.iterations
+            name = str(sol.status).split(".")[-1]
+            if name not in ("NumericalError", "InsufficientProgress"):
+                break
         seconds = time.perf_counter() - start
-        name = str(sol.status).split(".")[-1]
         status = {"Solved": "optimal", "AlmostSolved": "optimal (reduced accuracy)", "PrimalInfeasible": "infeasible",
                   "DualInfeasible": "unbounded"}.get(name, f"solver failure: Clarabel {name}")
         if not status.startswith("optimal"):
-            return ConicSolution(status, None, {}, None, sol.iterations, seconds, sizes)
+            return ConicSolution(status, None, {}, None, iterations, seconds, sizes)
         z = np.asarray(sol.z) * np.concatenate(row_scale)
         bounds = np.cumsum([0] + [self.rows[c] for c in _CONES])
         x = np.asarray(sol.x) * scale
         return ConicSolution(status, x, {c: z[bounds[i]:bounds[i + 1]] for i, c in enumerate(_CONES)},
-                             float(cost @ x), sol.iterations, seconds, sizes)
+                             float(cost @ x), iterations, seconds, sizes)

@@ -10,7 +10,8 @@ plane strain) on a plain DOLFINx mesh, with closed-form collapse loads to compar
   reaction per metre of the half footing. Closed forms: Prandtl (1920) for a weightless soil,
   ``q = c N_c`` with ``N_c = (N_q - 1) cot(phi)``, ``N_q = e^{pi tan phi} tan^2(45 + phi/2)`` (``N_c = 2 + pi`` at
   phi = 0), the same for rough and smooth bases; for a cohesionless soil with unit weight gamma,
-  ``q = gamma B N_gamma / 2`` with the exact N_gamma of the method of characteristics (Martin 2005).
+  ``q = gamma B N_gamma / 2`` with the exact N_gamma of the method of characteristics (Martin 2005,
+  :data:`MARTIN_N_GAMMA`), computed by :func:`cohesionless_n_gamma`.
 - :func:`retaining_wall`: a soil column ``0 <= x <= W``, ``0 <= y <= H`` (m) with weight behind a smooth rigid
   wall at ``x = 0`` moved horizontally (away from the soil: active; into it: passive); smooth base
   (``u_y = 0``), far side on rollers. The wall force per metre tends to Rankine's
@@ -23,9 +24,17 @@ prescribed displacement in equal increments, each by Newton's method with the co
 angle below phi). The mesh is a structured triangulation (right diagonals) graded towards the footing's edge
 and the surface, where the stress is singular; the collapse load is the reaction at the last increment, on the
 plateau of the load-settlement curve (:attr:`PushResult.plateau` measures how flat).
+
+A cohesionless soil (c = 0) puts the unloaded surface at the cone's apex, where the return map's tangent has no
+stiffness and Newton's method stalls. :func:`cohesionless_n_gamma` approaches it instead: two runs with a vanishing
+cohesion ``c = VANISHING_COHESION x gamma B`` and half of it, each on the cone with a hyperbolic apex (Abbo & Sloan
+1995; ``apex_smoothing = APEX_SMOOTHING x k``, :class:`bridgefem.plasticity.MohrCoulomb`), both of which tend to the
+cohesionless cone as c -> 0; the collapse pressure is linear in c near 0, so ``N(0) = 2 N(c/2) - N(c)`` up to
+O(c^2). The smoothing is switched on only here: the fill and the other checks use the exact cone.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from math import exp, pi, radians, tan
 
@@ -44,6 +53,18 @@ PETSC_OPTIONS = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_t
 NEWTON_TOL = 1e-7  # out-of-balance force / the problem's force scale (weight of the box + cohesion x size)
 MAX_NEWTON = 40
 LINE_SEARCH = 6  # halvings of a Newton step at most
+# N_gamma of a cohesionless soil (cohesionless_n_gamma):
+APEX_SMOOTHING = 0.9  # a / k of the hyperbolic apex: the surface crosses p = 0 at sqrt(J2) = 0.44 k
+VANISHING_COHESION = 0.01  # c / (gamma B) of the first run; the second has half of it
+N_GAMMA_STIFFNESS = 300.0  # E / (gamma B): the collapse load does not depend on E; a soft soil keeps the strain
+# increments of a step within a few yield strains of the weak surface layer, where Newton converges
+N_GAMMA_NEWTON = 150  # Newton iterations per increment at most (the line search often halves the steps)
+N_GAMMA_TOL = 1e-6  # out-of-balance / force scale: the 32-cell runs stall at 3e-7 (0.2 N/m; the footing carries
+# 1.8e5 N/m)
+# N_gamma of the method of characteristics (C.M. Martin 2005, "Exact bearing capacity calculations using the
+# method of characteristics", Proc. 11th IACMAG, Turin, 441-450; program ABC): {phi (degrees): (rough, smooth)}.
+# Cited, not re-read from the paper (docs/bounds.md, "The N_gamma value").
+MARTIN_N_GAMMA = {30.0: (14.75, 7.65)}
 
 
 def prandtl_nc(friction_angle: float) -> float:
@@ -124,9 +145,10 @@ class SoilBox:
         return fem.locate_dofs_topological(self.V.sub(component), 1, facets)
 
     def push(self, driven: tuple[np.ndarray, int], held: list[tuple[np.ndarray, int]], displacement: float,
-             steps: int) -> PushResult:
+             steps: int, max_newton: int = MAX_NEWTON, tolerance: float = NEWTON_TOL) -> PushResult:
         """Self-weight, then the ``driven`` dofs (of one component, as ``(dofs, component)``) displaced to
-        ``displacement`` (m) in ``steps`` equal increments, the ``held`` dofs fixed at 0. Returns the reaction
+        ``displacement`` (m) in ``steps`` equal increments, the ``held`` dofs fixed at 0, at most ``max_newton``
+        Newton iterations each, to an out-of-balance force of ``tolerance`` x the force scale. Returns the reaction
         on the driven dofs (N/m, positive against the push) after each converged increment."""
         value = fem.Constant(self.mesh, PETSc.ScalarType(0.0))
         bcs = [fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V.sub(c)) for dofs, c in held]
@@ -145,10 +167,10 @@ class SoilBox:
         for level in levels:
             value.value = level
             state = self._residual(u, plastic, bcs, b, driven_rows)
-            for it in range(MAX_NEWTON + 1):
-                if it > 0 and state[0] <= NEWTON_TOL * scale:
+            for it in range(max_newton + 1):
+                if it > 0 and state[0] <= tolerance * scale:
                     break
-                if it == MAX_NEWTON:
+                if it == max_newton:
                     raise RuntimeError(f"Newton did not converge at displacement {level:.4g} m "
                                        f"(out-of-balance {state[0]:.3g} N/m)")
                 K.zeroEntries()
@@ -209,7 +231,8 @@ def _lu(K: PETSc.Mat) -> PETSc.KSP:
 
 def strip_footing(soil: MohrCoulomb, width: float, rough: bool, cells: int, degree: int = 2,
                   unit_weight: float = 0.0, extent: tuple[float, float] = (6.0, 3.0), power: float = 2.0,
-                  settlement: float = 0.1, steps: int = 20) -> PushResult:
+                  settlement: float = 0.1, steps: int = 20, max_newton: int = MAX_NEWTON,
+                  tolerance: float = NEWTON_TOL) -> PushResult:
     """Bearing pressure-settlement curve of a rigid strip footing of ``width`` B (m) (module docstring):
     ``cells`` per side of the half box ``extent`` = (L, H) in units of B, graded with ``power``;
     ``settlement`` in units of B. The reaction is returned as the bearing pressure q (Pa)."""
@@ -225,9 +248,28 @@ def strip_footing(soil: MohrCoulomb, width: float, rough: bool, cells: int, degr
                  0))
     if rough:
         held.append((box.dofs_on(lambda p: np.isclose(p[1], 0.0, atol=tol) & (p[0] <= b + tol), 0), 0))
-    result = box.push((under, 1), held, -settlement * width, steps)
+    result = box.push((under, 1), held, -settlement * width, steps, max_newton, tolerance)
     result.reaction = result.reaction / b
     return result
+
+
+def cohesionless_n_gamma(friction_angle: float, rough: bool, cells: int, degree: int = 2, poisson: float = 0.3,
+                         settlement: float = 0.2, steps: int = 40) -> tuple[float, tuple[PushResult, PushResult]]:
+    """N_gamma of a rigid strip footing on a cohesionless soil with weight (phi > 0 degrees, associated flow) by
+    :func:`strip_footing` (``cells``, ``degree``, ``settlement`` in units of B, ``steps``), extrapolated from two
+    vanishing cohesions (module docstring): returns ``2 N(c/2) - N(c)`` and the two runs, their reactions as
+    ``N = 2 q / (gamma B)``. B = 2 m, gamma = 10 kN/m^3 (N_gamma does not depend on them)."""
+    width, gamma = 2.0, 1e4
+    runs = []
+    for share in (VANISHING_COHESION, VANISHING_COHESION / 2):
+        cone = MohrCoulomb(N_GAMMA_STIFFNESS * gamma * width, poisson, friction_angle, share * gamma * width,
+                           tension_cutoff=1e12)
+        soil = dataclasses.replace(cone, apex_smoothing=APEX_SMOOTHING * cone.k)
+        result = strip_footing(soil, width, rough, cells, degree, gamma, settlement=settlement, steps=steps,
+                               max_newton=N_GAMMA_NEWTON, tolerance=N_GAMMA_TOL)
+        result.reaction = 2.0 * result.reaction / (gamma * width)
+        runs.append(result)
+    return 2.0 * runs[1].limit - runs[0].limit, (runs[0], runs[1])
 
 
 def retaining_wall(soil: MohrCoulomb, height: float, unit_weight: float, passive: bool, cells: int,

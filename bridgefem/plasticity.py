@@ -36,6 +36,15 @@ otherwise), integrated by backward Euler in one step
 cap ``p = sigma_t`` (deviator kept), or to the corner where the cap meets the cone (deviator scaled to the
 cone radius). If ``sigma_t`` is at or beyond the cone apex ``p = c cot(phi)``, the corner is the apex itself
 (zero deviator), the usual Drucker-Prager apex return (de Souza Neto et al. 2008, chapter 8).
+
+Apex smoothing (``apex_smoothing`` a > 0, Pa; off by default): the cone is replaced by the hyperboloid
+``sqrt(J2 + a^2) + alpha I1 - k <= 0`` (Abbo & Sloan 1995, "A smooth hyperbolic approximation to the Mohr-Coulomb
+yield criterion", Computers & Structures 54:427), which lies inside the cone, approaches it as ``sqrt(J2)`` grows
+(by ``a^2 / (2 sqrt(J2))``) and has a smooth tip on the hydrostatic axis at ``p = (k - a) / (3 alpha)``, where the
+cone has its apex. It is meant for a cohesionless soil (c = 0), whose unloaded surface sits at the cone's apex and
+stalls Newton's method there. The return is the same backward-Euler step onto the smooth surface, a scalar
+equation for the multiplier solved per point by a safeguarded Newton iteration, with its consistent tangent; the
+cut-off must then lie beyond the tip (it is never reached).
 """
 from __future__ import annotations
 
@@ -59,7 +68,8 @@ class MohrCoulomb:
 
     ``young`` (Pa), ``poisson`` (-), ``friction_angle`` phi (degrees, 0 <= phi < 90), ``cohesion`` c (Pa),
     ``tension_cutoff`` sigma_t >= 0 (Pa), the limit of the mean stress ``p = tr(sigma)/3`` (tension positive),
-    ``dilation_angle`` psi (degrees, 0 <= psi <= phi; None: psi = phi, associated flow).
+    ``dilation_angle`` psi (degrees, 0 <= psi <= phi; None: psi = phi, associated flow), ``apex_smoothing`` a
+    (Pa, >= 0; 0: the exact cone) of the hyperbolic surface ``sqrt(J2 + a^2) + alpha I1 - k`` (module docstring).
     """
 
     young: float
@@ -68,6 +78,7 @@ class MohrCoulomb:
     cohesion: float
     tension_cutoff: float = 0.0
     dilation_angle: float | None = None
+    apex_smoothing: float = 0.0
 
     def __post_init__(self):
         values = (self.young, self.poisson, self.friction_angle, self.cohesion, self.tension_cutoff)
@@ -82,6 +93,15 @@ class MohrCoulomb:
         if self.cohesion < 0 or self.tension_cutoff < 0:
             raise ValueError(f"need cohesion >= 0 and tension_cutoff >= 0, got {self.cohesion}, "
                              f"{self.tension_cutoff}")
+        a = self.apex_smoothing
+        if not isfinite(a) or a < 0:
+            raise ValueError(f"need apex_smoothing >= 0, got {a}")
+        if a > 0 and self.alpha_dilation == 0:
+            raise ValueError("apex_smoothing needs friction and dilation angles > 0 (a cone with an apex, and a "
+                             "state beyond the tip returns along the potential's volumetric part)")
+        if a > 0 and self.tension_cutoff < self.smoothed_tip:
+            raise ValueError(f"with apex_smoothing the tension_cutoff ({self.tension_cutoff}) must lie beyond the "
+                             f"smoothed tip p = {self.smoothed_tip:g} Pa")
 
     @property
     def shear_modulus(self) -> float:
@@ -122,6 +142,11 @@ class MohrCoulomb:
         """Cone intercept k = beta c cos(phi) (Pa), the limit of sqrt(J2) at I1 = 0; 3 c / sqrt(9 + 12 tan^2 phi)
         when associated."""
         return self._beta * self.cohesion * cos(radians(self.friction_angle))
+
+    @property
+    def smoothed_tip(self) -> float:
+        """Mean stress (Pa) of the hyperbolic surface's tip ``(k - a) / (3 alpha)`` (phi > 0)."""
+        return (self.k - self.apex_smoothing) / (3.0 * self.alpha)
 
     @property
     def mean_stress_limit(self) -> float:
@@ -165,6 +190,8 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
     p_tr = bulk * volumetric
     s_tr = 2.0 * g * (elastic - volumetric[:, None] / 3.0 * _M)
     q_tr = np.sqrt(0.5 * (_ENGINEERING * s_tr * s_tr).sum(axis=1))
+    if material.apex_smoothing > 0.0:
+        return _smoothed_return(material, s_tr, p_tr, q_tr, plastic_strain)
     f_tr = q_tr + 3.0 * alpha * p_tr - k
 
     # Regime selection: disjoint regions of the trial state (normal cones of the closest-point projection).
@@ -202,4 +229,70 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
                + b[:, None, None] * unit[:, :, None] * unit[:, None, :]
                + c[:, None, None] * h_g[:, :, None] * h_f[:, None, :]
                + d[:, None, None] * (bulk * np.outer(_M[ip], _M[ip])))
+    return stress, tangent, new_plastic
+
+
+def _smoothed_return(material: MohrCoulomb, s_tr: np.ndarray, p_tr: np.ndarray, q_tr: np.ndarray,
+                     plastic_strain: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`return_map` onto the hyperbolic surface ``rho + 3 alpha p - k = 0``, ``rho = sqrt(q^2 + a^2)``.
+
+    Backward Euler along the potential ``sqrt(J2 + a^2) + alpha_psi I1``: ``s = s_tr rho / (rho + G dg)``,
+    ``p = p_tr - 3 K alpha_psi dg``; with ``rho = k - 3 alpha p_tr + H dg`` (``H = 9 K alpha alpha_psi``) the
+    multiplier dg solves ``h(dg) = q (rho + G dg) / rho - q_tr = 0``, increasing from ``h <= 0`` at the smallest dg
+    with ``rho >= a``: bisection-safeguarded Newton. The consistent tangent follows from differentiating the two
+    equations in (q, dg) with respect to (q_tr, p_tr)."""
+    g, bulk, alpha, k = material.shear_modulus, material.bulk_modulus, material.alpha, material.k
+    alpha_g, a = material.alpha_dilation, material.apex_smoothing
+    h_rate = 9.0 * bulk * alpha * alpha_g
+    rho0 = k - 3.0 * alpha * p_tr
+    plastic = np.sqrt(q_tr * q_tr + a * a) - rho0 > 0.0
+
+    def residual(dg):
+        rho = np.where(plastic, rho0 + h_rate * dg, 1.0)
+        q = np.sqrt(np.maximum(rho * rho - a * a, 0.0))
+        return np.where(plastic, q * (rho + g * dg) / rho - q_tr, 0.0), rho, q
+
+    lo = np.where(plastic & (rho0 < a), (a - rho0) / max(h_rate, 1e-300), 0.0)
+    hi = lo + (q_tr + a) / g
+    for _ in range(200):  # grow the bracket until h(hi) >= 0 (h grows without bound with dg)
+        bad = residual(hi)[0] < 0.0
+        if not bad.any():
+            break
+        hi = np.where(bad, lo + 2.0 * (hi - lo), hi)
+    dg = hi.copy()
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # infinite slope at the tip: bisect
+        for _ in range(100):
+            h, rho, q = residual(dg)
+            if np.all(np.abs(h[plastic]) <= 1e-14 * (q_tr[plastic] + a)):
+                break
+            lo, hi = np.where(h < 0.0, dg, lo), np.where(h >= 0.0, dg, hi)
+            slope = (h_rate * rho / q) * (rho + g * dg) / rho + q * g * (rho - h_rate * dg) / (rho * rho)
+            step = dg - h / slope
+            dg = np.where((step > lo) & (step < hi), step, 0.5 * (lo + hi))
+    dg = np.where(plastic, dg, 0.0)
+    rho = np.where(plastic, rho0 + h_rate * dg, 1.0)
+    q = np.where(plastic, np.sqrt(np.maximum(rho * rho - a * a, 0.0)), q_tr)
+    scale = np.where(plastic, rho / (rho + g * dg), 1.0)  # = q / q_tr, finite at q_tr = 0
+    p = p_tr - 3.0 * bulk * alpha_g * dg
+    stress = scale[:, None] * s_tr + p[:, None] * _M
+    d_plastic = (1.0 - scale)[:, None] * s_tr / (2.0 * g) + ((p_tr - p) / (3.0 * bulk))[:, None] * _M
+    new_plastic = plastic_strain + d_plastic * _ENGINEERING
+
+    # d q and d dg from (q/rho) dq - H d dg = -3 alpha dp_tr and A dq + q G d dg = rho dq_tr, with
+    # A = rho + G dg + (q - q_tr) q / rho; dq_tr = sqrt(2) G N:de, dp_tr = K m:de (N the unit trial deviator).
+    big = rho + g * dg + (q - q_tr) * q / rho
+    det = np.where(plastic, q * q * g / rho + h_rate * big, 1.0)
+    dq_n = np.where(plastic, h_rate * rho * np.sqrt(2.0) * g / det, np.sqrt(2.0) * g)  # dq = dq_n N:de + dq_m m:de
+    dq_m = np.where(plastic, -3.0 * alpha * bulk * q * g / det, 0.0)
+    dg_n = np.where(plastic, q * np.sqrt(2.0) * g / det, 0.0)  # d dg = dg_n N:de + dg_m m:de
+    dg_m = np.where(plastic, 3.0 * alpha * bulk * big / det, 0.0)
+    q_safe = np.where(q_tr > 0.0, q_tr, 1.0)
+    unit = (s_tr / (np.sqrt(2.0) * q_safe)[:, None])[:, _IN_PLANE]
+    m = _M[_IN_PLANE]
+    # s = scale s_tr: ds = scale 2G Idev de + sqrt(2) N (dq - scale dq_tr); dp = K m:de - 3 K alpha_psi d dg
+    dev_n = np.sqrt(2.0) * (dq_n - scale * np.sqrt(2.0) * g)
+    tangent = (scale[:, None, None] * (2.0 * g * _DEV[np.ix_(_IN_PLANE, _IN_PLANE)])
+               + unit[:, :, None] * (dev_n[:, None] * unit + np.sqrt(2.0) * dq_m[:, None] * m)[:, None, :]
+               + m[None, :, None] * (bulk * m[None, :] - 3.0 * bulk * alpha_g * (dg_n[:, None] * unit
+                                                                                 + dg_m[:, None] * m))[:, None, :])
     return stress, tangent, new_plastic

@@ -11,6 +11,7 @@ import pytest
 from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.bounds_model import Soil, strip_footing_problem
 from bridgefem.bounds_plot import plot_bounds
+from bridgefem.footing import MARTIN_N_GAMMA
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import SceneError, scene_from_dict
 
@@ -50,18 +51,22 @@ def _footing(size: float, rough=None, soil=Soil(1.0, 20.0, 0.0)):
     return b.lower.load, b.upper.load
 
 
-def test_prandtl_strip_footing_is_bracketed():
-    """Weightless soil, c = 1 Pa, phi = 20 deg, uniform pressure on B = 1 m: q_u = c N_c = 14.83 Pa."""
-    lower, upper = _footing(0.2)
+@pytest.mark.parametrize("rough,gap", [(None, 0.2), (True, 0.3)], ids=["pressure", "rigid-rough-beam"])
+def test_prandtl_strip_footing_is_bracketed(rough, gap):
+    """Weightless soil, c = 1 Pa, phi = 20 deg, B = 1 m: q_u = c N_c = 14.83 Pa for a uniform pressure and for a
+    rigid rough footing alike (Prandtl's stress field has a uniform pressure and no shear on the footing); the
+    rigid rough footing is the bridge's loading beam (bonded to the soil, loaded at its centre)."""
+    lower, upper = _footing(0.2, rough=rough)
     assert lower <= _prandtl(20.0) <= upper
-    assert upper - lower < 0.2 * _prandtl(20.0)
+    assert upper - lower < gap * _prandtl(20.0)
 
 
 @pytest.mark.slow
-def test_prandtl_gap_closes_with_the_mesh():
+@pytest.mark.parametrize("rough", [None, True], ids=["pressure", "rigid-rough-beam"])
+def test_prandtl_gap_closes_with_the_mesh(rough):
     gaps = []
     for size in (0.2, 0.1, 0.05):
-        lower, upper = _footing(size)
+        lower, upper = _footing(size, rough=rough)
         assert lower <= _prandtl(20.0) <= upper
         gaps.append(upper - lower)
     assert gaps[0] > gaps[1] > gaps[2]
@@ -69,12 +74,11 @@ def test_prandtl_gap_closes_with_the_mesh():
 
 @pytest.mark.slow
 def test_rough_footing_on_cohesionless_soil_brackets_the_exact_n_gamma():
-    """Rigid rough footing B = 1 m on soil with gamma = 1 N/m^3, phi = 30 deg, c = 0: q_u = gamma B N_gamma / 2
-    with the exact N_gamma = 14.75 of the method of characteristics (C.M. Martin 2005, "Exact bearing capacity
-    calculations using the method of characteristics", Proc. 11th Int. Conf. of the IACMAG, 2005; its table of
-    N_gamma, computed with his program ABC: User Guide, OUEL Report 2261/03, University of Oxford, 2004)."""
+    """The loading beam as a rigid rough footing B = 1 m on soil with gamma = 1 N/m^3, phi = 30 deg, c = 0:
+    q_u = gamma B N_gamma / 2 with N_gamma = 14.75 (``MARTIN_N_GAMMA``, the method of characteristics, C.M. Martin
+    2005; cited, not re-read from the paper: docs/bounds.md)."""
     lower, upper = _footing(0.1, rough=True, soil=Soil(0.0, 30.0, 1.0))
-    assert 2 * lower <= 14.75 <= 2 * upper
+    assert 2 * lower <= MARTIN_N_GAMMA[30.0][0] <= 2 * upper
 
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension": 2.0, "material": "mohr-coulomb",
@@ -94,6 +98,27 @@ def test_fill_bounds_entry_of_results():
     assert elastic["lower"] is None and "elastic" in elastic["status"]
     with pytest.raises(SceneError, match="point"):
         scene_from_dict(scene_dict(fill=FILL))
+
+
+@pytest.mark.slow
+def test_loading_beam_is_stronger_than_the_pressure_on_the_same_mesh():
+    """Theorems, not values: a uniform pressure is one of the road tractions the rigid beam may spread (resultant
+    at the centre, no moment, no shear), so the beam's lower bound is at least the pressure's; and every velocity
+    field of the beam (the road moving rigidly under it) is one of the pressure's with the same load power (the
+    mean settlement under the patch is the beam's at its centre), so the beam's upper bound is at least the
+    pressure's. The outline, hence the Gmsh mesh, is the same."""
+    beam = collapse_bounds(scene_from_dict(scene_dict(fill=FILL, load=PATCH)))
+    pressure = collapse_bounds(scene_from_dict(scene_dict(fill={**FILL, "loading_beam": False}, load=PATCH)))
+    assert beam.mesh == pressure.mesh
+    assert beam.lower.load >= pressure.lower.load * (1 - 1e-4)
+    assert beam.upper.load >= pressure.upper.load * (1 - 1e-4)
+    assert beam.lower.load <= beam.upper.load
+
+
+def test_loading_beams_may_not_share_road():
+    two = [{"kind": "patch", "position": 0.25, "length": 1.0}, {"kind": "patch", "position": 0.32, "length": 1.0}]
+    with pytest.raises(SceneError, match="overlap"):
+        collapse_bounds(scene_from_dict(scene_dict(fill=FILL, load=two)))
 
 
 @pytest.mark.slow
@@ -184,7 +209,8 @@ def _best_wedge_mechanism(c, phi, gamma, breadth, above):
 @pytest.mark.slow
 def test_small_bridge_lower_bound_below_hand_mechanisms():
     """The reference arch (extrados radius 5.5 m) under 0.3 m of fill (c = 5 kPa, phi = 30 deg, 18 kN/m^3), a
-    0.5 m patch at quarter span; the ring at rest and a Prandtl-type wedge mechanism in the fill (checked against
+    0.5 m patch at quarter span as a uniform pressure (``loading_beam = false``); the ring at rest and a
+    Prandtl-type wedge mechanism in the fill (checked against
     c N_c B without weight) escaping towards the springing give upper bounds by hand: under the whole patch
     (about 138 kN), and under its outer 2 cm only (the rest of the patch on soil at rest), which tends to
     c N_c B = 75.35 kN as the strip narrows (the weight's share vanishes with it). The lower bound must lie below
@@ -200,5 +226,5 @@ def test_small_bridge_lower_bound_below_hand_mechanisms():
     strip = 0.02
     edge_only = _best_wedge_mechanism(c, phi, gamma, strip, above) * breadth / strip
     assert c * _prandtl(30.0) * breadth < edge_only < 1.05 * c * _prandtl(30.0) * breadth < whole
-    b = collapse_bounds(scene_from_dict(scene_dict(fill=FILL, load=PATCH)))
+    b = collapse_bounds(scene_from_dict(scene_dict(fill={**FILL, "loading_beam": False}, load=PATCH)))
     assert b.lower.load <= edge_only

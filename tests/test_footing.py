@@ -18,11 +18,15 @@ References (all associated flow, psi = phi, which the bound theorems and the clo
   so the tests run 16 cells per side and allow the measured 16-cell error plus 1 %. The same mesh with P1
   displacements overestimates N_c by 28 % at phi = 0: linear triangles lock under plastic flow (Sloan &
   Randolph 1982), which is why the fill needs quadratic elements.
+- Martin (2005), method of characteristics: a rigid rough strip footing on a cohesionless soil with weight,
+  q = gamma B N_gamma / 2, N_gamma = 14.75 at phi = 30 deg (cited, bridgefem.footing.MARTIN_N_GAMMA); the FE reaches
+  c = 0 through two vanishing cohesions on a cone with a smoothed apex (bridgefem.footing.cohesionless_n_gamma).
 """
 import numpy as np
 import pytest
 
-from bridgefem.footing import graded, prandtl_nc, rankine_coefficient, retaining_wall, strip_footing
+from bridgefem.footing import (MARTIN_N_GAMMA, cohesionless_n_gamma, graded, prandtl_nc, rankine_coefficient,
+                               retaining_wall, strip_footing)
 from bridgefem.plasticity import MohrCoulomb
 
 GAMMA = 18e3  # N/m^3
@@ -87,3 +91,14 @@ def test_linear_triangles_lock():
     """The same mesh with P1 displacements overstates N_c by far more than P2 (Sloan & Randolph 1982)."""
     p1 = footing(0.0, False, degree=1)
     assert p1.limit / C > 1.15 * prandtl_nc(0.0)
+
+
+@pytest.mark.slow
+def test_cohesionless_rough_footing_approaches_martin_n_gamma():
+    """phi = 30 deg, c = 0 (cohesionless_n_gamma: two vanishing cohesions on the smoothed cone, extrapolated):
+    N_gamma -> 14.75 (Martin 2005, rough); measured 1.374 x on 8 cells and 1.163 x on 16 cells per side,
+    converging from above (32 cells and the Richardson value: docs/fill.md). The test allows the 16-cell error
+    plus 2 %."""
+    n_gamma, runs = cohesionless_n_gamma(30.0, True, 16)
+    assert 1.0 < n_gamma / MARTIN_N_GAMMA[30.0][0] < 1.163 + 0.02
+    assert max(r.plateau for r in runs) < 0.01

@@ -446,3 +446,73 @@ def cone_of(mat, stress):
     beta = 1 / (np.sqrt(1 - 3 * a * a) + a * np.sin(phi))
     p, _, q = invariants(stress)
     return q + beta * np.sin(phi) * p - beta * mat.cohesion * np.cos(phi)
+
+
+# ---- hyperbolic apex smoothing (Abbo & Sloan 1995), used for a cohesionless soil's N_gamma ------------------
+SMOOTHED = {
+    "sand-phi30": MohrCoulomb(E, 0.3, 30.0, 0.0, 0.0, apex_smoothing=0.02 * L),
+    "phi35-c10k-psi10": MohrCoulomb(E, 0.3, 35.0, 10e3, 1e12, dilation_angle=10.0, apex_smoothing=0.05 * L),
+    "phi20-psi5": MohrCoulomb(E, 0.3, 20.0, 0.0, 0.0, dilation_angle=5.0, apex_smoothing=1e3),
+}
+smoothed_cases = pytest.mark.parametrize("mat", SMOOTHED.values(), ids=SMOOTHED.keys())
+
+
+def hyperbola(mat, stress):
+    """f = sqrt(J2 + a^2) + alpha_phi,psi I1 - k with the plane-strain match of ``cone_of``."""
+    phi = np.radians(mat.friction_angle)
+    psi = np.radians(mat.friction_angle if mat.dilation_angle is None else mat.dilation_angle)
+    a = np.tan(psi) / np.sqrt(9 + 12 * np.tan(psi) ** 2)
+    beta = 1 / (np.sqrt(1 - 3 * a * a) + a * np.sin(phi))
+    p, _, q = invariants(stress)
+    return np.sqrt(q * q + mat.apex_smoothing ** 2) + beta * np.sin(phi) * p - beta * mat.cohesion * np.cos(phi)
+
+
+@smoothed_cases
+def test_smoothed_return_lands_on_the_hyperbola_and_keeps_elastic_states(mat):
+    """Random trial states (all regions, beyond the tip too): admissible (f <= 0); a plastic point lands on f = 0
+    with its deviator parallel to the trial's; an elastic one keeps its trial stress."""
+    strain, plastic = random_states(mat, 400, 21)
+    trial = hooke(mat, strain - plastic)
+    stress, _, _ = return_map(mat, strain, plastic)
+    f_trial, f = hyperbola(mat, trial), hyperbola(mat, stress)
+    assert np.all(f <= 1e-9 * L)
+    yielding = f_trial > 0
+    assert yielding.sum() > 20 and (~yielding).sum() > 20
+    np.testing.assert_allclose(f[yielding], 0.0, atol=1e-9 * L)
+    np.testing.assert_allclose(stress[~yielding], trial[~yielding], rtol=0, atol=1e-9 * L)
+    _, s_trial, q_trial = invariants(trial)
+    _, s, q = invariants(stress)
+    cross = s * q_trial[:, None] - s_trial * q[:, None]  # parallel deviators
+    assert np.abs(cross[yielding]).max() <= 1e-8 * L * max(q_trial.max(), L)
+
+
+@smoothed_cases
+def test_smoothed_tangent_is_the_derivative(mat):
+    """Random states: the consistent tangent equals central differences of the returned stress (as above)."""
+    strain, plastic = random_states(mat, 300, 3)
+    _, tangent, _ = return_map(mat, strain, plastic)
+    assert_tangent_is_the_derivative(mat, strain, plastic, tangent, 1e-6 * E)
+
+
+def test_smoothing_vanishes_away_from_the_apex():
+    """Far from the apex the hyperbola differs from the cone by a^2 / (2 sqrt(J2)): a return of a strongly
+    compressed, sheared state moves by that order only."""
+    cone = MohrCoulomb(E, 0.3, 30.0, 0.0, 0.0)
+    rng = np.random.default_rng(4)
+    trial = rng.uniform(1, 3, (100, 1)) * L * unit_deviators(rng, 100) - rng.uniform(2, 4, (100, 1)) * L * M
+    strain, plastic = strain_for_trial(cone, trial, np.zeros((100, 4)))
+    exact, _, _ = return_map(cone, strain, plastic)
+    far = invariants(exact)[0] < -0.5 * L  # returned onto the cone's face, not to its apex
+    assert far.sum() > 50
+    for a in (1e-2 * L, 1e-3 * L):
+        smooth, _, _ = return_map(MohrCoulomb(E, 0.3, 30.0, 0.0, 0.0, apex_smoothing=a), strain, plastic)
+        assert np.abs(smooth - exact)[far].max() < 10 * a * a / L
+
+
+@pytest.mark.parametrize("kwargs", [dict(friction_angle=0.0, cohesion=1e4), dict(friction_angle=30.0,
+                                                                                   cohesion=1e4),
+                                    dict(friction_angle=30.0, cohesion=0.0, dilation_angle=0.0)],
+                         ids=["no-apex", "cutoff-inside-tip", "no-dilation"])
+def test_smoothing_rejects_what_it_cannot_return(kwargs):
+    with pytest.raises(ValueError):
+        MohrCoulomb(E, 0.3, tension_cutoff=0.0, apex_smoothing=0.1 * L, **kwargs)
