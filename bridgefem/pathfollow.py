@@ -69,7 +69,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from .selfweight import carry_self_weight
-from .solver import ContactSolver, Iterate, StepOutcome
+from .solver import ContactSolver, Iterate, StepOutcome, retried
 from .status import Status
 
 LIMIT_FOUND, UNSTABLE, LOCKED, STABLE = Status.LIMIT, Status.UNSTABLE, Status.LOCKED, Status.STABLE
@@ -224,6 +224,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         predictor = _secant(history[-1], lower, state, trial) if predict else None
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
         out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
+        suspect = not plausible(trial)
+        backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history
+        final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
+            and trial - lower <= (SUSPECT * width if suspect else width)
+        if not out.converged and final and not backtrack and not out.proved and (suspect or not out.mechanism):
+            out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
         if out.converged:
             hardest = max(hardest, out.iterations)
             history.append((lower, state, taken))
@@ -237,13 +243,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             else:
                 step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
             continue
-        suspect = not plausible(trial)
-        if suspect and trial - lower <= width and taken > SETTLED * width and history:
+        if backtrack:
             step = BACKTRACK_STEP * taken
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
-        elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
-                and trial - lower <= (SUSPECT * width if suspect else width):
+        elif final:
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
             return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
                                guess, settled, out.proved)

@@ -113,7 +113,7 @@ diverging mode proves collapse (*Mechanism verdicts*).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -133,6 +133,29 @@ LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-5  # joint-law residual (N) waived at bonded pairs, of the largest applied nodal force
+
+
+@dataclass(frozen=True)
+class Setting:
+    """The algorithmic choices of a load step that decide only how the Newton iteration searches, never what
+    counts as converged (the module's *Retries*): ``scale`` multiplies the Alart-Curnier constants (they weigh
+    forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
+    instead of the converged start's active set, ``patient`` lets damping chains recover without limit."""
+
+    scale: float = 1.0
+    fresh: bool = False
+    patient: bool = False
+
+    def describe(self) -> str:
+        parts = ([f"Alart-Curnier constants x {self.scale:g}"] if self.scale != 1.0 else []) \
+            + (["from all joints closed and sticking"] if self.fresh else []) \
+            + (["unlimited damping chains"] if self.patient else [])
+        return ", ".join(parts) or "default"
+
+
+DEFAULT_SETTING = Setting()
+RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(fresh=True, patient=True))
+# the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
 @dataclass
@@ -201,6 +224,7 @@ class ContactSolver:
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
+        self.setting = DEFAULT_SETTING
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -307,6 +331,11 @@ class ContactSolver:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
         self._matrix_key = None  # the slip rows hold mu
+
+    def use(self, setting: Setting) -> None:
+        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores)."""
+        self.law.c = self.law.c * (setting.scale / self.setting.scale)
+        self.setting, self._matrix_key = setting, None  # the law's rows hold c
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
@@ -463,6 +492,10 @@ class ContactSolver:
         is its classification against ``start`` (the module's *Predictor*).
         """
         active, slip_ref = start.active.copy(), start.slip_ref
+        if self.setting.fresh:
+            active = ContactState.all_stick(len(self.pairs))
+            predictor = None
+        give_up = give_up and not self.setting.patient
         x = self.A.createVecRight()
         start.x.copy(x)
         seen = {self._global_key(active)}
@@ -672,6 +705,24 @@ class ContactSolver:
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
         self.A.mult(x, self.r)
         return self._norm_inf(self.r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
+
+
+def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: StepOutcome,
+            settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
+    """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
+    ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
+    first that showed a mechanism where ``failed`` showed none, else ``failed``. Restores the default setting."""
+    best = failed
+    try:
+        for setting in settings:
+            solver.use(setting)
+            out = solve()
+            if out.converged or out.proved:
+                return out
+            best = out if out.mechanism and not best.mechanism else best
+    finally:
+        solver.use(DEFAULT_SETTING)
+    return best
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
