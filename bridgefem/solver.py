@@ -58,6 +58,21 @@ active set is proposed from the damped iterate. Near the limit, where fill point
 iterations, full steps overshoot: Prestwood with 0.3 m of fill went from a residual of 1e-3 to 16 times the largest
 applied nodal force in one step, and then diverged.
 
+Without a plastic fill the line search is a retry's setting (below): every solution of an active set is in
+equilibrium, so the merit is the joints' Alart-Curnier residual, and the backtracked iterate is the damped
+semismooth Newton method on it; its classification proposes the next active set, and a revisited active set is no
+cycle (the iterate moved).
+
+**Retries.** A load step that fails without proof where the failure would end the search (the limit search's
+trial at the bracket's width, the self-weight after its continuation) is solved again from the same converged
+start with other algorithmic settings (:class:`Setting`, ``RETRIES``, :func:`retried`): the Alart-Curnier constants
+x 10 and x 0.1 (they weigh forces against displacements only in the classification, so they change the path of
+the active sets, not the solution), a start from every joint closed and sticking instead of the start's active
+set, the line search, unlimited damping chains. The first that converges or proves its mechanism is taken; every
+outcome is judged as any other (a converged state is an equilibrium of the scene's laws, a mechanism still needs
+its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
+counts as one.
+
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth,
 or stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair
 next to a crack tip, e.g. stick needing |lam_t| = 1.002 mu lam_n and slip going backwards at one springing pair of a
@@ -140,21 +155,26 @@ class Setting:
     """The algorithmic choices of a load step that decide only how the Newton iteration searches, never what
     counts as converged (the module's *Retries*): ``scale`` multiplies the Alart-Curnier constants (they weigh
     forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
-    instead of the converged start's active set, ``patient`` lets damping chains recover without limit."""
+    instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
+    ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
+    a damped semismooth Newton method on the Alart-Curnier residual)."""
 
     scale: float = 1.0
     fresh: bool = False
     patient: bool = False
+    line_search: bool = False
 
     def describe(self) -> str:
         parts = ([f"Alart-Curnier constants x {self.scale:g}"] if self.scale != 1.0 else []) \
             + (["from all joints closed and sticking"] if self.fresh else []) \
-            + (["unlimited damping chains"] if self.patient else [])
+            + (["unlimited damping chains"] if self.patient else []) \
+            + (["line search"] if self.line_search else [])
         return ", ".join(parts) or "default"
 
 
 DEFAULT_SETTING = Setting()
-RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(fresh=True, patient=True))
+RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
+           Setting(fresh=True, patient=True))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
@@ -514,7 +534,8 @@ class ContactSolver:
         mechanisms = 0  # failed solves of the step that were singular or diverged along an admissible mode
         chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
         plastic = start.plastic_strain
-        anchor = start.x.copy() if self.material is not None else None  # the fill's linearisation point
+        searching = self.material is not None or self.setting.line_search  # the module's *Line search*
+        anchor = start.x.copy() if searching else None  # the linearisation point
         merit = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
         if self.material is not None:
             self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
@@ -550,7 +571,7 @@ class ContactSolver:
                 active, base = damped
                 continue
             recovered, damping, predicted = recovered + damping, False, None
-            if self.material is not None:  # the module's *Line search*
+            if searching:  # the module's *Line search*
                 merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
                                                     f_scale)
                 x.copy(anchor)
@@ -577,14 +598,14 @@ class ContactSolver:
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
-                if self.material is not None:
-                    continue  # same active set, fill not yet in equilibrium: next Newton iteration
+                if searching:
+                    continue  # same active set, damped step or fill not in equilibrium: next Newton iteration
                 return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
                                           f"complementarity residual {comp:.2e} N (singular system)",
                                    it, residual, factorisations(), mechanism=True)
             gkey = self._global_key(new)
-            if gkey in seen and self.material is not None:
-                seen.clear()  # the fill's state moves between visits: a revisit is no cycle (max_iterations bounds it)
+            if gkey in seen and searching:
+                seen.clear()  # the iterate moves between visits: a revisit is no cycle (max_iterations bounds it)
             elif gkey in seen:
                 fix = repairs.pop(gkey, None)
                 if fix is not None and self._global_key(fix) not in seen:
@@ -670,20 +691,23 @@ class ContactSolver:
         return self._norm_inf(out) / f_scale
 
     def _merit(self, level: float, x: PETSc.Vec, plastic_strain: np.ndarray, slip_ref: np.ndarray,
-               frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
+               frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse | None]":
         """The line search's merit at x: the larger of the scaled out-of-balance force |f + G^T lam - f_int(u)|_inf
-        / f_scale (the fill's return map at the displacements of x, from the step's converged ``plastic_strain``)
-        and the scaled Alart-Curnier residual of the joints (friction law waived at ``frozen`` pairs), the two
-        residuals of the convergence test; and the fill's response at x (no tangent). Collective."""
-        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
+        / f_scale (the fill's return map at the displacements of x, from the step's converged ``plastic_strain``;
+        without a plastic fill K u - G^T lam - f) and the scaled Alart-Curnier residual of the joints (friction law
+        waived at ``frozen`` pairs), the two residuals of the convergence test; and the fill's response at x (no
+        tangent; None without a plastic fill). Collective."""
         _, lam, d = self.split(x)
         ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
-        return max(self._material_residual(x, response.f_int, level, f_scale),
-                   self._norm_inf(ncp.ravel()) / f_scale), response
+        joints = self._norm_inf(ncp.ravel()) / f_scale
+        if self.material is None:
+            return max(self._equilibrium_residual(x, f_scale), joints), None
+        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
+        return max(self._material_residual(x, response.f_int, level, f_scale), joints), response
 
     def _line_search(self, level: float, x: PETSc.Vec, anchor: PETSc.Vec, merit: float, plastic_strain: np.ndarray,
-                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
+                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse | None]":
         """Backtrack the Newton step from ``anchor`` (the linearisation point, merit ``merit``) to the solution in
         x: x becomes anchor + a (x - anchor) for the first a = 1, 1/2, ... (at most ``LINE_SEARCH_HALVINGS``
         halvings) whose merit is at most (1 - ``ARMIJO`` a) ``merit``, or stays the full step when none is.
