@@ -49,10 +49,10 @@ Attempt = Callable[[float, Iterate], StepOutcome]
 
 def carry_self_weight(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
     """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
-    that fails without showing a mechanism, both again with each of ``SELF_WEIGHT_RETRIES``.
+    that fails without proof, both again with each of ``SELF_WEIGHT_RETRIES``.
     ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
     out = _carry(solver, attempt)
-    if out.converged or out.mechanism:
+    if out.converged or out.proved:
         return out
     return retried(solver, lambda: _carry(solver, attempt), out, SELF_WEIGHT_RETRIES)
 

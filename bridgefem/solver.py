@@ -127,7 +127,7 @@ diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
@@ -204,6 +204,7 @@ class StepOutcome:
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
     proved: bool = False
+    unbounded: bool = False  # a solve of the failed step was singular or diverged (along any mode)
 
 
 class _Proposal(NamedTuple):
@@ -223,6 +224,7 @@ class _Failure(NamedTuple):
     mechanism: bool
     repair: np.ndarray | None = None
     proof: bool = False
+    unbounded: bool = False  # the solve diverged (along any mode) or was singular
 
 
 class ContactSolver:
@@ -245,6 +247,7 @@ class ContactSolver:
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
         self.setting = DEFAULT_SETTING
+        self._unbounded = False  # a solve of the current step was singular or diverged
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -431,7 +434,7 @@ class ContactSolver:
             verdict = self._verdict(level, active, x, origin)
             if verdict.flaw is not None:
                 return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
-                                "mechanism)", False, verdict.repair)
+                                "mechanism)", False, verdict.repair, unbounded=True)
             if verdict.proof:
                 return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
                                 "the loads do positive work)", True, proof=True)
@@ -497,6 +500,13 @@ class ContactSolver:
 
     def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
                    give_up: bool = False, iterations: int | None = None) -> StepOutcome:
+        """One load step (:meth:`_newton`); a failure says whether any of its solves was unbounded."""
+        self._unbounded = False
+        out = self._newton(level, start, predictor, give_up, iterations)
+        return out if out.converged else replace(out, unbounded=out.mechanism or self._unbounded)
+
+    def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | None,
+                give_up: bool, iterations: int | None) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
@@ -551,6 +561,7 @@ class ContactSolver:
                     return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
                                        proved=True)
                 singular = failure if failure.mechanism else singular
+                self._unbounded |= failure.mechanism or failure.unbounded
                 mechanisms += failure.mechanism
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
@@ -735,8 +746,11 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
     """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
     ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
-    first that showed a mechanism where ``failed`` showed none, else ``failed``. Restores the default setting."""
-    best = failed
+    first that showed a mechanism where ``failed`` showed none, else ``failed``; when ``failed`` and every retry had
+    an unbounded solve (singular, or diverging along any mode), ``failed`` as a mechanism without proof (no setting
+    found an equilibrium, each found the system unbounded: the verdict needs the LP's agreement,
+    :mod:`bridgefem.evidence`). Restores the default setting."""
+    best, unbounded = failed, failed.unbounded
     try:
         for setting in settings:
             solver.use(setting)
@@ -744,8 +758,12 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             if out.converged or out.proved:
                 return out
             best = out if out.mechanism and not best.mechanism else best
+            unbounded = unbounded and out.unbounded
     finally:
         solver.use(DEFAULT_SETTING)
+    if unbounded and not best.mechanism:
+        return replace(failed, mechanism=True, reason=f"{failed.reason}; no equilibrium with any of {len(settings)} "
+                                                       "other solver settings, each diverging (no proof)")
     return best
 
 
