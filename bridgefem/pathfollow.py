@@ -17,7 +17,9 @@ that would stop within ``LANDING * T`` of T goes to T. The step after T is the w
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
 of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
 was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step. A wrong guess therefore costs steps, never the bracket rule.
+``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most ``BACKTRACKS`` times in a search (a
+search that climbs back to the same failure would otherwise cycle). A wrong guess therefore costs steps, never the
+bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
@@ -40,7 +42,8 @@ failure is the Newton method's own evidence.
 
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
-failure. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
+failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
+solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
 iteration that keeps wandering into mechanisms stops early, as such a failure, instead of spending its iterations.
 With a plastic fill a trial more than the width above ``lower`` gets ``PLASTIC_BUDGET`` times the Newton iterations
 of the hardest converged step (Prestwood: converged steps take 4-23 iterations, failed ones used 40-60 without
@@ -82,6 +85,7 @@ SETTLED = 4.0  # ... from a state reached by a step of at most this many widths 
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
 BACKTRACK_STEP = 0.25  # after a backtrack the step is this fraction of the step that reached the discarded state
+BACKTRACKS = 2  # backtracks per search: a suspect failure that recurs after them is decisive
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
 PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
@@ -206,6 +210,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     retry = False  # the next trial retries the soft bound
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     hardest = first.iterations  # Newton iterations of the hardest converged step
+    backtracks = 0
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
@@ -225,10 +230,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
         out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
         suspect = not plausible(trial)
-        backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history
+        backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
+            and backtracks < BACKTRACKS
         final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
-            and trial - lower <= (SUSPECT * width if suspect else width)
-        if not out.converged and final and not backtrack and not out.proved and (suspect or not out.mechanism):
+            and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
+        if not out.converged and final and not out.proved and (suspect or not out.mechanism):
             out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
         if out.converged:
             hardest = max(hardest, out.iterations)
@@ -244,7 +250,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                 step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
             continue
         if backtrack:
-            step = BACKTRACK_STEP * taken
+            step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
         elif final:
