@@ -7,7 +7,10 @@ Levels are live-load levels in N per unit load factor. Every trial is solved fro
 ``upper - lower <= tolerance * lower`` (the *width*). A failure reached by a larger step proves nothing (the
 response is path dependent, and the active-set Newton method can fail on a large step below the limit): it is
 a *soft* bound. Later trials bisect [lower, soft] and retry the soft bound itself once it is within the width
-of ``lower``, where its failure is decisive. A trial that converges at or above the soft bound discards it.
+of ``lower``, where its failure is decisive. A trial that converges at or above the soft bound discards it. After
+a step that converged in one Newton iteration (its start's active set held: the response was linear over it), the
+next trial is the width below the soft bound rather than the midpoint (not twice in a row): where the soft bound
+lies just above the limit, that closes the bracket in two trials instead of a bisection down to the width.
 
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
 approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
@@ -211,6 +214,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     hardest = first.iterations  # Newton iterations of the hardest converged step
     backtracks = 0
+    linear = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
@@ -221,7 +225,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             trial = min(target - APPROACH * (target - lower), lower + step)
             trial = target if target - trial <= LANDING * target else trial
         elif soft < math.inf:
-            trial = 0.5 * (lower + soft)
+            trial = max(0.5 * (lower + soft), soft - CLOSE * width) if linear else 0.5 * (lower + soft)
         else:
             trial = lower + step
         trial = min(trial, max_load)
@@ -236,7 +240,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
         if not out.converged and final and not out.proved and (suspect or not out.mechanism):
             out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
+        jump, linear = linear and trial == soft - CLOSE * width, False
         if out.converged:
+            linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
             history.append((lower, state, taken))
             taken, arrived = trial - lower, lower < target <= trial
