@@ -225,7 +225,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             trial = min(target - APPROACH * (target - lower), lower + step)
             trial = target if target - trial <= LANDING * target else trial
         elif soft < math.inf:
-            trial = max(0.5 * (lower + soft), soft - CLOSE * width) if linear else 0.5 * (lower + soft)
+            trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
         else:
             trial = lower + step
         trial = min(trial, max_load)
@@ -240,7 +240,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
         if not out.converged and final and not out.proved and (suspect or not out.mechanism):
             out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
-        jump, linear = linear and trial == soft - CLOSE * width, False
+        jump, linear = linear and trial == _below(soft, tolerance), False
         if out.converged:
             linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
@@ -267,6 +267,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _below(level: float, tolerance: float) -> float:
+    """The level whose width reaches just to ``level`` (N per unit load factor): a failure at ``level`` from there
+    closes the bracket."""
+    return level / (1.0 + CLOSE * tolerance)
 
 
 def _secant(previous: tuple[float, Iterate, float], level: float, state: Iterate, trial: float) -> PETSc.Vec:
