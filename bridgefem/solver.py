@@ -204,7 +204,8 @@ class StepOutcome:
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
     proved: bool = False
-    unbounded: bool = False  # a solve of the failed step was singular or diverged (along any mode)
+    unbounded: bool = False  # the failed step ended on a solve that was singular or diverged (along any mode)
+    diverged: bool = False  # some solve of the failed step was singular or diverged
 
 
 class _Proposal(NamedTuple):
@@ -247,7 +248,7 @@ class ContactSolver:
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
         self.setting = DEFAULT_SETTING
-        self._unbounded = False  # a solve of the current step was singular or diverged
+        self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -500,10 +501,12 @@ class ContactSolver:
 
     def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
                    give_up: bool = False, iterations: int | None = None) -> StepOutcome:
-        """One load step (:meth:`_newton`); a failure says whether any of its solves was unbounded."""
-        self._unbounded = False
+        """One load step (:meth:`_newton`); a failure says whether its last solve and whether any solve was unbounded
+        (singular, or diverging along any mode)."""
+        self._unbounded = self._diverged = False
         out = self._newton(level, start, predictor, give_up, iterations)
-        return out if out.converged else replace(out, unbounded=out.mechanism or self._unbounded)
+        return out if out.converged else replace(out, unbounded=out.mechanism or self._unbounded,
+                                                 diverged=out.mechanism or self._diverged)
 
     def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | None,
                 give_up: bool, iterations: int | None) -> StepOutcome:
@@ -561,7 +564,8 @@ class ContactSolver:
                     return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
                                        proved=True)
                 singular = failure if failure.mechanism else singular
-                self._unbounded |= failure.mechanism or failure.unbounded
+                self._unbounded = failure.mechanism or failure.unbounded
+                self._diverged |= self._unbounded
                 mechanisms += failure.mechanism
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
@@ -582,6 +586,7 @@ class ContactSolver:
                 active, base = damped
                 continue
             recovered, damping, predicted = recovered + damping, False, None
+            self._unbounded = False
             if searching:  # the module's *Line search*
                 merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
                                                     f_scale)
@@ -746,9 +751,9 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
     """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
     ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
-    first that showed a mechanism where ``failed`` showed none, else ``failed``; when ``failed`` and every retry had
-    an unbounded solve (singular, or diverging along any mode), ``failed`` as a mechanism without proof (no setting
-    found an equilibrium, each found the system unbounded: the verdict needs the LP's agreement,
+    first that showed a mechanism where ``failed`` showed none, else ``failed``; when ``failed`` ended on an unbounded
+    solve (singular, or diverging along any mode) and every retry met one, ``failed`` as a mechanism without proof (no
+    setting found an equilibrium, each found the system unbounded: the verdict needs the LP's agreement,
     :mod:`bridgefem.evidence`). Restores the default setting."""
     best, unbounded = failed, failed.unbounded
     try:
@@ -758,7 +763,7 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             if out.converged or out.proved:
                 return out
             best = out if out.mechanism and not best.mechanism else best
-            unbounded = unbounded and out.unbounded
+            unbounded = unbounded and out.diverged
     finally:
         solver.use(DEFAULT_SETTING)
     if unbounded and not best.mechanism:
