@@ -164,13 +164,6 @@ class Setting:
     patient: bool = False
     line_search: bool = False
 
-    def describe(self) -> str:
-        parts = ([f"Alart-Curnier constants x {self.scale:g}"] if self.scale != 1.0 else []) \
-            + (["from all joints closed and sticking"] if self.fresh else []) \
-            + (["unlimited damping chains"] if self.patient else []) \
-            + (["line search"] if self.line_search else [])
-        return ", ".join(parts) or "default"
-
 
 DEFAULT_SETTING = Setting()
 RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
@@ -751,7 +744,7 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
     """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
     ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
-    first that showed a mechanism where ``failed`` showed none, else ``failed``; when ``failed`` ended on an unbounded
+    first that showed a mechanism where ``failed`` showed none, else ``failed`` (its reason saying so); when ``failed`` ended on an unbounded
     solve (singular, or diverging along any mode) and every retry met one, ``failed`` as a mechanism without proof (no
     setting found an equilibrium, each found the system unbounded: the verdict needs the LP's agreement,
     :mod:`bridgefem.evidence`). Restores the default setting."""
@@ -769,6 +762,8 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     if unbounded and not best.mechanism:
         return replace(failed, mechanism=True, reason=f"{failed.reason}; no equilibrium with any of {len(settings)} "
                                                        "other solver settings, each diverging (no proof)")
+    if best is failed:
+        return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
     return best
 
 
