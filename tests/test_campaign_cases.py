@@ -285,3 +285,51 @@ def test_scene_136_is_no_false_unstable(tmp_path):
     data = json.loads(next(tmp_path.glob("out*/results.json")).read_text())
     assert data["status"] != "unstable under self-weight"
     assert proc.returncode == (1 if data["status"].startswith("solver failure") else 0)
+
+
+class ScriptedSolver:
+    """A stand-in for ContactSolver in :func:`bridgefem.solver.retried`: each solve returns the next scripted outcome
+    and records the setting it was solved with."""
+
+    def __init__(self, outcomes):
+        from bridgefem.solver import DEFAULT_SETTING
+
+        self.outcomes, self.setting, self.used = list(outcomes), DEFAULT_SETTING, []
+
+    def use(self, setting):
+        self.setting = setting
+
+    def solve(self):
+        self.used.append(self.setting)
+        return self.outcomes.pop(0)
+
+
+def _outcome(converged=False, mechanism=False, proved=False, unbounded=False, diverged=False, reason="failed"):
+    from bridgefem.solver import StepOutcome
+
+    return StepOutcome(converged, "" if converged else reason, 3, 0.0, 1, mechanism=mechanism, proved=proved,
+                       unbounded=unbounded, diverged=diverged)
+
+
+def test_a_retry_that_converges_continues_and_restores_the_default_setting():
+    from bridgefem.solver import DEFAULT_SETTING, RETRIES, retried
+
+    solver = ScriptedSolver([_outcome(), _outcome(converged=True)])
+    out = retried(solver, solver.solve, _outcome(unbounded=True, diverged=True))
+    assert out.converged and solver.used == list(RETRIES[:2]) and solver.setting == DEFAULT_SETTING
+
+
+def test_every_setting_diverging_is_a_mechanism_without_proof_and_anything_else_stays_a_failure():
+    """No setting finds an equilibrium and each meets an unbounded solve: a mechanism, never a proof (the evidence
+    rule then needs the LP's agreement). One setting that only ran out of iterations keeps the failure a failure."""
+    from bridgefem.solver import RETRIES, retried
+
+    diverging = [_outcome(unbounded=True, diverged=True) for _ in RETRIES]
+    solver = ScriptedSolver(diverging)
+    out = retried(solver, solver.solve, _outcome(unbounded=True, diverged=True))
+    assert out.mechanism and not out.proved and not out.converged
+    solver = ScriptedSolver(diverging[:-1] + [_outcome(reason="max iterations")])
+    out = retried(solver, solver.solve, _outcome(unbounded=True, diverged=True))
+    assert not out.mechanism and "other solver settings" in out.reason
+    solver = ScriptedSolver(diverging)  # the failure itself ended on max iterations: no mechanism either
+    assert not retried(solver, solver.solve, _outcome(diverged=True)).mechanism
