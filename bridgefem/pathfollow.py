@@ -46,8 +46,9 @@ failure is the Newton method's own evidence.
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
-solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
-iteration that keeps wandering into mechanisms stops early, as such a failure, instead of spending its iterations.
+solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load
+trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
+mechanisms stops early, as such a failure, instead of spending its iterations.
 With a plastic fill a trial more than the width above ``lower`` gets ``PLASTIC_BUDGET`` times the Newton iterations
 of the hardest converged step (Prestwood: converged steps take 4-23 iterations, failed ones used 40-60 without
 recovering); trials that can close the bracket keep ``max_iterations``.

@@ -744,10 +744,10 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
             settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
     """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
     ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
-    first that showed a mechanism where ``failed`` showed none, else ``failed`` (its reason saying so); when ``failed`` ended on an unbounded
-    solve (singular, or diverging along any mode) and every retry met one, ``failed`` as a mechanism without proof (no
-    setting found an equilibrium, each found the system unbounded: the verdict needs the LP's agreement,
-    :mod:`bridgefem.evidence`). Restores the default setting."""
+    first that showed a mechanism where ``failed`` showed none, else ``failed`` (its reason saying so); when
+    ``failed`` ended on an unbounded solve (singular, or diverging along any mode) and every retry met one,
+    ``failed`` as a mechanism without proof (no setting found an equilibrium, each found the system unbounded: the
+    verdict needs the LP's agreement, :mod:`bridgefem.evidence`). Restores the default setting."""
     best, unbounded = failed, failed.unbounded
     try:
         for setting in settings:
