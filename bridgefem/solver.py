@@ -2,21 +2,24 @@
 
 One load step (:meth:`ContactSolver.solve_step`), from a converged state:
 
-1. Take the start's active set (or the one a predicted state proposes).
+1. Take the start's active set (or the one a predicted state proposes; every joint closed and sticking with the
+   retry setting ``fresh``).
 2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism).
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
    wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
    without proof.
-4. With a plastic fill, backtrack the step (line search on the merit below).
+4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; closed pairs that cycle between friction states are frozen to stick,
    pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
+7. A step that failed without proof where its failure would end the search is solved again with other settings
+   (:func:`retried`, *Retries* below).
 
 Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
-campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 35 solves per limit load;
-its failures there are active-set cycles and near-limit stalls on rings with many voussoirs, measured and listed in
+campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 40 solves per limit load;
+its failures there are one-pair open / closed cycles and sliding stalls below the associative LP, measured and listed in
 ``docs/robustness.md`` (*Solver failures*). A condensed (Schur complement) or Tresca fixed-point solver was not
 needed for the cases fixed here (the evidence rule, the slip-direction check, the friction continuation and bonding
 were) and is the next step for the cycles left: one crack-tip pair, in rings whose voussoirs are shorter than an
