@@ -8,7 +8,8 @@ Each scene is drawn from the seed and its index alone (so one scene can be re-ru
   no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
 - voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
 - one point load (70 %) or patch (up to 0.3 of the span) anywhere on the span; ``joint_at_loads`` true or false;
-- ``FILL_SHARE`` of the scenes with a shallow fill (elastic, or Mohr-Coulomb).
+- ``FILL_SHARE`` of the scenes with a shallow fill (elastic, or Mohr-Coulomb: always under a patch, since a point
+  force on a plastic continuum has no finite collapse load and the scene refuses it).
 
 Every scene is run by the command line (``bridgefem run``) in a subprocess with a timeout, and judged against the
 rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
@@ -16,10 +17,15 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
 - *confirmed*: FE and LP give the same verdict; for a limit load, the FE bracket within ``NO_SLIP_TOL`` of the LP
   (:func:`bridgefem.evidence.reaches`, the evidence rule's agreement) when no joint slides (FE or LP), its lower end
   at most ``1 + NO_SLIP_TOL`` x LP when one does (and its upper end below ``1 - NO_SLIP_TOL`` x LP only
-  with a proved mechanism: results.json ``evidence``); with a fill (LP: fill as dead load only) any
-  FE verdict at or above the LP;
+  with a proved mechanism: results.json ``evidence``); with a Mohr-Coulomb fill against the conic bounds of the
+  bridge with its fill (results.json ``fill_bounds``, N): its lower bound x (1 - ``NO_SLIP_TOL``) at most the FE
+  bracket's lower end and the bracket's upper end at most (1 + ``BOUND_TOL``) x the upper bound (the dead-load LP
+  is no floor: the fill can fail under the load first); with an elastic fill (no bounds) any FE verdict at or
+  above the LP with the fill as dead load;
 - *solver failure*: the run says so (exit 1): honest, but no answer;
 - *wrong*: a verdict the LP contradicts (e.g. "unstable" while the LP stands, or FE far from the LP);
+  *wrong (fill mesh not converged)*: a fill scene's FE limit above the conic upper bound (docs/fill.md), counted
+  apart;
 - *crash*: a traceback, a signal, another exit code, or the timeout;
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
   leave a voussoir of zero length; not counted in the success rate.
@@ -50,6 +56,7 @@ SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
 FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
 NO_SLIP_TOL = AGREEMENT  # FE within this fraction of the LP where no joint slides (issue 12)
+BOUND_TOL = 0.005  # the FE bracket's upper end at most this fraction above the conic upper bound of a fill scene
 TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
 
 
@@ -60,18 +67,22 @@ def draw(seed: int, index: int) -> dict:
     span = float(rng.uniform(3.0, 30.0))
     rise = span / 2 if shape == "semicircular" else float(span * rng.uniform(*RISE_RATIO[shape]))
     patch = round(float(rng.uniform(0.02, 0.3)) * span, 3) if rng.random() > 0.7 else 0.0
-    edge = patch / 2 / span  # a patch lies on the span
-    return {
+    choice = {
         "index": index, "shape": shape, "span": round(span, 3), "rise": round(rise, 3),
         "thickness_fraction": float(rng.random()),
         "voussoirs": int(round(math.exp(rng.uniform(math.log(4), math.log(256))))),
         "friction": round(float(math.exp(rng.uniform(math.log(0.3), math.log(10.0)))), 3),
         "young": float(f"{math.exp(rng.uniform(math.log(1e8), math.log(1e11))):.3g}"),
-        "position": round(float(edge + (1 - 2 * edge) * rng.random()), 4),
+        "position": float(rng.random()),  # of the span the load's centre can take, placed below
         "patch": patch,
         "joint_at_loads": bool(rng.random() > 0.3),
         "fill": ("mohr-coulomb" if rng.random() < 0.5 else "elastic") if rng.random() < FILL_SHARE else None,
     }
+    if choice["fill"] == "mohr-coulomb" and not patch:  # a point force on a plastic fill has no finite collapse load
+        choice["patch"] = round(float(rng.uniform(0.02, 0.3)) * span, 3)
+    edge = choice["patch"] / 2 / span  # a patch lies on the span
+    choice["position"] = round(edge + (1 - 2 * edge) * choice["position"], 4)
+    return choice
 
 
 def scene_dict(choice: dict, thickness: float) -> dict:
@@ -187,6 +198,13 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = "confirmed" if fill or lp["load"] >= (1 - NO_SLIP_TOL) * lim["lower"] else "wrong"
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
         cls = "wrong"
+    elif status == "limit load found" and fill and (data.get("fill_bounds") or {}).get("upper"):
+        bounds = data["fill_bounds"]  # conic bounds of the bridge with its fill (N); the dead-load LP is no floor
+        out.update(bound_lower=bounds["lower"], bound_upper=bounds["upper"])
+        if lim["upper"] > (1 + BOUND_TOL) * bounds["upper"]:
+            cls = "wrong (fill mesh not converged)"
+        else:
+            cls = "confirmed" if bounds["lower"] * (1 - NO_SLIP_TOL) <= lim["lower"] else "wrong"
     elif status == "limit load found":
         lower, upper, level = lim["lower"], lim["upper"], lp["load"]
         if fill:
@@ -198,7 +216,7 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = "confirmed" if ok else "wrong"
     else:
         cls = "confirmed"
-    if cls != "solver failure" and code != 0:
+    if cls not in ("solver failure", "wrong (fill mesh not converged)") and code != 0:
         cls = "wrong"  # a verdict must exit 0
     return {**out, "class": cls}
 
@@ -230,7 +248,8 @@ def report(rows: list[dict]) -> str:
                      f"{r['status'][:28]:28} {ratio:>7} {str(r.get('solves') or '-'):>6} {r['seconds']:6.1f}  "
                      f"{r['class']}")
     n = len(rows)
-    classes = {c: sum(r["class"] == c for r in rows) for c in ("confirmed", "solver failure", "wrong", "crash")}
+    classes = {c: sum(r["class"] == c for r in rows)
+               for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash")}
     rejected = sum(r["class"] == "rejected" for r in rows)
     n -= rejected
     lines.append("")
@@ -242,7 +261,7 @@ def report(rows: list[dict]) -> str:
             lines.append(f"  {shape:12}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
-        if r["class"] in ("solver failure", "crash", "wrong"):
+        if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)"):
             key = f"{r['class']}: {failure_cause(r)}"
             causes[key] = causes.get(key, 0) + 1
     for key, k in sorted(causes.items(), key=lambda kv: -kv[1]):

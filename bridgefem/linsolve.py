@@ -4,7 +4,10 @@ does not change, and a check of every solve before its result is used.
 A solve fails (:class:`SolveFailure`) when PETSc raises, when the KSP reports divergence, when the solution holds
 NaN, or when its normwise backward error |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf) is above ``BACKWARD_TOL``: a
 solver that did not solve the system (e.g. ``pc_type = none``) is a failure, never a mechanism. Only MUMPS finding
-the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``.
+the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``. The solve after any failure uses a
+new KSP: after a PETSc error inside KSPSolve, PCPreSolve's nesting count stays raised (two such errors and every
+later solve fails with PETSc error 56); after a singular factorisation, MUMPS refused the next solve of the same KSP
+with INFOG(1) = -3 (campaign scene 161, seed 1).
 """
 from __future__ import annotations
 
@@ -90,6 +93,7 @@ class CheckedSolve:
             self.stats["solves"] += 1
         reason = self.ksp.getConvergedReason()
         if reason < 0:
+            self._broken = True  # module docstring: a new KSP for the next solve
             return self._failure(reason)
         if self.comm.allreduce(int(not np.all(np.isfinite(x.array))), op=MPI.MAX):
             return SolveFailure("NaN in the solution", False)

@@ -7,7 +7,10 @@ Levels are live-load levels in N per unit load factor. Every trial is solved fro
 ``upper - lower <= tolerance * lower`` (the *width*). A failure reached by a larger step proves nothing (the
 response is path dependent, and the active-set Newton method can fail on a large step below the limit): it is
 a *soft* bound. Later trials bisect [lower, soft] and retry the soft bound itself once it is within the width
-of ``lower``, where its failure is decisive. A trial that converges at or above the soft bound discards it.
+of ``lower``, where its failure is decisive. A trial that converges at or above the soft bound discards it. After
+a step that converged in one Newton iteration (its start's active set held: the response was linear over it), the
+next trial is the width below the soft bound rather than the midpoint (not twice in a row): where the soft bound
+lies just above the limit, that closes the bracket in two trials instead of a bisection down to the width.
 
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
 approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
@@ -17,7 +20,9 @@ that would stop within ``LANDING * T`` of T goes to T. The step after T is the w
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
 of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
 was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step. A wrong guess therefore costs steps, never the bracket rule.
+``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most ``BACKTRACKS`` times in a search (a
+search that climbs back to the same failure would otherwise cycle). A wrong guess therefore costs steps, never the
+bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
@@ -40,8 +45,10 @@ failure is the Newton method's own evidence.
 
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
-failure. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton
-iteration that keeps wandering into mechanisms stops early, as such a failure, instead of spending its iterations.
+failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
+solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load
+trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
+mechanisms stops early, as such a failure, instead of spending its iterations.
 With a plastic fill a trial more than the width above ``lower`` gets ``PLASTIC_BUDGET`` times the Newton iterations
 of the hardest converged step (Prestwood: converged steps take 4-23 iterations, failed ones used 40-60 without
 recovering); trials that can close the bracket keep ``max_iterations``.
@@ -69,7 +76,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from .selfweight import carry_self_weight
-from .solver import ContactSolver, Iterate, StepOutcome
+from .solver import ContactSolver, Iterate, StepOutcome, retried
 from .status import Status
 
 LIMIT_FOUND, UNSTABLE, LOCKED, STABLE = Status.LIMIT, Status.UNSTABLE, Status.LOCKED, Status.STABLE
@@ -82,6 +89,7 @@ SETTLED = 4.0  # ... from a state reached by a step of at most this many widths 
 EASY_ITERATIONS = 3  # a converged step with at most this many Newton iterations doubles the step
 BACKTRACK = 4  # converged states kept for backtracking
 BACKTRACK_STEP = 0.25  # after a backtrack the step is this fraction of the step that reached the discarded state
+BACKTRACKS = 2  # backtracks per search: a suspect failure that recurs after them is decisive
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
 PLASTIC_BUDGET = 3  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
@@ -206,6 +214,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     retry = False  # the next trial retries the soft bound
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     hardest = first.iterations  # Newton iterations of the hardest converged step
+    backtracks = 0
+    linear = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
@@ -216,7 +226,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             trial = min(target - APPROACH * (target - lower), lower + step)
             trial = target if target - trial <= LANDING * target else trial
         elif soft < math.inf:
-            trial = 0.5 * (lower + soft)
+            trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
         else:
             trial = lower + step
         trial = min(trial, max_load)
@@ -224,7 +234,16 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         predictor = _secant(history[-1], lower, state, trial) if predict else None
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
         out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
+        suspect = not plausible(trial)
+        backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
+            and backtracks < BACKTRACKS
+        final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
+            and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
+        if not out.converged and final and not out.proved and (suspect or not out.mechanism):
+            out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
+        jump, linear = linear and trial == _below(soft, tolerance), False
         if out.converged:
+            linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
             history.append((lower, state, taken))
             taken, arrived = trial - lower, lower < target <= trial
@@ -237,13 +256,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             else:
                 step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
             continue
-        suspect = not plausible(trial)
-        if suspect and trial - lower <= width and taken > SETTLED * width and history:
-            step = BACKTRACK_STEP * taken
+        if backtrack:
+            step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
             lower, state, taken = history.pop()
             soft, retry = math.inf, False
-        elif (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
-                and trial - lower <= (SUSPECT * width if suspect else width):
+        elif final:
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
             return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
                                guess, settled, out.proved)
@@ -251,6 +268,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _below(level: float, tolerance: float) -> float:
+    """The level whose width reaches just to ``level`` (N per unit load factor): a failure at ``level`` from there
+    closes the bracket."""
+    return level / (1.0 + CLOSE * tolerance)
 
 
 def _secant(previous: tuple[float, Iterate, float], level: float, state: Iterate, trial: float) -> PETSc.Vec:

@@ -33,7 +33,7 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
-from .solver import ContactSolver, Iterate, StepOutcome
+from .solver import RETRIES, ContactSolver, Iterate, StepOutcome, retried
 
 RAMP_RATIO = 0.5  # a continuation step keeps this fraction of the raised strength's excess over the scene's
 RAMP_STEPS = 7  # steps with a raised strength (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
@@ -43,12 +43,22 @@ RAMP_HALVINGS = 6  # failed continuation steps halved at most this many times in
 FRICTION_RAISE = 8.0  # the friction continuation starts at this multiple of the joints' Coulomb coefficients
 # (mu = 0.3 -> 2.4: the bonded thrust of a thick ring is well inside that cone)
 
+SELF_WEIGHT_RETRIES = tuple(s for s in RETRIES if not s.fresh)  # the self-weight starts all closed and sticking
 Attempt = Callable[[float, Iterate], StepOutcome]
 
 
 def carry_self_weight(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
-    """The self-weight state (module docstring): one step, else the continuation that fits the structure.
+    """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
+    that fails without proof, both again with each of ``SELF_WEIGHT_RETRIES``.
     ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
+    out = _carry(solver, attempt)
+    if out.converged or out.proved:
+        return out
+    return retried(solver, lambda: _carry(solver, attempt), out, SELF_WEIGHT_RETRIES)
+
+
+def _carry(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
+    """One step, else the continuation that fits the structure."""
     first = attempt(0.0, solver.initial_iterate())
     if first.converged or first.proved:
         return first

@@ -2,21 +2,24 @@
 
 One load step (:meth:`ContactSolver.solve_step`), from a converged state:
 
-1. Take the start's active set (or the one a predicted state proposes).
+1. Take the start's active set (or the one a predicted state proposes; every joint closed and sticking with the
+   retry setting ``fresh``).
 2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism).
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
    wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
    without proof.
-4. With a plastic fill, backtrack the step (line search on the merit below).
+4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; closed pairs that cycle between friction states are frozen to stick,
    pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
+7. A step that failed without proof where its failure would end the search is solved again with other settings
+   (:func:`retried`, *Retries* below).
 
 Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
-campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 35 solves per limit load;
-its failures there are active-set cycles and near-limit stalls on rings with many voussoirs, measured and listed in
+campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 40 solves per limit load;
+its failures there are one-pair open / closed cycles and sliding stalls below the associative LP, measured and listed in
 ``docs/robustness.md`` (*Solver failures*). A condensed (Schur complement) or Tresca fixed-point solver was not
 needed for the cases fixed here (the evidence rule, the slip-direction check, the friction continuation and bonding
 were) and is the next step for the cycles left: one crack-tip pair, in rings whose voussoirs are shorter than an
@@ -57,6 +60,21 @@ active set classified at x_k, the fill's consistent tangent) both decrease like 
 active set is proposed from the damped iterate. Near the limit, where fill points yield and unload between
 iterations, full steps overshoot: Prestwood with 0.3 m of fill went from a residual of 1e-3 to 16 times the largest
 applied nodal force in one step, and then diverged.
+
+Without a plastic fill the line search is a retry's setting (below): every solution of an active set is in
+equilibrium, so the merit is the joints' Alart-Curnier residual, and the backtracked iterate is the damped
+semismooth Newton method on it; its classification proposes the next active set, and a revisited active set is no
+cycle (the iterate moved).
+
+**Retries.** A load step that fails without proof where the failure would end the search (the limit search's
+trial at the bracket's width, the self-weight after its continuation) is solved again from the same converged
+start with other algorithmic settings (:class:`Setting`, ``RETRIES``, :func:`retried`): the Alart-Curnier constants
+x 10 and x 0.1 (they weigh forces against displacements only in the classification, so they change the path of
+the active sets, not the solution), a start from every joint closed and sticking instead of the start's active
+set, the line search, unlimited damping chains. The first that converges or proves its mechanism is taken; every
+outcome is judged as any other (a converged state is an equilibrium of the scene's laws, a mechanism still needs
+its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
+counts as one.
 
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth,
 or stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair
@@ -112,8 +130,8 @@ diverging mode proves collapse (*Mechanism verdicts*).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -133,6 +151,27 @@ LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-5  # joint-law residual (N) waived at bonded pairs, of the largest applied nodal force
+
+
+@dataclass(frozen=True)
+class Setting:
+    """The algorithmic choices of a load step that decide only how the Newton iteration searches, never what
+    counts as converged (the module's *Retries*): ``scale`` multiplies the Alart-Curnier constants (they weigh
+    forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
+    instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
+    ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
+    a damped semismooth Newton method on the Alart-Curnier residual)."""
+
+    scale: float = 1.0
+    fresh: bool = False
+    patient: bool = False
+    line_search: bool = False
+
+
+DEFAULT_SETTING = Setting()
+RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
+           Setting(fresh=True, patient=True))
+# the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
 @dataclass
@@ -161,6 +200,8 @@ class StepOutcome:
     counts: dict = field(default_factory=dict)
     mechanism: bool = False
     proved: bool = False
+    unbounded: bool = False  # the failed step ended on a solve that was singular or diverged (along any mode)
+    diverged: bool = False  # some solve of the failed step was singular or diverged
 
 
 class _Proposal(NamedTuple):
@@ -180,6 +221,7 @@ class _Failure(NamedTuple):
     mechanism: bool
     repair: np.ndarray | None = None
     proof: bool = False
+    unbounded: bool = False  # the solve diverged (along any mode) or was singular
 
 
 class ContactSolver:
@@ -201,6 +243,8 @@ class ContactSolver:
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
+        self.setting = DEFAULT_SETTING
+        self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -308,6 +352,11 @@ class ContactSolver:
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
         self._matrix_key = None  # the slip rows hold mu
 
+    def use(self, setting: Setting) -> None:
+        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores)."""
+        self.law.c = self.law.c * (setting.scale / self.setting.scale)
+        self.setting, self._matrix_key = setting, None  # the law's rows hold c
+
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
         self.movement = fraction
@@ -382,7 +431,7 @@ class ContactSolver:
             verdict = self._verdict(level, active, x, origin)
             if verdict.flaw is not None:
                 return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
-                                "mechanism)", False, verdict.repair)
+                                "mechanism)", False, verdict.repair, unbounded=True)
             if verdict.proof:
                 return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
                                 "the loads do positive work)", True, proof=True)
@@ -448,6 +497,15 @@ class ContactSolver:
 
     def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
                    give_up: bool = False, iterations: int | None = None) -> StepOutcome:
+        """One load step (:meth:`_newton`); a failure says whether its last solve and whether any solve was unbounded
+        (singular, or diverging along any mode)."""
+        self._unbounded = self._diverged = False
+        out = self._newton(level, start, predictor, give_up, iterations)
+        return out if out.converged else replace(out, unbounded=out.mechanism or self._unbounded,
+                                                 diverged=out.mechanism or self._diverged)
+
+    def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | None,
+                give_up: bool, iterations: int | None) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
 
         Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
@@ -463,6 +521,10 @@ class ContactSolver:
         is its classification against ``start`` (the module's *Predictor*).
         """
         active, slip_ref = start.active.copy(), start.slip_ref
+        if self.setting.fresh:
+            active = ContactState.all_stick(len(self.pairs))
+            predictor = None
+        give_up = give_up and not self.setting.patient
         x = self.A.createVecRight()
         start.x.copy(x)
         seen = {self._global_key(active)}
@@ -481,7 +543,8 @@ class ContactSolver:
         mechanisms = 0  # failed solves of the step that were singular or diverged along an admissible mode
         chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
         plastic = start.plastic_strain
-        anchor = start.x.copy() if self.material is not None else None  # the fill's linearisation point
+        searching = self.material is not None or self.setting.line_search  # the module's *Line search*
+        anchor = start.x.copy() if searching else None  # the linearisation point
         merit = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
         if self.material is not None:
             self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
@@ -497,6 +560,8 @@ class ContactSolver:
                     return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
                                        proved=True)
                 singular = failure if failure.mechanism else singular
+                self._unbounded = failure.mechanism or failure.unbounded
+                self._diverged |= self._unbounded
                 mechanisms += failure.mechanism
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
@@ -517,7 +582,8 @@ class ContactSolver:
                 active, base = damped
                 continue
             recovered, damping, predicted = recovered + damping, False, None
-            if self.material is not None:  # the module's *Line search*
+            self._unbounded = False
+            if searching:  # the module's *Line search*
                 merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
                                                     f_scale)
                 x.copy(anchor)
@@ -544,14 +610,14 @@ class ContactSolver:
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
-                if self.material is not None:
-                    continue  # same active set, fill not yet in equilibrium: next Newton iteration
+                if searching:
+                    continue  # same active set, damped step or fill not in equilibrium: next Newton iteration
                 return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
                                           f"complementarity residual {comp:.2e} N (singular system)",
                                    it, residual, factorisations(), mechanism=True)
             gkey = self._global_key(new)
-            if gkey in seen and self.material is not None:
-                seen.clear()  # the fill's state moves between visits: a revisit is no cycle (max_iterations bounds it)
+            if gkey in seen and searching:
+                seen.clear()  # the iterate moves between visits: a revisit is no cycle (max_iterations bounds it)
             elif gkey in seen:
                 fix = repairs.pop(gkey, None)
                 if fix is not None and self._global_key(fix) not in seen:
@@ -637,20 +703,23 @@ class ContactSolver:
         return self._norm_inf(out) / f_scale
 
     def _merit(self, level: float, x: PETSc.Vec, plastic_strain: np.ndarray, slip_ref: np.ndarray,
-               frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
+               frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse | None]":
         """The line search's merit at x: the larger of the scaled out-of-balance force |f + G^T lam - f_int(u)|_inf
-        / f_scale (the fill's return map at the displacements of x, from the step's converged ``plastic_strain``)
-        and the scaled Alart-Curnier residual of the joints (friction law waived at ``frozen`` pairs), the two
-        residuals of the convergence test; and the fill's response at x (no tangent). Collective."""
-        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
+        / f_scale (the fill's return map at the displacements of x, from the step's converged ``plastic_strain``;
+        without a plastic fill K u - G^T lam - f) and the scaled Alart-Curnier residual of the joints (friction law
+        waived at ``frozen`` pairs), the two residuals of the convergence test; and the fill's response at x (no
+        tangent; None without a plastic fill). Collective."""
         _, lam, d = self.split(x)
         ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
-        return max(self._material_residual(x, response.f_int, level, f_scale),
-                   self._norm_inf(ncp.ravel()) / f_scale), response
+        joints = self._norm_inf(ncp.ravel()) / f_scale
+        if self.material is None:
+            return max(self._equilibrium_residual(x, f_scale), joints), None
+        response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
+        return max(self._material_residual(x, response.f_int, level, f_scale), joints), response
 
     def _line_search(self, level: float, x: PETSc.Vec, anchor: PETSc.Vec, merit: float, plastic_strain: np.ndarray,
-                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse]":
+                     slip_ref: np.ndarray, frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse | None]":
         """Backtrack the Newton step from ``anchor`` (the linearisation point, merit ``merit``) to the solution in
         x: x becomes anchor + a (x - anchor) for the first a = 1, 1/2, ... (at most ``LINE_SEARCH_HALVINGS``
         halvings) whose merit is at most (1 - ``ARMIJO`` a) ``merit``, or stays the full step when none is.
@@ -672,6 +741,33 @@ class ContactSolver:
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
         self.A.mult(x, self.r)
         return self._norm_inf(self.r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
+
+
+def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: StepOutcome,
+            settings: tuple[Setting, ...] = RETRIES) -> StepOutcome:
+    """A load step that ended in ``failed`` without proof, solved again by ``solve()`` (which records it) with each of
+    ``settings`` in turn (the module's *Retries*): the first outcome that converged or proved a mechanism, else the
+    first that showed a mechanism where ``failed`` showed none, else ``failed`` (its reason saying so); when
+    ``failed`` ended on an unbounded solve (singular, or diverging along any mode) and every retry met one,
+    ``failed`` as a mechanism without proof (no setting found an equilibrium, each found the system unbounded: the
+    verdict needs the LP's agreement, :mod:`bridgefem.evidence`). Restores the default setting."""
+    best, unbounded = failed, failed.unbounded
+    try:
+        for setting in settings:
+            solver.use(setting)
+            out = solve()
+            if out.converged or out.proved:
+                return out
+            best = out if out.mechanism and not best.mechanism else best
+            unbounded = unbounded and out.diverged
+    finally:
+        solver.use(DEFAULT_SETTING)
+    if unbounded and not best.mechanism:
+        return replace(failed, mechanism=True, reason=f"{failed.reason}; no equilibrium with any of {len(settings)} "
+                                                       "other solver settings, each diverging (no proof)")
+    if best is failed:
+        return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
+    return best
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:

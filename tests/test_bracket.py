@@ -40,6 +40,9 @@ class OneDof:
     def converged_slip_reference(self, it):
         return it
 
+    def use(self, setting):  # one algorithm here: a retry solves the same step alike
+        pass
+
     def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
         self.solves += 1
         if level > self.limit:
