@@ -186,7 +186,8 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     mid = 0.5 * (lim["lower"] + lim["upper"]) if lim["upper"] is not None else None
     ratio = mid / lp["load"] if mid and lp["load"] else None
     sliding = bool(data["mechanism"]["sliding"] or lp["mechanism"]["sliding"])
-    proved = data.get("evidence", "").startswith("proof")  # below the associative LP only with a proof
+    # below the associative LP only with a proof or the non-associative rigid-block check (bridgefem/evidence.py)
+    proved = data.get("evidence", "").startswith(("proof", "agreement: the non-associative"))
     out = {"status": status, "lp_status": lp_status, "fe": mid, "lp": lp["load"], "ratio": ratio,
            "sliding": sliding, "solves": data["solver"]["solves"], "reason": data.get("failure_reason", "")}
     if status.startswith("solver failure"):
