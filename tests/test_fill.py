@@ -14,7 +14,7 @@ from petsc4py import PETSc
 
 from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.mesh import FILL_BASE_TAG
-from bridgefem.model import cell_constant, lame, strain
+from bridgefem.model import beam_lame, cell_constant, lame, strain
 from bridgefem.pathfollow import LIMIT_FOUND
 from bridgefem.selfweight import cohesion_continuation
 from bridgefem.rigid_block import collapse_load
@@ -330,3 +330,101 @@ def test_dilation_angle_is_checked_against_the_friction_angle(psi, phi, ok):
     else:
         with pytest.raises(SceneError, match="dilation_angle"):
             scene_from_dict(scene_dict(fill=fill, load=patch))
+
+
+# A loading beam (``[fill] loading_beam``) on an elastic fill: the reference arch, a 0.5 m patch at quarter span,
+# one load step of 50 kN (max_load = initial_step: the search stops there, "locked").
+BEAM_LOAD = 50e3
+
+
+@functools.cache
+def beam_analysis(loading_beam: bool = True):
+    d = scene_dict(fill={**FILL, "loading_beam": loading_beam}, load=[{"kind": "patch", "position": 0.25,
+                                                                       "length": 0.5}],
+                   solver={"max_load": BEAM_LOAD, "initial_step": BEAM_LOAD})
+    scene = scene_from_dict(d)
+    return scene, run_analysis(scene)
+
+
+def _beam_nodes(an):
+    """Owned node indices and coordinates (m) of the loading beam's nodes, and its displacements (m)."""
+    V, bm = an.model.V, an.block_mesh
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    cells = bm.cell_tags.indices[np.isin(bm.cell_tags.values, bm.beam_blocks)]
+    nodes = np.unique(dofs[cells])
+    nodes = nodes[nodes < V.dofmap.index_map.size_local]
+    x = V.tabulate_dof_coordinates()[nodes, :2]
+    u = an.search.last.x.array[:an.solver.n_u].reshape(-1, 2)[nodes]
+    return nodes, x, u
+
+
+def test_loading_beam_moves_as_a_rigid_body_and_tilts():
+    """The beam (BEAM_STIFFNESS = 1000 x the fill's modulus) moves rigidly: its nodal displacements fit a rigid
+    motion (translation + small rotation) to 1e-2 of its settlement (its elastic strain is ~1e-3 of the fill's);
+    off the crown the fill beneath it is not symmetric and the beam, free to rotate, tilts. The flexible pressure
+    of the same patch dishes the road: its settlement under the patch is not a straight line (its misfit > 3 x the
+    beam's)."""
+    scene, an = beam_analysis(True)
+    assert an.search.status == "no collapse up to the maximum load (locked)"
+    _, x, u = _beam_nodes(an)
+    x, u = np.vstack(MPI.COMM_WORLD.allgather(x)), np.vstack(MPI.COMM_WORLD.allgather(u))
+    c = x.mean(axis=0)
+    # u = t + theta * (-(y - yc), x - xc): least squares in (tx, ty, theta)
+    a = np.zeros((2 * len(x), 3))
+    a[0::2, 0], a[1::2, 1] = 1.0, 1.0
+    a[0::2, 2], a[1::2, 2] = -(x[:, 1] - c[1]), x[:, 0] - c[0]
+    fit, *_ = np.linalg.lstsq(a, u.ravel(), rcond=None)
+    misfit = np.abs(a @ fit - u.ravel()).max()
+    settlement = -fit[1]
+    assert settlement > 0 and misfit < 1e-2 * settlement, (misfit, settlement)
+    assert abs(fit[2]) * 0.5 > 1e-2 * settlement  # a tilt over the beam's length: free to rotate
+    # the flexible pressure: the road's settlement under the patch is curved
+    _, flex = beam_analysis(False)
+    V = flex.model.V
+    xr = V.tabulate_dof_coordinates()[:V.dofmap.index_map.size_local, :2]
+    a_, b_ = scene.loads[0].x_range(scene.arch.span)
+    road = np.flatnonzero((np.abs(xr[:, 1] - xr[:, 1].max()) < 1e-9) & (xr[:, 0] >= a_) & (xr[:, 0] <= b_))
+    uy = flex.search.last.x.array[:flex.solver.n_u].reshape(-1, 2)[road, 1]
+    xs, uy = np.concatenate(MPI.COMM_WORLD.allgather(xr[road, 0])), np.concatenate(MPI.COMM_WORLD.allgather(uy))
+    line = np.polyval(np.polyfit(xs, uy, 1), xs)
+    assert np.abs(line - uy).max() > 3 * misfit
+
+
+def test_fill_reaction_on_the_loading_beam_is_the_patch_load_through_its_centre():
+    """Equilibrium of the beam: the forces the fill exerts on its base (the beam's internal nodal forces at its
+    base nodes, from its stress) balance the patch load on its top: vertical resultant = the load (1e-6), no
+    horizontal resultant and no moment about the patch's centre (1e-6 of load x length). A beam held against
+    rotation, or a load not through its centre, would leave a moment."""
+    scene, an = beam_analysis(True)
+    bm, V = an.block_mesh, an.model.V
+    u = fem.Function(V)
+    u.x.array[:an.solver.n_u] = an.search.last.x.array[:an.solver.n_u]
+    u.x.scatter_forward()
+    lam, mu = (cell_constant(bm, 0.0, 0.0, None, None, e) for e in beam_lame(scene.fill))
+    sigma = 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
+    f = assemble_vector(fem.form(scene.arch.width * ufl.inner(sigma, strain(ufl.TestFunction(V))) * ufl.dx))
+    f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    nodes, x, _ = _beam_nodes(an)
+    base = nodes[np.abs(x[:, 1] - x[:, 1].min()) < 1e-9]
+    xb = V.tabulate_dof_coordinates()[base, 0]
+    fb = f.array.reshape(-1, 2)[base]  # the beam's internal force at its base nodes = the fill's force on it
+    comm = MPI.COMM_WORLD
+    a, b = scene.loads[0].x_range(scene.arch.span)
+    load = an.search.lower * an.load_total  # the last converged live load (N)
+    assert load == pytest.approx(BEAM_LOAD)
+    fx, fy = comm.allreduce(fb[:, 0].sum()), comm.allreduce(fb[:, 1].sum())
+    moment = comm.allreduce(((xb - 0.5 * (a + b)) * fb[:, 1]).sum())
+    assert fy == pytest.approx(load, rel=1e-6)
+    assert abs(fx) < 1e-6 * load and abs(moment) < 1e-6 * load * (b - a)
+
+
+def test_loading_beams_of_touching_patches_are_refused():
+    """Two patches that touch would give two beams sharing a side: the run refuses them, naming the key."""
+    from bridgefem.analysis import loading_beams
+    from bridgefem.scene import SceneError
+    patches = [{"kind": "patch", "position": 0.25, "length": 0.5}, {"kind": "patch", "position": 0.25 + 0.5 / 9.0,
+                                                                    "length": 0.5}]
+    scene = scene_from_dict(scene_dict(fill=FILL, load=patches))
+    with pytest.raises(SceneError, match=r"\[fill\] loading_beam = true"):
+        loading_beams(scene)
+    assert loading_beams(scene_from_dict(scene_dict(fill={**FILL, "loading_beam": False}, load=patches))) == ()
