@@ -428,3 +428,19 @@ def test_loading_beams_of_touching_patches_are_refused():
     with pytest.raises(SceneError, match=r"\[fill\] loading_beam = true"):
         loading_beams(scene)
     assert loading_beams(scene_from_dict(scene_dict(fill={**FILL, "loading_beam": False}, load=patches))) == ()
+
+
+@pytest.mark.parametrize("preset", ["fast", "default", "accurate"])
+def test_a_mohr_coulomb_fill_takes_the_fill_presets(preset):
+    """With a Mohr-Coulomb fill a preset sets FILL_PRESETS' mesh (quadratic: P1 locks) and tolerance; a bare arch
+    and an elastic fill keep PRESETS; a key in the scene overrides either."""
+    from bridgefem.scene import FILL_PRESETS, PRESETS
+    mc = {**FILL, "material": "mohr-coulomb", "cohesion": 5e3}
+    patch = [{"kind": "patch", "position": 0.25, "length": 0.5}]
+    for fill, presets in ((mc, FILL_PRESETS), ({**FILL, "material": "elastic"}, PRESETS), (None, PRESETS)):
+        d = scene_dict(load=patch, solver={"preset": preset}, **({"fill": fill} if fill else {}))
+        scene = scene_from_dict(d)
+        want = presets[preset]
+        assert (scene.mesh.elements_through_thickness, scene.mesh.degree, scene.solver.tolerance) == (
+            want["mesh", "elements_through_thickness"], want["mesh", "degree"], want["solver", "tolerance"])
+    assert scene_from_dict(scene_dict(fill=mc, load=patch, mesh={"degree": 1})).mesh.degree == 1
