@@ -290,8 +290,8 @@ def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:
     for (a0, b0), (a1, b1) in zip(ranges[:-1], ranges[1:]):
         if a1 <= b0:
             raise SceneError(f"[fill] loading_beam = true: the patches over x = [{a0:.6g}, {b0:.6g}] and "
-                             f"[{a1:.6g}, {b1:.6g}] m touch or overlap, and so would their beams; allowed: patches apart, "
-                             "or loading_beam = false")
+                             f"[{a1:.6g}, {b1:.6g}] m touch or overlap, and so would their beams; allowed: patches "
+                             "apart, or loading_beam = false")
     return tuple(ranges)
 
 
