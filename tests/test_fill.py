@@ -89,7 +89,8 @@ SELF_WEIGHT_PATHS = ["one step", "cohesion continuation"]
 def cohesionless_analysis():
     """The reference arch under a wide cohesionless Mohr-Coulomb fill (phi 30 degrees, c = 0), self-weight only."""
     wide = {**FILL, "extension": 12.0, "material": "mohr-coulomb", "friction_angle": 30.0, "cohesion": 0.0}
-    scene = scene_from_dict({k: v for k, v in scene_dict(fill=wide).items() if k != "load"})
+    mesh = {"degree": 1, "elements_through_thickness": 4}  # P1: one quadrature point per cell (see dxq below)
+    scene = scene_from_dict({k: v for k, v in scene_dict(fill=wide, mesh=mesh).items() if k != "load"})
     return scene, run_analysis(scene)
 
 
