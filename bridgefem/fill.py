@@ -1,7 +1,7 @@
 """The Mohr-Coulomb backfill in the FE model: internal force and consistent tangent at the quadrature points.
 
-The whole body (voussoirs, elastic abutments, loading beams and fill) is integrated at the same quadrature points: the
-voussoirs, abutments and beams with their elastic matrices, the fill with the return map of
+The whole body (voussoirs, elastic abutments, loading beams and fill) is integrated at the same quadrature
+points: the voussoirs, abutments and beams with their elastic matrices, the fill with the return map of
 :mod:`bridgefem.plasticity` from the plastic strain of the last converged load step.
 :meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force f_int(u) (N) and the tangent
 K_t(u) (N/m, same sparsity and supports as the elastic K of :mod:`bridgefem.model`), so that the contact

@@ -90,7 +90,9 @@ def node_blocks(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
     imap = V.dofmap.index_map
     dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
     block = np.full(imap.size_local + imap.num_ghosts, -1)
-    tags = np.where(np.isin(bm.cell_tags.values, bm.beam_blocks), bm.fill_block or 0, bm.cell_tags.values)
+    tags = bm.cell_tags.values.copy()
+    if bm.beam_blocks:
+        tags[np.isin(tags, bm.beam_blocks)] = bm.fill_block
     block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(tags, dofs.shape[1])
     return block
 
@@ -114,12 +116,12 @@ def strain(w):
 def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
                         point_load_sides: list[str | None] | None = None) -> ElasticModel:
     """Assemble K, the self-weight vector and the unit live-load vector. Live loads act on the extrados of a bare
-    arch and on the road over a fill, a patch on the top face of its loading beam when the mesh has beams (weightless,
-    elastic with :func:`beam_lame`); the fill's supports are built into K and the loads. A point load is a nodal
-    force shared equally by the nodes at the load point of the blocks that carry it (:func:`load_point`): a load
-    on a joint is on the side given per scene load by ``point_load_sides`` ("left" | "right" | "split"; None for a
-    load off the joints), by default the rigid-block LP's least favourable one (:func:`least_favourable_sides`),
-    so that the FE and the LP load the same block."""
+    arch and on the road over a fill, a patch on the top face of its loading beam when the mesh has beams
+    (weightless, elastic with :func:`beam_lame`); the fill's supports are built into K and the loads. A point
+    load is a nodal force shared equally by the nodes at the load point of the blocks that carry it
+    (:func:`load_point`): a load on a joint is on the side given per scene load by ``point_load_sides`` ("left" |
+    "right" | "split"; None for a load off the joints), by default the rigid-block LP's least favourable one
+    (:func:`least_favourable_sides`), so that the FE and the LP load the same block."""
     mesh, comm = bm.mesh, bm.mesh.comm
     fill = scene.fill
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
