@@ -361,8 +361,9 @@ def _beam_nodes(an):
 
 def test_loading_beam_moves_as_a_rigid_body_and_tilts():
     """The beam (BEAM_STIFFNESS = 1000 x the fill's modulus) moves rigidly: its nodal displacements fit a rigid
-    motion (translation + small rotation) to 1e-2 of its settlement (its elastic strain is ~1e-3 of the fill's);
-    off the crown the fill beneath it is not symmetric and the beam, free to rotate, tilts. The flexible pressure
+    motion (translation + small rotation) to 2e-3 of its settlement (its elastic strain is ~1e-3 of the fill's;
+    measured 4.4e-4); off the crown the fill beneath it is not symmetric and the beam, free to rotate, tilts (its
+    ends part by 13 % of the settlement). The flexible pressure
     of the same patch dishes the road: its settlement under the patch is not a straight line (its misfit > 3 x the
     beam's)."""
     scene, an = beam_analysis(True)
@@ -377,7 +378,7 @@ def test_loading_beam_moves_as_a_rigid_body_and_tilts():
     fit, *_ = np.linalg.lstsq(a, u.ravel(), rcond=None)
     misfit = np.abs(a @ fit - u.ravel()).max()
     settlement = -fit[1]
-    assert settlement > 0 and misfit < 1e-2 * settlement, (misfit, settlement)
+    assert settlement > 0 and misfit < 2e-3 * settlement, (misfit, settlement)
     assert abs(fit[2]) * 0.5 > 1e-2 * settlement  # a tilt over the beam's length: free to rotate
     # the flexible pressure: the road's settlement under the patch is curved
     _, flex = beam_analysis(False)
