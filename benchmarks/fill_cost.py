@@ -25,7 +25,7 @@ from bridgefem.scene import FILL_PRESETS, load_scene
 SCENE = Path(__file__).resolve().parents[1] / "demos/prestwood.toml"
 CASES = {f"P{d}-t{n}": (d, n) for d in (1, 2) for n in (2, 4, 8)}
 DEFAULT_CASES = ("P1-t2", "P1-t4", "P2-t2", "P2-t4")
-REFERENCE_KN = 215.8  # Richardson extrapolation of P2 t/2, t/4, t/8 (docs/fill.md, section 3)
+REFERENCE_KN = 215.805  # Richardson extrapolation of P2 t/2, t/4, t/8 (docs/fill.md, section 3)
 
 
 def preset_of(degree: int, elements: int) -> str:
