@@ -233,7 +233,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     lap("geometry")
     phase("meshing")
     bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm, outline,
-                          fill.element_size if fill is not None else 0.0)
+                          fill.element_size if fill is not None else 0.0, loading_beams(scene))
     lap("mesh")
     lp = rigid_block_check(scene, comm)  # the search's guess, the verdict's evidence, the side of a load on a joint
     lap("rigid-block LP")
@@ -279,6 +279,20 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                       fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints))
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict)
+
+
+def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:
+    """The x-ranges (m) of the loading beams: one per patch load on a fill with ``[fill] loading_beam``, none
+    otherwise. Patches whose beams would overlap raise a SceneError."""
+    if scene.fill is None or not scene.fill.loading_beam:
+        return ()
+    ranges = sorted(ld.x_range(scene.arch.span) for ld in scene.loads if ld.kind == "patch")
+    for (a0, b0), (a1, b1) in zip(ranges[:-1], ranges[1:]):
+        if a1 <= b0:
+            raise SceneError(f"[fill] loading_beam = true: the patches over x = [{a0:.6g}, {b0:.6g}] and "
+                             f"[{a1:.6g}, {b1:.6g}] m touch or overlap, and so would their beams; allowed: patches "
+                             "apart, or loading_beam = false")
+    return tuple(ranges)
 
 
 def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> Callable[[Iterate], float]:

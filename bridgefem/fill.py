@@ -1,7 +1,7 @@
 """The Mohr-Coulomb backfill in the FE model: internal force and consistent tangent at the quadrature points.
 
-The whole body (voussoirs, elastic abutments and fill) is integrated at the same quadrature points: the
-voussoirs and abutments with their elastic matrices, the fill with the return map of
+The whole body (voussoirs, elastic abutments, loading beams and fill) is integrated at the same quadrature
+points: the voussoirs, abutments and beams with their elastic matrices, the fill with the return map of
 :mod:`bridgefem.plasticity` from the plastic strain of the last converged load step.
 :meth:`PlasticFill.evaluate` returns, at a displacement u, the internal force f_int(u) (N) and the tangent
 K_t(u) (N/m, same sparsity and supports as the elastic K of :mod:`bridgefem.model`), so that the contact
@@ -22,7 +22,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .mesh import BlockMesh
-from .model import lame, strain
+from .model import beam_lame, lame, strain
 from .plasticity import MohrCoulomb, elastic_tangent, return_map
 from .scene import Scene
 
@@ -129,6 +129,8 @@ class PlasticFill:
         if ab.elastic:
             self._elastic[np.repeat(np.isin(block, bm.abutment_blocks), n_qp)] = _elastic_matrix(
                 *lame(ab.young, ab.poisson, scene.model.plane))
+        if bm.beam_blocks:
+            self._elastic[np.repeat(np.isin(block, bm.beam_blocks), n_qp)] = _elastic_matrix(*beam_lame(f))
         self._apex = APEX_STIFFNESS * elastic_tangent(self.material)
         self.K = assemble_matrix(self.points.k_form, bcs=bcs)
         self.K.assemble()

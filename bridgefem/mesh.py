@@ -14,7 +14,12 @@ Tags on the DOLFINx mesh:
 - facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
   ``EXTRADOS_TAG`` = extrados of the ring (where live loads act on a bare arch); with a fill, its side of the
   extrados ``FILL_INTERFACE_TAG`` (the extrados becomes an interface like a joint: its nodes are duplicated),
-  the road ``ROAD_TAG``, its vertical ends ``FILL_END_TAG`` and its base ``FILL_BASE_TAG``.
+  the road ``ROAD_TAG``, its vertical ends ``FILL_END_TAG`` and its base ``FILL_BASE_TAG``; the top face of a
+  loading beam ``BEAM_TOP_TAG``.
+
+Loading beams (``beams``: the x-ranges of the patch loads, m): a rectangle on the road over each range, of height
+``BEAM_HEIGHT`` x its length, meshed with the fill and sharing its nodes on the road (bonded: not split), with a
+cell tag of its own (``beam_blocks``, after the fill's); the road under it is not tagged ``ROAD_TAG``.
 """
 from __future__ import annotations
 
@@ -33,8 +38,10 @@ FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill int
 ROAD_TAG = 1_000_002
 FILL_END_TAG = 1_000_003  # vertical ends of the fill (rollers)
 FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
+BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
+BEAM_HEIGHT = 0.5  # height of a loading beam / its length
 LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the ring's element size
-BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG)
+BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG, BEAM_TOP_TAG)
 
 
 def joint_face_tag(joint: int, side: int) -> int:
@@ -52,7 +59,8 @@ def marked(mesh: Mesh, tags: MeshTagsMetaClass, values) -> MeshTagsMetaClass:
 @dataclass
 class BlockMesh:
     """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh;
-    ``fill_block`` is the cell tag of the fill (None without fill), ``abutment_blocks`` those of the abutments."""
+    ``fill_block`` is the cell tag of the fill (None without fill), ``abutment_blocks`` those of the abutments,
+    ``beam_blocks`` those of the loading beams."""
 
     mesh: Mesh
     cell_tags: MeshTagsMetaClass
@@ -62,6 +70,7 @@ class BlockMesh:
     n_nodes: int
     fill_block: int | None = None
     abutment_blocks: tuple[int, ...] = ()
+    beam_blocks: tuple[int, ...] = ()
 
 
 def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
@@ -103,8 +112,10 @@ class _RawMesh:
     h: float
 
 
-def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float) -> _RawMesh:
-    """Mesh the ring, and the fill over it when ``outline`` is given, with Gmsh (rank 0 only)."""
+def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
+                 beams: tuple[tuple[float, float], ...] = ()) -> _RawMesh:
+    """Mesh the ring, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
+    ``beams``), with Gmsh (rank 0 only)."""
     import gmsh
 
     gmsh.initialize([], readConfigFiles=False)
@@ -127,7 +138,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             extrados_curves += extra
         abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
                              for ab in ring.abutments]
-        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, h * LOAD_REFINEMENT)
+        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, h * LOAD_REFINEMENT, beams)
                        if outline is not None else {})
         geo.synchronize()
         if outline is not None or ring.abutments:
@@ -157,6 +168,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         block_surfaces = [(s, i) for s, _, _, i in surfaces] + abutment_surfaces
         if outline is not None:
             block_surfaces.append((fill_curves.pop("surface"), ring.n_blocks))
+            block_surfaces += [(b, ring.n_blocks + 1 + k) for k, b in enumerate(fill_curves.pop("beams"))]
         cells = [elements(2, s, 3) for s, _ in block_surfaces]
         blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
         return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
@@ -169,10 +181,12 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
 
 
 def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float,
-              h_load: float) -> dict:
-    """The fill surface over the extrados: its Gmsh surface and its boundary curves per facet tag. Mesh sizes (m):
-    ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point loads), where the
-    bearing stress is singular; the ring's size along the extrados; Gmsh grades in between."""
+              h_load: float, beams: tuple[tuple[float, float], ...] = ()) -> dict:
+    """The fill surface over the extrados and the loading beams on its road (one per x-range of ``beams``, whose
+    ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
+    tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
+    loads), where the bearing stress is singular, the beam's height at its top corners; the ring's size along the
+    extrados; Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
                                                                                          h_fill)
@@ -183,8 +197,19 @@ def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list
     ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
     road_lines = [geo.addLine(a, b) for a, b in zip(road[:-1], road[1:])]
     loop = geo.addCurveLoop([bases[0], *extrados_curves, bases[1], ends[0], *road_lines, ends[1]])
-    return {"surface": geo.addPlaneSurface([loop]), FILL_BASE_TAG: bases, FILL_END_TAG: ends,
-            ROAD_TAG: road_lines, FILL_INTERFACE_TAG: extrados_curves}
+    under, surfaces, tops = set(), [], []
+    for a, b in beams:
+        first, last = road_x.index(b), road_x.index(a)  # road_x descends: the lines first .. last - 1 lie under
+        height = BEAM_HEIGHT * (b - a)
+        top_b, top_a = (geo.addPoint(x, o.y_road + height, 0.0, height) for x in (b, a))
+        sides = [geo.addLine(road[first], top_b), geo.addLine(top_b, top_a), geo.addLine(top_a, road[last])]
+        bottom = [-road_lines[k] for k in range(last - 1, first - 1, -1)]  # from a to b
+        surfaces.append(geo.addPlaneSurface([geo.addCurveLoop([*bottom, *sides])]))
+        tops.append(sides[1])
+        under.update(range(first, last))
+    return {"surface": geo.addPlaneSurface([loop]), "beams": surfaces, FILL_BASE_TAG: bases, FILL_END_TAG: ends,
+            ROAD_TAG: [c for k, c in enumerate(road_lines) if k not in under], FILL_INTERFACE_TAG: extrados_curves,
+            **({BEAM_TOP_TAG: tops} if beams else {})}
 
 
 def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], outer: list[int],
@@ -237,16 +262,22 @@ def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
 
 
 def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD,
-                     fill: FillOutline | None = None, fill_element_size: float = 0.0) -> BlockMesh:
+                     fill: FillOutline | None = None, fill_element_size: float = 0.0,
+                     beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
-    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size).
+    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size);
+    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
     fill_block = ring.n_blocks if fill is not None else None
+    beams = beams if fill is not None else ()
+    beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
-        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness)
-        xs, cs, copy = split_blocks(raw.x, raw.cells, raw.blocks)
+        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness,
+                           beams)
+        # a beam is bonded to the road: its nodes are the fill's (split as one block)
+        xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
         facets, values = [], []
         for j, seg in raw.joints.items():
             if ring.joints[j].free:
@@ -255,7 +286,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
                 if block is not None:
                     facets.append(copy(np.full(seg.shape, block), seg))
                     values.append(np.full(len(seg), joint_face_tag(j, side), dtype=np.int32))
-        ring_cells = np.flatnonzero(raw.blocks != fill_block)  # the fill's cells share the extrados edges
+        ring_cells = np.flatnonzero(raw.blocks < ring.n_blocks)  # the fill's cells share the extrados edges
         ext_block = raw.blocks[ring_cells[_owning_cell(raw.cells[ring_cells], raw.extrados)]]
         facets.append(copy(np.stack([ext_block, ext_block], axis=1), raw.extrados))
         values.append(np.full(len(raw.extrados), EXTRADOS_TAG, dtype=np.int32))
@@ -275,7 +306,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     ct = _tags(mesh, tdim, cs, cell_values)
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
-    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments))
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments),
+                     beam_blocks)
 
 
 def _create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, domain: ufl.Mesh) -> Mesh:

@@ -15,10 +15,11 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .geometry import ArchRing, joint_under, point_load_blocks
-from .mesh import EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
-from .scene import Scene
+from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
+from .scene import Fill, Scene
 
 POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the load
+BEAM_STIFFNESS = 1000.0  # Young's modulus of a loading beam / the fill's: rigid against the fill (docs/fill.md)
 
 
 @dataclass
@@ -57,10 +58,18 @@ def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.n
     return np.flatnonzero(_owned_distances(V, point) < tol)
 
 
+def beam_lame(fill: Fill) -> tuple[float, float]:
+    """Lame constants (Pa, plane strain) of a loading beam: ``BEAM_STIFFNESS`` x the fill's Young's modulus, the
+    fill's Poisson's ratio."""
+    return lame(BEAM_STIFFNESS * fill.young, fill.poisson, "strain")
+
+
 def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
-                  abutment_value: float | None = None, Q: fem.FunctionSpace | None = None) -> fem.Function:
-    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill and
-    ``abutment_value`` on elastic abutments (default: ``arch_value``); ``Q``: the DG0 space (default: a new one)."""
+                  abutment_value: float | None = None, Q: fem.FunctionSpace | None = None,
+                  beam_value: float = 0.0) -> fem.Function:
+    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill,
+    ``abutment_value`` on elastic abutments (default: ``arch_value``) and ``beam_value`` on loading beams; ``Q``:
+    the DG0 space (default: a new one)."""
     Q = fem.FunctionSpace(bm.mesh, ("DG", 0)) if Q is None else Q
     q = fem.Function(Q)
     tags = bm.cell_tags
@@ -68,6 +77,7 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
     value = np.where(is_fill, fill_value, arch_value)
     if abutment_value is not None:
         value[np.isin(tags.values, bm.abutment_blocks)] = abutment_value
+    value[np.isin(tags.values, bm.beam_blocks)] = beam_value
     q.x.array[Q.dofmap.list.array[tags.indices]] = value
     q.x.scatter_forward()
     return q
@@ -75,11 +85,15 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
 
 def node_blocks(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
     """The block (cell tag: voussoir, abutment or fill) of each local node of V, owned then ghost (-1: none).
-    Nodes are duplicated at the joints, so each belongs to one block."""
+    Nodes are duplicated at the joints, so each belongs to one block; a loading beam's nodes count as the fill's
+    (it is bonded to the road)."""
     imap = V.dofmap.index_map
     dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
     block = np.full(imap.size_local + imap.num_ghosts, -1)
-    block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(bm.cell_tags.values, dofs.shape[1])
+    tags = bm.cell_tags.values.copy()
+    if bm.beam_blocks:
+        tags[np.isin(tags, bm.beam_blocks)] = bm.fill_block
+    block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(tags, dofs.shape[1])
     return block
 
 
@@ -102,11 +116,12 @@ def strain(w):
 def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
                         point_load_sides: list[str | None] | None = None) -> ElasticModel:
     """Assemble K, the self-weight vector and the unit live-load vector. Live loads act on the extrados of a bare
-    arch and on the road over a fill; the fill's supports are built into K and the loads. A point load is a nodal
-    force shared equally by the nodes at the load point of the blocks that carry it (:func:`load_point`): a load
-    on a joint is on the side given per scene load by ``point_load_sides`` ("left" | "right" | "split"; None for a
-    load off the joints), by default the rigid-block LP's least favourable one (:func:`least_favourable_sides`),
-    so that the FE and the LP load the same block."""
+    arch and on the road over a fill, a patch on the top face of its loading beam when the mesh has beams
+    (weightless, elastic with :func:`beam_lame`); the fill's supports are built into K and the loads. A point
+    load is a nodal force shared equally by the nodes at the load point of the blocks that carry it
+    (:func:`load_point`): a load on a joint is on the side given per scene load by ``point_load_sides`` ("left" |
+    "right" | "split"; None for a load off the joints), by default the rigid-block LP's least favourable one
+    (:func:`least_favourable_sides`), so that the FE and the LP load the same block."""
     mesh, comm = bm.mesh, bm.mesh.comm
     fill = scene.fill
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
@@ -116,7 +131,8 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
     fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
     abutment_lame = lame(ab.young, ab.poisson, scene.model.plane) if ab.elastic else (None, None)
-    lam, mu = (cell_constant(bm, a, f, b, Q) for a, f, b in zip(arch_lame, fill_lame, abutment_lame))
+    beam = beam_lame(fill) if bm.beam_blocks else (0.0, 0.0)
+    lam, mu = (cell_constant(bm, a, f, b, Q, e) for a, f, b, e in zip(arch_lame, fill_lame, abutment_lame, beam))
     width = scene.arch.width
     bcs = fill_supports(V, bm)
 
@@ -140,7 +156,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
     abutment_weight = weight_of(bm.abutment_blocks)
 
-    surface = ROAD_TAG if fill is not None else EXTRADOS_TAG
+    surface = (BEAM_TOP_TAG if bm.beam_blocks else ROAD_TAG) if fill is not None else EXTRADOS_TAG
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=bm.facet_tags)
     x = ufl.SpatialCoordinate(mesh)
     n = ufl.FacetNormal(mesh)

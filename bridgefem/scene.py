@@ -107,6 +107,16 @@ the cost of the cheapest run, ``default`` the cheapest within a worst error boun
 0.02 %. The ``default`` preset is the source of these keys' defaults; a key given in the scene overrides its
 preset value."""
 
+FILL_PRESETS: dict[str, dict[tuple[str, str], Any]] = {
+    "fast": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 2, ("solver", "tolerance"): 0.01},
+    "default": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 2, ("solver", "tolerance"): 0.005},
+    "accurate": {("mesh", "elements_through_thickness"): 4, ("mesh", "degree"): 2, ("solver", "tolerance"): 0.005},
+}
+"""What each preset sets instead when the scene has a Mohr-Coulomb fill: quadratic displacements (linear
+triangles lock under plastic flow and overstate the limit, docs/fill.md) and a bracket no tighter than the mesh
+error (the fill's limit converges slowly: docs/fill.md, "Mesh convergence on Prestwood", measures each preset's
+distance from the extrapolated limit). A key given in the scene overrides its preset value."""
+
 FILL_MATERIALS = ("elastic", "mohr-coulomb")
 ABUTMENT_MODELS = ("rigid", "elastic")
 MOVING_SPRINGINGS = ("left", "right", "both")
@@ -224,7 +234,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "plane": Key(str, "2D idealisation: plane strain or plane stress", "strain", choices=("strain", "stress")),
     },
     "solver": {
-        "preset": Key(str, "speed-accuracy preset: defaults of the mesh keys and the tolerance", "default",
+        "preset": Key(str, "speed-accuracy preset: defaults of the mesh keys and the tolerance (their own with a "
+                      "Mohr-Coulomb fill)", "default",
                       choices=tuple(PRESETS)),
         "tolerance": Key(float, "relative width of the limit-load bracket", _preset("solver", "tolerance"),
                          low=1e-8, high=0.5),
@@ -428,7 +439,8 @@ class SolverOptions:
     max_load: live load (N) at which the search stops as "locked" (0: 100 x ring weight);
     initial_step: first live-load step (N; 0: ring weight / 4); max_steps: load steps in all;
     petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"};
-    preset: the speed-accuracy preset (:data:`PRESETS`) that supplied the mesh and tolerance defaults;
+    preset: the speed-accuracy preset (:data:`PRESETS`, :data:`FILL_PRESETS` with a Mohr-Coulomb fill) that
+    supplied the mesh and tolerance defaults;
     stiffness_drop: with a fill, a load step whose secant stiffness falls below this fraction of the tangent
     stiffness after self-weight marks the limit (the load-deflection curve is flat; 0: only a lost equilibrium).
     """
@@ -549,7 +561,9 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     sec = {name: _section(data.get(name, {}), name, f"[{name}]") for name in SCHEMA
            if name != "load" and (name in data or name not in _OPTIONAL_SECTIONS)}
     name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
-    for (section, key), value in PRESETS[sec["solver"]["preset"]].items():
+    preset = sec["solver"]["preset"]
+    plastic_fill = "fill" in sec and sec["fill"]["material"] == "mohr-coulomb"
+    for (section, key), value in (FILL_PRESETS if plastic_fill else PRESETS)[preset].items():
         if key not in data.get(section, {}):
             sec[section][key] = value
     a = sec["arch"]

@@ -22,15 +22,17 @@ half the bracket width / midpoint, ``err_bound``, and for the voussoir sweep ``e
 front of the worst err_bound and the summed CPU time over the cases; the table marks the presets in
 :data:`bridgefem.scene.PRESETS` next to the picks, so a preset that has fallen off the front shows.
 
-Cases: ``semicircular`` (demos/bare_arch.toml) and ``segmental`` (rise/span = 1/4; benchmarks/harness.py). The
-Prestwood bridge with fill (demos/prestwood.toml) is not a case: its Mohr-Coulomb limit still moves with the mesh
-by more than any knob measured here (docs/fill.md).
+Cases: ``semicircular`` (demos/bare_arch.toml) and ``segmental`` (rise/span = 1/4; benchmarks/harness.py).
+The fill case (``--fill``): the Prestwood bridge with its Mohr-Coulomb fill (demos/prestwood.toml) on P1/P2 meshes,
+each limit against the Richardson extrapolation of the P2 meshes (benchmarks/fill_cost.py, docs/fill.md), the
+fill presets marked; its limit converges far more slowly than the bare arches', so it has a table of its own.
 
 Run:
 
     ./run python demos/speed_accuracy.py                          # both cases, about 2 min on 2 cores
     ./run python demos/speed_accuracy.py --quick                  # coarse meshes, about 15 s (used by the tests)
     ./run python demos/speed_accuracy.py --figures demos/figures  # also copy the PNG and MD for docs/benchmarks.md
+    ./run python demos/speed_accuracy.py --fill                   # the fill case only (several minutes)
 
 Writes DIR/speed_accuracy.csv (every number), .md (tables) and .png (log-log error bound against CPU time per case
 with the Pareto front and the presets; error against N); DIR defaults to results/speed_accuracy. Loads in kN.
@@ -449,7 +451,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="coarse meshes only, one run each (about 15 s)")
     p.add_argument("--out", type=Path, default=Path("results/speed_accuracy"))
     p.add_argument("--figures", type=Path, help="also copy speed_accuracy.png and .md into this folder")
+    p.add_argument("--fill", action="store_true", help="the fill case (Prestwood) only: speed_accuracy_fill.csv, .md")
     args = p.parse_args(argv)
+    if args.fill:
+        from fill_cost import DEFAULT_CASES, fill_table
+        rows, lines = fill_table(list(DEFAULT_CASES))
+        write_outputs(args.out, "speed_accuracy_fill", rows, "\n".join(lines) + "\n", None, args.figures)
+        return 0
     from bridgefem.scene import PRESETS
 
     builtin = builtin_cases()
