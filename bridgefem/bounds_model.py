@@ -164,8 +164,6 @@ def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) ->
     patch ``k`` is bonded to loading beam ``n_blocks + k`` (``[fill] loading_beam``) or carries its pressure."""
     f, span = scene.fill, scene.arch.span
     ranges = [ld.x_range(span) for ld in scene.loads]
-    if f.loading_beam:
-        _no_overlap(scene, ranges)
     o = fill_outline(ring, f.depth, f.extension, [x for r in ranges for x in r])
     ext, owner = _extrados_points(ring, size)
     n_ext = len(ext)
@@ -191,16 +189,6 @@ def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) ->
                             np.where(loaded, LOAD_SIZE * size, FAR_SIZE * size)])
     fans = tuple(int(i) for i in n_ext + 2 + np.nonzero(loaded[1:-1])[0] + 1)
     return Outline(points, sizes, kind, block, traction, fans)
-
-
-def _no_overlap(scene: Scene, ranges) -> None:
-    """A loading beam per patch: two patches may not share road or an end."""
-    order = np.argsort([lo for lo, _ in ranges])
-    for a, b in zip(order[:-1], order[1:]):
-        if ranges[b][0] <= ranges[a][1]:
-            raise SceneError(f"[[load]] patches at positions {scene.loads[a].position:g} and "
-                             f"{scene.loads[b].position:g} overlap or touch: with [fill] loading_beam = true "
-                             "each patch has its own rigid beam on the road (loading_beam = false: pressures)")
 
 
 def _extrados_points(ring: ArchRing, size: float) -> tuple[np.ndarray, np.ndarray]:

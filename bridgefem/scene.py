@@ -601,11 +601,24 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
                 raise SceneError(f"[[load]] #{i + 1} kind = \"point\": a point force on a Mohr-Coulomb fill has no "
                                  "finite collapse load; allowed is kind = \"patch\" with the length of the wheel or "
                                  "loading beam")
+    if fill is not None and fill.loading_beam:
+        _beams_apart(loads, a["span"])
     abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
                  solver=SolverOptions(**solver))
+
+
+def _beams_apart(loads: list[Load], span: float) -> None:
+    """With ``[fill] loading_beam`` each patch has its own rigid beam on the road: two patches may not overlap or
+    touch (their beams would share road or a side)."""
+    ranges = sorted((ld.x_range(span), i) for i, ld in enumerate(loads) if ld.kind == "patch")
+    for ((a0, b0), i), ((a1, b1), j) in zip(ranges[:-1], ranges[1:]):
+        if a1 <= b0:
+            raise SceneError(f"[[load]] #{i + 1} and #{j + 1}: the patches over x = [{a0:.6g}, {b0:.6g}] and "
+                             f"[{a1:.6g}, {b1:.6g}] m touch or overlap, and so would their loading beams; allowed: "
+                             "patches apart, or [fill] loading_beam = false (pressures)")
 
 
 def springing_reach(arch: dict[str, Any]) -> float:

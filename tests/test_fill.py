@@ -297,6 +297,17 @@ def test_prestwood_limit_load_against_the_collapse_test(prestwood):
     assert len(data["mechanism"]["hinges"]) == 4
 
 
+@pytest.mark.slow
+def test_prestwood_fe_lies_within_its_conic_bounds(prestwood):
+    """The FE bracket of the run (P2, the loading beam, associated flow) lies between the lower and upper collapse
+    bounds of the same rigid-plastic model (results.json ``fill_bounds``, an independent conic programme): the bound
+    theorems put the exact collapse load there, and an FE limit above the upper bound is an unconverged mesh."""
+    _, data = prestwood
+    lim, bounds = data["limit_load"], data["fill_bounds"]
+    assert bounds["lower"] <= lim["lower"] and lim["upper"] <= bounds["upper"]
+    assert not any("upper bound" in w for w in data["warnings"])
+
+
 @pytest.mark.mpi
 @pytest.mark.slow
 def test_prestwood_same_bracket_under_mpi(prestwood):
@@ -421,14 +432,14 @@ def test_fill_reaction_on_the_loading_beam_is_the_patch_load_through_its_centre(
 
 
 def test_loading_beams_of_touching_patches_are_refused():
-    """Two patches that touch would give two beams sharing a side: the run refuses them, naming the key."""
+    """Two patches that touch would give two beams sharing a side: the scene refuses them, naming the loads and the
+    key; as pressures they are allowed."""
     from bridgefem.analysis import loading_beams
     from bridgefem.scene import SceneError
     patches = [{"kind": "patch", "position": 0.25, "length": 0.5}, {"kind": "patch", "position": 0.25 + 0.5 / 9.0,
                                                                     "length": 0.5}]
-    scene = scene_from_dict(scene_dict(fill=FILL, load=patches))
-    with pytest.raises(SceneError, match=r"\[fill\] loading_beam = true"):
-        loading_beams(scene)
+    with pytest.raises(SceneError, match=r"#1 and #2.*loading_beam = false"):
+        scene_from_dict(scene_dict(fill=FILL, load=patches))
     assert loading_beams(scene_from_dict(scene_dict(fill={**FILL, "loading_beam": False}, load=patches))) == ()
 
 
