@@ -197,15 +197,17 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     elif status.startswith("no collapse") and lp_status == "limit load found":
         # locked at the search's maximum load: confirmed when the LP collapses only above it (or a fill carries it)
         cls = "confirmed" if fill or lp["load"] >= (1 - NO_SLIP_TOL) * lim["lower"] else "wrong"
-    elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
-        cls = "wrong"
-    elif status == "limit load found" and fill and (data.get("fill_bounds") or {}).get("upper"):
-        bounds = data["fill_bounds"]  # conic bounds of the bridge with its fill (N); the dead-load LP is no floor
+    elif status == "limit load found" and fill and (data.get("fill_bounds") or {}).get("lower"):
+        # conic bounds of the bridge with its fill (N; upper None: no finite upper bound); the dead-load LP is no
+        # floor and no ceiling
+        bounds = data["fill_bounds"]
         out.update(bound_lower=bounds["lower"], bound_upper=bounds["upper"])
-        if lim["upper"] > (1 + BOUND_TOL) * bounds["upper"]:
+        if bounds["upper"] is not None and lim["upper"] > (1 + BOUND_TOL) * bounds["upper"]:
             cls = "wrong (fill mesh not converged)"
         else:
             cls = "confirmed" if bounds["lower"] * (1 - NO_SLIP_TOL) <= lim["lower"] else "wrong"
+    elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
+        cls = "wrong"
     elif status == "limit load found":
         lower, upper, level = lim["lower"], lim["upper"], lp["load"]
         if fill:

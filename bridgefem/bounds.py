@@ -92,7 +92,7 @@ def problem_bounds(problem: LimitProblem) -> Bounds:
 
 
 def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
-    """Lower and upper collapse bounds of a scene (mesh size ``ring thickness / (2 refine)`` near the ring)."""
+    """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) / refine`` near the ring)."""
     start = time.perf_counter()
     problem = bridge_problem(scene, refine)
     t_mesh = time.perf_counter() - start

@@ -132,8 +132,11 @@ def soil_rows(prog: ConicProgramme, soil: Soil, col0: int, n_points: int) -> Non
 
 def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     """The scene's bridge: its ring (and abutment blocks) as in the rigid-block LP and, with a fill, the fill
-    as Mohr-Coulomb soil meshed with element size ``ring thickness / (2 refine)`` near the extrados (half that
-    at the load patches' edges, ``FAR_SIZE`` times it far from them). Without a fill this is the LP's model."""
+    as Mohr-Coulomb soil meshed with element size ``min(ring thickness / 2, fill depth over the crown) / refine``
+    near the extrados (half that at the load patches' edges, ``FAR_SIZE`` times it far from them; the depth keeps
+    a thin fill over a thick ring from being one triangle deep, on which no mechanism forms and the upper bound
+    is unbounded). Without a fill this is the LP's model (point loads on a Mohr-Coulomb fill are refused by the
+    scene)."""
     width = scene.arch.width
     live_total = float(sum(ld.factor for ld in scene.loads))
     if scene.fill is None:  # a point load on a joint goes on the block the LP finds least favourable
@@ -142,12 +145,8 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     f = scene.fill
     if f.material != "mohr-coulomb":
         raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')
-    points = [ld for ld in scene.loads if ld.kind == "point"]
-    if points:
-        raise SceneError(f"[[load]] kind = \"point\" at position {points[0].position:g}: the collapse bounds need "
-                         "patch loads on a fill (a point load on a continuum has no finite lower bound)")
     ring = scene_ring(scene)
-    size = scene.arch.thickness / (2 * refine)
+    size = min(scene.arch.thickness / 2, f.depth) / refine
     blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)
     outline = _bridge_outline(scene, ring, size, blocks.n_blocks)
     if f.loading_beam:

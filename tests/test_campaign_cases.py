@@ -163,6 +163,11 @@ def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
     assert campaign.judge(above, 0, "", fill=True)["class"] == "wrong (fill mesh not converged)"
     below = {**data, "limit_load": {"lower": 400e3, "upper": 400.04e3}}
     assert campaign.judge(below, 0, "", fill=True)["class"] == "wrong"
+    # no finite upper bound, and a dead-load LP that never collapses: the bounds alone judge (scene 136)
+    unbounded = {**data, "lp": {**data["lp"], "status": "no collapse (unbounded)", "load": None},
+                 "fill_bounds": {"lower": 419e3, "upper": None, "unit": "N"}}
+    assert campaign.judge(unbounded, 0, "", fill=True)["class"] == "confirmed"
+    assert campaign.judge({**unbounded, **{"limit_load": below["limit_load"]}}, 0, "", fill=True)["class"] == "wrong"
 
 
 @pytest.mark.slow
