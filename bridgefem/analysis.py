@@ -90,10 +90,12 @@ class JointState:
 
 @dataclass(frozen=True)
 class MeshRefinement:
-    """A run that a finer mesh replaced: its ``elements_through_thickness`` and the status it ended with."""
+    """A run that a finer mesh replaced: its ``elements_through_thickness``, the status it ended with and its
+    ``seconds`` (wall time of all its phases)."""
 
     elements_through_thickness: int
     status: str
+    seconds: float
 
 
 @dataclass
@@ -245,7 +247,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
             if finer is None:
                 an.refinements = refinements
                 return an
-            refinements.append(MeshRefinement(ett, an.search.status))
+            refinements.append(MeshRefinement(ett, an.search.status, sum(an.timings.values())))
             previous = carried
             notice(f"the limit depends on the mesh ({ett} elements through the thickness carry "
                    f"{carried * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at {an.lp.load / 1e3:.6g} "

@@ -31,7 +31,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0)):
         meshes.append(scene.mesh.elements_through_thickness)
         dependent = queue.pop(0)
         return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=dependent), refinements=None, load_total=1.0,
-                               lp=SimpleNamespace(load=100.0),
+                               timings={"limit search": 1.0}, lp=SimpleNamespace(load=100.0),
                                search=SimpleNamespace(status="solver failure: x" if dependent else Status.LIMIT,
                                                       lower=lowers.pop(0), tolerance=1e-4))
 
@@ -90,4 +90,5 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     assert data["mesh_refinements"] == on_disk["mesh_refinements"]
     assert [r["elements_through_thickness"] for r in on_disk["mesh_refinements"]] == [4]
     assert Status.of(on_disk["mesh_refinements"][0]["status"]) is Status.FAILURE
+    assert on_disk["mesh_refinements"][0]["seconds"] > 0
     assert on_disk["model"]["elements_through_thickness"] == 8
