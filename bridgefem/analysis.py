@@ -33,6 +33,7 @@ from petsc4py import PETSc
 
 from .abutments import support_motion
 from .bounds import fill_bounds
+from .convergence import with_mesh
 from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
@@ -42,6 +43,7 @@ from .evidence import SlipCheck, Verdict, confirm, needs_slip_check
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
 from .rigid_block import LPResult, collapse_load, collapse_state_from, ring_under_forces, solve_blocks
 from .scene import Scene, SceneError
+from .sizing import check_size
 from .status import Status
 from .solver import ContactSolver, Iterate
 
@@ -55,6 +57,9 @@ RING_JOINT_SCALE = 0.1  # Alart-Curnier constant of the ring's joints, of E w L 
 LP_RATIO_RANGE = (0.98, 1.01)  # FE/LP flagged outside it: elastic blocks stop <= 2 % below the LP, never 1 % above
 FILL_BOUND_TOL = 0.01  # FE carrying more than this above the rigid-plastic upper bound: a discretisation error
 SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void the small-displacement model
+MAX_REFINEMENTS = 2  # re-runs of a limit that depends on the mesh, each with twice the elements through the thickness
+REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (campaign scenes 2, 193, 297 at 16:
+# within 0.65 % of the LP; docs/joints-and-lp.md)
 
 
 @dataclass
@@ -83,6 +88,16 @@ class JointState:
     hinge: str = ""
 
 
+@dataclass(frozen=True)
+class MeshRefinement:
+    """A run that a finer mesh replaced: its ``elements_through_thickness``, the status it ended with and its
+    ``seconds`` (wall time of all its phases)."""
+
+    elements_through_thickness: int
+    status: str
+    seconds: float
+
+
 @dataclass
 class Analysis:
     """Everything a run produced; ``timings`` in seconds per phase."""
@@ -99,6 +114,7 @@ class Analysis:
     timings: dict = field(default_factory=dict)
     converged: list[ConvergedState] = field(default_factory=list)
     verdict: Verdict | None = None
+    refinements: list[MeshRefinement] = field(default_factory=list)
 
     @property
     def load_total(self) -> float:
@@ -204,12 +220,53 @@ def quiet_compiler():
 
 def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None,
                  report: Callable[[LoadStep], None] = lambda s: None,
-                 phase: Callable[[str], None] = lambda name: None) -> Analysis:
+                 phase: Callable[[str], None] = lambda name: None,
+                 notice: Callable[[str], None] = lambda line: None,
+                 max_refinements: int = MAX_REFINEMENTS) -> Analysis:
     """Compute the limit load of a scene: the ring, with its fill and elastic abutments when the scene has them,
     after the support movement it imposes (collective over ``comm``); ``phase(name)`` announces each set-up phase
-    and ``report(step)`` each load step."""
+    and ``report(step)`` each load step.
+
+    A run that fails because its limit depends on the mesh (``Verdict.mesh_dependent``: the associative LP's
+    mechanism a little below the LP's level) is run again with twice the elements through the thickness
+    (:func:`refined_elements`), at most ``max_refinements`` times, and not again when the re-run's last converged
+    load is the previous one's (within the search's tolerance: the limit does not depend on these elements);
+    ``notice(line)`` announces each re-run. The last run is returned, the runs it replaced listed in
+    ``Analysis.refinements``; its verdict needs the same evidence.
+    The decision is rank 0's, broadcast (every rank re-runs or none)."""
+    refinements, previous = [], None
     with quiet_compiler():
-        return _analyse(scene, comm, petsc_options, report, phase)
+        while True:
+            an = _analyse(scene, comm, petsc_options, report, phase)
+            ett, carried = scene.mesh.elements_through_thickness, an.search.lower
+            moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
+            finer = None
+            if comm.rank == 0 and an.verdict.mesh_dependent and moved and len(refinements) < max_refinements:
+                finer = refined_elements(scene)
+            finer = comm.bcast(finer, root=0)
+            if finer is None:
+                an.refinements = refinements
+                return an
+            refinements.append(MeshRefinement(ett, an.search.status, sum(an.timings.values())))
+            previous = carried
+            notice(f"the limit depends on the mesh ({ett} elements through the thickness carry "
+                   f"{carried * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at {an.lp.load / 1e3:.6g} "
+                   f"kN): re-running with {finer} elements through the thickness")
+            del an  # free the coarse model before the finer one is built
+            scene = with_mesh(scene, finer)
+
+
+def refined_elements(scene: Scene) -> int | None:
+    """Twice the scene's elements through the ring thickness, or None when that exceeds
+    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.sizing.check_size`)."""
+    ett = 2 * scene.mesh.elements_through_thickness
+    if ett > REFINED_ELEMENTS_MAX:
+        return None
+    try:
+        check_size(with_mesh(scene, ett))
+    except SceneError:
+        return None
+    return ett
 
 
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,

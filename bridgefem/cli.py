@@ -131,7 +131,7 @@ def _run(args, petsc: dict) -> int:
         if announce:
             print(f"{scene.name}: {size.describe()}", flush=True)
         an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
-                          phase=_phase if announce else (lambda name: None))
+                          phase=_phase if announce else (lambda name: None), notice=_notice)
         extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
                             "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
         failed = Status.of(an.search.status) is Status.FAILURE
@@ -168,10 +168,22 @@ def _run(args, petsc: dict) -> int:
         if ring and ring["load"]:
             print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
                   f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
+        refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
+        if refined:
+            print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
+                  f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
         for warning in data["warnings"]:
             print(f"  WARNING: {warning}")
         print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
     return Status.of(data["status"]).exit_code
+
+
+def _notice(line: str) -> None:
+    """A re-run on a finer mesh, printed by rank 0 (even with --quiet: it changes the run's length and mesh)."""
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"bridgefem: {line}", flush=True)
 
 
 def _phase(name: str) -> None:

@@ -94,7 +94,7 @@ def solve_mesh(scene: Scene, comm=None, report=None) -> MeshLimit:
 
     comm = comm or MPI.COMM_WORLD
     t = time.perf_counter()
-    an = run_analysis(scene, comm, report=report or (lambda s: None))
+    an = run_analysis(scene, comm, report=report or (lambda s: None), max_refinements=0)  # each level as asked
     seconds = time.perf_counter() - t
     total = an.load_total
     s = an.search

@@ -98,12 +98,14 @@ def reaches(lower: float, upper: float, level: float) -> bool:
 @dataclass(frozen=True)
 class Verdict:
     """A confirmed (or refused) status text, the bracket's upper end (None: no bracket), the evidence (empty for a
-    failure) and warnings for the user."""
+    failure) and warnings for the user; ``mesh_dependent``: a failure whose mechanism is the associative LP's at a
+    level the mesh moves (:meth:`SlipCheck.back_at`), which a finer mesh can settle."""
 
     status: str
     upper: float | None
     evidence: str
     warnings: tuple[str, ...] = ()
+    mesh_dependent: bool = False
 
 
 def needs_slip_check(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
@@ -145,11 +147,13 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}, a non-associative collapse state "
                            f"(with associative friction {lp_text})")
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
-        if slip is not None and lp is Status.LIMIT and slip.back_at(lp_level):
+        mesh_dependent = slip is not None and lp is Status.LIMIT and slip.back_at(lp_level)
+        if mesh_dependent:
             checked += ("; the FE's mechanism is the associative one, at a load that depends on the mesh: raise "
                         "[mesh] elements_through_thickness")
         return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN (no admissible mode with "
-                                      f"positive work, and {lp_text}{checked})"), None, "")
+                                      f"positive work, and {lp_text}{checked})"), None, "",
+                       mesh_dependent=mesh_dependent)
     if kind is Status.UNSTABLE:
         if lp is Status.UNSTABLE:
             return Verdict(status, upper, "proof: an admissible rigid-block mode on which the self-weight does "

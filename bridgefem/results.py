@@ -8,6 +8,7 @@ Loads are in N (for the scene's width), lengths in m.
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 import platform
 from pathlib import Path
 
@@ -42,7 +43,8 @@ UNITS = {
     "time": "s (timings, seconds)",
     "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
                      "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
-    "counts": "pairs: joint node pairs open / stick / slip at the end of the step",
+    "counts": "pairs: joint node pairs open / stick / slip at the end of the step; elements_through_thickness "
+              "(model, mesh_refinements)",
 }
 CONVENTIONS = {
     "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
@@ -52,6 +54,9 @@ CONVENTIONS = {
     "shear_force": "along the joint's tangent (intrados -> extrados end turned -90 degrees)",
     "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
     "deflection": "downward displacement under the live load (mean over the loaded nodes), positive down",
+    "mesh_refinements": "the runs a finer mesh replaced, coarsest first: their elements through the thickness, "
+                        "status and seconds (a limit that depends on the mesh; the results are the last run's, "
+                        "model)",
     "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
                            "to the right, vertical positive up",
     "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",
@@ -94,7 +99,9 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
                   "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
                   "element_size": an.block_mesh.element_size, "degree": an.scene.mesh.degree,
+                  "elements_through_thickness": an.scene.mesh.elements_through_thickness,
                   "plane": an.scene.model.plane},
+        "mesh_refinements": [asdict(r) for r in an.refinements],
         "solver": {**an.solver.stats, "load_steps": len(s.steps),
                    "newton_iterations": sum(st.iterations for st in s.steps),
                    "petsc_options": an.solver.petsc_options},

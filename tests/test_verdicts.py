@@ -143,5 +143,22 @@ def test_a_fixed_point_back_at_the_associative_state_suggests_a_finer_mesh():
     FE's sliding joints): a failure that says the load depends on the mesh; not for another mechanism."""
     back = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0))
     assert Status.of(back.status) is Status.FAILURE and "elements_through_thickness" in back.status
+    assert back.mesh_dependent
     other = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, sliding=(0, 3)))
     assert Status.of(other.status) is Status.FAILURE and "elements_through_thickness" not in other.status
+    assert not other.mesh_dependent
+
+
+def test_only_a_limit_back_at_the_associative_state_is_mesh_dependent():
+    """Only the failure of the test above asks for a re-run on a finer mesh (``Verdict.mesh_dependent``): not a
+    confirmed limit, not another unproven mechanism (no slip check, a fixed point elsewhere or not reached, an LP
+    that failed), not a refused instability."""
+    assert confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0)).mesh_dependent
+    for v in (confirm(Status.LIMIT, 99.9, 100.0, False, *LP),  # agreement with the LP
+              confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip()),  # agreement with the fixed point
+              confirm(Status.LIMIT, 97.0, 97.01, False, *LP),  # no slip check
+              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=92.0, seeded=97.0)),
+              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, converged=False)),
+              confirm(Status.LIMIT, 97.0, 97.01, False, "LP failed: x", None, slip=slip(level=100.0)),
+              confirm(Status.UNSTABLE, 0.0, None, False, *LP)):
+        assert not v.mesh_dependent, v.status
