@@ -8,7 +8,7 @@ import pytest
 from bridgefem.geometry import AT_JOINT_TOL, polygon_area_centroid, scene_ring
 from bridgefem.scene import scene_from_dict
 
-from conftest import scene_dict
+from conftest import ROOT, scene_dict
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
 # 2.5 m either side of the apex, and the chords to the apex close the crown's cap
@@ -123,13 +123,30 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
     below = {**data, "limit_load": {"lower": 95270.0, "upper": 95280.0}}  # the whole bracket 0.5 % below, no proof
     assert campaign.judge(below, 0, "")["class"] == "wrong"
     assert campaign.judge({**below, "evidence": "proof: ..."}, 0, "")["class"] == "confirmed"
+    # a sliding collapse below the associative LP confirmed by the non-associative rigid-block check (evidence 3)
+    assert campaign.judge({**below, "evidence": "agreement: the non-associative rigid-block LP ..."}, 0,
+                          "")["class"] == "confirmed"
+
+
+@pytest.mark.slow
+def test_readme_campaign_command_runs_and_judges(tmp_path):
+    """The README's campaign command on two scenes: each is run by bridgefem, judged against its own LP and listed
+    with its class; the bare ring scene 0 of seed 1 is confirmed."""
+    import json
+    import subprocess
+    import sys
+    out = tmp_path / "campaign"
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "campaign.py"), "--count", "2", "--seed", "1",
+                           "--jobs", "1", "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    rows = json.loads((out / "campaign.json").read_text())["rows"]
+    assert [r["index"] for r in rows] == [0, 1] and rows[0]["class"] == "confirmed"
+    assert "scenes 2" in proc.stdout
 
 
 def _campaign():
     """benchmarks/campaign.py as a module."""
     import importlib.util
-
-    from conftest import ROOT
 
     spec = importlib.util.spec_from_file_location("campaign", ROOT / "benchmarks" / "campaign.py")
     campaign = importlib.util.module_from_spec(spec)
