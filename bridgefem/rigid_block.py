@@ -76,6 +76,9 @@ _TIE = 1e-7  # relative: a load on one block must lower the collapse load by mor
 _MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
 _DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
 _WINDOW = 6  # non-associative iterations: converged when lambda is steady over this many LPs
+RELAXATION = 0.6  # Tresca fixed point: n~ <- n~ + RELAXATION (n - n~) between LPs
+FIXED_POINT_RTOL = 1e-6  # Tresca fixed point: tolerance on lambda and on the Coulomb condition
+FIXED_POINT_LPS = 200  # Tresca fixed point: LPs at most
 _THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
 _LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
 
@@ -355,7 +358,8 @@ def _coulomb_excess(x: np.ndarray, mu: np.ndarray) -> float:
 
 
 def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed: np.ndarray | None = None,
-                 beta: float = 0.6, rtol: float = 1e-6, max_iterations: int = 200) -> LPResult:
+                 beta: float = RELAXATION, rtol: float = FIXED_POINT_RTOL,
+                 max_iterations: int = FIXED_POINT_LPS) -> LPResult:
     """Collapse load factor of a block model (see the module docstring for the programme).
 
     friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the Tresca fixed
@@ -579,8 +583,8 @@ class ThicknessResult:
                 "evaluations": self.evaluations}
 
 
-def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, beta: float = 0.6,
-                      rtol: float = 1e-6, max_iterations: int = 200) -> tuple[float, LPResult]:
+def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, beta: float = RELAXATION,
+                      rtol: float = FIXED_POINT_RTOL, max_iterations: int = FIXED_POINT_LPS) -> tuple[float, LPResult]:
     """Smallest uniform joint tensile strength and cohesion ``tau`` (N) that the dead load needs, and the LP outcome.
 
     ``tau = 0``: the blocks carry their dead load ("stable under self-weight"); ``tau > 0``: they do not
