@@ -266,7 +266,7 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     a ring stands with hundreds of joint pairs open; from the bonded start the Newton method proposes too many
     openings at once, most of them mechanisms, and damping spends the iteration budget (campaign seed 1, #251, 0.3 %
     above its least thickness: with 4 elements through the thickness no solver setting converges within 60
-    iterations, six of ten in 104-303; with 8, where the voussoirs are an element long or more, five of eight in
+    iterations, six of ten in 66-303; with 8, where the voussoirs are an element long or more, five of eight in
     20-52). The re-run's verdict needs the same evidence."""
     if an.verdict.mesh_dependent:
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
