@@ -157,9 +157,7 @@ class Analysis:
             out.append(f"deflection {max(deflections):.3g} m exceeds {SMALL_DISPLACEMENT:.0%} of the span: the "
                        "small-displacement model is outside its validity (masonry Young's modulus too low?); the "
                        "limit load is the rigid-block one of the undeformed arch")
-        centres = np.array([jt.centre for jt in self.ring.joints[:self.ring.n_voussoirs + 1]])
-        shortest = float(np.linalg.norm(np.diff(centres, axis=0), axis=1).min())
-        size = self.block_mesh.element_size
+        shortest, size = self.shortest_voussoir, self.block_mesh.element_size
         if shortest < size:
             out.append(f"voussoirs as short as {shortest:.3g} m are shorter than one element ({size:.3g} m): the FE "
                        "can stop below the limit load; raise [mesh] elements_through_thickness or use fewer voussoirs")
@@ -173,6 +171,12 @@ class Analysis:
             out.append(f"FE limit above the conic upper bound of the bridge with its fill ({bounds['upper'] / 1e3:.6g} "
                        "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
         return out + (list(self.verdict.warnings) if self.verdict else [])
+
+    @property
+    def shortest_voussoir(self) -> float:
+        """The shortest distance between neighbouring joint centres (m)."""
+        centres = np.array([jt.centre for jt in self.ring.joints[:self.ring.n_voussoirs + 1]])
+        return float(np.linalg.norm(np.diff(centres, axis=0), axis=1).min())
 
     def voussoir_motion(self, u: np.ndarray) -> np.ndarray:
         """Least-squares rigid motion (ux m, uy m, rotation rad, anticlockwise) of each block (voussoirs, abutments,
@@ -227,8 +231,9 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     after the support movement it imposes (collective over ``comm``); ``phase(name)`` announces each set-up phase
     and ``report(step)`` each load step.
 
-    A run that fails because its limit depends on the mesh (``Verdict.mesh_dependent``: the associative LP's
-    mechanism a little below the LP's level) is run again with twice the elements through the thickness
+    A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
+    ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a self-weight failed
+    without proof on voussoirs shorter than an element) is run again with twice the elements through the thickness
     (:func:`refined_elements`), at most ``max_refinements`` times, and not again when the re-run's last converged
     load is the previous one's (within the search's tolerance: the limit does not depend on these elements);
     ``notice(line)`` announces each re-run. The last run is returned, the runs it replaced listed in
@@ -240,8 +245,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
             an = _analyse(scene, comm, petsc_options, report, phase)
             ett, carried = scene.mesh.elements_through_thickness, an.search.lower
             moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
-            finer = None
-            if comm.rank == 0 and an.verdict.mesh_dependent and moved and len(refinements) < max_refinements:
+            finer, why = None, refinement_reason(an, ett)
+            if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
                 finer = refined_elements(scene)
             finer = comm.bcast(finer, root=0)
             if finer is None:
@@ -249,11 +254,30 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                 return an
             refinements.append(MeshRefinement(ett, an.search.status, sum(an.timings.values())))
             previous = carried
-            notice(f"the limit depends on the mesh ({ett} elements through the thickness carry "
-                   f"{carried * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at {an.lp.load / 1e3:.6g} "
-                   f"kN): re-running with {finer} elements through the thickness")
+            notice(f"{why}: re-running with {finer} elements through the thickness")
             del an  # free the coarse model before the finer one is built
             scene = with_mesh(scene, finer)
+
+
+def refinement_reason(an: Analysis, ett: int) -> str:
+    """Why a finer mesh can settle a failed run with ``ett`` elements through the thickness (empty: it cannot): a
+    limit that depends on the mesh (``Verdict.mesh_dependent``), or a self-weight that failed without proof on
+    voussoirs shorter than an element where the rigid-block LP finds the ring standing. Near its least thickness such
+    a ring stands with hundreds of joint pairs open; from the bonded start the Newton method proposes too many
+    openings at once, most of them mechanisms, and damping spends the iteration budget (campaign seed 1, #251, 0.3 %
+    above its least thickness: with 4 elements through the thickness no solver setting converges within 60
+    iterations, six of ten in 66-303; with 8, where the voussoirs are an element long or more, five of eight in
+    20-52). The re-run's verdict needs the same evidence."""
+    if an.verdict.mesh_dependent:
+        return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
+                f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
+                f"{an.lp.load / 1e3:.6g} kN)")
+    if (Status.of(an.search.status) is Status.FAILURE and an.search.last is None and not an.search.proved
+            and an.lp.status in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)
+            and an.shortest_voussoir < an.block_mesh.element_size):
+        return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
+                f"the thickness), where the rigid-block LP finds the ring standing")
+    return ""
 
 
 def refined_elements(scene: Scene) -> int | None:

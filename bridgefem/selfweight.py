@@ -20,6 +20,11 @@
    strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver
    failure that names the strength it failed at.
 
+3. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation
+   that converged some of its steps resumes from its last converged state at the strength it failed at (a converged
+   state of the path is an equilibrium of the scene's laws at its strength, whatever setting found it), else the one
+   step and the continuation run again from the start.
+
 A fraction of the self-weight would not help: elasticity, unilateral contact, Coulomb friction and a cohesionless
 fill are positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
 problem scaled and fails alike. A raised strength at the whole self-weight is what a self-weight fraction is for a
@@ -27,7 +32,7 @@ cohesive material (stresses scale with the load, so the weight g with cohesion c
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -47,32 +52,50 @@ SELF_WEIGHT_RETRIES = tuple(s for s in RETRIES if not s.fresh)  # the self-weigh
 Attempt = Callable[[float, Iterate], StepOutcome]
 
 
+@dataclass
+class Progress:
+    """Where the self-weight stands: the one step's outcome (None: not solved yet) and the continuation's last
+    converged state ``state`` at strength excess ``done`` (None: no step converged; ``state`` the unloaded one),
+    the excess to solve next and the halvings spent (module docstring)."""
+
+    state: Iterate
+    first: StepOutcome | None = None
+    done: float | None = None
+    excess: float = 1.0
+    halvings: int = 0
+
+
 def carry_self_weight(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
     """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
-    that fails without proof, both again with each of ``SELF_WEIGHT_RETRIES``.
+    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``.
     ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
-    out = _carry(solver, attempt)
+    progress = Progress(solver.initial_iterate())
+    out = _carry(solver, attempt, progress)
     if out.converged or out.proved:
         return out
-    return retried(solver, lambda: _carry(solver, attempt), out, SELF_WEIGHT_RETRIES)
+    return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
 
 
-def _carry(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
-    """One step, else the continuation that fits the structure."""
-    first = attempt(0.0, solver.initial_iterate())
+def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress) -> StepOutcome:
+    """One step, else the continuation that fits the structure; a continuation with a converged step resumes."""
+    if progress.done is None:
+        progress.first = attempt(0.0, solver.initial_iterate())
+    first = progress.first
     if first.converged or first.proved:
         return first
     fill = solver.material
     if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
-        out = friction_continuation(solver, attempt)
+        out = friction_continuation(solver, attempt, progress)
         return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
     if fill is not None and not first.mechanism and fill.cohesion < fill.overburden:
-        return cohesion_continuation(solver, attempt)
+        return cohesion_continuation(solver, attempt, progress)
     return first
 
 
-def cohesion_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
-    """The self-weight with the fill's cohesion raised to its overburden stress, then lowered to the scene's."""
+def cohesion_continuation(solver: ContactSolver, attempt: Attempt, progress: Progress | None = None
+                          ) -> StepOutcome:
+    """The self-weight with the fill's cohesion raised to its overburden stress, then lowered to the scene's
+    (from ``progress``, by default from the unloaded state)."""
     fill = solver.material
     target, raised = fill.cohesion, fill.overburden
 
@@ -81,13 +104,16 @@ def cohesion_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcom
                f"{target:.4g} Pa)"
 
     try:
-        return _ramp(solver, attempt, lambda excess: fill.set_cohesion(target + excess * (raised - target)), describe)
+        return _ramp(solver, attempt, lambda excess: fill.set_cohesion(target + excess * (raised - target)), describe,
+                     progress)
     finally:
         fill.set_cohesion(target)
 
 
-def friction_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
-    """The self-weight with every joint's friction raised to ``FRICTION_RAISE`` x the scene's, then lowered to it."""
+def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Progress | None = None
+                          ) -> StepOutcome:
+    """The self-weight with every joint's friction raised to ``FRICTION_RAISE`` x the scene's, then lowered to it
+    (from ``progress``, by default from the unloaded state)."""
     scene = solver.friction
 
     def describe() -> str:
@@ -96,26 +122,27 @@ def friction_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcom
 
     try:
         return _ramp(solver, attempt, lambda excess: solver.set_friction(scene, 1.0 + excess * (FRICTION_RAISE - 1.0)),
-                     describe)
+                     describe, progress)
     finally:
         solver.set_friction(scene, 1.0)
 
 
-def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None],
-          describe: Callable[[], str]) -> StepOutcome:
-    """Solve the self-weight with the strength's excess 1 (``strengthen(excess)`` sets it), then lowered to 0 in
-    steps (module docstring), each from the last converged state: the outcome of the last step, at the scene's
-    strength when it converged, else the failure with the strength it failed at (``describe()``)."""
-    state, done, excess, halvings = solver.initial_iterate(), None, 1.0, 0  # done: the last converged excess
+def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None], describe: Callable[[], str],
+          progress: Progress | None) -> StepOutcome:
+    """Solve the self-weight with the strength's excess lowered from ``progress.excess`` to 0 in steps (module
+    docstring; ``strengthen(excess)`` sets it), each from the last converged state, ``progress`` kept up to date:
+    the outcome of the last step, at the scene's strength when it converged, else the failure with the strength it
+    failed at (``describe()``)."""
+    p = progress or Progress(solver.initial_iterate())
     while True:
-        strengthen(excess)
-        out = attempt(0.0, state)
-        if out.converged and excess == 0.0:
+        strengthen(p.excess)
+        out = attempt(0.0, p.state)
+        if out.converged and p.excess == 0.0:
             return out
         if out.converged:
-            state, done = solver.converged_slip_reference(out.iterate), excess
-            excess = excess * RAMP_RATIO if excess > RAMP_END * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
+            p.state, p.done = solver.converged_slip_reference(out.iterate), p.excess
+            p.excess = p.excess * RAMP_RATIO if p.excess > RAMP_END * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
             continue
-        if done is None or out.proved or halvings == RAMP_HALVINGS:
+        if p.done is None or out.proved or p.halvings == RAMP_HALVINGS:
             return replace(out, reason=f"{describe()}: {out.reason}")
-        excess, halvings = 0.5 * (done + excess), halvings + 1
+        p.excess, p.halvings = 0.5 * (p.done + p.excess), p.halvings + 1
