@@ -196,6 +196,9 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}: the FE's state is that collapse "
                            f"state (with associative friction {lp_text})")
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
+        if slip is not None and slip.seeded_level is not None and slip.seeded_level > (1 + AGREEMENT) * upper:
+            checked += (f"; the FE stopped with a reserve of {slip.seeded_level / upper - 1:.1%} at its own friction "
+                        "capacities: its state is no collapse state")
         mesh_dependent = slip is not None and lp is Status.LIMIT and slip.back_at(lower, upper, lp_level)
         if mesh_dependent:
             checked += ("; the FE's mechanism is the associative one, at a load that depends on the mesh: raise "

@@ -130,6 +130,7 @@ def test_a_sliding_limit_below_the_lp_needs_the_fe_state_to_be_a_collapse_state(
         v = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=bad)
         assert Status.of(v.status) is Status.FAILURE and v.upper is None
         assert "unproven mechanism" in v.status and "non-associative" in v.status
+        assert ("a reserve of 2.1% at its own friction capacities" in v.status) == (bad.seeded_level == 92.0)
 
 
 def test_a_collapse_state_above_the_associative_lp_is_no_evidence():
