@@ -66,19 +66,19 @@ class SlipCheck:
     """The non-associative rigid-block check of an FE limit with sliding joints (evidence 3 of the module
     docstring), from the FE's last converged step: its sliding joints (``fe_sliding``); the *frozen* LP, the rigid
     blocks under the FE's own block loads with each joint's shear capacity frozen at mu x the FE's normal force
-    (:func:`bridgefem.rigid_block.frozen_capacity_collapse`): its ``seeded_level``, its mechanism's
+    (:func:`bridgefem.rigid_block.frozen_capacity_collapse`): its ``frozen_level``, its mechanism's
     ``frozen_sliding`` and ``frozen_hinges`` joints, and ``fe_limited``, those of its sliding joints where the FE's
-    joint forces are at their Coulomb limit in the sense of the slip (:func:`coulomb_limited`); ``scene_level``, the
+    joint forces are at their Coulomb limit in the sense of the slip (:func:`coulomb_limited`); ``exact_level``, the
     frozen LP under the scene's exact voussoir weights and loads; and the Tresca fixed point from the FE's normal
     forces (FE loads): ``converged``, its ``level``, ``sliding``, ``hinges`` and ``iterations`` (LPs). Levels in N
     per unit load factor (None without a limit)."""
 
     fe_sliding: tuple[int, ...]
-    seeded_level: float | None
+    frozen_level: float | None
     frozen_sliding: tuple[int, ...]
     frozen_hinges: tuple[int, ...]
     fe_limited: tuple[int, ...]
-    scene_level: float | None
+    exact_level: float | None
     converged: bool
     level: float | None
     sliding: tuple[int, ...]
@@ -88,15 +88,15 @@ class SlipCheck:
     def collapse_state(self, lower: float, upper: float) -> bool:
         """The FE's own state is a collapse state of its meshed voussoirs: the frozen LP within ``AGREEMENT`` of
         the bracket, its mechanism sliding (somewhere) only where the FE's joints are at their Coulomb limit."""
-        return (self.seeded_level is not None and bool(self.frozen_sliding)
-                and set(self.frozen_sliding) == set(self.fe_limited) and reaches(lower, upper, self.seeded_level))
+        return (self.frozen_level is not None and bool(self.frozen_sliding)
+                and set(self.frozen_sliding) == set(self.fe_limited) and reaches(lower, upper, self.frozen_level))
 
     def agrees(self, lower: float, upper: float, lp_level: float) -> bool:
         """Evidence 3: a collapse state (:meth:`collapse_state`) that the exact voussoirs' weights keep within
-        ``AGREEMENT`` of the bracket (``scene_level``), with the FE at most ``1 + AGREEMENT`` x the associative
+        ``AGREEMENT`` of the bracket (``exact_level``), with the FE at most ``1 + AGREEMENT`` x the associative
         LP's ``lp_level`` (its upper bound)."""
-        return (self.collapse_state(lower, upper) and self.scene_level is not None
-                and reaches(lower, upper, self.scene_level) and lower <= (1 + AGREEMENT) * lp_level)
+        return (self.collapse_state(lower, upper) and self.exact_level is not None
+                and reaches(lower, upper, self.exact_level) and lower <= (1 + AGREEMENT) * lp_level)
 
     def back_at(self, lower: float, upper: float, lp_level: float) -> bool:
         """A limit that depends on the mesh: a fixed point that slides at the FE's sliding joints at the associative
@@ -111,15 +111,15 @@ class SlipCheck:
 
     def describe(self, unit: float) -> str:
         """The check's answer in words (``unit``: N per unit level)."""
-        if self.seeded_level is None:
+        if self.frozen_level is None:
             return "the non-associative rigid-block check finds no limit load"
         kn = unit / 1e3
         text = (f"the non-associative rigid-block check: the rigid blocks under the FE's loads with its friction "
-                f"capacities (mu x its joint normal forces) collapse at {self.seeded_level * kn:.6g} kN, sliding at "
+                f"capacities (mu x its joint normal forces) collapse at {self.frozen_level * kn:.6g} kN, sliding at "
                 f"joints {list(self.frozen_sliding)} (at the FE's Coulomb limit: {list(self.fe_limited)}; FE "
                 f"sliding: {list(self.fe_sliding)}), hinges {list(self.frozen_hinges)}")
-        if self.scene_level is not None:
-            text += f"; {self.scene_level * kn:.6g} kN with the exact voussoirs' weights"
+        if self.exact_level is not None:
+            text += f"; {self.exact_level * kn:.6g} kN with the exact voussoirs' weights"
         if self.level is None:
             return text
         fixed = "its Tresca fixed point (Gilbert, Casapulla & Ahmed 2006)" + ("" if self.converged else
@@ -196,8 +196,8 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}: the FE's state is that collapse "
                            f"state (with associative friction {lp_text})")
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
-        if slip is not None and slip.seeded_level is not None and slip.seeded_level > (1 + AGREEMENT) * upper:
-            checked += (f"; the FE stopped with a reserve of {slip.seeded_level / upper - 1:.1%} at its own friction "
+        if slip is not None and slip.frozen_level is not None and slip.frozen_level > (1 + AGREEMENT) * upper:
+            checked += (f"; the FE stopped with a reserve of {slip.frozen_level / upper - 1:.1%} at its own friction "
                         "capacities: its state is no collapse state")
         mesh_dependent = slip is not None and lp is Status.LIMIT and slip.back_at(lower, upper, lp_level)
         if mesh_dependent:
