@@ -47,7 +47,10 @@ associative one (its state is admissible there). Non-associative collapse states
 the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
 never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
 freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
-in tests/test_nonassociative.py; how the FE uses it: :mod:`bridgefem.evidence`, docs/joints-and-lp.md.
+in tests/test_nonassociative.py. A single Tresca LP (:func:`frozen_capacity_collapse`, capacities frozen at given
+normal forces) is itself a standard problem with bound theorems (a shear limit independent of the normal force:
+Livesley 1978, Int. J. Numer. Meth. Eng. 12:1853, part I); how the FE uses both: :mod:`bridgefem.evidence`,
+docs/joints-and-lp.md.
 
 **Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
@@ -521,7 +524,7 @@ def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LP
 
     Its yield rows ``|m| <= n t/2``, ``|s| <= mu n~`` are convex and its mechanism obeys their normality (slips
     without opening, rotations about a joint's edge), so the bound theorems of limit analysis hold (Livesley 1978,
-    part I: a shear limit independent of the normal force): ``level`` is *the* collapse load factor of these
+    part I, module docstring): ``level`` is *the* collapse load factor of these
     blocks, at least that of any statically admissible state, and the LP duality makes every optimal state do
     exactly the mechanism's dissipation ``mu n~ |slip|`` (complementary slackness)."""
     return solve_blocks(model, "non-associative", seed=normal_forces, max_iterations=1)
