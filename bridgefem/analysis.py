@@ -39,9 +39,10 @@ from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
-from .evidence import SlipCheck, Verdict, confirm, needs_slip_check
+from .evidence import SlipCheck, Verdict, confirm, coulomb_limited, needs_slip_check
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .rigid_block import LPResult, collapse_load, collapse_state_from, ring_under_forces, solve_blocks
+from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, generalised_loads,
+                          ring_model, ring_under_forces, ring_with_loads, solve_blocks)
 from .scene import Scene, SceneError
 from .sizing import check_size
 from .status import Status
@@ -357,7 +358,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
-                      fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints))
+                      fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints, model, bm))
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict)
 
@@ -396,26 +397,55 @@ def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
     return comm.bcast(lp, root=0)
 
 
-def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult,
-               joints: list[JointState]) -> SlipCheck | None:
+def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, joints: list[JointState],
+               model: ElasticModel, bm: BlockMesh) -> SlipCheck | None:
     """The non-associative rigid-block check of an unproven limit with sliding joints that the associative LP does
-    not confirm (:func:`bridgefem.evidence.needs_slip_check`), seeded with the joint normal forces of the last
-    converged step (:func:`bridgefem.rigid_block.collapse_state_from`, on rank 0, broadcast); None otherwise."""
+    not confirm (:func:`bridgefem.evidence.needs_slip_check`), from the joint normal forces of the last converged
+    step: the rigid blocks loaded as the FE loads its voussoirs (:func:`block_loads`) with their shear capacities
+    frozen there (:func:`bridgefem.rigid_block.frozen_capacity_collapse`) and the Tresca fixed point from them,
+    and the frozen LP under the scene's own block loads (:func:`bridgefem.rigid_block.collapse_state_from`).
+    Collective (the block loads); the LPs on rank 0, broadcast; None when no check is needed."""
     sliding = tuple(j.id for j in joints if j.sliding)
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, bool(sliding)):
         return None
+    blocks = ring_with_loads(scene, *block_loads(model, bm, ring_model(scene, live=False).ref))
     out = None
     if comm.rank == 0:
         normal = np.zeros(len(scene_ring(scene).joints))
         normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
-            res = collapse_state_from(scene, normal, lp.load_sides)
-            out = SlipCheck(sliding, res.level_seeded, res.converged, res.level, tuple(res.sliding),
-                            tuple(res.hinges), res.iterations)
+            frozen = frozen_capacity_collapse(blocks, normal)
+            fixed = solve_blocks(blocks, "non-associative", seed=normal)
+            exact = collapse_state_from(scene, normal, lp.load_sides, max_iterations=1)
+            limited = ()
+            if frozen.level is not None:
+                shear = np.zeros_like(normal)
+                shear[[j.id for j in joints]] = [j.shear_force for j in joints]
+                limited = coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip, frozen.sliding)
+            out = SlipCheck(sliding, frozen.level, tuple(frozen.sliding), tuple(frozen.hinges), limited,
+                            exact.level, fixed.converged, fixed.level, tuple(fixed.sliding), tuple(fixed.hinges),
+                            fixed.iterations)
         except (RuntimeError, ValueError):  # a check that fails confirms nothing
-            out = SlipCheck(sliding, None, False, None, (), (), 0)
+            out = SlipCheck(sliding, None, (), (), (), None, False, None, (), (), 0)
     return comm.bcast(out, root=0)
+
+
+def block_loads(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The FE's self-weight and unit live load on each block of the ring (voussoirs, abutments) as resultants
+    (nb, 3): Fx, Fy (N) and M (N·m, counter-clockwise) about ``ref`` (nb, 2), the sums of the assembled nodal
+    forces (the meshed voussoirs' weight, which the mesh's straight cell edges make differ from the exact
+    voussoirs' by O(h^2)). Collective."""
+    V, comm = model.V, model.V.mesh.comm
+    n_owned = V.dofmap.index_map.size_local
+    blk = node_blocks(V, bm)[:n_owned]
+    on = (blk >= 0) & (blk < len(ref))
+    x = V.tabulate_dof_coordinates()[:n_owned, :2][on]
+
+    def resultants(vec: PETSc.Vec) -> np.ndarray:
+        return comm.allreduce(generalised_loads(ref, blk[on], x, vec.array[:2 * n_owned].reshape(-1, 2)[on]))
+
+    return resultants(model.f_dead), resultants(model.f_live)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:

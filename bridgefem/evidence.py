@@ -7,19 +7,32 @@ evidence of collapse only when
    hinge mode on which the loads do positive work, so that no equilibrium with compressive joints exists); or
 2. the rigid-block LP on the same joints (:func:`bridgefem.rigid_block.collapse_load`, associative friction) gives
    the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
-3. for a limit with sliding joints below the associative LP: the *non-associative* rigid-block check
-   (:func:`bridgefem.rigid_block.collapse_state_from`, the Tresca fixed point of Gilbert, Casapulla & Ahmed 2006,
-   seeded with the FE's joint normal forces at its last converged step) agrees twice within ``AGREEMENT`` of the
-   FE bracket (:class:`SlipCheck`): its first LP (shear capacities frozen at mu x the FE's normal forces: the FE's
-   state has no rigid-block reserve), and its fixed point, whose mechanism slides at exactly the FE's sliding
-   joints (the FE's limit is a non-associative collapse state of the rigid blocks).
+3. for a limit with sliding joints below the associative LP: the FE's last converged state is a *collapse state*
+   of its rigid blocks (:class:`SlipCheck`). Its joint forces balance every voussoir under the FE's own loads at
+   the bracket's lower end (the assembled self-weight and live load, :func:`bridgefem.analysis.block_loads`) and
+   obey no tension and Coulomb friction pair by pair, so they are statically admissible for the rigid blocks with
+   each joint's shear capacity frozen at mu x the FE's normal force (:func:`bridgefem.rigid_block.
+   frozen_capacity_collapse`). That *frozen* LP has a shear limit independent of the normal force, hence normality
+   and the bound theorems (Livesley 1978): its level is at least the FE's lower end. When it lies within
+   ``AGREEMENT`` of the bracket, the FE's forces are an optimal state of it to that tolerance: on its mechanism
+   they do the mechanism's dissipation up to (level - lower) x the live load's unit work (virtual work; exactly,
+   by complementary slackness, at equality), i.e. the sliding joints carry mu n_FE against the slip and the
+   thrust sits at the hinges' edges. That mechanism strains no voussoir and its slips do not dilate (the FE's
+   non-associative Coulomb law), so the blocks can move on it with the FE's forces unchanged at the FE's load: the
+   load-deflection curve of the FE's state is flat there. The rule asks for that level within ``AGREEMENT`` of the
+   bracket, a mechanism that slides somewhere and only at joints whose FE forces are at their Coulomb limit against
+   the slip (:func:`coulomb_limited`), the same frozen LP under the scene's exact voussoir weights within
+   ``AGREEMENT`` too (the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a limit that is small
+   against the self-weight by far more; otherwise the limit depends on the mesh and a finer one is tried), and the
+   FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
+   Radenkovic's first theorem).
 
-A fixed point is a non-associative rigid-block collapse state: joint forces in equilibrium at its level that obey
-no tension and ``|s| <= mu n``, and a mechanism (hinges, slips without dilatancy) on which the loads' work equals
-the friction dissipation ``mu n |slip|`` of those forces. Such states are not unique (non-associative friction has
-no bound theorems), so this agreement says that the FE's limit is one of them, the one its elastic path reaches,
-reproduced by an independent rigid-block model; the associative LP stays the upper bound
-(docs/joints-and-lp.md, *Sliding collapses below the associative LP*).
+Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
+associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
+elastic path reaches, never that no other path carries more. The Tresca fixed point (Gilbert, Casapulla & Ahmed
+2006) from the FE's state is reported beside it, and a fixed point back at the associative level with the FE's
+sliding joints marks a failure whose load depends on the mesh (docs/joints-and-lp.md, *Sliding collapses below
+the associative LP*).
 
 Otherwise the verdict is a solver failure that names the unproven mechanism and the LP's answer (a singular or
 diverging solve alone is no proof: a wrong active set, or a linear solver that did not solve, looks the same).
@@ -41,6 +54,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from .status import Status
 
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
@@ -49,44 +64,78 @@ AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (i
 @dataclass(frozen=True)
 class SlipCheck:
     """The non-associative rigid-block check of an FE limit with sliding joints (evidence 3 of the module
-    docstring): the FE's sliding joints at its last converged step (``fe_sliding``), and the Tresca fixed point
-    seeded with its joint normal forces: ``seeded_level`` the first LP's level (capacities mu x the FE's normal
-    forces), ``converged`` (a fixed point was reached), its ``level`` (levels in N per unit load factor, None
-    without a limit), ``sliding`` and ``hinges`` (joint ids) and ``iterations`` (LPs)."""
+    docstring), from the FE's last converged step: its sliding joints (``fe_sliding``); the *frozen* LP, the rigid
+    blocks under the FE's own block loads with each joint's shear capacity frozen at mu x the FE's normal force
+    (:func:`bridgefem.rigid_block.frozen_capacity_collapse`): its ``frozen_level``, its mechanism's
+    ``frozen_sliding`` and ``frozen_hinges`` joints, and ``fe_limited``, those of its sliding joints where the FE's
+    joint forces are at their Coulomb limit in the sense of the slip (:func:`coulomb_limited`); ``exact_level``, the
+    frozen LP under the scene's exact voussoir weights and loads; and the Tresca fixed point from the FE's normal
+    forces (FE loads): ``converged``, its ``level``, ``sliding``, ``hinges`` and ``iterations`` (LPs). Levels in N
+    per unit load factor (None without a limit)."""
 
     fe_sliding: tuple[int, ...]
-    seeded_level: float | None
+    frozen_level: float | None
+    frozen_sliding: tuple[int, ...]
+    frozen_hinges: tuple[int, ...]
+    fe_limited: tuple[int, ...]
+    exact_level: float | None
     converged: bool
     level: float | None
     sliding: tuple[int, ...]
     hinges: tuple[int, ...]
     iterations: int
 
-    def agrees(self, lower: float, upper: float) -> bool:
-        """The first LP and a fixed point within ``AGREEMENT`` of the bracket, the fixed point sliding at exactly
-        the FE's sliding joints."""
-        return (self.converged and self.level is not None and self.seeded_level is not None
-                and bool(self.fe_sliding) and set(self.sliding) == set(self.fe_sliding)
-                and reaches(lower, upper, self.seeded_level) and reaches(lower, upper, self.level))
+    def collapse_state(self, lower: float, upper: float) -> bool:
+        """The FE's own state is a collapse state of its meshed voussoirs: the frozen LP within ``AGREEMENT`` of
+        the bracket, its mechanism sliding (somewhere) only where the FE's joints are at their Coulomb limit."""
+        return (self.frozen_level is not None and bool(self.frozen_sliding)
+                and set(self.frozen_sliding) == set(self.fe_limited) and reaches(lower, upper, self.frozen_level))
 
-    def back_at(self, lp_level: float) -> bool:
-        """A fixed point that slides at the FE's sliding joints at the associative LP's level (within
-        ``AGREEMENT``): the FE found the associative mechanism, at a load its mesh moves (a limit much smaller than
-        the forces that decide it; docs/joints-and-lp.md)."""
-        return (self.converged and self.level is not None and bool(self.fe_sliding)
-                and set(self.sliding) == set(self.fe_sliding) and abs(self.level - lp_level) <= AGREEMENT * lp_level)
+    def agrees(self, lower: float, upper: float, lp_level: float) -> bool:
+        """Evidence 3: a collapse state (:meth:`collapse_state`) that the exact voussoirs' weights keep within
+        ``AGREEMENT`` of the bracket (``exact_level``), with the FE at most ``1 + AGREEMENT`` x the associative
+        LP's ``lp_level`` (its upper bound)."""
+        return (self.collapse_state(lower, upper) and self.exact_level is not None
+                and reaches(lower, upper, self.exact_level) and lower <= (1 + AGREEMENT) * lp_level)
+
+    def back_at(self, lower: float, upper: float, lp_level: float) -> bool:
+        """A limit that depends on the mesh: a fixed point that slides at the FE's sliding joints at the associative
+        LP's level (within ``AGREEMENT``: the FE found the associative mechanism at a load its mesh moves), or a
+        collapse state that the exact voussoirs' weights move by more than ``AGREEMENT`` (a limit much smaller than
+        the forces that decide it, docs/joints-and-lp.md)."""
+        associative = (self.converged and self.level is not None and bool(self.fe_sliding)
+                       and set(self.sliding) == set(self.fe_sliding)
+                       and abs(self.level - lp_level) <= AGREEMENT * lp_level)
+        return associative or (self.collapse_state(lower, upper) and not self.agrees(lower, upper, lp_level)
+                               and lower <= (1 + AGREEMENT) * lp_level)
 
     def describe(self, unit: float) -> str:
         """The check's answer in words (``unit``: N per unit level)."""
-        name = ("the non-associative rigid-block LP (Tresca fixed point, Gilbert, Casapulla & Ahmed 2006) seeded "
-                "with the FE's joint forces")
-        if self.level is None or self.seeded_level is None:
-            return f"{name} finds no limit load"
-        what = (f"{name} gives {self.seeded_level * unit / 1e3:.6g} kN with the FE's friction capacities and "
-                f"{self.level * unit / 1e3:.6g} kN at its fixed point, sliding at joints {list(self.sliding)}")
-        if not self.converged:
-            return f"{what} without reaching a fixed point in {self.iterations} LPs"
-        return f"{what} (FE: {list(self.fe_sliding)}), hinges {list(self.hinges)}"
+        if self.frozen_level is None:
+            return "the non-associative rigid-block check finds no limit load"
+        kn = unit / 1e3
+        text = (f"the non-associative rigid-block check: the rigid blocks under the FE's loads with its friction "
+                f"capacities (mu x its joint normal forces) collapse at {self.frozen_level * kn:.6g} kN, sliding at "
+                f"joints {list(self.frozen_sliding)} (at the FE's Coulomb limit: {list(self.fe_limited)}; FE "
+                f"sliding: {list(self.fe_sliding)}), hinges {list(self.frozen_hinges)}")
+        if self.exact_level is not None:
+            text += f"; {self.exact_level * kn:.6g} kN with the exact voussoirs' weights"
+        if self.level is None:
+            return text
+        fixed = "its Tresca fixed point (Gilbert, Casapulla & Ahmed 2006)" + ("" if self.converged else
+                                                                             f" (not reached in {self.iterations} LPs)")
+        return f"{text}; {fixed} {self.level * kn:.6g} kN, sliding at joints {list(self.sliding)}"
+
+
+def coulomb_limited(normal: np.ndarray, shear: np.ndarray, friction: np.ndarray, slip: np.ndarray,
+                    sliding) -> tuple[int, ...]:
+    """The joints among ``sliding`` whose forces are at their Coulomb limit against the slip, where the friction
+    force dissipates ``mu n |slip|``: ``-shear sign(slip) >= (1 - AGREEMENT) mu normal`` (arrays over joints: normal
+    and shear forces in N, the shear on the right block and its slip relative to the left one along the joint's
+    tangent T of :mod:`bridgefem.rigid_block`; mu)."""
+    j = np.asarray(sliding, int)
+    ok = -shear[j] * np.sign(slip[j]) >= (1 - AGREEMENT) * friction[j] * normal[j]
+    return tuple(int(k) for k in j[ok])
 
 
 def reaches(lower: float, upper: float, level: float) -> bool:
@@ -143,11 +192,14 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                            warn)
         if agrees:
             return Verdict(status, upper, f"agreement: {lp_text}")
-        if slip is not None and slip.agrees(lower, upper):
-            return Verdict(status, upper, f"agreement: {slip.describe(unit)}, a non-associative collapse state "
-                           f"(with associative friction {lp_text})")
+        if slip is not None and lp is Status.LIMIT and slip.agrees(lower, upper, lp_level):
+            return Verdict(status, upper, f"agreement: {slip.describe(unit)}: the FE's state is that collapse "
+                           f"state (with associative friction {lp_text})")
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
-        mesh_dependent = slip is not None and lp is Status.LIMIT and slip.back_at(lp_level)
+        if slip is not None and slip.frozen_level is not None and slip.frozen_level > (1 + AGREEMENT) * upper:
+            checked += (f"; the FE stopped with a reserve of {slip.frozen_level / upper - 1:.1%} at its own friction "
+                        "capacities: its state is no collapse state")
+        mesh_dependent = slip is not None and lp is Status.LIMIT and slip.back_at(lower, upper, lp_level)
         if mesh_dependent:
             checked += ("; the FE's mechanism is the associative one, at a load that depends on the mesh: raise "
                         "[mesh] elements_through_thickness")

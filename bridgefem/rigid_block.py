@@ -47,7 +47,10 @@ associative one (its state is admissible there). Non-associative collapse states
 the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
 never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
 freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
-in tests/test_nonassociative.py; how the FE uses it: :mod:`bridgefem.evidence`, docs/joints-and-lp.md.
+in tests/test_nonassociative.py. A single Tresca LP (:func:`frozen_capacity_collapse`, capacities frozen at given
+normal forces) is itself a standard problem with bound theorems (a shear limit independent of the normal force:
+Livesley 1978, Int. J. Numer. Meth. Eng. 12:1853, part I); how the FE uses both: :mod:`bridgefem.evidence`,
+docs/joints-and-lp.md.
 
 **Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
 
@@ -464,6 +467,15 @@ def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) ->
                                live=generalised_loads(model.ref, blocks, points, live_forces))
 
 
+def ring_with_loads(scene: Scene, dead: np.ndarray, live: np.ndarray) -> BlockModel:
+    """The scene's ring (the joints and blocks of :func:`ring_model`) under given block loads instead of the
+    scene's: ``dead``, ``live`` (nb, 3) Fx, Fy (N) and M (N·m, counter-clockwise) about the blocks' reference
+    points, ``live`` for a unit load level, e.g. the FE's assembled self-weight and live load
+    (:func:`bridgefem.analysis.block_loads`): the rigid blocks loaded as the FE's meshed voussoirs are."""
+    return dataclasses.replace(ring_model(scene, live=False), dead=np.asarray(dead, float),
+                               live=np.asarray(live, float))
+
+
 def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
     """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
     the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
@@ -504,6 +516,18 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     if load_at_joint != LEAST_FAVOURABLE:
         return solve({i: load_at_joint for i in on_joint})
     return _least_favourable(solve, on_joint)
+
+
+def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LPResult:
+    """The collapse of the blocks with every joint's shear capacity frozen at ``mu n~`` (``normal_forces`` n~, N
+    per joint): the first Tresca LP of :func:`solve_blocks` (``level``, mechanism, joint forces).
+
+    Its yield rows ``|m| <= n t/2``, ``|s| <= mu n~`` are convex and its mechanism obeys their normality (slips
+    without opening, rotations about a joint's edge), so the bound theorems of limit analysis hold (Livesley 1978,
+    part I, module docstring): ``level`` is *the* collapse load factor of these
+    blocks, at least that of any statically admissible state, and the LP duality makes every optimal state do
+    exactly the mechanism's dissipation ``mu n~ |slip|`` (complementary slackness)."""
+    return solve_blocks(model, "non-associative", seed=normal_forces, max_iterations=1)
 
 
 def collapse_state_from(scene: Scene, normal_forces: np.ndarray, load_sides: list[str | None] | None = None,

@@ -11,8 +11,10 @@ seed of the normal forces."""
 import numpy as np
 import pytest
 
-from bridgefem.rigid_block import (BlockModel, _relative_motion, collapse_load, collapse_state_from,
-                                   generalised_loads, ring_model, solve_blocks)
+from bridgefem.evidence import coulomb_limited
+from bridgefem.rigid_block import (BlockModel, _Programme, _relative_motion, collapse_load, collapse_state_from,
+                                   frozen_capacity_collapse, generalised_loads, ring_model, ring_with_loads,
+                                   solve_blocks)
 from bridgefem.scene import scene_from_dict
 
 from test_joint_loads import push_through, three_voussoirs
@@ -54,6 +56,25 @@ def test_block_on_incline(theta_deg, friction, seed):
     assert res.converged and res.sliding == [0] and res.hinges == []
     assert res.level == pytest.approx(10.0 * np.tan(theta + np.arctan(friction)), rel=1e-6)
     assert_collapse_state(res, model)
+
+
+@pytest.mark.parametrize("fraction", [0.5, 0.9, 1.0])
+def test_frozen_capacities_of_a_state_bound_its_load_and_meet_it_at_collapse(fraction):
+    """The block on an incline (theta 20 deg, mu 0.5, W 10 N) in equilibrium under a push P' = fraction x
+    W tan(theta + phi): n' = W cos(theta) + P' sin(theta), shear on the ground s' = P' cos(theta) - W sin(theta)
+    (up the slope). With the shear capacity frozen at mu n' the block slides at (W sin(theta) + mu n') / cos(theta):
+    at least P' (the state is admissible: lower-bound theorem), equal to it only where the state is at collapse,
+    and only there is the sliding joint at its Coulomb limit against the slip (evidence rule 3)."""
+    theta, mu, weight = np.radians(20.0), 0.5, 10.0
+    p_collapse = weight * np.tan(theta + np.arctan(mu))
+    p = fraction * p_collapse
+    n, s = weight * np.cos(theta) + p * np.sin(theta), p * np.cos(theta) - weight * np.sin(theta)
+    res = frozen_capacity_collapse(incline(theta, mu, weight), np.array([n]))
+    assert res.level == pytest.approx((weight * np.sin(theta) + mu * n) / np.cos(theta), rel=1e-7)
+    assert res.level >= p * (1 - 1e-9) and res.sliding == [0]
+    assert (res.level == pytest.approx(p, rel=1e-7)) == (fraction == 1.0)
+    limited = coulomb_limited(np.array([n]), np.array([s]), np.array([mu]), res.joint_slip, res.sliding)
+    assert limited == ((0,) if fraction == 1.0 else ())
 
 
 @pytest.mark.parametrize("thickness, friction", [(2.0, 0.33), (2.5, 0.35)])
@@ -122,25 +143,30 @@ def test_ring_where_non_associative_friction_matters():
 
 
 @pytest.mark.slow
-def test_fe_sliding_limit_below_the_associative_lp_is_confirmed_by_the_fixed_point():
+def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
     """Campaign seed 1, scene 124 (pointed, 49 voussoirs, mu 1.775, point load at 0.774): the FE stops 2.4 %
-    below the associative LP with joint 28 sliding. The fixed point seeded with the FE's joint forces is a
-    non-associative collapse state at the FE's load (within 0.5 %), sliding at joint 28 only, so the verdict
-    stands (evidence rule 3); the associative collapse state (hinges 0, 19, 44) is a different mechanism."""
-    from bridgefem.analysis import run_analysis
+    below the associative LP with joint 28 sliding. Its joint forces balance the blocks under its own assembled
+    loads (equilibrium to 1e-6 of the weight), so the rigid blocks with its frozen friction capacities collapse
+    at no less than its last converged load (lower-bound theorem) and within 0.5 % of it, sliding at joint 28
+    where the FE's forces are at their Coulomb limit: the FE's state is a collapse state (evidence rule 3); the
+    associative collapse state (hinges 0, 19, 44) is a different mechanism."""
+    from bridgefem.analysis import block_loads, run_analysis
     from bridgefem.status import Status
 
     sc = scene_from_dict(SCENE_124)
     an = run_analysis(sc)
     s = an.search
     assert s.status == Status.LIMIT, s.status
-    assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block LP")
+    assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert [j.id for j in an.joints if j.sliding] == [28]
     assert s.upper < 0.98 * an.lp.level and an.lp.hinges == [0, 19, 44]
-    normal = np.zeros(len(an.ring.joints))
-    normal[[j.id for j in an.joints]] = [j.normal_force for j in an.joints]
-    check = collapse_state_from(sc, normal, an.lp.load_sides)
-    assert check.converged and check.sliding == [28]
-    for level in (check.level_seeded, check.level):  # the FE's friction capacities, and the fixed point
-        assert s.lower * (1 - 5e-3) <= level <= s.upper * (1 + 5e-3)
-    assert_collapse_state(check, ring_model(sc, load_at_joint=tuple(x or "split" for x in an.lp.load_sides)))
+    blocks = ring_with_loads(sc, *block_loads(an.model, an.block_mesh, ring_model(sc).ref))
+    q = np.zeros((len(an.ring.joints), 3))
+    q[[j.id for j in an.joints]] = [(j.normal_force, j.shear_force, j.normal_force * j.eccentricity)
+                                    for j in an.joints]
+    residual = _Programme(blocks).A @ q.ravel() + s.lower * blocks.live.ravel() + blocks.dead.ravel()
+    weight = -blocks.dead[:, 1].sum()
+    assert np.abs(residual).max() < 1e-6 * weight
+    frozen = frozen_capacity_collapse(blocks, q[:, 0])
+    assert s.lower * (1 - 1e-9) <= frozen.level <= s.upper * (1 + 5e-3) and frozen.sliding == [28]
+    assert coulomb_limited(q[:, 0], q[:, 1], blocks.friction, frozen.joint_slip, frozen.sliding) == (28,)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK
-from bridgefem.evidence import SlipCheck, confirm, needs_slip_check
+from bridgefem.evidence import SlipCheck, confirm, coulomb_limited, needs_slip_check
 from bridgefem.mechanism import Mode, judge
 from bridgefem.status import Status
 
@@ -108,24 +108,46 @@ def test_status_texts_read_back():
 
 
 # ------------------------------------------------- evidence rule 3: a sliding limit below the associative LP
-def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,), seeded=90.02):
-    return SlipCheck(fe_sliding, seeded, converged, level, sliding, (1, 5), 12)
+def slip(level=90.05, converged=True, sliding=(3,), fe_sliding=(3,), frozen=90.02, frozen_sliding=(3,),
+         limited=(3,), exact=90.03):
+    return SlipCheck(fe_sliding, frozen, frozen_sliding, (1, 5), limited, exact, converged, level, sliding, (1, 5),
+                     12)
 
 
-def test_a_sliding_limit_below_the_lp_needs_the_non_associative_fixed_point():
-    """FE [90.0, 90.1] N, associative LP 100 N: agreement only when the first LP (the FE's friction capacities) and
-    a fixed point are within 0.5 % of the bracket, the fixed point sliding at exactly the FE's sliding joints;
-    otherwise a failure that names the check's answer (e.g. a fixed point back at the associative state)."""
-    ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip())
-    assert ok.status == Status.LIMIT and ok.upper == 90.1
-    assert ok.evidence.startswith("agreement: the non-associative rigid-block LP")
-    assert "seeded with the FE" in ok.evidence
-    for bad in (slip(level=92.0), slip(level=100.0), slip(seeded=95.0), slip(seeded=None), slip(converged=False),
-                slip(sliding=(3, 7)), slip(level=None),
-                slip(fe_sliding=(), sliding=())):
+def test_a_sliding_limit_below_the_lp_needs_the_fe_state_to_be_a_collapse_state():
+    """FE [90.0, 90.1] N, associative LP 100 N: agreement only when the rigid blocks with the FE's loads and frozen
+    friction capacities collapse within 0.5 % of the bracket (the FE's forces are then an optimal state of that
+    LP), with a mechanism that slides only at joints where the FE's forces are at their Coulomb limit, and the
+    exact voussoirs' weights keep that LP within 0.5 %; the fixed point is not needed (the FE's state is one);
+    otherwise a failure that names the check's answer."""
+    for good in (slip(), slip(level=100.0), slip(converged=False), slip(level=None)):
+        ok = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=good)
+        assert ok.status == Status.LIMIT and ok.upper == 90.1
+        assert ok.evidence.startswith("agreement: the non-associative rigid-block check")
+        assert "with its friction capacities" in ok.evidence
+    for bad in (slip(frozen=92.0), slip(frozen=None), slip(frozen_sliding=(3, 7)), slip(limited=()),
+                slip(frozen_sliding=(), limited=()), slip(exact=88.0), slip(exact=None)):
         v = confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=bad)
         assert Status.of(v.status) is Status.FAILURE and v.upper is None
         assert "unproven mechanism" in v.status and "non-associative" in v.status
+        assert ("a reserve of 2.1% at its own friction capacities" in v.status) == (bad.frozen_level == 92.0)
+
+
+def test_a_collapse_state_above_the_associative_lp_is_no_evidence():
+    """The associative LP is an upper bound on any non-associative collapse (Radenkovic's first theorem): a
+    collapse state more than 0.5 % above it confirms nothing."""
+    assert slip(frozen=100.4, exact=100.4).agrees(100.4, 100.45, 100.0)
+    assert not slip(frozen=101.0, exact=101.0).agrees(101.0, 101.05, 100.0)
+
+
+def test_coulomb_limited_joints_resist_the_slip_at_mu_n():
+    """Joints whose shear is at mu n against the slip (shear on the right block, slip of the right block relative
+    to the left one: opposite signs), within 0.5 %; not a joint below its limit, nor one sheared the other way."""
+    normal = np.array([10.0, 10.0, 10.0, 10.0])
+    shear = np.array([-5.0, 4.98, 4.0, 5.0])
+    slip_ = np.array([1.0, -2.0, -1.0, 1.0])
+    assert coulomb_limited(normal, shear, np.full(4, 0.5), slip_, [0, 1, 2, 3]) == (0, 1)
+    assert coulomb_limited(normal, shear, np.full(4, 0.5), slip_, [1]) == (1,)
 
 
 def test_the_slip_check_runs_only_where_nothing_else_confirms():
@@ -138,27 +160,33 @@ def test_the_slip_check_runs_only_where_nothing_else_confirms():
     assert not needs_slip_check(Status.UNSTABLE, 0.0, 0.0, False, *LP, fill=False, sliding=True)
 
 
-def test_a_fixed_point_back_at_the_associative_state_suggests_a_finer_mesh():
-    """The FE below the LP with the LP's own mechanism (the fixed point returns to the associative level with the
-    FE's sliding joints): a failure that says the load depends on the mesh; not for another mechanism."""
-    back = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0))
-    assert Status.of(back.status) is Status.FAILURE and "elements_through_thickness" in back.status
-    assert back.mesh_dependent
-    other = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, sliding=(0, 3)))
+def test_a_limit_the_mesh_moves_suggests_a_finer_mesh():
+    """The FE below the LP with the LP's own mechanism (the fixed point at the associative level with the FE's
+    sliding joints, and the FE's state no collapse state), or a collapse state that the exact voussoirs' weights
+    move by more than 0.5 %: a failure that says the load depends on the mesh; not for another mechanism."""
+    for dependent in (slip(level=100.0, frozen=98.0, exact=98.0), slip(exact=95.0)):
+        lower = 97.0 if dependent.level == 100.0 else 90.0
+        back = confirm(Status.LIMIT, lower, lower + 0.01, False, *LP, slip=dependent)
+        assert Status.of(back.status) is Status.FAILURE and "elements_through_thickness" in back.status
+        assert back.mesh_dependent
+    elsewhere = slip(level=100.0, frozen=98.0, exact=98.0, sliding=(0, 3))
+    other = confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=elsewhere)
     assert Status.of(other.status) is Status.FAILURE and "elements_through_thickness" not in other.status
     assert not other.mesh_dependent
 
 
 def test_only_a_limit_back_at_the_associative_state_is_mesh_dependent():
-    """Only the failure of the test above asks for a re-run on a finer mesh (``Verdict.mesh_dependent``): not a
+    """Only the failures of the test above ask for a re-run on a finer mesh (``Verdict.mesh_dependent``): not a
     confirmed limit, not another unproven mechanism (no slip check, a fixed point elsewhere or not reached, an LP
     that failed), not a refused instability."""
-    assert confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0)).mesh_dependent
+    back = slip(level=100.0, frozen=98.0, exact=98.0)
+    assert confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=back).mesh_dependent
     for v in (confirm(Status.LIMIT, 99.9, 100.0, False, *LP),  # agreement with the LP
-              confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip()),  # agreement with the fixed point
+              confirm(Status.LIMIT, 90.0, 90.1, False, *LP, slip=slip()),  # the FE's state is a collapse state
               confirm(Status.LIMIT, 97.0, 97.01, False, *LP),  # no slip check
-              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=92.0, seeded=97.0)),
-              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, seeded=97.0, converged=False)),
+              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=92.0, frozen=98.0, exact=98.0)),
+              confirm(Status.LIMIT, 97.0, 97.01, False, *LP, slip=slip(level=100.0, frozen=98.0, exact=98.0,
+                                                                        converged=False)),
               confirm(Status.LIMIT, 97.0, 97.01, False, "LP failed: x", None, slip=slip(level=100.0)),
               confirm(Status.UNSTABLE, 0.0, None, False, *LP)):
         assert not v.mesh_dependent, v.status
