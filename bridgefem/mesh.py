@@ -5,6 +5,11 @@ Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is co
 belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
 have a single face, which meets the rigid ground.
 
+Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
+``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
+segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
+size within the fill's depth of the extrados, graded to the far fill's size beyond.
+
 Elastic abutments (:func:`bridgefem.geometry.add_abutments`) are meshed with unstructured triangles of twice the
 ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
 single face, like a springing on rigid ground. Without them no abutment is meshed.
@@ -41,6 +46,9 @@ FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
 BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
 BEAM_HEIGHT = 0.5  # height of a loading beam / its length
 LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the ring's element size
+FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
+EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
+FILL_GRADING = 0.5  # growth of the fill mesh size per unit distance beyond that band (m/m)
 BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG, BEAM_TOP_TAG)
 
 
@@ -124,6 +132,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.model.add("bridge")
         geo = gmsh.model.geo
         h = ring.thickness / per_thickness
+        depth = outline.y_road - ring.crown_extrados if outline is not None else None
+        h_extrados = extrados_element_size(ring.thickness, per_thickness, depth)
         arch_joints = ring.joints[:ring.n_voussoirs + 1]
         inner = [geo.addPoint(*j.intrados, 0.0) for j in arch_joints]
         outer = [geo.addPoint(*j.extrados, 0.0) for j in arch_joints]
@@ -144,14 +154,20 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         if outline is not None or ring.abutments:
             gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
         mesh = gmsh.model.mesh
+        if outline is not None:
+            boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
+            _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
+                                      max(h_fill, h_extrados), depth)
         for c in joint_curves[:len(arch_joints)]:
             mesh.setTransfiniteCurve(c, per_thickness + 1)
         for s, intra, extra, i in surfaces:
             centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
             length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
-            # segments along: about one per element size h (1e-9: a length of exactly k h gives k), and at least
-            # one per curve of an edge split at a load point or crown kink (each curve needs a segment)
-            n_along = max(int(np.ceil(length / h - 1e-9)), len(intra), len(extra))
+            # segments along: about one per element size h (1e-9: a length of exactly k h gives k), one per
+            # h_extrados along the extrados under a thin fill (its nodes are the fill's), and at least one per curve
+            # of an edge split at a load point or crown kink (each curve needs a segment)
+            n_fill = sum(int(np.ceil(_curve_length(c) / h_extrados - 1e-9)) for c in extra) if h_extrados < h else 0
+            n_along = max(int(np.ceil(length / h - 1e-9)), n_fill, len(intra), len(extra))
             for side in (intra, extra):
                 lengths = [_curve_length(c) for c in side] if len(side) > 1 else [1.0]  # one curve: all n_along
                 for c, n in zip(side, _segment_counts(lengths, n_along)):
@@ -180,13 +196,46 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.finalize()
 
 
+def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
+    """Element size (m) along the extrados: the ring's, ``thickness`` / ``per_thickness``; under a fill ``depth`` (m)
+    deep over the crown at most ``FILL_DEPTH_SHARE`` x ``depth`` / ``per_thickness``, so that a thin fill over a
+    thick ring has elements through its depth and the size still halves with each doubling of ``per_thickness``."""
+    return min(thickness, FILL_DEPTH_SHARE * depth if depth is not None else thickness) / per_thickness
+
+
+def _grade_fill_from_extrados(surface: int, boundary: list[int], extrados_curves: list[int], size: float,
+                              far_size: float, depth: float) -> None:
+    """Gmsh size field of the fill (its ``surface`` and its ``boundary`` curves only): ``size`` (m) within
+    ``EXTRADOS_BAND`` x ``depth`` (the fill's depth over the crown, m) of the extrados, growing by ``FILL_GRADING``
+    per metre beyond that band up to ``far_size``. Gmsh takes the smaller of this and the sizes at the fill's points
+    (load edges, corners)."""
+    import gmsh
+
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "CurvesList", extrados_curves)
+    field.setNumber(distance, "NumPointsPerCurve", 20)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", distance)
+    field.setNumber(threshold, "SizeMin", size)
+    field.setNumber(threshold, "SizeMax", far_size)
+    field.setNumber(threshold, "DistMin", EXTRADOS_BAND * depth)
+    field.setNumber(threshold, "DistMax", EXTRADOS_BAND * depth + (far_size - size) / FILL_GRADING)
+    restricted = field.add("Restrict")
+    field.setNumber(restricted, "InField", threshold)
+    field.setNumbers(restricted, "FacesList", [surface])
+    field.setNumbers(restricted, "EdgesList", boundary)
+    field.setAsBackgroundMesh(restricted)
+
+
 def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float,
               h_load: float, beams: tuple[tuple[float, float], ...] = ()) -> dict:
     """The fill surface over the extrados and the loading beams on its road (one per x-range of ``beams``, whose
     ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
     tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
-    loads), where the bearing stress is singular, the beam's height at its top corners; the ring's size along the
-    extrados; Gmsh grades in between."""
+    loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
+    (:func:`extrados_element_size`) along it and within the fill's depth of it (:func:`_grade_fill_from_extrados`);
+    Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
                                                                                          h_fill)

@@ -4,11 +4,13 @@ swapping for minutes, and a long one is announced.
 
 Cells follow the mesher's rules (:mod:`bridgefem.mesh`): element size h = thickness / elements_through_thickness
 in the ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
-cut into two triangles; the fill and the abutments unstructured at their own size. The memory is a fit
-``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs (MUMPS LU
-with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
+cut into two triangles (more along under a thin fill: one per extrados element size); the fill and the abutments
+unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
+is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
+(MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
 bare arch from 1k to 68k unknowns (185, 208 and 325 MB at 1k, 13k and 68k: 117 to 127 bytes per n log2 n); cells
-and unknowns came within 1 % of the mesher's on bare arches and within 30 % with a fill.
+and unknowns came within 1 % of the mesher's on bare arches and within 30 % with a fill (cells 12 to 22 % under
+the mesher's on Prestwood and campaign scenes #125, #145, #276, over it by 8 % on #260).
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import make_shape
+from .mesh import EXTRADOS_BAND, extrados_element_size
 from .scene import Scene, SceneError
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
@@ -49,8 +52,12 @@ def estimate_size(scene: Scene) -> SizeEstimate:
     p = np.linspace(0.0, 1.0, 257)
     centre = shape.point(p) + 0.5 * a.thickness * shape.normal(p)
     length = float(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum())
+    extrados = shape.point(p) + a.thickness * shape.normal(p)
+    extrados_length = float(np.linalg.norm(np.diff(extrados, axis=0), axis=1).sum())
     h = a.thickness / ett
-    along = max(1, math.ceil(length / a.voussoirs / h))
+    h_extrados = extrados_element_size(a.thickness, ett, scene.fill.depth if scene.fill is not None else None)
+    along = max(1, math.ceil(length / a.voussoirs / h),
+                math.ceil(extrados_length / a.voussoirs / h_extrados) if h_extrados < h else 0)
     n = a.voussoirs
     cells = 2 * n * ett * along
     nodes = n * (degree * ett + 1) * (degree * along + 1)
@@ -60,10 +67,11 @@ def estimate_size(scene: Scene) -> SizeEstimate:
         hf = f.element_size or 2 * h
         box = (a.span + 2 * a.thickness + 2 * f.extension) * (a.rise + a.thickness + f.depth)
         area = max(box - math.pi / 4 * (a.span + 2 * a.thickness) * (a.rise + a.thickness), 0.2 * box)
-        fill_cells = TRIANGLES_PER_AREA * area / hf ** 2
+        band = min(extrados_length * EXTRADOS_BAND * f.depth, area)  # kept at h_extrados (mesh.py)
+        fill_cells = TRIANGLES_PER_AREA * (band / min(h_extrados, hf) ** 2 + (area - band) / hf ** 2)
         cells += fill_cells
         nodes += fill_cells * (0.5 if degree == 1 else 2.0)
-        pairs += (length / hf) * degree
+        pairs += (extrados_length / min(h_extrados, hf)) * degree
     if scene.abutments.elastic:
         ab = scene.abutments
         block_cells = 2 * TRIANGLES_PER_AREA * ab.height * ab.length / (2 * h) ** 2
