@@ -41,17 +41,17 @@ def consistent_states(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, referen
     combos = np.array(list(itertools.product(range(len(CANDIDATES)), repeat=p)), dtype=int).reshape(-1, p)
     table = np.array(CANDIDATES, dtype=np.int8)
     states, signs = table[combos, 0], table[combos, 1]
-    matrices, rhs = _equations(law, states, signs, d0, C)
+    tiled = CoulombJoints(np.tile(law.mu, len(combos)), np.tile(law.c, len(combos)), law.force_tol)
+    candidates = ContactState(states.ravel(), signs.ravel())
+    matrices, rhs = _equations(tiled, candidates, d0, C)
     pivots = np.abs(np.linalg.svd(matrices, compute_uv=False))
     solvable = pivots[:, -1] > SINGULAR_RTOL * np.maximum(pivots[:, 0], 1e-300)
     lam = np.zeros((len(combos), 2 * p))
     lam[solvable] = np.linalg.solve(matrices[solvable], rhs[solvable][..., None])[..., 0]
     d = d0.ravel() + lam @ C.T
-    ok = solvable.copy()
-    for k in np.flatnonzero(solvable):  # a few hundred combinations of a few pairs
-        candidate = ContactState(states[k], signs[k])
-        proposed, _ = law.classify(candidate, lam[k].reshape(p, 2), d[k].reshape(p, 2), np.zeros(p))
-        ok[k] = np.array_equal(proposed.state, candidate.state) and np.array_equal(proposed.sign, candidate.sign)
+    proposed, _ = tiled.classify(candidates, lam.reshape(-1, 2), d.reshape(-1, 2), np.zeros(len(combos) * p))
+    kept = ((proposed.state == candidates.state) & (proposed.sign == candidates.sign)).reshape(-1, p)
+    ok = solvable & kept.all(axis=1)
     if not ok.any():
         return None
     changed = [((states != a.state) | (signs != a.sign)).sum(axis=1) for a in (reference, current)]
@@ -59,17 +59,25 @@ def consistent_states(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, referen
     return ContactState(states[best].copy(), signs[best].copy()), lam[best].reshape(p, 2)
 
 
-def _equations(law: CoulombJoints, states: np.ndarray, signs: np.ndarray, d0: np.ndarray, C: np.ndarray
+def is_p_matrix(M: np.ndarray) -> bool:
+    """Whether every principal minor of the square matrix M is positive (a P-matrix: the linear complementarity
+    problem w = q + M z, w, z >= 0, w z = 0 has exactly one solution for every q; Cottle, Pang & Stone 1992,
+    Thm 3.3.7). For the normal block of a condensed compliance: pushing any subset of the pairs apart opens them."""
+    n = len(M)
+    subsets = (np.array(s) for k in range(1, n + 1) for s in itertools.combinations(range(n), k))
+    return all(np.linalg.det(M[np.ix_(s, s)]) > 0 for s in subsets)
+
+
+def _equations(tiled: CoulombJoints, candidates: ContactState, d0: np.ndarray, C: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
-    """The joint law's rows for every combination (rows ``states``, ``signs``: (n, |P|)) on d = d0 + C lam:
-    ``a c (d0 + C lam) + b lam + e lam_n = 0`` per pair and direction (:class:`bridgefem.contact.LawRows`).
-    Returns the matrices (n, 2|P|, 2|P|) and right-hand sides (n, 2|P|)."""
-    n, p = states.shape
-    tiled = CoulombJoints(np.tile(law.mu, n), np.tile(law.c, n), law.force_tol)
-    rows = tiled.rows(ContactState(states.ravel(), signs.ravel()))
-    c = tiled.c.reshape(n, p)
-    a = np.stack([rows.a_n.reshape(n, p), rows.a_t.reshape(n, p)], axis=2).reshape(n, 2 * p) * np.repeat(c, 2, 1)
-    b = np.stack([rows.b_n.reshape(n, p), rows.b_t.reshape(n, p)], axis=2).reshape(n, 2 * p)
+    """The joint law's rows for n combinations of the states of the p pairs (``candidates``: n p pairs, the law
+    ``tiled`` n times) on d = d0 + C lam: ``a c (d0 + C lam) + b lam + e lam_n = 0`` per pair and direction
+    (:class:`bridgefem.contact.LawRows`). Returns the matrices (n, 2p, 2p) and right-hand sides (n, 2p)."""
+    p = len(d0)
+    n = len(candidates.state) // p
+    rows = tiled.rows(candidates)
+    a = np.column_stack([rows.a_n, rows.a_t]).reshape(n, 2 * p) * np.repeat(tiled.c.reshape(n, p), 2, axis=1)
+    b = np.column_stack([rows.b_n, rows.b_t]).reshape(n, 2 * p)
     matrices = a[:, :, None] * C[None] + b[:, :, None] * np.eye(2 * p)[None]
     k = np.arange(p)
     matrices[:, 2 * k + 1, 2 * k] += rows.e_t.reshape(n, p)

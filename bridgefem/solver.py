@@ -12,7 +12,7 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
-   compliance (*Cycles*); otherwise closed pairs that cycle between friction states are frozen to stick, pairs that
+   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick, pairs that
    cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
@@ -91,19 +91,21 @@ in the discrete law: e.g. a springing pair of an elliptical ring at mu = 6.4 (ca
 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual of a few newtons and
 the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
-**Cycles.** When the active set returns to one already solved in the step, the pairs that change (at most
-``CONDENSED_PAIRS``; else only those that open or close, if that few) are solved exactly with every other pair's
-state held (:meth:`ContactSolver._condensed`): their relative displacements are affine in their forces, d = d0 + C lam
-(one factorisation with those pairs open, 2p + 1 solves), and :func:`bridgefem.joint_condensation.consistent_states`
-enumerates their 4^p states for one that the joint law accepts; the iteration goes on from that active set, so its
-end is checked like any other (no law is waived). With every other closed pair sticking, C is the Schur complement
-of a symmetric positive definite matrix; with pairs sliding elsewhere (non-associative: lam_t = s mu lam_n) it need
-not even have C_nn > 0, and then no state fits: campaign seed 1, #48 (pointed, 174 voussoirs, mu = 0.903, 301 kN)
-and #181 (parabolic, 247 voussoirs, mu = 1.529, 146 kN): a crack-tip pair with C_nn = -1.0e-8 and -1.1e-7 m/N (a
-hundred times the elastic compliance: the sliding pairs held make the ring nearly a mechanism), penetrating when open,
-in tension when closed, at every load step tried there. The condensation is then repeated with every other sliding pair
-sticking (their slip is re-derived by the next iterations); #48 then goes on to the LP's limit. When neither fits,
-the cycle goes on to damping and bonding (below).
+**Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
+change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
+relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
+solves), and :func:`bridgefem.joint_condensation.consistent_states` enumerates their 4^p states for one that the joint
+law accepts; the iteration goes on from that active set, so its end is checked like any other (no law is waived).
+With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
+sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
+P-matrix (:func:`bridgefem.joint_condensation.is_p_matrix`): then the small problem has no solution or several, and
+the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174 voussoirs,
+mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
+(segmental, mu = 0.424, 166 kN) C_nn = -1.0e-8, -1.2e-7, -1.1e-7 and -6.7e-7 m/N, a hundred times the elastic
+compliance (the held slips make the ring nearly a mechanism): penetrating when open, in tension when closed (#151:
+opening it sends the ring into a diverging mode). Such a condensation is not used; it is repeated with every other
+sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
+a symmetric C. A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
 
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
 the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
@@ -153,7 +155,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
-from .joint_condensation import consistent_states
+from .joint_condensation import consistent_states, is_p_matrix
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -645,7 +647,7 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
-                solved = self._condensed(level, active, new, pending, slip_ref, start.active)
+                solved = self._condensed(level, active, pending, slip_ref, start.active)
                 if solved is not None and self._global_key(solved) not in seen:
                     frozen &= ~_changes(solved, active)  # the condensed pairs' friction state is now exact
                     seen.add(self._global_key(solved))
@@ -676,18 +678,15 @@ class ContactSolver:
         return StepOutcome(False, f"max iterations ({budget}) reached with the active set still changing", budget,
                            residual, factorisations())
 
-    def _condensed(self, level: float, active: ContactState, new: ContactState, pending: np.ndarray,
-                   slip_ref: np.ndarray, reference: ContactState) -> ContactState | None:
-        """An active set with the pairs of a cycle in consistent states (the module's *Cycles*): the pairs that
-        ``new`` changes from ``active`` (or, when more than ``CONDENSED_PAIRS``, those that it opens or closes),
-        condensed onto their forces (:mod:`bridgefem.joint_condensation`; ``reference``, the converged start's
-        active set, breaks ties) with every other pair's state of ``active`` held, else with every other sliding
-        pair sticking. None when there are none or too many, a solve fails, or no combination is consistent.
-        Collective."""
-        toggles = pending & ((new.state == OPEN) != (active.state == OPEN))
-        cycling = next((p for p in (pending, toggles)
-                        if 0 < self.comm.allreduce(int(p.sum())) <= CONDENSED_PAIRS), None)
-        if cycling is None:
+    def _condensed(self, level: float, active: ContactState, cycling: np.ndarray, slip_ref: np.ndarray,
+                   reference: ContactState) -> ContactState | None:
+        """An active set with the pairs of a cycle in consistent states (the module's *Cycles*): the pairs
+        ``cycling`` (a local mask, at most ``CONDENSED_PAIRS`` in all), condensed onto their forces
+        (:mod:`bridgefem.joint_condensation`; ``reference``, the converged start's active set, breaks ties) with every
+        other pair's state of ``active`` held, else with every other sliding pair sticking; a condensation whose normal
+        compliance is not a P-matrix is not used. None when there are too many, a solve fails, or no combination is
+        consistent. Collective."""
+        if self.comm.allreduce(int(cycling.sum())) > CONDENSED_PAIRS:
             return None
         def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order
             return np.concatenate(self.comm.allgather(a[cycling]))
@@ -697,7 +696,7 @@ class ContactSolver:
         _stick(stuck, (stuck.state == SLIP) & ~cycling)
         for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
             response = self._pair_response(level, held, cycling, slip_ref)
-            found = None if response is None else consistent_states(
+            found = None if response is None or not is_p_matrix(response[1][0::2, 0::2]) else consistent_states(
                 law, *response, ContactState(gather(reference.state), gather(reference.sign)),
                 ContactState(gather(active.state), gather(active.sign)))
             if found is not None:
@@ -714,7 +713,7 @@ class ContactSolver:
         their forces, every other pair's state of ``active`` held: d0 (p, 2; normal with the ground offset, slip
         since the last converged step, m) with the pairs open, and the compliance C (2p, 2p, m/N) from one
         factorisation and 2p + 1 solves (a unit force at each pair's rows of the open law, lam = r); None when a
-        solve fails. Collective."""
+        solve fails or, with the pairs open, diverges (beyond the cap ``u_cap``: a mechanism). Collective."""
         trial = active.copy()
         trial.state[pairs], trial.sign[pairs] = OPEN, 0
         self._rhs(level, trial, slip_ref)
@@ -728,8 +727,8 @@ class ContactSolver:
                 self.b.array[:] = 0.0
                 if owner[j // 2] == self.comm.rank:
                     self.b.array[rows[j // 2 - first] + j % 2] = 1.0
-            if self._solve(trial, x) is not None:
-                return None
+            if self._solve(trial, x) is not None or (j < 0 and self._norm_inf(x.array[:self.n_u]) > self.u_cap):
+                return None  # (with the pairs open the ring is a mechanism: no compliance)
             _, _, d = self.split(x)
             d = d - self._ground if j >= 0 else d - np.column_stack([np.zeros_like(slip_ref), slip_ref])
             columns.append(np.concatenate(self.comm.allgather(d[pairs])).ravel())

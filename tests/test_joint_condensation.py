@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
-from bridgefem.joint_condensation import consistent_states
+from bridgefem.joint_condensation import consistent_states, is_p_matrix
 
 NANO = 1e-9  # m/N
 
@@ -64,6 +64,18 @@ def test_two_consistent_states_keep_the_reference(start):
     reference active set is kept."""
     active, _ = solve([[1e-6, 0.0]], [[-1.0, 0.0], [0.0, 1.0]], reference=states((start, 0)))
     assert active.state[0] == start
+
+
+@pytest.mark.parametrize("matrix, expected", [
+    ([[2.0, 1.0], [1.0, 2.0]], True),  # minors 2, 2, 3
+    ([[1.0, 2.0], [0.0, 1.0]], True),  # not symmetric, minors 1, 1, 1
+    ([[1.0, 2.0], [1.0, 1.0]], False),  # det -1
+    ([[-1.0]], False),
+    ([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]], False),  # one negative diagonal entry
+])
+def test_p_matrix(matrix, expected):
+    """Every principal minor positive, checked on matrices whose minors are counted by hand."""
+    assert is_p_matrix(np.array(matrix)) is expected
 
 
 def test_two_coupled_pairs():
