@@ -12,8 +12,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
-   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick, pairs that
-   cycle between open and closed are bonded.
+   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
+   pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
    (:func:`retried`, *Retries* below).
@@ -21,8 +21,9 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
 Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
 campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 40 solves per limit load;
 its failures there are sliding stalls below the associative LP and, with an elastic fill, cycles of many pairs at the
-ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver failures*). Cycles of a few pairs are solved exactly on their condensed compliance (*Cycles* below) rather
-than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at one to four
+ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
+failures*). Cycles of a few pairs are solved exactly on their condensed compliance (*Cycles* below) rather than by a
+condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at one to four
 pairs, so the small problem costs 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
@@ -688,6 +689,7 @@ class ContactSolver:
         consistent. Collective."""
         if self.comm.allreduce(int(cycling.sum())) > CONDENSED_PAIRS:
             return None
+
         def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order
             return np.concatenate(self.comm.allgather(a[cycling]))
 
