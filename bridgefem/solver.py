@@ -11,7 +11,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
    without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
-5. Classify the solution with the joint law; closed pairs that cycle between friction states are frozen to stick,
+5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
+   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
    pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
@@ -19,11 +20,11 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
 
 Why this method: each iteration costs one sparse solve that reuses the symbolic factorisation, and on the seeded
 campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) it needs a median of about 40 solves per limit load;
-its failures there are one-pair open / closed cycles and sliding stalls below the associative LP, measured and listed in
-``docs/robustness.md`` (*Solver failures*). A condensed (Schur complement) or Tresca fixed-point solver was not
-needed for the cases fixed here (the evidence rule, the slip-direction check, the friction continuation and bonding
-were) and is the next step for the cycles left: one crack-tip pair, in rings whose voussoirs are shorter than an
-element, whose tension when closed grows with the load (bonding it only defers the failure).
+its failures there are sliding stalls below the associative LP and, with an elastic fill, cycles of many pairs at the
+ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
+failures*). Cycles of a few pairs are solved exactly on their condensed compliance (*Cycles* below) rather than by a
+condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at one to four
+pairs, so the small problem costs 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
@@ -91,6 +92,22 @@ in the discrete law: e.g. a springing pair of an elliptical ring at mu = 6.4 (ca
 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual of a few newtons and
 the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
+**Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
+change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
+relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
+solves), and :func:`bridgefem.joint_condensation.consistent_states` enumerates their 4^p states for one that the joint
+law accepts; the iteration goes on from that active set, so its end is checked like any other (no law is waived).
+With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
+sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
+P-matrix (:func:`bridgefem.joint_condensation.is_p_matrix`): then the small problem has no solution or several, and
+the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174 voussoirs,
+mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
+(segmental, mu = 0.424, 166 kN) C_nn = -1.0e-8, -1.2e-7, -1.1e-7 and -6.7e-7 m/N, a hundred times the elastic
+compliance (the held slips make the ring nearly a mechanism): penetrating when open, in tension when closed (#151:
+opening it sends the ring into a diverging mode). Such a condensation is not used; it is repeated with every other
+sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
+a symmetric C. A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
+
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
 the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
 -10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
@@ -139,6 +156,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
+from .joint_condensation import consistent_states, is_p_matrix
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -151,6 +169,7 @@ LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-5  # joint-law residual (N) waived at bonded pairs, of the largest applied nodal force
+CONDENSED_PAIRS = 4  # a cycle of at most this many pairs is solved exactly on their compliance (4^4 combinations)
 
 
 @dataclass(frozen=True)
@@ -629,6 +648,12 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
+                solved = self._condensed(level, active, pending, slip_ref, start.active)
+                if solved is not None and self._global_key(solved) not in seen:
+                    frozen &= ~_changes(solved, active)  # the condensed pairs' friction state is now exact
+                    seen.add(self._global_key(solved))
+                    base, active = _Proposal(active, solved, _changes(solved, active), proposal.violation), solved
+                    continue
                 flips = pending & ~frozen & (new.state != OPEN) & (active.state != OPEN)  # stick/slip, slip sign
                 if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
                     damped = self._damp(proposal) if recovered < chains else None
@@ -653,6 +678,63 @@ class ContactSolver:
                                       f"force after {budget} iterations", budget, residual, factorisations())
         return StepOutcome(False, f"max iterations ({budget}) reached with the active set still changing", budget,
                            residual, factorisations())
+
+    def _condensed(self, level: float, active: ContactState, cycling: np.ndarray, slip_ref: np.ndarray,
+                   reference: ContactState) -> ContactState | None:
+        """An active set with the pairs of a cycle in consistent states (the module's *Cycles*): the pairs
+        ``cycling`` (a local mask, at most ``CONDENSED_PAIRS`` in all), condensed onto their forces
+        (:mod:`bridgefem.joint_condensation`; ``reference``, the converged start's active set, breaks ties) with every
+        other pair's state of ``active`` held, else with every other sliding pair sticking; a condensation whose normal
+        compliance is not a P-matrix is not used. None when there are too many, a solve fails, or no combination is
+        consistent. Collective."""
+        if self.comm.allreduce(int(cycling.sum())) > CONDENSED_PAIRS:
+            return None
+
+        def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order
+            return np.concatenate(self.comm.allgather(a[cycling]))
+
+        law = CoulombJoints(gather(self.law.mu), gather(self.law.c), self.law.force_tol)
+        stuck = active.copy()
+        _stick(stuck, (stuck.state == SLIP) & ~cycling)
+        for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
+            response = self._pair_response(level, held, cycling, slip_ref)
+            found = None if response is None or not is_p_matrix(response[1][0::2, 0::2]) else consistent_states(
+                law, *response, ContactState(gather(reference.state), gather(reference.sign)),
+                ContactState(gather(active.state), gather(active.sign)))
+            if found is not None:
+                lo = self.comm.exscan(int(cycling.sum())) or 0
+                mine = slice(lo, lo + int(cycling.sum()))
+                solved = held.copy()
+                solved.state[cycling], solved.sign[cycling] = found[0].state[mine], found[0].sign[mine]
+                return solved
+        return None
+
+    def _pair_response(self, level: float, active: ContactState, pairs: np.ndarray, slip_ref: np.ndarray
+                       ) -> "tuple[np.ndarray, np.ndarray] | None":
+        """The relative displacements of ``pairs`` (local mask; gathered in global order) as an affine function of
+        their forces, every other pair's state of ``active`` held: d0 (p, 2; normal with the ground offset, slip
+        since the last converged step, m) with the pairs open, and the compliance C (2p, 2p, m/N) from one
+        factorisation and 2p + 1 solves (a unit force at each pair's rows of the open law, lam = r); None when a
+        solve fails. Collective."""
+        trial = active.copy()
+        trial.state[pairs], trial.sign[pairs] = OPEN, 0
+        self._rhs(level, trial, slip_ref)
+        rows = self.n_u + 2 * np.flatnonzero(pairs)
+        owner = np.concatenate([np.full(n, r) for r, n in enumerate(self.comm.allgather(int(pairs.sum())))])
+        first = np.searchsorted(owner, self.comm.rank)
+        x = self._mode
+        columns = []
+        for j in range(-1, 2 * len(owner)):  # the open response, then a unit force alone in each of 2p directions
+            if j >= 0:
+                self.b.array[:] = 0.0
+                if owner[j // 2] == self.comm.rank:
+                    self.b.array[rows[j // 2 - first] + j % 2] = 1.0
+            if self._solve(trial, x) is not None:
+                return None
+            _, _, d = self.split(x)
+            d = d - self._ground if j >= 0 else d - np.column_stack([np.zeros_like(slip_ref), slip_ref])
+            columns.append(np.concatenate(self.comm.allgather(d[pairs])).ravel())
+        return columns[0].reshape(-1, 2), np.column_stack(columns[1:])
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
