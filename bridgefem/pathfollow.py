@@ -14,9 +14,7 @@ lies just above the limit, that closes the bracket in two trials instead of a bi
 
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
 approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
-that would stop within ``LANDING * T`` of T goes to T unless the step bound (below) shortened it (after failures
-and backtracks the bound holds: a landing would repeat from the same state the jump that failed before, and a
-backtrack would replay the failures it backs away from). The step after T is the width, so that a limit in
+that would stop within ``LANDING * T`` of T goes to T. The step after T is the width, so that a limit in
 [T, g] is bracketed by two trials. A failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is
 *suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
@@ -225,9 +223,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
             trial = soft
         elif lower < target < soft:
-            approach = target - APPROACH * (target - lower)
-            trial = min(approach, lower + step)
-            trial = target if target - trial <= LANDING * target and trial == approach else trial
+            trial = min(target - APPROACH * (target - lower), lower + step)
+            trial = target if target - trial <= LANDING * target else trial
         elif soft < math.inf:
             trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
         else:
