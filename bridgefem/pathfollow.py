@@ -14,7 +14,9 @@ lies just above the limit, that closes the bracket in two trials instead of a bi
 
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
 approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
-that would stop within ``LANDING * T`` of T goes to T. The step after T is the width, so that a limit in
+that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the same converged state (after
+a backtrack: the solve is deterministic, so that landing would replay the failures the backtrack backed away from).
+The step after T is the width, so that a limit in
 [T, g] is bracketed by two trials. A failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is
 *suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
 converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
@@ -209,7 +211,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
 
     lower, taken, step = 0.0, 0.0, initial_step  # taken: the step that reached lower
-    history: deque[tuple[float, Iterate, float]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken)
+    history: deque[tuple[float, Iterate, float, int]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken, visit)
+    visit, visits = 0, 0  # the converged state's number (in order of convergence), the states so far
+    failed_from: set[tuple[int, float]] = set()  # (visit, level) of the trials that failed
     soft = math.inf  # lowest failed level above lower
     retry = False  # the next trial retries the soft bound
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
@@ -224,7 +228,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             trial = soft
         elif lower < target < soft:
             trial = min(target - APPROACH * (target - lower), lower + step)
-            trial = target if target - trial <= LANDING * target else trial
+            trial = target if target - trial <= LANDING * target and (visit, target) not in failed_from else trial
         elif soft < math.inf:
             trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
         else:
@@ -245,7 +249,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if out.converged:
             linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
-            history.append((lower, state, taken))
+            history.append((lower, state, taken, visit))
+            visits += 1
+            visit = visits
             taken, arrived = trial - lower, lower < target <= trial
             lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False
             if lower >= soft:
@@ -256,9 +262,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             else:
                 step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
             continue
+        failed_from.add((visit, trial))
         if backtrack:
             step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
-            lower, state, taken = history.pop()
+            lower, state, taken, visit = history.pop()
             soft, retry = math.inf, False
         elif final:
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
@@ -276,10 +283,10 @@ def _below(level: float, tolerance: float) -> float:
     return level / (1.0 + CLOSE * tolerance)
 
 
-def _secant(previous: tuple[float, Iterate, float], level: float, state: Iterate, trial: float) -> PETSc.Vec:
+def _secant(previous: tuple[float, Iterate, float, int], level: float, state: Iterate, trial: float) -> PETSc.Vec:
     """The combined vector extrapolated to ``trial`` along the secant from the converged ``previous`` (level,
-    state, step) to ``state`` at ``level`` (levels in N per unit load factor)."""
-    before, earlier, _ = previous
+    state, step, visit) to ``state`` at ``level`` (levels in N per unit load factor)."""
+    before, earlier = previous[:2]
     x = state.x.copy()
     x.axpy((trial - level) / (level - before), state.x - earlier.x)
     return x
