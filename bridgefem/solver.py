@@ -617,15 +617,15 @@ class ContactSolver:
                 residual = self._equilibrium_residual(x, f_scale)
             if changed == 0:
                 ncp = self.law.residual(lam, d, slip_ref)
-                ncp[frozen, 1] = 0.0  # slip direction fixed by hand there; the normal law is still checked
-                waived = self._norm_inf(ncp[bonded].ravel())
+                waived = max(self._norm_inf(ncp[bonded].ravel()), self._norm_inf(ncp[frozen, 1]))
+                ncp[frozen, 1] = 0.0  # friction waived there (bounded above); the normal law is still checked
                 ncp[bonded] = 0.0
                 comp = self._norm_inf(ncp.ravel())
                 counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum())),
                           "bonded": self.comm.allreduce(int(bonded.sum()))}
                 if waived > BOND_RTOL * f_scale:
                     return StepOutcome(False, f"active set cycling: the joint law is violated by {waived:.3g} N at "
-                                              "the bonded pairs", it, residual, factorisations())
+                                              "the bonded or frozen pairs", it, residual, factorisations())
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
