@@ -238,13 +238,22 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     (:func:`refined_elements`), at most ``max_refinements`` times, and not again when the re-run's last converged
     load is the previous one's (within the search's tolerance: the limit does not depend on these elements);
     ``notice(line)`` announces each re-run. The last run is returned, the runs it replaced listed in
-    ``Analysis.refinements``; its verdict needs the same evidence.
+    ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state
+    of evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh
+    does not undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``).
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
-    refinements, previous = [], None
+    refinements, previous, confirmed = [], None, None
     with quiet_compiler():
         while True:
             an = _analyse(scene, comm, petsc_options, report, phase)
             ett, carried = scene.mesh.elements_through_thickness, an.search.lower
+            failed = Status.of(an.search.status) is Status.FAILURE
+            if failed and confirmed is not None:
+                notice(f"the re-run with {ett} elements through the thickness failed ({an.search.status}): the "
+                       f"confirmed run with {confirmed.scene.mesh.elements_through_thickness} stands")
+                confirmed.refinements = refinements[:-1] + [MeshRefinement(ett, an.search.status,
+                                                                           sum(an.timings.values()))]
+                return confirmed
             moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
             finer, why = None, refinement_reason(an, ett)
             if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
@@ -254,21 +263,26 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                 an.refinements = refinements
                 return an
             refinements.append(MeshRefinement(ett, an.search.status, sum(an.timings.values())))
-            previous = carried
+            previous, confirmed = carried, None if failed else an
             notice(f"{why}: re-running with {finer} elements through the thickness")
-            del an  # free the coarse model before the finer one is built
+            del an  # free a failed coarse model before the finer one is built
             scene = with_mesh(scene, finer)
 
 
 def refinement_reason(an: Analysis, ett: int) -> str:
-    """Why a finer mesh can settle a failed run with ``ett`` elements through the thickness (empty: it cannot): a
-    limit that depends on the mesh (``Verdict.mesh_dependent``), or a self-weight that failed without proof on
+    """Why a finer mesh can settle a run with ``ett`` elements through the thickness (empty: it cannot): a confirmed
+    non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (both
+    ``Verdict.mesh_dependent``), or a self-weight that failed without proof on
     voussoirs shorter than an element where the rigid-block LP finds the ring standing. Near its least thickness such
     a ring stands with hundreds of joint pairs open; from the bonded start the Newton method proposes too many
     openings at once, most of them mechanisms, and damping spends the iteration budget (campaign seed 1, #251, 0.3 %
     above its least thickness: with 4 elements through the thickness no solver setting converges within 60
     iterations, six of ten in 66-303; with 8, where the voussoirs are an element long or more, five of eight in
     20-52). The re-run's verdict needs the same evidence."""
+    if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
+        return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
+                f"({ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, the LP "
+                f"{an.lp.load / 1e3:.6g} kN); its joints' normal forces, and so its level, move with the mesh")
     if an.verdict.mesh_dependent:
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
                 f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "

@@ -148,7 +148,9 @@ def reaches(lower: float, upper: float, level: float) -> bool:
 class Verdict:
     """A confirmed (or refused) status text, the bracket's upper end (None: no bracket), the evidence (empty for a
     failure) and warnings for the user; ``mesh_dependent``: a failure whose mechanism is the associative LP's at a
-    level the mesh moves (:meth:`SlipCheck.back_at`), which a finer mesh can settle."""
+    level the mesh moves (:meth:`SlipCheck.back_at`), which a finer mesh can settle, or a collapse state of evidence
+    3 more than ``AGREEMENT`` below the associative LP (its normal forces, and so its level, move with the mesh: a
+    finer one can carry more, up to the LP)."""
 
     status: str
     upper: float | None
@@ -194,7 +196,8 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             return Verdict(status, upper, f"agreement: {lp_text}")
         if slip is not None and lp is Status.LIMIT and slip.agrees(lower, upper, lp_level):
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}: the FE's state is that collapse "
-                           f"state (with associative friction {lp_text})")
+                           f"state (with associative friction {lp_text})",
+                           mesh_dependent=upper < (1 - AGREEMENT) * lp_level)
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
         if slip is not None and slip.frozen_level is not None and slip.frozen_level > (1 + AGREEMENT) * upper:
             checked += (f"; the FE stopped with a reserve of {slip.frozen_level / upper - 1:.1%} at its own friction "

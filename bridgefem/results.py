@@ -54,9 +54,10 @@ CONVENTIONS = {
     "shear_force": "along the joint's tangent (intrados -> extrados end turned -90 degrees)",
     "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
     "deflection": "downward displacement under the live load (mean over the loaded nodes), positive down",
-    "mesh_refinements": "the runs a finer mesh replaced, coarsest first: their elements through the thickness, "
-                        "status and seconds (a limit that depends on the mesh; the results are the last run's, "
-                        "model)",
+    "mesh_refinements": "the other runs of an automatic mesh refinement, coarsest first: their elements through "
+                        "the thickness, status and seconds (the runs a finer mesh replaced; a finer run that failed "
+                        "after a confirmed one, which the results then are; otherwise the results are the last "
+                        "run's, model)",
     "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
                            "to the right, vertical positive up",
     "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",

@@ -23,18 +23,20 @@ SCENE_45 = {"scene": {"name": "campaign_45"},
             "load": [{"kind": "point", "position": 0.4126}]}
 
 
-def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0)):
+def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
-    unit level); returns the meshes run."""
+    unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit); returns the meshes run."""
     meshes, queue, lowers = [], list(outcomes), list(lowers)
+    statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
     def fake(scene, comm, petsc, report, phase):
         meshes.append(scene.mesh.elements_through_thickness)
-        dependent = queue.pop(0)
-        return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=dependent), refinements=None, load_total=1.0,
-                               timings={"limit search": 1.0}, lp=SimpleNamespace(load=100.0),
-                               search=SimpleNamespace(status="solver failure: x" if dependent else Status.LIMIT,
-                                                      lower=lowers.pop(0), tolerance=1e-4))
+        lower = lowers.pop(0)
+        return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=queue.pop(0)), refinements=None,
+                               load_total=1.0, timings={"limit search": 1.0}, scene=scene,
+                               lp=SimpleNamespace(load=100.0, level=100.0),
+                               search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
+                                                      tolerance=1e-4))
 
     monkeypatch.setattr(analysis, "_analyse", fake)
     return meshes
@@ -59,6 +61,22 @@ def test_no_second_re_run_when_the_first_did_not_move_the_limit(monkeypatch):
     ran = fake_analyses(monkeypatch, (True, True, True), lowers=(97.0, 97.001, 99.0))
     an = run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
     assert ran == [4, 8] and [r.elements_through_thickness for r in an.refinements] == [4]
+
+
+@pytest.mark.parametrize("finer, kept", [("solver failure: y", 4), (Status.LIMIT, 8)])
+def test_a_confirmed_collapse_state_below_the_lp_is_re_run_and_stands_if_the_finer_run_fails(monkeypatch, finer,
+                                                                                               kept):
+    """A confirmed limit marked mesh dependent (evidence 3 below the associative LP) is re-run on a finer mesh; the
+    finer run's answer replaces it when confirmed, and a finer run that fails leaves the confirmed coarse run as the
+    result, the failed run listed."""
+    ran = fake_analyses(monkeypatch, (True, False), statuses=(Status.LIMIT, finer))
+    lines = []
+    an = run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})), notice=lines.append)
+    assert ran == [4, 8] and an.scene.mesh.elements_through_thickness == kept and an.search.status == Status.LIMIT
+    assert [(r.elements_through_thickness, r.status) for r in an.refinements] == \
+        [(4, Status.LIMIT)] if kept == 8 else [(8, finer)]
+    assert lines[0].startswith("a non-associative collapse state 3.0% below the rigid-block LP")
+    assert len(lines) == (1 if kept == 8 else 2)
 
 
 def test_no_re_run_beyond_the_cap_or_the_size_limit(monkeypatch):
