@@ -77,20 +77,22 @@ outcome is judged as any other (a converged state is an equilibrium of the scene
 its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
 counts as one.
 
-Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth,
-or stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair
-next to a crack tip, e.g. stick needing |lam_t| = 1.002 mu lam_n and slip going backwards at one springing pair of a
-thick ring at mu = 10) are frozen to stick for the rest of the step; they still open under tension. The count is reported as ``frozen`` and only the
-friction law is waived at those pairs. A cycle that returns to a singular proposal after damping is a
-mechanism; a cycle that returns to a set whose diverging mode was inadmissible goes to that set's repair (below);
-any other cycle is damped like a singular proposal (half of the changes from the last solved active set). A cycle
-that cannot be damped and whose changes are all friction flips or open / closed toggles bonds the toggling pairs:
-closed and sticking for the rest of the step, reported as ``bonded``, their joint law waived; the step converges
-only if the waived Alart-Curnier residual there is at most ``BOND_RTOL`` of the largest applied nodal force (a force
-below the bracket's tolerance of the load), else it fails as active-set cycling. Such a pair has no consistent state
-in the discrete law: e.g. a springing pair of an elliptical ring at mu = 6.4 (campaign seed 1, #51) penetrated
-1.4 mm when open and carried tension when closed; bonded, the step converged with a residual of a few newtons and
-the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
+Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth, or
+stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair next to a
+crack tip, e.g. stick needing |lam_t| = 1.002 mu lam_n and slip going backwards at one springing pair of a thick ring
+at mu = 10) are frozen to stick for the rest of the step; they still open under tension. The count is reported as
+``frozen`` and only the friction law is waived at those pairs, by at most ``BOND_RTOL`` of the largest applied nodal
+force like the bonded pairs' law (below): unbounded, a state held by a frozen pair's friction force far beyond mu
+lam_n counted as converged (campaign seed 1, #270 crept on such states to its step budget). A cycle that returns to a
+singular proposal after damping is a mechanism; a cycle that returns to a set whose diverging mode was inadmissible
+goes to that set's repair (below); any other cycle is damped like a singular proposal (half of the changes from the
+last solved active set). A cycle that cannot be damped and whose changes are all friction flips or open / closed
+toggles bonds the toggling pairs: closed and sticking for the rest of the step, reported as ``bonded``, their joint
+law waived; the step converges only if the waived Alart-Curnier residual there is at most ``BOND_RTOL`` of the largest
+applied nodal force (a force below the bracket's tolerance of the load), else it fails as active-set cycling. Such a
+pair has no consistent state in the discrete law: e.g. a springing pair of an elliptical ring at mu = 6.4 (campaign
+seed 1, #51) penetrated 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual
+of a few newtons and the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
 change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
@@ -168,7 +170,7 @@ DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight re
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
-BOND_RTOL = 1e-5  # joint-law residual (N) waived at bonded pairs, of the largest applied nodal force
+BOND_RTOL = 1e-5  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 CONDENSED_PAIRS = 4  # a cycle of at most this many pairs is solved exactly on their compliance (4^4 combinations)
 
 
