@@ -11,7 +11,9 @@ limit of a mesh is the midpoint of its bracket. With the three finest limits L1 
   safety factor for three meshes, plus the half widths of the brackets.
 
 Without monotone convergence (the differences change sign, or do not shrink) no order is defined: L* is L3 and U
-the largest difference between the three, so the study says it has not converged instead of extrapolating.
+the largest difference between the three, so the study says it has not converged instead of extrapolating. A mesh
+of the three that ended without a bracket (a solver failure: its last converged load is no limit) leaves the study
+without extrapolation.
 """
 from __future__ import annotations
 
@@ -111,28 +113,35 @@ def check_levels(levels: list[int]) -> None:
                          f"got {levels}")
 
 
-def study(scene: Scene, levels: list[int], comm=None, progress=None) -> tuple[list[MeshLimit], Extrapolation]:
+def study(scene: Scene, levels: list[int], comm=None, progress=None
+          ) -> tuple[list[MeshLimit], Extrapolation | None]:
     """Solve the scene on each mesh of ``levels`` (elements through the thickness, each twice the previous) and
-    extrapolate (:func:`richardson`)."""
+    extrapolate (:func:`richardson`; None when one of the three finest has no bracket)."""
     check_levels(levels)
     meshes = []
     for n in levels:
         meshes.append(solve_mesh(with_mesh(scene, n), comm))
         if progress is not None:
             progress(meshes[-1])
-    widths = [0.0 if m.upper is None else 0.5 * (m.upper - m.lower) for m in meshes]
-    return meshes, richardson([m.limit for m in meshes], widths)
+    if any(m.upper is None for m in meshes[-3:]):
+        return meshes, None
+    return meshes, richardson([m.limit for m in meshes], [0.5 * (m.upper - m.lower) for m in meshes])
 
 
-def table(scene: Scene, meshes: list[MeshLimit], ex: Extrapolation) -> str:
-    """The study as a Markdown table (kN) with the extrapolation below it."""
+def table(scene: Scene, meshes: list[MeshLimit], ex: Extrapolation | None) -> str:
+    """The study as a Markdown table (kN) with the extrapolation below it (or why there is none)."""
     rows = ["| elements through the ring | limit (kN) | status | unknowns | solves | factorisations | wall (s) "
             "| distance to L* |", "|---|---|---|---|---|---|---|---|"]
     for m in meshes:
         bracket = f"[{m.lower / 1e3:.1f}, {m.upper / 1e3:.1f}]" if m.upper is not None else \
             f"last converged {m.lower / 1e3:.1f}"
         rows.append(f"| {m.elements_through_thickness} (P{scene.mesh.degree}) | {bracket} | {m.status} | {m.dofs} "
-                    f"| {m.solves} | {m.factorisations} | {m.seconds:.1f} | {100 * ex.error_of(m.limit):.1f} % |")
+                    f"| {m.solves} | {m.factorisations} | {m.seconds:.1f} | "
+                    f"{'-' if ex is None else f'{100 * ex.error_of(m.limit):.1f} %'} |")
+    if ex is None:
+        failed = ", ".join(f"t/{m.elements_through_thickness}" for m in meshes[-3:] if m.upper is None)
+        rows.append(f"\nno extrapolation: {failed} ended without a bracket (its last converged load is no limit)")
+        return "\n".join(rows)
     order = "none (not converging monotonically)" if ex.order is None else f"{ex.order:.2f}"
     rows.append(f"\nobserved order {order}; extrapolated limit L* = {ex.value / 1e3:.1f} +- "
                 f"{ex.uncertainty / 1e3:.1f} kN")
@@ -159,6 +168,6 @@ def command(scene: Scene, levels: list[int], out: Path | None) -> int:
             if folder is not None:
                 data = {"scene": scene.name, "degree": scene.mesh.degree, "unit": "N", "ratio": RATIO,
                         "meshes": [dataclasses.asdict(m) for m in meshes],
-                        "extrapolation": dataclasses.asdict(ex)}
+                        "extrapolation": None if ex is None else dataclasses.asdict(ex)}
                 (folder / "convergence.json").write_text(json.dumps(data, indent=2))
     return 0 if all(m.upper is not None for m in meshes) else 1

@@ -41,6 +41,21 @@ def test_study_needs_three_meshes_refined_by_two():
             study(scene, levels)
 
 
+def test_a_mesh_without_a_bracket_leaves_the_study_without_extrapolation(monkeypatch):
+    """A solver failure's last converged load is no limit: a study whose finest mesh failed does not extrapolate,
+    and its table says which mesh (the small bridge of docs/bounds.md once gave 'L* = 75.3 +- 57.0 kN' from one)."""
+    from bridgefem import convergence
+
+    meshes = iter([MeshLimit(2, 151.7, 151.8, "limit load found", 1, 1, 1, 1.0),
+                   MeshLimit(4, 134.2, 134.4, "limit load found", 1, 1, 1, 1.0),
+                   MeshLimit(8, 120.8, None, "solver failure: x", 1, 1, 1, 1.0)])
+    monkeypatch.setattr(convergence, "solve_mesh", lambda scene, comm: next(meshes))
+    scene = scene_from_dict(scene_dict())
+    found, ex = study(scene, [2, 4, 8])
+    assert ex is None and len(found) == 3
+    assert "no extrapolation: t/8 ended without a bracket" in convergence.table(scene, found, ex)
+
+
 def test_mesh_limit_is_the_bracket_midpoint():
     assert MeshLimit(4, 100.0, 102.0, "limit load found", 10, 5, 5, 1.0).limit == 101.0
     assert MeshLimit(4, 100.0, None, "solver failure", 10, 5, 5, 1.0).limit == 100.0
