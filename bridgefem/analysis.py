@@ -423,10 +423,11 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, bool(sliding)):
         return None
-    blocks = ring_with_loads(scene, *block_loads(model, bm, ring_model(scene, live=False).ref))
+    ring = ring_model(scene, live=False)
+    blocks = ring_with_loads(ring, *block_loads(model, bm, ring.ref))
     out = None
     if comm.rank == 0:
-        normal = np.zeros(len(scene_ring(scene).joints))
+        normal = np.zeros(ring.n_joints)
         normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
             frozen = frozen_capacity_collapse(blocks, normal)

@@ -212,7 +212,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
 
     lower, taken, step = 0.0, 0.0, initial_step  # taken: the step that reached lower
     history: deque[tuple[float, Iterate, float, int]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken, visit)
-    visit, visits = 0, 0  # the converged state's number (in order of convergence), the states so far
+    visit = 0  # the converged state's number: the count of steps attempted when it was reached (0: the settled one)
     failed_from: set[tuple[int, float]] = set()  # (visit, level) of the trials that failed
     soft = math.inf  # lowest failed level above lower
     retry = False  # the next trial retries the soft bound
@@ -250,8 +250,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
             history.append((lower, state, taken, visit))
-            visits += 1
-            visit = visits
+            visit = len(steps)
             taken, arrived = trial - lower, lower < target <= trial
             lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False
             if lower >= soft:

@@ -33,6 +33,23 @@ def scene_dict(**sections) -> dict:
     return d
 
 
+def campaign_module():
+    """benchmarks/campaign.py as a module."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("campaign", ROOT / "benchmarks" / "campaign.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def campaign_scene(index: int, thickness: float, seed: int = 1) -> dict:
+    """Scene ``index`` of the random campaign of ``seed`` (benchmarks/campaign.py) as a scene dictionary, at the
+    ``thickness`` (m) the campaign gave it (its LP's least thickness and the draw decide it)."""
+    campaign = campaign_module()
+    return campaign.scene_dict(campaign.draw(seed, index), thickness)
+
+
 def write_toml(path: Path, d: dict) -> Path:
     """A minimal TOML writer for scene dictionaries (tables, arrays of tables, scalars, lists, inline tables;
     strings escaped, nan and inf as TOML writes them)."""

@@ -8,7 +8,7 @@ import pytest
 from bridgefem.geometry import AT_JOINT_TOL, polygon_area_centroid, scene_ring
 from bridgefem.scene import scene_from_dict
 
-from conftest import ROOT, scene_dict
+from conftest import ROOT, campaign_module, campaign_scene, scene_dict
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
 # 2.5 m either side of the apex, and the chords to the apex close the crown's cap
@@ -115,7 +115,7 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
     """Scene 284 (a sliding joint): FE bracket [95.2801, 95.2859] kN against the LP's 95.7630 kN. The bracket's upper
     end is within 0.5 % of the LP, which is the evidence rule's agreement; the judge took the bracket's midpoint
     (0.99499) and called the verdict wrong. Judge and evidence rule now apply one criterion."""
-    campaign = _campaign()
+    campaign = campaign_module()
     data = {"status": "limit load found", "limit_load": {"lower": 95280.08, "upper": 95285.92},
             "lp": {"status": "limit load found", "load": 95763.05, "mechanism": {"sliding": [0, 68]}},
             "mechanism": {"sliding": [68]}, "evidence": "agreement: ...", "solver": {"solves": 90}}
@@ -144,20 +144,10 @@ def test_readme_campaign_command_runs_and_judges(tmp_path):
     assert "scenes 2" in proc.stdout
 
 
-def _campaign():
-    """benchmarks/campaign.py as a module."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("campaign", ROOT / "benchmarks" / "campaign.py")
-    campaign = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(campaign)
-    return campaign
-
-
 def test_campaign_loads_a_mohr_coulomb_fill_by_a_patch_on_the_span():
     """A point force on a plastic fill has no finite collapse load (the scene refuses it): every Mohr-Coulomb fill
     the campaign draws is loaded by a patch that lies on the span, and fills stay a few per cent of the scenes."""
-    campaign = _campaign()
+    campaign = campaign_module()
     draws = [campaign.draw(7, i) for i in range(2000)]
     plastic = [d for d in draws if d["fill"] == "mohr-coulomb"]
     assert plastic and all(d["patch"] > 0 for d in plastic)
@@ -170,7 +160,7 @@ def test_campaign_loads_a_mohr_coulomb_fill_by_a_patch_on_the_span():
 def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
     """With a Mohr-Coulomb fill the dead-load LP is no floor (the fill can fail under the load first): the FE bracket
     is judged against the conic bounds of the bridge with its fill (results.json fill_bounds, N)."""
-    campaign = _campaign()
+    campaign = campaign_module()
     data = {"status": "limit load found", "limit_load": {"lower": 500e3, "upper": 500.05e3},
             "lp": {"status": "limit load found", "load": 8000e3, "mechanism": {"sliding": []}},
             "mechanism": {"sliding": []}, "evidence": "equilibrium found", "solver": {"solves": 90},
@@ -188,22 +178,17 @@ def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("arch, young, friction, load, status, lp_status", [
+@pytest.mark.parametrize("index, thickness, status, lp_status", [
     # a live-load step at the bracket diverged along slip modes against friction with the default settings; solved
     # again from the same state with other settings (solver.RETRIES) the search goes on to the LP's limit
-    ({"shape": "pointed", "span": 17.138, "rise": 15.698, "thickness": 5.5063, "voussoirs": 25}, 4.34e9,
-     0.452, {"kind": "point", "position": 0.0421}, "limit load found", "limit load found"),
+    (119, 5.5063, "limit load found", "limit load found"),
     # the self-weight cycled at one pair even with friction raised 8 x; the line search (a retry setting) carries it
-    ({"shape": "segmental", "span": 15.626, "rise": 3.61, "thickness": 3.6994, "voussoirs": 35}, 1.05e8,
-     9.486, {"kind": "point", "position": 0.4625}, "no collapse up to the maximum load (locked)",
-     "no collapse (unbounded)"),
+    (79, 3.6994, "no collapse up to the maximum load (locked)", "no collapse (unbounded)"),
     # the search crept on states held by a pair frozen to stick whose friction law was waived without bound, each
     # step 1/8 of the bracket's width, until the step budget ran out; bounded, the waiver no longer holds them
-    ({"shape": "parabolic", "span": 13.685, "rise": 2.103, "thickness": 0.0908, "voussoirs": 18,
-      "joint_at_loads": False}, 6.29e10, 0.349, {"kind": "point", "position": 0.8777}, "limit load found",
-     "limit load found"),
+    (270, 0.0908, "limit load found", "limit load found"),
 ])
-def test_campaign_scenes_that_failed_reach_the_lp_verdict(tmp_path, arch, young, friction, load, status, lp_status):
+def test_campaign_scenes_that_failed_reach_the_lp_verdict(tmp_path, index, thickness, status, lp_status):
     """Campaign scenes 119, 79 (seed 1; solver failures before the retries) and 270 (a bracket not closed in 200
     steps before the frozen pairs' waiver was bounded): now the LP's verdict, by its agreement (a limit within 0.5 %
     of the LP's) or with equilibrium found up to the maximum load."""
@@ -211,10 +196,7 @@ def test_campaign_scenes_that_failed_reach_the_lp_verdict(tmp_path, arch, young,
 
     from conftest import bridgefem, write_toml
 
-    scene = write_toml(tmp_path / "s.toml", {
-        "arch": {"width": 1.0, "joint_at_loads": True, **arch},
-        "masonry": {"young": young, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": friction},
-        "load": [load]})
+    scene = write_toml(tmp_path / "s.toml", campaign_scene(index, thickness))
     proc = bridgefem("run", str(scene), "--out", str(tmp_path / "out"))
     data = json.loads((tmp_path / "out" / "results.json").read_text())
     assert proc.returncode == 0 and data["status"] == status and data["lp"]["status"] == lp_status

@@ -9,18 +9,13 @@ from bridgefem.analysis import MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, refined_el
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
 
-from conftest import scene_dict
+from conftest import campaign_scene, scene_dict
 
 # campaign seed 1, scene 45 (benchmarks/campaign.py): a semicircle of 6 voussoirs at mu 0.312 (the least a
 # semicircle stands with is 0.309) under a point load of 1 % of its weight on a joint. With 4 elements through the
 # thickness the FE's state is a collapse state of its meshed voussoirs, 0.7 % below the LP, but the exact
 # voussoirs' weights (0.075 % more) move that collapse load by 2.6 %: its limit depends on the mesh
-SCENE_45 = {"scene": {"name": "campaign_45"},
-            "arch": {"shape": "semicircular", "span": 8.225, "rise": 4.1125, "thickness": 1.4923, "width": 1.0,
-                     "voussoirs": 6, "joint_at_loads": True},
-            "masonry": {"young": 3.71e9, "poisson": 0.2, "density": 2000.0},
-            "joints": {"friction": 0.312},
-            "load": [{"kind": "point", "position": 0.4126}]}
+SCENE_45 = campaign_scene(45, 1.4923)
 
 
 def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None):
@@ -99,7 +94,7 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     from bridgefem.results import write_results
     from bridgefem.rigid_block import collapse_load
 
-    scene = scene_from_dict(scene_dict(**SCENE_45, mesh={"elements_through_thickness": 4}))
+    scene = scene_from_dict({**SCENE_45, "mesh": {"elements_through_thickness": 4}})
     lp = collapse_load(scene).load
     an = run_analysis(scene)
     assert an.search.status == Status.LIMIT and an.verdict.evidence.startswith("agreement: the rigid-block LP")

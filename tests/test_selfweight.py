@@ -12,16 +12,13 @@ from bridgefem.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self
 from bridgefem.solver import DEFAULT_SETTING, StepOutcome
 from bridgefem.status import Status
 
+from conftest import campaign_scene
+
 UNLOADED = "unloaded"
 
 # campaign seed 1, scene 251 (benchmarks/campaign.py): 165 voussoirs of about 0.08 m, shorter than the 0.134 m
 # element of 4 elements through the thickness; the LP's least thickness 0.5329 m, the ring 0.5347 m thick
-SCENE_251 = {"scene": {"name": "campaign_251"},
-             "arch": {"shape": "elliptical", "span": 9.37, "rise": 3.536, "thickness": 0.5347, "width": 1.0,
-                      "voussoirs": 165, "joint_at_loads": False},
-             "masonry": {"young": 2.17e9, "poisson": 0.2, "density": 2000.0},
-             "joints": {"friction": 3.755},
-             "load": [{"kind": "point", "position": 0.7197}]}
+SCENE_251 = campaign_scene(251, 0.5347)
 
 
 class RingSolver:
