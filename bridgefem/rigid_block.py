@@ -383,6 +383,30 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     return res
 
 
+@dataclass(frozen=True)
+class Statics:
+    """How far given joint forces are from the programme's constraints at a load level (:func:`statics`):
+    ``equilibrium`` (nb, 3), the residual ``A q + level l + d`` of every block (Fx, Fy in N; M in N·m about its
+    reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n (N) and
+    ``eccentricity`` = |m| - n t/2 (N·m), each <= 0 where the yield conditions hold."""
+
+    equilibrium: np.ndarray
+    tension: np.ndarray
+    friction: np.ndarray
+    eccentricity: np.ndarray
+
+
+def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
+    """The programme's equality and yield rows (module docstring) evaluated at joint forces ``forces`` (nj, 3: n, s
+    in N, m in N·m about the joint centre) and load level ``level``: whether a state, e.g. an FE state's joint
+    resultants, is statically admissible for these blocks (then ``level`` is at most their collapse load factor,
+    the static theorem)."""
+    prog = _Programme(model)
+    n, s, m = np.asarray(forces, float).T
+    residual = prog.A @ np.asarray(forces, float).ravel() + level * model.live.ravel() + model.dead.ravel()
+    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n, np.abs(m) - n * prog.t / 2)
+
+
 def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
                live: bool = True) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
