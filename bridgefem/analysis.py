@@ -41,9 +41,9 @@ from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, admissible, confirm, coulomb_limited, needs_slip_check
 from .pathfollow import LimitSearch, LoadStep, StaticCap, find_limit_load, monitor_deflection
-from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, dead_load_deficit,
-                          frozen_capacity_collapse, generalised_loads, ring_model, ring_under_forces, ring_with_loads,
-                          solve_blocks, statics)
+from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse,
+                          generalised_loads, ring_model, ring_under_forces, ring_with_loads, solve_blocks,
+                          standing_deficit, statics)
 from .scene import Scene, SceneError
 from .sizing import check_size
 from .status import Status
@@ -477,7 +477,7 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
     out = None
     if comm.rank == 0:
         try:
-            deficit, _ = dead_load_deficit(blocks)  # the dead loads alone
+            deficit = standing_deficit(blocks)  # the dead loads alone
             lp = solve_blocks(blocks) if deficit <= margin else LPResult(None, None, Status.UNSTABLE)
             out = StaticBound(lp.level, lp.status, float(deficit), float(margin))
         except (RuntimeError, ValueError):  # no LP answer: no bound

@@ -51,9 +51,11 @@ evidence of collapse only when
    verdict is a solver failure and a finer mesh is tried. The bound is the FE's up to those tolerances: a state that
    waives the law at w pairs is admissible for the LP with joint tension and cohesion w eps, at most ``BOND_RTOL`` of
    the largest nodal force per waived pair, the load resolution the search is asked for.
-   Under self-weight the same theorem reads: when the rigid blocks under the FE's dead loads need a uniform joint
-   tension and cohesion tau (:func:`bridgefem.rigid_block.dead_load_deficit`) above what any FE state's tolerances
-   can hide (``StaticBound.margin``, every pair of a joint waived), no FE equilibrium exists, so no retry or
+   Under self-weight the same theorem reads: a converged FE state, with every pair of a joint waived at worst
+   (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and
+   |s| <= mu n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed
+   (:func:`bridgefem.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma (``StaticBound.margin``). When the
+   rigid blocks under the FE's dead loads need more than that, no FE equilibrium exists, so no retry or
    continuation can find one: "unstable under self-weight" with this evidence (and, as always, only where the
    rigid-block LP with the exact voussoirs agrees).
 
@@ -179,7 +181,8 @@ def reaches(lower: float, upper: float, level: float) -> bool:
 class StaticBound:
     """Evidence 4 (module docstring): the rigid-block LP on the FE's joints under the FE's own assembled block loads.
     ``level``: its collapse level (N per unit load factor; None without one); ``status``: its status; ``deficit``: the
-    uniform joint tension and cohesion (N) that the FE's self-weight needs on these blocks (0: they stand);
+    uniform joint tension and cohesion (N) that the FE's self-weight needs on these blocks (0: they stand;
+    :func:`bridgefem.rigid_block.standing_deficit`);
     ``margin``: the largest deficit that a converged FE state's tolerances can hide (N, module docstring)."""
 
     level: float | None

@@ -651,6 +651,31 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     return tau, res
 
 
+def standing_deficit(model: BlockModel) -> float:
+    """The least uniform joint tension and cohesion tau (N) with which the blocks carry their dead load when every
+    joint may also carry a net tension of tau (0: they stand):
+
+        min tau >= 0  s.t.  A q = -d,  n >= -tau,  |m| <= (n + tau) t/2,  |s| <= mu n + tau
+
+    the deficit programme of :func:`dead_load_deficit` with its ``n >= 0`` relaxed to ``n >= -tau``, solved in
+    ``nu = n + tau >= 0``. Any state that violates no tension, the thrust's place and Coulomb's law by at most those
+    amounts is a point of it, so a deficit above them proves that no such state exists (the static theorem under
+    dead load; :class:`bridgefem.evidence.StaticBound`). Raises RuntimeError when the LP fails."""
+    prog = _Programme(model)
+    nj = model.n_joints
+    mu = np.asarray(model.friction, float)
+    extra = np.column_stack([np.zeros(nj), np.zeros(nj), mu - 1.0, mu - 1.0]).ravel()  # n = nu - tau in the rows
+    shift = -np.asarray(prog.A[:, 0::3].sum(axis=1)).ravel()  # ... and in equilibrium
+    cost = np.zeros(3 * nj + 1)
+    cost[-1] = 1.0
+    sol = linprog(cost, A_ub=prog.yield_rows(mu, extra), b_ub=np.zeros(4 * nj),
+                  A_eq=sp.hstack([prog.A, sp.csr_matrix(shift[:, None])], format="csr"), b_eq=prog.b_eq,
+                  bounds=prog.bounds, method=_LP_METHOD)
+    if sol.status != 0:
+        raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
+    return float(sol.x[-1] * prog.fref)
+
+
 def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",
                   **options) -> ThicknessResult:
     """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.

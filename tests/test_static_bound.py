@@ -8,7 +8,7 @@ import pytest
 
 from bridgefem.analysis import run_analysis, static_cap
 from bridgefem.evidence import AGREEMENT, admissible
-from bridgefem.rigid_block import Statics
+from bridgefem.rigid_block import BlockModel, Statics, standing_deficit
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
 
@@ -19,6 +19,26 @@ from conftest import campaign_scene
 SCENE_3 = campaign_scene(3, 0.4363)
 # campaign seed 1, scene 111: an elliptical ring of 12 voussoirs at mu = 0.331 that cannot stand under its weight
 SCENE_111 = campaign_scene(111, 1.5887)
+
+
+def one_block(offset, mu, hanging=False):
+    """A block of weight 1000 N on a joint of length 2 m (on the ground, or hanging from it), its weight acting
+    ``offset`` (m) from the joint's centre along it."""
+    a, b = (np.array([-1.0, 0.0]), np.array([1.0, 0.0])) if not hanging else (np.array([1.0, 0.0]),
+                                                                              np.array([-1.0, 0.0]))
+    ref = np.array([[offset, 0.5 if not hanging else -0.5]])
+    return BlockModel(ref, np.array([[0.0, -1000.0, 0.0]]), np.zeros((1, 3)), a[None], b[None], np.array([0]),
+                      np.array([-1]), np.array([mu]))
+
+
+@pytest.mark.parametrize("offset, mu, hanging, tau", [
+    (0.5, 0.5, False, 0.0),  # the thrust inside the joint: it stands
+    (1.5, 0.5, False, 500.0),  # |m| = 1500 N m <= (1000 + tau) x 1 m
+    (0.0, 0.5, True, 1000.0),  # hanging: a net tension of 1000 N (n >= -tau), Coulomb 0 <= mu n + tau
+    (0.0, 2.0, True, 2000.0),  # ... and with mu = 2, Coulomb needs 0 <= 2 (-1000) + tau
+])
+def test_the_standing_deficit_of_one_block_is_its_closed_form(offset, mu, hanging, tau):
+    assert standing_deficit(one_block(offset, mu, hanging)) == pytest.approx(tau, abs=1e-6)
 
 
 def test_a_state_that_violates_one_yield_condition_is_not_admissible():
