@@ -39,7 +39,8 @@ from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
-from .evidence import SlipCheck, StaticBound, Verdict, admissible, confirm, coulomb_limited, needs_slip_check
+from .evidence import (AGREEMENT, SlipCheck, StaticBound, Verdict, admissible, confirm, coulomb_limited,
+                       needs_slip_check)
 from .pathfollow import LimitSearch, LoadStep, StaticCap, find_limit_load, monitor_deflection
 from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse,
                           generalised_loads, ring_model, ring_under_forces, ring_with_loads, solve_blocks,
@@ -273,8 +274,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
 
 def refinement_reason(an: Analysis, ett: int) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness (empty: it cannot): a confirmed
-    non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (a
-    static-theorem bracket that misses the LP with the exact voussoirs' weights among them; all
+    non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (both
     ``Verdict.mesh_dependent``), or a self-weight that failed without proof on
     voussoirs shorter than an element where the rigid-block LP finds the ring standing. Near its least thickness such
     a ring stands with hundreds of joint pairs open; from the bonded start the Newton method proposes too many
@@ -365,7 +365,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
         states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
                                      it.active.state.copy()))
 
-    bound = static_cap(scene, model, bm, pairs, solver) if fill is None else None
+    bound = static_cap(scene, model, bm, pairs, solver, lp) if fill is None else None
     lap("static bound")
     search = find_limit_load(solver, under_load, tolerance=s.tolerance,
                              initial_step=s.initial_step or model.dead_weight / 4,
@@ -453,13 +453,16 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     return comm.bcast(out, root=0)
 
 
-def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
-               ) -> tuple[StaticBound, StaticCap] | None:
+def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver,
+               lp: LPResult) -> tuple[StaticBound, StaticCap] | None:
     """The static theorem's bound on a bare ring's FE (:mod:`bridgefem.evidence`, evidence 4): the rigid-block LP
     on the same joints under the FE's own block loads (:func:`block_loads`), its dead-load deficit against the
     largest one a converged FE state's tolerances can hide, and the check of a converged state's joint resultants
     against the LP's rows (:func:`bridgefem.evidence.admissible`) that the search runs before it ends on the bound.
-    The LPs on rank 0, broadcast; None when an LP fails (no bound). Collective."""
+    The bound caps the search only where its level is within ``AGREEMENT`` of ``lp``'s, the LP with the exact
+    voussoirs' weights (elsewhere the mesh's voussoirs weigh the limit away from it: the search runs without the cap,
+    and its failing step, the evidence rule and a finer mesh decide). The LPs on rank 0, broadcast; None when an LP
+    fails (no bound). Collective."""
     comm = solver.comm
     ring = ring_model(scene, live=False)
     blocks = ring_with_loads(ring, *block_loads(model, bm, ring.ref))
@@ -496,7 +499,10 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
                                 2 * radius * block_force)
         return comm.bcast(result, root=0)
 
-    return None if static is None else (static, StaticCap(static.level, static.falls, check))
+    if static is None:
+        return None
+    capped = static.level is not None and lp.level is not None and abs(static.level - lp.level) <= AGREEMENT * lp.level
+    return static, StaticCap(static.level if capped else None, static.falls, check)
 
 
 def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockModel, it: Iterate) -> np.ndarray:

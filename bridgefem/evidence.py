@@ -27,35 +27,37 @@ evidence of collapse only when
    FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
    Radenkovic's first theorem).
 
-4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the FE's
-   own assembled block loads (:func:`bridgefem.analysis.block_loads`) has the collapse level LP_fe. A converged FE
-   state at level L balances every voussoir under those loads (to the solver's equilibrium residual) with pair
-   forces that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t, m = sum
-   (p - t/2) lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they satisfy the
-   LP's yield rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE equilibrium
-   exists above LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion, and its rows
-   are exactly the resultants of the pairs' laws (no row is stricter than the FE's law), so the bound holds on every
-   bare ring, abutment bases included (the abutments are blocks of both). The search never tries a level above
-   LP_fe and ends when a step converges within the bracket's width of it; the verdict is then a limit in [L, LP_fe]
-   with the evidence "static theorem", after an explicit check (:func:`admissible`) that the converged state's joint
-   resultants satisfy the LP's rows within the FE's own tolerances: at a pair whose law the solver waives (bonded or
-   frozen, :data:`bridgefem.solver.BOND_RTOL` of the largest applied nodal force eps) the Alart-Curnier residual
-   <= eps gives lam_n >= -eps and |lam_t| <= mu lam_n + (1 + mu) eps, elsewhere 10 x the solver's force tolerance
-   delta; per joint with k pairs, w of them waived in the step, sigma = k delta + w eps bounds the net tension, the
-   Coulomb excess by (1 + mu) sigma and the moment's excess by sigma t; a block's equilibrium residual is at most
-   its nodes x the solver's scaled residual (:data:`bridgefem.solver.EQUILIBRIUM_RTOL`) x eps / BOND_RTOL (forces)
-   and that x twice its radius about its reference point (moments). A state outside these tolerances voids the rule
-   for the search (which goes on without the bound). The bracket must still reach the LP with the exact voussoirs' weights
-   within ``AGREEMENT`` (as for evidence 3: the mesh's straight-edged voussoirs weigh O(h^2) differently, which
-   moves a limit that is small against the self-weight by far more); otherwise the limit depends on the mesh, the
-   verdict is a solver failure and a finer mesh is tried. The bound is the FE's up to those tolerances: a state that
-   waives the law at w pairs is admissible for the LP with joint tension and cohesion w eps, at most ``BOND_RTOL`` of
-   the largest nodal force per waived pair, the load resolution the search is asked for.
+4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the
+   FE's own assembled block loads (:func:`bridgefem.analysis.block_loads`) has the collapse level LP_fe. A
+   converged FE state at level L balances every voussoir under those loads (to the solver's equilibrium residual)
+   with pair forces that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t,
+   m = sum (p - t/2) lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they
+   satisfy the LP's yield rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE
+   equilibrium exists above LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion,
+   and its rows are exactly the resultants of the pairs' laws (no row is stricter than the FE's law), so the bound
+   holds on every bare ring, abutment bases included (the abutments are blocks of both). The search never tries a
+   level above LP_fe and ends when a step converges within the bracket's width of it; the verdict is then a limit
+   in [L, LP_fe] with the evidence "static theorem", after an explicit check (:func:`admissible`) that the
+   converged state's joint resultants satisfy the LP's rows within the FE's own tolerances: at a pair whose law the
+   solver waives (bonded or frozen, :data:`bridgefem.solver.BOND_RTOL` of the largest applied nodal force eps) the
+   Alart-Curnier residual <= eps gives lam_n >= -eps and |lam_t| <= mu lam_n + (1 + mu) eps, elsewhere 10 x the
+   solver's force tolerance delta; per joint with k pairs, w of them waived in the step, sigma = k delta + w eps
+   bounds the net tension, the Coulomb excess by (1 + mu) sigma and the moment's excess by sigma t; a block's
+   equilibrium residual is at most its nodes x the solver's scaled residual
+   (:data:`bridgefem.solver.EQUILIBRIUM_RTOL`) x eps / BOND_RTOL (forces) and that x twice its radius about its
+   reference point (moments). A state outside these tolerances voids the rule for the search (which goes on without
+   the bound). The bound caps the search only where LP_fe lies within ``AGREEMENT`` of the LP with the exact
+   voussoirs' weights (both are known before the search), and the verdict asks for the bracket within ``AGREEMENT``
+   of that LP too (as evidence 3 does: the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a
+   limit that is small against the self-weight by far more); elsewhere the search runs without the cap and the
+   other rules decide (a finer mesh among them). The bound is the FE's up to those tolerances: a state that waives
+   the law at w pairs is admissible for the LP with joint tension and cohesion w eps, at most ``BOND_RTOL`` of the
+   largest nodal force per waived pair, the load resolution the search is asked for.
    Under self-weight the same theorem reads: a converged FE state, with every pair of a joint waived at worst
-   (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and
-   |s| <= mu n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed
-   (:func:`bridgefem.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma (``StaticBound.margin``). When the
-   rigid blocks under the FE's dead loads need more than that, no FE equilibrium exists, so no retry or
+   (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and |s| <= mu
+   n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed
+   (:func:`bridgefem.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma (``StaticBound.margin``). When
+   the rigid blocks under the FE's dead loads need more than that, no FE equilibrium exists, so no retry or
    continuation can find one: "unstable under self-weight" with this evidence (and, as always, only where the
    rigid-block LP with the exact voussoirs agrees).
 
@@ -264,15 +266,10 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                        if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the conic "
                        "bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before the "
                        "ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
-    if kind is Status.LIMIT and closed:
-        bound = (f"the FE's equilibrium at {lower * unit / 1e3:.6g} kN (its joint resultants checked admissible for "
-                 f"the LP) and {static.describe(unit)}")
-        if lp is Status.LIMIT and reaches(lower, upper, lp_level):
-            return Verdict(status, upper, f"static theorem: {bound}")
-        return Verdict(Status.failure(f"limit of the meshed voussoirs in [{lower * unit / 1e3:.6g}, "
-                                      f"{upper * unit / 1e3:.6g}] kN ({bound}), but {lp_text} with the exact "
-                                      "voussoirs' weights: the limit depends on the mesh"), None, "",
-                       mesh_dependent=lp is Status.LIMIT)
+    if kind is Status.LIMIT and closed and lp is Status.LIMIT and reaches(lower, upper, lp_level):
+        return Verdict(status, upper, f"static theorem: the FE's equilibrium at {lower * unit / 1e3:.6g} kN (its "
+                       f"joint resultants checked admissible for the LP) and {static.describe(unit)}; {lp_text} with "
+                       "the exact voussoirs' weights")
     if kind is Status.LIMIT:
         agrees = lp is Status.LIMIT and reaches(lower, upper, lp_level)
         above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level

@@ -18,24 +18,23 @@ loads. The search never tries a level above it, its target T is the level whose 
 step that converges within the width of it (``bound.level - lower <= tolerance * lower``) ends the search with the
 bracket [lower, bound.level] once ``bound.admissible`` has checked that converged state against the theorem's
 premises (its joint resultants within the LP's rows); a state that fails the check voids the bound and the search
-goes on without it. A failure below the bound ends the search by the bracket rule as before (sliding collapses of
+goes on without it. A failure below the bound ends the search by the bracket rule (sliding collapses of
 elastic blocks stop below the LP): the bound removes trials above it and ends a bracket that it already proves,
 nothing else. With ``bound.falls`` no equilibrium under self-weight exists: a failed self-weight step is the
 answer (:func:`bridgefem.selfweight.carry_self_weight`), without continuations or retries.
 
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
-approaches the target T = (1 - tolerance) g (with a static bound: T as above): each step leaves ``APPROACH`` of the distance to T, and a step
-that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the same converged state (after
-a backtrack: the solve is deterministic, so that landing would replay the failures the backtrack backed away from).
-The step after T is the width, so that a limit in
-[T, g] is bracketed by two trials. A failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is
-*suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
-converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
-of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
-was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most ``BACKTRACKS`` times in a search (a
-search that climbs back to the same failure would otherwise cycle). A wrong guess therefore costs steps, never the
-bracket rule.
+approaches the target T = (1 - tolerance) g (with a static bound: T as above): each step leaves ``APPROACH`` of the
+distance to T, and a step that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the
+same converged state (after a backtrack: the solve is deterministic, so that landing would replay the failures the
+backtrack backed away from). The step after T is the width, so that a limit in [T, g] is bracketed by two trials. A
+failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is *suspect* (usually the Newton method failing on
+a large step): a suspect soft bound is retried after every converged step while it is beyond the width, and a
+suspect failure closes the bracket only with a failing step of at most ``SUSPECT`` widths, from a state reached by
+a step of at most ``SETTLED`` widths; when that state was reached by a larger step, the search backtracks to the
+converged state before it (of the last ``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most
+``BACKTRACKS`` times in a search (a search that climbs back to the same failure would otherwise cycle). A wrong
+guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
