@@ -27,6 +27,40 @@ evidence of collapse only when
    FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
    Radenkovic's first theorem).
 
+4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the
+   FE's own assembled block loads (:func:`bridgefem.analysis.block_loads`) has the collapse level LP_fe. A
+   converged FE state at level L balances every voussoir under those loads (to the solver's equilibrium residual)
+   with pair forces that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t,
+   m = sum (p - t/2) lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they
+   satisfy the LP's yield rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE
+   equilibrium exists above LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion,
+   and its rows are exactly the resultants of the pairs' laws (no row is stricter than the FE's law), so the bound
+   holds on every bare ring, abutment bases included (the abutments are blocks of both). The search never tries a
+   level above LP_fe and ends when a step converges within the bracket's width of it; the verdict is then a limit
+   in [L, LP_fe] with the evidence "static theorem", after an explicit check (:func:`admissible`) that the
+   converged state's joint resultants satisfy the LP's rows within the FE's own tolerances: at a pair whose law the
+   solver waives (bonded or frozen, :data:`bridgefem.solver.BOND_RTOL` of the largest applied nodal force eps) the
+   Alart-Curnier residual <= eps gives lam_n >= -eps and |lam_t| <= mu lam_n + (1 + mu) eps, elsewhere 10 x the
+   solver's force tolerance delta; per joint with k pairs, w of them waived in the step, sigma = k delta + w eps
+   bounds the net tension, the Coulomb excess by (1 + mu) sigma and the moment's excess by sigma t; a block's
+   equilibrium residual is at most its nodes x the solver's scaled residual
+   (:data:`bridgefem.solver.EQUILIBRIUM_RTOL`) x eps / BOND_RTOL (forces) and that x twice its radius about its
+   reference point (moments). A state outside these tolerances voids the rule for the search (which goes on without
+   the bound). The bound caps the search only where LP_fe lies within ``AGREEMENT`` of the LP with the exact
+   voussoirs' weights (both are known before the search), and the verdict asks for the bracket within ``AGREEMENT``
+   of that LP too (as evidence 3 does: the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a
+   limit that is small against the self-weight by far more); elsewhere the search runs without the cap and the
+   other rules decide (a finer mesh among them). The bound is the FE's up to those tolerances: a state that waives
+   the law at w pairs is admissible for the LP with joint tension and cohesion w eps, at most ``BOND_RTOL`` of the
+   largest nodal force per waived pair, the load resolution the search is asked for.
+   Under self-weight the same theorem reads: a converged FE state, with every pair of a joint waived at worst
+   (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and |s| <= mu
+   n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed
+   (:func:`bridgefem.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma (``StaticBound.margin``). When
+   the rigid blocks under the FE's dead loads need more than that, no FE equilibrium exists, so no retry or
+   continuation can find one: "unstable under self-weight" with this evidence (and, as always, only where the
+   rigid-block LP with the exact voussoirs agrees).
+
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
 elastic path reaches, never that no other path carries more. The Tresca fixed point (Gilbert, Casapulla & Ahmed
@@ -56,6 +90,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .rigid_block import Statics
 from .status import Status
 
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
@@ -145,6 +180,49 @@ def reaches(lower: float, upper: float, level: float) -> bool:
 
 
 @dataclass(frozen=True)
+class StaticBound:
+    """Evidence 4 (module docstring): the rigid-block LP on the FE's joints under the FE's own assembled block loads.
+    ``level``: its collapse level (N per unit load factor; None without one); ``status``: its status; ``deficit``: the
+    uniform joint tension and cohesion (N) that the FE's self-weight needs on these blocks (0: they stand;
+    :func:`bridgefem.rigid_block.standing_deficit`);
+    ``margin``: the largest deficit that a converged FE state's tolerances can hide (N, module docstring)."""
+
+    level: float | None
+    status: str
+    deficit: float
+    margin: float
+
+    @property
+    def falls(self) -> bool:
+        """No FE equilibrium under self-weight exists: the deficit exceeds the margin."""
+        return bool(self.deficit > self.margin)
+
+    def describe(self, unit: float) -> str:
+        """The bound in words (``unit``: N per unit level)."""
+        if self.falls:
+            return (f"the rigid blocks under the FE's own self-weight need a joint tension and cohesion of "
+                    f"{self.deficit:.4g} N, more than a converged FE state can hide ({self.margin:.3g} N): no FE "
+                    "equilibrium exists (static theorem)")
+        return (f"the rigid-block LP on the same joints under the FE's own loads collapses at "
+                f"{self.level * unit / 1e3:.6g} kN, an upper bound on any FE equilibrium (static theorem)")
+
+
+def admissible(st: Statics, sigma: np.ndarray, friction: np.ndarray, length: np.ndarray, block_force: np.ndarray,
+               block_moment: np.ndarray) -> tuple[bool, str]:
+    """Whether an FE state's joint resultants are statically admissible for the LP (:class:`StaticBound`) within
+    the FE's tolerances (module docstring, evidence 4): ``st`` the LP's rows at the state
+    (:func:`bridgefem.rigid_block.statics`), ``sigma`` (nj,) the joint tolerance (N), ``friction`` mu and ``length``
+    t (m) per joint, ``block_force`` (nb,) N and ``block_moment`` (nb,) N·m the blocks' equilibrium tolerances.
+    Returns the answer and the largest violation as a fraction of its tolerance, in words."""
+    ratios = {"net tension": st.tension / sigma, "Coulomb excess": st.friction / ((1 + friction) * sigma),
+              "thrust outside a joint": st.eccentricity / (sigma * length),
+              "block force residual": np.abs(st.equilibrium[:, :2]).max(axis=1) / block_force,
+              "block moment residual": np.abs(st.equilibrium[:, 2]) / block_moment}
+    name, worst = max(((k, float(v.max(initial=-np.inf))) for k, v in ratios.items()), key=lambda kv: kv[1])
+    return worst <= 1.0, f"largest violation: {name} at {worst:.3g} of its tolerance"
+
+
+@dataclass(frozen=True)
 class Verdict:
     """A confirmed (or refused) status text, the bracket's upper end (None: no bracket), the evidence (empty for a
     failure) and warnings for the user; ``mesh_dependent``: a failure whose mechanism is the associative LP's at a
@@ -168,12 +246,15 @@ def needs_slip_check(status: str, lower: float, upper: float | None, proved: boo
 
 
 def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
-            lp_level: float | None, unit: float = 1.0, fill: bool = False, slip: SlipCheck | None = None) -> Verdict:
+            lp_level: float | None, unit: float = 1.0, fill: bool = False, slip: SlipCheck | None = None,
+            static: StaticBound | None = None, closed: bool = False) -> Verdict:
     """The evidence rule (module docstring) for a search's ``status`` and bracket [``lower``, ``upper``] (levels in N
     per unit load factor), ``proved`` when its last failed step proved the mechanism, against the LP's status and
     collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN);
     ``fill``: the bridge has a fill, which the LP carries as dead load only; ``slip``: the non-associative check of
-    a limit with sliding joints (:func:`needs_slip_check`), None when it did not run."""
+    a limit with sliding joints (:func:`needs_slip_check`), None when it did not run; ``static``: the static bound of
+    a bare ring (evidence 4, None without one) and ``closed``: the search ended on it (a limit whose upper end is
+    the bound after an admissibility check, or a self-weight that the bound shows cannot stand)."""
     kind = Status.of(status)
     lp = Status.of(lp_status) if lp_status in set(Status) else None
     lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
@@ -185,6 +266,10 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                        if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the conic "
                        "bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before the "
                        "ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
+    if kind is Status.LIMIT and closed and lp is Status.LIMIT and reaches(lower, upper, lp_level):
+        return Verdict(status, upper, f"static theorem: the FE's equilibrium at {lower * unit / 1e3:.6g} kN (its "
+                       f"joint resultants checked admissible for the LP) and {static.describe(unit)}; {lp_text} with "
+                       "the exact voussoirs' weights")
     if kind is Status.LIMIT:
         agrees = lp is Status.LIMIT and reaches(lower, upper, lp_level)
         above = lp is Status.LIMIT and lower > (1 + AGREEMENT) * lp_level
@@ -210,10 +295,14 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                                       f"positive work, and {lp_text}{checked})"), None, "",
                        mesh_dependent=mesh_dependent)
     if kind is Status.UNSTABLE:
+        if lp is Status.UNSTABLE and closed:
+            return Verdict(status, upper, f"static theorem: {static.describe(unit)}; {lp_text}")
         if lp is Status.UNSTABLE:
             return Verdict(status, upper, "proof: an admissible rigid-block mode on which the self-weight does "
                            "positive work" if proved else f"agreement: {lp_text}")
         reason = "contradicted" if proved else "unproven"
+        if closed:
+            lp_text += f", while {static.describe(unit)}: the mesh's voussoirs weigh differently"
         return Verdict(Status.failure(f"{reason} instability under self-weight ({lp_text})"), None, "",
                        (f"the FE found a mechanism under self-weight but {lp_text}",) if proved else ())
     if kind in (Status.STABLE, Status.LOCKED):

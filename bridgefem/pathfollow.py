@@ -12,19 +12,29 @@ a step that converged in one Newton iteration (its start's active set held: the 
 next trial is the width below the soft bound rather than the midpoint (not twice in a row): where the soft bound
 lies just above the limit, that closes the bracket in two trials instead of a bisection down to the width.
 
+**Static bound.** On a bare ring the static theorem bounds every equilibrium of the FE from above
+(:mod:`bridgefem.evidence`, evidence 4): ``bound.level``, the rigid-block LP on the same joints under the FE's own
+loads. The search never tries a level above it, its target T is the level whose width reaches just to it, and a
+step that converges within the width of it (``bound.level - lower <= tolerance * lower``) ends the search with the
+bracket [lower, bound.level] once ``bound.admissible`` has checked that converged state against the theorem's
+premises (its joint resultants within the LP's rows); a state that fails the check voids the bound and the search
+goes on without it. A failure below the bound ends the search by the bracket rule (sliding collapses of
+elastic blocks stop below the LP): the bound removes trials above it and ends a bracket that it already proves,
+nothing else. With ``bound.falls`` no equilibrium under self-weight exists: a failed self-weight step is the
+answer (:func:`bridgefem.selfweight.carry_self_weight`), without continuations or retries.
+
 **Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
-approaches the target T = (1 - tolerance) g: each step leaves ``APPROACH`` of the distance to T, and a step
-that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the same converged state (after
-a backtrack: the solve is deterministic, so that landing would replay the failures the backtrack backed away from).
-The step after T is the width, so that a limit in
-[T, g] is bracketed by two trials. A failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is
-*suspect* (usually the Newton method failing on a large step): a suspect soft bound is retried after every
-converged step while it is beyond the width, and a suspect failure closes the bracket only with a failing step
-of at most ``SUSPECT`` widths, from a state reached by a step of at most ``SETTLED`` widths; when that state
-was reached by a larger step, the search backtracks to the converged state before it (of the last
-``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most ``BACKTRACKS`` times in a search (a
-search that climbs back to the same failure would otherwise cycle). A wrong guess therefore costs steps, never the
-bracket rule.
+approaches the target T = (1 - tolerance) g (with a static bound: T as above): each step leaves ``APPROACH`` of the
+distance to T, and a step that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the
+same converged state (after a backtrack: the solve is deterministic, so that landing would replay the failures the
+backtrack backed away from). The step after T is the width, so that a limit in [T, g] is bracketed by two trials. A
+failure below ``(1 - PLAUSIBLE) * T`` contradicts the guess and is *suspect* (usually the Newton method failing on
+a large step): a suspect soft bound is retried after every converged step while it is beyond the width, and a
+suspect failure closes the bracket only with a failing step of at most ``SUSPECT`` widths, from a state reached by
+a step of at most ``SETTLED`` widths; when that state was reached by a larger step, the search backtracks to the
+converged state before it (of the last ``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most
+``BACKTRACKS`` times in a search (a search that climbs back to the same failure would otherwise cycle). A wrong
+guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
@@ -142,11 +152,24 @@ class LimitSearch:
     guess: float | None = None
     settled: Iterate | None = None
     proved: bool = False
+    static: bool = False
+
+
+@dataclass
+class StaticCap:
+    """The static theorem's bound on a search (module docstring, *Static bound*): ``level`` the largest level at
+    which an equilibrium can exist (N per unit load factor; None: no bound on the live load); ``falls``: no
+    equilibrium exists under self-weight; ``admissible(step, iterate)`` checks a converged state against the
+    theorem's premises, returning the answer and a sentence (collective)."""
+
+    level: float | None
+    falls: bool
+    admissible: Callable[[LoadStep, Iterate], tuple[bool, str]]
 
 
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    stiffness_drop: float = 0.0, movement_steps: int = 0,
+                    stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -157,6 +180,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     below this fraction of the tangent stiffness after self-weight counts as failed, like a step without
     equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
     fill, which never becomes exactly singular).
+    ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
@@ -186,11 +210,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             converged(step, out.iterate)
         return out
 
-    first = carry_self_weight(solver, attempt)
+    falls = bound is not None and bound.falls
+    first = carry_self_weight(solver, attempt, falls)
     if not first.converged:
         status = UNSTABLE if first.mechanism else Status.failure(first.reason)
         return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,
-                           proved=first.proved)
+                           proved=first.proved, static=falls)
     state = solver.converged_slip_reference(first.iterate)
     if movement_steps:
         state, failed = _impose_support_movement(solver, attempt, state, movement_steps)
@@ -205,7 +230,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     if stiffness_drop > 0:
         k_initial = _initial_stiffness(solver, deflection, state)
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
-    target = math.inf if guess is None else (1.0 - tolerance) * guess
+    cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
+    target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
@@ -233,7 +259,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
         else:
             trial = lower + step
-        trial = min(trial, max_load)
+        trial = min(trial, max_load, cap)
         predict = trial - lower > width and history and history[-1][0] > 0  # two live-load states, not closing
         predictor = _secant(history[-1], lower, state, trial) if predict else None
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
@@ -253,6 +279,14 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             visit = len(steps)
             taken, arrived = trial - lower, lower < target <= trial
             lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False
+            if cap - lower <= tolerance * lower:
+                admissible, check = bound.admissible(steps[-1], out.iterate)
+                if admissible:
+                    return LimitSearch(LIMIT_FOUND, lower, cap, tolerance, steps, state,
+                                       "no trial above the bracket: its upper end is the static theorem's bound, "
+                                       "the rigid-block LP under the FE's own loads (the converged state's joint "
+                                       f"resultants are admissible for it; {check})", guess, settled, static=True)
+                cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
             if lower >= soft:
                 soft = math.inf
             retry = soft - lower > tolerance * lower and not plausible(soft)

@@ -171,10 +171,24 @@ def lp_label(scene) -> str:
 
 
 def lp_entries(an: Analysis) -> dict:
-    """The ``lp``, ``fe_lp_ratio``, ``warnings`` and ``fill_bounds`` entries of results.json (:attr:`Analysis.lp`,
-    :attr:`Analysis.fe_lp_ratio`, :attr:`Analysis.warnings`, :attr:`Analysis.fill_bounds`)."""
+    """The ``lp``, ``fe_lp_ratio``, ``static_bound``, ``warnings`` and ``fill_bounds`` entries of results.json
+    (:attr:`Analysis.lp`, :attr:`Analysis.fe_lp_ratio`, :func:`static_summary`, :attr:`Analysis.warnings`,
+    :attr:`Analysis.fill_bounds`)."""
     return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
-            "warnings": an.warnings, "fill_bounds": an.fill_bounds}
+            "static_bound": static_summary(an), "warnings": an.warnings, "fill_bounds": an.fill_bounds}
+
+
+def static_summary(an: Analysis) -> dict | None:
+    """The ``static_bound`` entry of results.json (None without one: a fill, or an LP that failed): the rigid-block
+    LP on the same joints under the FE's own loads (:class:`bridgefem.evidence.StaticBound`), its collapse ``load``
+    (N; None without one) and ``status``, the ``deficit`` (N) of joint tension and cohesion its blocks need under the
+    FE's self-weight, the ``margin`` (N) a converged FE state's tolerances can hide, and ``closed``: the search ended
+    on the bound."""
+    b = an.static
+    if b is None:
+        return None
+    return {"load": None if b.level is None else b.level * an.load_total, "status": b.status, "deficit": b.deficit,
+            "margin": b.margin, "closed": an.search.static}
 
 
 def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:

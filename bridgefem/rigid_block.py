@@ -383,6 +383,30 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     return res
 
 
+@dataclass(frozen=True)
+class Statics:
+    """How far given joint forces are from the programme's constraints at a load level (:func:`statics`):
+    ``equilibrium`` (nb, 3), the residual ``A q + level l + d`` of every block (Fx, Fy in N; M in N·m about its
+    reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n (N) and
+    ``eccentricity`` = |m| - n t/2 (N·m), each <= 0 where the yield conditions hold."""
+
+    equilibrium: np.ndarray
+    tension: np.ndarray
+    friction: np.ndarray
+    eccentricity: np.ndarray
+
+
+def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
+    """The programme's equality and yield rows (module docstring) evaluated at joint forces ``forces`` (nj, 3: n, s
+    in N, m in N·m about the joint centre) and load level ``level``: whether a state, e.g. an FE state's joint
+    resultants, is statically admissible for these blocks (then ``level`` is at most their collapse load factor,
+    the static theorem)."""
+    prog = _Programme(model)
+    n, s, m = np.asarray(forces, float).T
+    residual = prog.A @ np.asarray(forces, float).ravel() + level * model.live.ravel() + model.dead.ravel()
+    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n, np.abs(m) - n * prog.t / 2)
+
+
 def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
                live: bool = True) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
@@ -625,6 +649,31 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
     return tau, res
+
+
+def standing_deficit(model: BlockModel) -> float:
+    """The least uniform joint tension and cohesion tau (N) with which the blocks carry their dead load when every
+    joint may also carry a net tension of tau (0: they stand):
+
+        min tau >= 0  s.t.  A q = -d,  n >= -tau,  |m| <= (n + tau) t/2,  |s| <= mu n + tau
+
+    the deficit programme of :func:`dead_load_deficit` with its ``n >= 0`` relaxed to ``n >= -tau``, solved in
+    ``nu = n + tau >= 0``. Any state that violates no tension, the thrust's place and Coulomb's law by at most those
+    amounts is a point of it, so a deficit above them proves that no such state exists (the static theorem under
+    dead load; :class:`bridgefem.evidence.StaticBound`). Raises RuntimeError when the LP fails."""
+    prog = _Programme(model)
+    nj = model.n_joints
+    mu = np.asarray(model.friction, float)
+    extra = np.column_stack([np.zeros(nj), np.zeros(nj), mu - 1.0, mu - 1.0]).ravel()  # n = nu - tau in the rows
+    shift = -np.asarray(prog.A[:, 0::3].sum(axis=1)).ravel()  # ... and in equilibrium
+    cost = np.zeros(3 * nj + 1)
+    cost[-1] = 1.0
+    sol = linprog(cost, A_ub=prog.yield_rows(mu, extra), b_ub=np.zeros(4 * nj),
+                  A_eq=sp.hstack([prog.A, sp.csr_matrix(shift[:, None])], format="csr"), b_eq=prog.b_eq,
+                  bounds=prog.bounds, method=_LP_METHOD)
+    if sol.status != 0:
+        raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
+    return float(sol.x[-1] * prog.fref)
 
 
 def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",

@@ -20,7 +20,11 @@
    strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver
    failure that names the strength it failed at.
 
-3. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation
+3. When the static theorem shows that no equilibrium under self-weight exists (``falls``: the rigid blocks under the
+   FE's own dead loads need joint tension or cohesion beyond what any converged FE state's tolerances can hide,
+   :class:`bridgefem.evidence.StaticBound`), a failed one step is the answer, a mechanism: no continuation or retry
+   can converge where no equilibrium exists.
+4. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation
    that converged some of its steps resumes from its last converged state at the strength it failed at (a converged
    state of the path is an equilibrium of the scene's laws at its strength, whatever setting found it), else the one
    step and the continuation run again from the start.
@@ -65,24 +69,29 @@ class Progress:
     halvings: int = 0
 
 
-def carry_self_weight(solver: ContactSolver, attempt: Attempt) -> StepOutcome:
+def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = False) -> StepOutcome:
     """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
-    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``.
+    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``; ``falls``: the static
+    theorem shows that no equilibrium exists (step 3: the one step's failure is the answer, as a mechanism).
     ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
     progress = Progress(solver.initial_iterate())
-    out = _carry(solver, attempt, progress)
-    if out.converged or out.proved:
+    out = _carry(solver, attempt, progress, falls)
+    if out.converged or out.proved or falls:
         return out
     return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
 
 
-def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress) -> StepOutcome:
-    """One step, else the continuation that fits the structure; a continuation with a converged step resumes."""
+def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: bool = False) -> StepOutcome:
+    """One step, else (unless ``falls``) the continuation that fits the structure; a continuation with a converged
+    step resumes."""
     if progress.done is None:
         progress.first = attempt(0.0, solver.initial_iterate())
     first = progress.first
     if first.converged or first.proved:
         return first
+    if falls:
+        return replace(first, mechanism=True, reason=f"{first.reason}; no equilibrium exists (static theorem: the "
+                                                     "rigid blocks under the FE's self-weight cannot stand)")
     fill = solver.material
     if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
         out = friction_continuation(solver, attempt, progress)

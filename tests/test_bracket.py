@@ -9,7 +9,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.contact import ContactState
-from bridgefem.pathfollow import find_limit_load
+from bridgefem.pathfollow import StaticCap, find_limit_load
+from bridgefem.selfweight import SELF_WEIGHT_RETRIES
 from bridgefem.solver import Iterate, StepOutcome
 from bridgefem.status import Status
 
@@ -24,6 +25,7 @@ class OneDof:
     material = None
     movement = 0.0
     friction_factor = 1.0
+    friction = np.zeros(0)  # no joints to raise the friction of: no friction continuation
 
     def __init__(self, limit=LIMIT, reach=math.inf, proves=True, stalls_at=math.inf):
         self.limit, self.reach, self.proves, self.stalls_at = limit, reach, proves, stalls_at
@@ -52,9 +54,20 @@ class OneDof:
         return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
 
 
-def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT):
+def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None):
     return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=tolerance, initial_step=WEIGHT / 4,
-                           max_load=max_load, max_steps=200, guess=guess)
+                           max_load=max_load, max_steps=200, guess=guess, bound=bound)
+
+
+def static_cap(level, admissible=True, falls=False):
+    """A static bound at ``level`` whose admissibility check answers ``admissible``; records the levels checked."""
+    checked = []
+
+    def check(step, it):
+        checked.append(step.level)
+        return admissible, "made up"
+
+    return StaticCap(level, falls, check), checked
 
 
 def assert_bracket(s, tolerance=1e-4):
@@ -100,3 +113,55 @@ def test_a_newton_method_that_stalls_below_the_limit_is_a_solver_failure():
 def test_no_collapse_up_to_the_maximum_load_is_locked():
     s = search(OneDof(), max_load=0.5 * LIMIT)
     assert s.status == Status.LOCKED and s.lower == 0.5 * LIMIT and s.upper is None
+
+
+def trials(s):
+    return [st.level for st in s.steps]
+
+
+@pytest.mark.parametrize("guess", [None, 0.7 * LIMIT, LIMIT])
+@pytest.mark.parametrize("reach", [math.inf, LIMIT / 40])
+def test_a_static_bound_at_the_limit_closes_the_bracket_on_it(guess, reach):
+    """The static theorem's bound is the limit itself (a ring whose FE reaches the LP): no trial goes above it,
+    and the search ends on the first converged step within the width of it, with the bracket [lower, bound]."""
+    bound, checked = static_cap(LIMIT)
+    solver = OneDof(reach=reach)
+    s = search(solver, guess=guess, bound=bound)
+    assert s.status == Status.LIMIT and s.static and not s.proved
+    assert s.upper == LIMIT and LIMIT - s.lower <= 1e-4 * s.lower
+    assert max(trials(s)) <= LIMIT and not any(st.mechanism for st in s.steps)  # no failure above it needed
+    assert checked == [s.lower]
+
+
+def test_a_static_bound_saves_the_failing_steps_above_the_limit():
+    plain, capped = OneDof(), OneDof()
+    search(plain, guess=LIMIT)
+    search(capped, guess=LIMIT, bound=static_cap(LIMIT)[0])
+    assert capped.solves < plain.solves, (capped.solves, plain.solves)
+
+
+def test_a_limit_below_the_static_bound_still_needs_its_failing_step():
+    """Elastic blocks that slide stop below the LP: the bound only removes trials above it, the bracket closes on a
+    failure as without it."""
+    s = search(OneDof(), bound=static_cap(1.01 * LIMIT)[0])
+    assert_bracket(s)
+    assert not s.static and s.proved and max(trials(s)) <= 1.01 * LIMIT
+
+
+def test_a_state_that_fails_the_admissibility_check_voids_the_bound():
+    """A converged state outside the theorem's premises cannot end the search: it goes on without the bound, and
+    its bracket comes from a failed step (above the bound, since the bound was wrong)."""
+    bound, checked = static_cap(0.999 * LIMIT, admissible=False)
+    s = search(OneDof(), guess=LIMIT, bound=bound)
+    assert_bracket(s)
+    assert not s.static and len(checked) == 1 and max(trials(s)) > 0.999 * LIMIT
+
+
+def test_a_self_weight_that_cannot_stand_is_not_retried():
+    """With the static theorem showing that no equilibrium under self-weight exists, the failed self-weight step is
+    the answer (a mechanism, "unstable"); without it, the failure is retried with each self-weight setting."""
+    ruled_out, plain = OneDof(stalls_at=-1.0), OneDof(stalls_at=-1.0)
+    s = search(ruled_out, bound=static_cap(None, falls=True)[0])
+    assert s.status == Status.UNSTABLE and s.static and ruled_out.solves == 1
+    s = search(plain)
+    assert Status.of(s.status) is Status.FAILURE and plain.solves == 1 + len(SELF_WEIGHT_RETRIES)

@@ -1,0 +1,96 @@
+"""The static theorem's bound on a bare ring (bridgefem.evidence, evidence 4): the rigid-block LP on the FE's joints
+under the FE's own loads bounds every FE equilibrium from above, so the limit search ends on it once a converged
+state, checked admissible for that LP, lies within the bracket's width of it."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from bridgefem.analysis import run_analysis, static_cap
+from bridgefem.evidence import AGREEMENT, admissible
+from bridgefem.rigid_block import BlockModel, Statics, standing_deficit
+from bridgefem.scene import scene_from_dict
+from bridgefem.status import Status
+
+from conftest import campaign_scene
+
+# campaign seed 1, scene 3 (benchmarks/campaign.py): a pointed ring of 32 voussoirs, mu = 2.43, a patch load; its
+# FE reaches the LP (no joint slides)
+SCENE_3 = campaign_scene(3, 0.4363)
+# campaign seed 1, scene 111: an elliptical ring of 12 voussoirs at mu = 0.331 that cannot stand under its weight
+SCENE_111 = campaign_scene(111, 1.5887)
+
+
+def one_block(offset, mu, hanging=False):
+    """A block of weight 1000 N on a joint of length 2 m (on the ground, or hanging from it), its weight acting
+    ``offset`` (m) from the joint's centre along it."""
+    a, b = (np.array([-1.0, 0.0]), np.array([1.0, 0.0])) if not hanging else (np.array([1.0, 0.0]),
+                                                                              np.array([-1.0, 0.0]))
+    ref = np.array([[offset, 0.5 if not hanging else -0.5]])
+    return BlockModel(ref, np.array([[0.0, -1000.0, 0.0]]), np.zeros((1, 3)), a[None], b[None], np.array([0]),
+                      np.array([-1]), np.array([mu]))
+
+
+@pytest.mark.parametrize("offset, mu, hanging, tau", [
+    (0.5, 0.5, False, 0.0),  # the thrust inside the joint: it stands
+    (1.5, 0.5, False, 500.0),  # |m| = 1500 N m <= (1000 + tau) x 1 m
+    (0.0, 0.5, True, 1000.0),  # hanging: a net tension of 1000 N (n >= -tau), Coulomb 0 <= mu n + tau
+    (0.0, 2.0, True, 2000.0),  # ... and with mu = 2, Coulomb needs 0 <= 2 (-1000) + tau
+])
+def test_the_standing_deficit_of_one_block_is_its_closed_form(offset, mu, hanging, tau):
+    assert standing_deficit(one_block(offset, mu, hanging)) == pytest.approx(tau, abs=1e-6)
+
+
+def test_a_state_that_violates_one_yield_condition_is_not_admissible():
+    """Made-up rows: two joints in equilibrium (zero residual), one of them in net tension, Coulomb excess or with
+    its thrust outside the joint beyond the tolerance; within the tolerance the state is admissible."""
+    sigma, mu, t = np.array([1.0, 1.0]), np.array([0.5, 0.5]), np.array([2.0, 2.0])
+    force, moment = np.array([1.0]), np.array([1.0])
+
+    def rows(**violation):
+        zero = np.array([-10.0, -10.0])
+        return Statics(np.zeros((1, 3)), *(zero + violation.get(k, 0.0) for k in ("t", "f", "e")))
+
+    assert admissible(rows(t=[0.0, 10.5]), sigma, mu, t, force, moment)[0]  # net tension 0.5 N <= sigma
+    for violation, name in ((dict(t=[0.0, 11.5]), "net tension"), (dict(f=[0.0, 11.6]), "Coulomb excess"),
+                            (dict(e=[12.5, 0.0]), "thrust outside a joint")):
+        ok, text = admissible(rows(**violation), sigma, mu, t, force, moment)
+        assert not ok and name in text, text
+    ok, text = admissible(Statics(np.array([[0.0, 1.5, 0.0]]), *(np.full(2, -10.0),) * 3), sigma, mu, t, force,
+                          moment)
+    assert not ok and "block force residual" in text
+
+
+@pytest.mark.slow
+def test_the_bracket_of_a_campaign_ring_ends_on_the_static_theorem():
+    """The search ends on a converged state within the width of the bound, the bound is the upper end and no trial
+    went above it; the bracket holds the independent LP (exact voussoir weights) within AGREEMENT. The converged
+    state passes the admissibility check, and fails it once one joint's forces are made tensile."""
+    an = run_analysis(scene_from_dict(SCENE_3))
+    s = an.search
+    assert s.status == Status.LIMIT and s.static and an.verdict.evidence.startswith("static theorem"), s.status
+    assert s.upper == an.static.level and s.upper - s.lower <= s.tolerance * s.lower
+    assert max(st.level for st in s.steps) <= s.upper
+    assert abs(s.lower / an.lp.level - 1) <= AGREEMENT and abs(s.upper / an.lp.level - 1) <= AGREEMENT
+    _, cap = static_cap(an.scene, an.model, an.block_mesh, an.pairs, an.solver, an.lp)
+    step = next(st for st in reversed(s.steps) if st.converged)
+    assert step.level == s.lower and cap.admissible(step, s.last)[0]
+    x = s.last.x.copy()
+    lam = x.array[an.solver.n_u:].reshape(-1, 2)
+    _, _, lam_now = an.solver.split(s.last.x)
+    loaded = an.pairs.joint == an.pairs.joint[np.argmax(lam_now[:, 0])]
+    lam[loaded, 0] *= -1.0  # the most compressed joint pulled instead
+    x.array[an.solver.n_u:] = lam.ravel()
+    ok, text = cap.admissible(step, dataclasses.replace(s.last, x=x))
+    assert not ok, text
+
+
+@pytest.mark.slow
+def test_a_ring_that_cannot_stand_is_not_retried():
+    """The rigid blocks under the FE's self-weight need joint tension: the failed self-weight step is the answer,
+    "unstable under self-weight" with the static theorem as evidence, the exact LP agreeing, in a handful of steps
+    (the continuation and the retries cost 259 solves on the campaign before the bound)."""
+    an = run_analysis(scene_from_dict(SCENE_111))
+    assert an.search.status == Status.UNSTABLE and an.search.static and an.lp.status == Status.UNSTABLE
+    assert an.static.deficit > an.static.margin and an.verdict.evidence.startswith("static theorem")
+    assert len(an.search.steps) == 1
