@@ -97,18 +97,23 @@ of a few newtons and the search went on to a proved limit equal to the LP's. Oth
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
 change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
 relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
-solves), and :func:`bridgefem.joint_condensation.consistent_states` enumerates their 4^p states for one that the joint
-law accepts; the iteration goes on from that active set, so its end is checked like any other (no law is waived).
+solves), and :func:`bridgefem.joint_condensation.consistent_states` finds a state of theirs that the joint law
+accepts: up to four pairs by enumerating their 4^p states, above by Lemke's method on the Coulomb law written as a
+linear complementarity problem (finite, and sure to find a solution when C's symmetric part is positive definite);
+the iteration goes on from that active set, so its end is checked like any other (no law is waived).
 With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
 sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
-P-matrix (:func:`bridgefem.joint_condensation.is_p_matrix`): then the small problem has no solution or several, and
-the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174 voussoirs,
-mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
+P-matrix (:func:`bridgefem.joint_condensation.opens_when_pulled`): then the small problem has no solution or several,
+and the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174
+voussoirs, mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
 (segmental, mu = 0.424, 166 kN) C_nn = -1.0e-8, -1.2e-7, -1.1e-7 and -6.7e-7 m/N, a hundred times the elastic
 compliance (the held slips make the ring nearly a mechanism): penetrating when open, in tension when closed (#151:
 opening it sends the ring into a diverging mode). Such a condensation is not used; it is repeated with every other
 sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
-a symmetric C. A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
+a symmetric C. With an elastic fill the ring's collapse under the loads the fill transmits cycles at 5 to 40 pairs
+(ring joints and arch-fill pairs; #9: segmental, 220 voussoirs, mu = 6.78), most of them with a P-matrix normal block
+once the other slips stick; solved by pivoting, #9 goes on to a limit equal to the ring's LP under those loads.
+A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
 
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
 the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
@@ -158,7 +163,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
-from .joint_condensation import consistent_states, is_p_matrix
+from .joint_condensation import consistent_states, opens_when_pulled
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -172,7 +177,7 @@ ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step l
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-CONDENSED_PAIRS = 4  # a cycle of at most this many pairs is solved exactly on their compliance (4^4 combinations)
+CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (2p + 1 solves)
 
 
 @dataclass(frozen=True)
@@ -701,7 +706,7 @@ class ContactSolver:
         _stick(stuck, (stuck.state == SLIP) & ~cycling)
         for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
             response = self._pair_response(level, held, cycling, slip_ref)
-            found = None if response is None or not is_p_matrix(response[1][0::2, 0::2]) else consistent_states(
+            found = None if response is None or not opens_when_pulled(response[1]) else consistent_states(
                 law, *response, ContactState(gather(reference.state), gather(reference.sign)),
                 ContactState(gather(active.state), gather(active.sign)))
             if found is not None:

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
-from bridgefem.joint_condensation import consistent_states, is_p_matrix
+from bridgefem.joint_condensation import consistent_states, is_p_matrix, lcp_active_set, lemke, opens_when_pulled
 
 NANO = 1e-9  # m/N
 
@@ -130,3 +130,75 @@ def test_condensed_compliance_reproduces_the_full_solve():
     active, forces = consistent_states(law, d0, C, converged, converged)
     assert list(active.state) == list(out.iterate.active.state[chosen])
     assert forces == pytest.approx(lam[chosen], rel=1e-6, abs=1e-6 * W)
+
+
+@pytest.mark.parametrize("d0, C, mu, expected", [
+    ([[-1e-6, 0.0]], np.eye(2), 0.3, [(STICK, 0)]),  # the cases above, one pair: the same active sets
+    ([[1e-6, 0.0]], np.eye(2), 0.3, [(OPEN, 0)]),
+    ([[-1e-6, 2e-6]], np.eye(2), 0.5, [(SLIP, -1)]),
+    ([[-1e-6, 0.0]], [[1.0, 2.0], [2.0, 5.0]], 0.3, [(SLIP, -1)]),
+    ([[-1e-6, 0.0], [0.4e-6, 0.0]], [[2.0, 0.0, 1.0, 0.0], [0.0, 2.0, 0.0, 0.0], [1.0, 0.0, 2.0, 0.0],
+                                     [0.0, 0.0, 0.0, 2.0]], 0.3, [(STICK, 0), (OPEN, 0)]),
+])
+def test_lemke_finds_the_hand_derived_states(d0, C, mu, expected):
+    """Lemke's method on the Coulomb LCP gives the unique consistent active set of each hand-derived case above."""
+    found = lcp_active_set(law(len(d0), mu), np.array(d0, dtype=float), np.array(C, dtype=float) * NANO)
+    assert list(zip(found.state, found.sign)) == expected
+
+
+def test_lemke_on_a_textbook_lcp():
+    """w = q + M z with M = [[2, 1], [1, 2]], q = (-5, -6): both unknowns positive, 2 z1 + z2 = 5, z1 + 2 z2 = 6,
+    z = (4/3, 7/3); and w = -1 - z (no z >= 0 gives w >= 0) ends on a ray."""
+    assert lemke(np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-5.0, -6.0])) == pytest.approx([4 / 3, 7 / 3])
+    assert lemke(np.array([[-1.0]]), np.array([-1.0])) is None
+
+
+def coupled_ring(pairs=20, opening=5, coupling=0.5):
+    """``pairs`` pairs whose normal compliances are coupled through one shared term, C_nn = I + a 1 1^T nm/N
+    (C_tt = I, C_nt = 0); d0_n = +1 um (a gap) at the first ``opening`` pairs, -1 um at the others, and d0_t = 2 um at
+    every other closed pair."""
+    C = np.eye(2 * pairs)
+    C[0::2, 0::2] += coupling
+    d0 = np.zeros((pairs, 2))
+    d0[:, 0] = np.where(np.arange(pairs) < opening, 1e-6, -1e-6)
+    d0[opening::2, 1] = 2e-6
+    return d0, C * NANO
+
+
+def test_twenty_coupled_pairs():
+    """20 pairs (4^20 = 1e12 combinations): with the first 5 open, the 15 closed carry lam_n from
+    (1 + a 15) lam_n = 1 um / 1 nm/N, lam_n = 1000 / 8.5 = 117.65 N, and the open ones' gap grows to
+    1 + 0.5 x 15 x 0.11765 = 1.88 um > 0 (consistent). A closed pair with d0_t = 2 um would need lam_t = -2000 N to
+    stick, beyond mu lam_n = 35.3 N: it slides (slip-) with lam_t = -35.3 N and slip 2 um - 35.3 nm > 0; the others
+    stick with lam_t = 0. The normal block is a P-matrix (its symmetric part is positive definite)."""
+    d0, C = coupled_ring()
+    active, lam = consistent_states(law(20), d0, C, ContactState.all_stick(20), ContactState.all_stick(20))
+    lam_n = 1000.0 / 8.5
+    sliding = np.zeros(20, dtype=bool)
+    sliding[5::2] = True
+    assert list(active.state[:5]) == [OPEN] * 5
+    assert np.all(active.state[5:][sliding[5:]] == SLIP) and np.all(active.sign[sliding] == -1)
+    assert np.all(active.state[5:][~sliding[5:]] == STICK)
+    assert lam[5:, 0] == pytest.approx(np.full(15, lam_n), rel=1e-9)
+    assert lam[:, 1] == pytest.approx(np.where(sliding, -0.3 * lam_n, 0.0), abs=1e-6)
+    assert opens_when_pulled(C)
+
+
+def test_twenty_pairs_one_with_negative_normal_compliance():
+    """The 20 pairs above with pair 7's normal compliance -1 nm/N beyond the coupling, decoupled from the others
+    (not a P-matrix): open it penetrates 1 um, closed it carries -1000 N (tension), whatever the others do: no
+    consistent active set, and the condensation is declined before it is solved."""
+    d0, C = coupled_ring()
+    C[14, :], C[:, 14] = 0.0, 0.0
+    C[14, 14] = -NANO
+    assert consistent_states(law(20), d0, C, ContactState.all_stick(20), ContactState.all_stick(20)) is None
+    assert not opens_when_pulled(C)
+
+
+def test_reference_kept_when_consistent_above_enumeration():
+    """Five uncoupled copies of the pair with C_nn = -1 nm/N and a 1 um gap, open and closed both consistent at each:
+    with more pairs than are enumerated, the reference active set (all closed) is kept as it is."""
+    C = np.kron(np.eye(5), np.diag([-1.0, 1.0])) * NANO
+    d0 = np.tile([1e-6, 0.0], (5, 1))
+    active, lam = consistent_states(law(5), d0, C, ContactState.all_stick(5), ContactState.all_stick(5))
+    assert list(active.state) == [STICK] * 5 and lam[:, 0] == pytest.approx(np.full(5, 1000.0))
