@@ -110,6 +110,9 @@ def _collapse(reason: str) -> str:
     """What a failed step that proved collapse means to a user (the solver's numbers stay in results.json)."""
     if reason.startswith("load-deflection curve flat"):
         return "the load-deflection curve is flat: the structure moves as a mechanism"
+    if reason.startswith("no trial above the bracket"):
+        return ("no equilibrium by the static theorem: the rigid-block LP on the same joints under the FE's own loads "
+                "bounds every FE equilibrium")
     return "no equilibrium: the voussoirs move as a mechanism"
 
 

@@ -57,6 +57,7 @@ def test_a_proven_collapse_reads_as_a_mechanism_not_a_divergence():
     text = _collapse("diverged: displacement 9.02e+04 m exceeds the cap 185 m (no equilibrium: mechanism)")
     assert text == "no equilibrium: the voussoirs move as a mechanism" and "9.02e+04" not in text
     assert "flat" in _collapse("load-deflection curve flat: secant stiffness 3 N/m below 0.02 x the initial")
+    assert "static theorem" in _collapse("no trial above the bracket: its upper end is the static theorem's bound")
 
 
 def results_dict():
