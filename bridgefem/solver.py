@@ -149,8 +149,8 @@ diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited set o
 start's load, not at this one): an iteration that returns to it, by damping or as a repair, solves it and goes on,
 where a return to a visited set is a cycle. A block on the ground pushed by half its sliding load, its predicted
 set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
-taken for a cycle, that return ended the step as a mechanism ("damped iterations return to it"); solved, it is the
-equilibrium (``tests/test_predicted_step.py``).
+counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
+the equilibrium (``tests/test_predicted_step.py``).
 """
 from __future__ import annotations
 

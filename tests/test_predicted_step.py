@@ -15,9 +15,9 @@ def test_a_predicted_step_may_return_to_the_start_active_set():
     """The elastic block on the ground (tests/test_block.py) at mu = 0.4, pushed by P = 0.2 W at h = 0.5 m from its
     self-weight state: it sticks (sliding needs mu W = 0.4 W, tipping W b / (2 h) = W). A predictor proposes every
     base pair sliding: that system lets the block slide freely (it diverges); damping returns to every pair sticking,
-    the converged start's active set, which was not solved at this load. Taken for a cycle, that return ended the step
-    as a mechanism ("damped iterations return to it") at half the sliding load; the step converges, the base carrying
-    P in shear and W in compression (equilibrium of the block, closed form) with every pair sticking."""
+    the converged start's active set, which was not solved at this load. Counted as a cycle, that return would end the
+    step as a mechanism ("damped iterations return to it") at half the sliding load; the step converges, the base
+    carrying P in shear and W in compression (equilibrium of the block, closed form) with every pair sticking."""
     solver, _ = block_solver(0.4, 0.5, elements=4)
     weight = solver.solve_step(0.0, solver.initial_iterate())
     assert weight.converged, weight.reason
