@@ -224,7 +224,10 @@ class CoulombJoints:
                  ) -> tuple[ContactState, np.ndarray]:
         """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` so that pairs carrying
         no force do not chatter between states. ``lam``, ``d``: (m, 2) arrays; ``slip_ref``: d_t at the last
-        converged step. Also returns each pair's violation (N), which ranks changes for damping."""
+        converged step. Also returns each pair's violation (N), which ranks changes for damping: how far the pair
+        is from the law it leaves, |sigma_n| for a pair that opens or closes, the friction cone's excess or slack
+        | |sigma_t| - mu sigma_n | for a closed pair (a change of its friction state); a closed pair's |sigma_n| is its
+        normal force, which would rank the most compressed pairs first rather than the most violated ones."""
         sig_n = lam[:, 0] - self.c * d[:, 0]
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
         tol = self.force_tol
@@ -236,7 +239,7 @@ class CoulombJoints:
         reversed_slip = was_slip & (sign != prev.sign)
         slip = np.where(was_slip & ~reversed_slip, excess > -tol, excess > tol)
         state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
-        violation = np.maximum(np.abs(sig_n), np.abs(excess))
+        violation = np.where(closed != was_closed, np.abs(sig_n), np.abs(excess))
         return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8)), violation
 
     def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:

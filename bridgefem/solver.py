@@ -8,8 +8,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism).
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
-   wrong active set is damped (half of the proposed changes) or repaired; an admissible mode is a mechanism
-   without proof.
+   wrong active set is damped (the half of the proposed changes farthest from the joint law they leave:
+   :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired; an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
    compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
@@ -150,7 +150,12 @@ hinge-mode proof exists for it), damping returns to the same sliding mechanism.
 of the solution (the load incrementation extrapolates the last two converged states) against the converged
 start. The start's active set is then the base of the first damping chain, and a failure before the step has
 solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it), unless its
-diverging mode proves collapse (*Mechanism verdicts*).
+diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited set of the step (it was solved at the
+start's load, not at this one): an iteration that returns to it, by damping or as a repair, solves it and goes on,
+where a return to a visited set is a cycle. A block on the ground pushed by half its sliding load, its predicted
+set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
+counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
+the equilibrium (``tests/test_predicted_step.py``).
 """
 from __future__ import annotations
 
@@ -554,7 +559,6 @@ class ContactSolver:
         give_up = give_up and not self.setting.patient
         x = self.A.createVecRight()
         start.x.copy(x)
-        seen = {self._global_key(active)}
         frozen = np.zeros(len(self.pairs), dtype=bool)
         bonded = np.zeros(len(self.pairs), dtype=bool)  # pairs whose open / closed state cycled: kept closed
         f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
@@ -578,7 +582,7 @@ class ContactSolver:
         predicted = self._predict(predictor, active, slip_ref, frozen) if predictor is not None else None
         if predicted is not None:  # no solved active set yet: a failure proves nothing
             base, active = predicted, predicted.proposal
-            seen.add(self._global_key(active))
+        seen = {self._global_key(active)}  # the active sets visited at this level (the start's only if solved here)
         budget = self.max_iterations if iterations is None else min(iterations, self.max_iterations)
         for it in range(1, budget + 1):
             failure = self._solve_active(level, active, slip_ref, x, start.x)

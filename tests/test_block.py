@@ -30,13 +30,15 @@ def standing_block(h: float) -> ArchRing:
     return ArchRing("block", B, H, B, np.array([0.0, 1.0]), [base, top], [block])
 
 
-def limit_push(mu: float, h: float, tolerance: float = 1e-3):
+def block_solver(mu: float, h: float, elements: int = 8) -> tuple[ContactSolver, float]:
+    """The contact solver of the standing block (``elements`` through its width) with a unit push at height h as its
+    live load (N), and the block's weight (N)."""
     scene = scene_from_dict({"arch": {"shape": "segmental", "span": 1.0, "rise": 0.5, "thickness": 0.2,
                                       "voussoirs": 2},
                              "masonry": {"young": 1e9, "poisson": 0.2, "density": RHO},
-                             "joints": {"friction": mu}, "mesh": {"elements_through_thickness": 8}})
+                             "joints": {"friction": mu}, "mesh": {"elements_through_thickness": elements}})
     ring = standing_block(h)
-    bm = build_block_mesh(ring, 8)
+    bm = build_block_mesh(ring, elements)
     model = build_elastic_model(bm, ring, scene)
     n_owned = model.V.dofmap.index_map.size_local
     xy = model.V.tabulate_dof_coordinates()[:n_owned, :2]
@@ -46,9 +48,13 @@ def limit_push(mu: float, h: float, tolerance: float = 1e-3):
         loc.array[2 * at] += 1.0 / count  # unit push in +x
     pairs = build_pairs(model.V, bm, ring, 1e-9)
     c = scene.masonry.young * pairs.length / bm.element_size
-    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, mu, c, 1e-10 * W, 60, {})
+    return ContactSolver(model.K, model.f_dead, model.f_live, pairs, mu, c, 1e-10 * W, 60, {}), model.dead_weight
+
+
+def limit_push(mu: float, h: float, tolerance: float = 1e-3):
+    solver, weight = block_solver(mu, h)
     return find_limit_load(solver, lambda it: 0.0, tolerance=tolerance, initial_step=W / 8,
-                           max_load=10 * W, max_steps=200), model.dead_weight
+                           max_load=10 * W, max_steps=200), weight
 
 
 @pytest.mark.parametrize("mu,h,expected,mode", [
