@@ -176,6 +176,44 @@ def test_cohesionless_fill_vertical_stress_is_overburden_far_from_the_arch(cohes
     assert fe == pytest.approx(hand, rel=0.03)
 
 
+def test_assembled_tangent_is_the_derivative_of_the_internal_force():
+    """The Newton matrix of the fill (PlasticFill.evaluate: the consistent tangent of every point, assembled) times a
+    displacement v of the fill's nodes equals central differences of the assembled internal force along v, at a
+    state where elastic points, points returned to the cone and points at its apex all take part: the converged
+    self-weight displacements of the cohesionless fill plus a random field on the fill's nodes, from zero plastic
+    strain. Step h: the strains move by about 1e-9 of themselves; the tolerance is the apex regularisation
+    (APEX_STIFFNESS of the elastic matrix) with a margin."""
+    from bridgefem.fill import APEX_STIFFNESS
+    from bridgefem.plasticity import return_map
+
+    _, an = cohesionless_analysis()
+    fill, n_u, V = an.solver.material, an.solver.n_u, an.model.V
+    cells = an.block_mesh.cell_tags.indices[an.block_mesh.cell_tags.values == an.block_mesh.fill_block]
+    nodes = np.unique(V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)[cells])
+    on_fill = np.zeros(n_u, dtype=bool)
+    on_fill[np.concatenate([2 * nodes, 2 * nodes + 1])[np.concatenate([2 * nodes, 2 * nodes + 1]) < n_u]] = True
+    for bc in an.model.bcs:
+        dofs, owned = bc.dof_indices()
+        on_fill[dofs[:owned]] = False
+    rng = np.random.default_rng(3)
+    u = an.search.last.x.array[:n_u] + on_fill * rng.standard_normal(n_u) * np.abs(an.search.last.x.array).max()
+    v = on_fill * rng.standard_normal(n_u) * np.abs(u).max()
+    plastic = fill.initial_plastic_strain()
+    eps = fill.points.strain(u)[fill._fill]
+    stress, _, flow = return_map(fill.material, np.column_stack([eps[:, :2], 0 * eps[:, 0], eps[:, 2]]), plastic)
+    yielded, apex = np.abs(flow).max(axis=1) > 0, np.abs(stress).max(axis=1) == 0
+    assert (~yielded).any() and (yielded & ~apex).any() and apex.any()
+    h = 1e-9
+    forward, backward = (fill.evaluate(u + s * h * v, plastic, tangent=False).f_int for s in (1.0, -1.0))
+    fill.evaluate(u, plastic)
+    product, direction = fill.K.createVecLeft(), fill.K.createVecRight()
+    direction.array[:] = v
+    fill.K.mult(direction, product)
+    scale = np.abs(product.array).max()
+    np.testing.assert_allclose(product.array, (forward - backward) / (2 * h), rtol=0,
+                               atol=10 * APEX_STIFFNESS * scale)
+
+
 def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     """A stiff fill (a tenth of the masonry's modulus) with a rough interface (mu = 100) holds the ring: the FE
     carries more than the LP with the fill as dead load only (whose mechanism needs the ring to sway into the
