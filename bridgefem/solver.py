@@ -864,7 +864,10 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     first that showed a mechanism where ``failed`` showed none, else ``failed`` (its reason saying so); when
     ``failed`` ended on an unbounded solve (singular, or diverging along any mode) and every retry met one,
     ``failed`` as a mechanism without proof (no setting found an equilibrium, each found the system unbounded: the
-    verdict needs the LP's agreement, :mod:`bridgefem.evidence`). Restores the default setting."""
+    verdict needs the LP's agreement, :mod:`bridgefem.evidence`). A setting that changes nothing for this solver (the
+    line search alone, with a plastic fill) is skipped. Restores the default setting."""
+    searching = solver.material is not None  # a plastic fill's steps are line searched already
+    settings = tuple(st for st in settings if not (searching and replace(st, line_search=False) == DEFAULT_SETTING))
     best, unbounded = failed, failed.unbounded
     try:
         for setting in settings:

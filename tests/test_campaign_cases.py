@@ -301,10 +301,10 @@ class ScriptedSolver:
     """A stand-in for ContactSolver in :func:`bridgefem.solver.retried`: each solve returns the next scripted outcome
     and records the setting it was solved with."""
 
-    def __init__(self, outcomes):
+    def __init__(self, outcomes, material=None):
         from bridgefem.solver import DEFAULT_SETTING
 
-        self.outcomes, self.setting, self.used = list(outcomes), DEFAULT_SETTING, []
+        self.outcomes, self.setting, self.used, self.material = list(outcomes), DEFAULT_SETTING, [], material
 
     def use(self, setting):
         self.setting = setting
@@ -327,6 +327,17 @@ def test_a_retry_that_converges_continues_and_restores_the_default_setting():
     solver = ScriptedSolver([_outcome(), _outcome(converged=True)])
     out = retried(solver, solver.solve, _outcome(unbounded=True, diverged=True))
     assert out.converged and solver.used == list(RETRIES[:2]) and solver.setting == DEFAULT_SETTING
+
+
+def test_with_a_plastic_fill_the_line_search_alone_is_no_retry():
+    """A plastic fill's steps are line searched already: the retry whose only change is the line search would
+    repeat the failed solve, so it is skipped; every other setting is tried."""
+    from bridgefem.solver import RETRIES, Setting, retried
+
+    solver = ScriptedSolver([_outcome() for _ in RETRIES], material=object())
+    out = retried(solver, solver.solve, _outcome())
+    assert not out.converged and f"each of {len(RETRIES) - 1} other solver settings" in out.reason
+    assert Setting(line_search=True) not in solver.used and len(solver.used) == len(RETRIES) - 1
 
 
 def test_every_setting_diverging_is_a_mechanism_without_proof_and_anything_else_stays_a_failure():
