@@ -30,7 +30,8 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
   leave a voussoir of zero length; not counted in the success rate.
 
-Prints one row per scene, the success rate, the classes, solves per limit (median, max) and the worst cases; writes
+Prints one row per scene, the success rate, the classes, solves per limit (median, max; a scene's linear solves
+summed over all its runs, the coarser meshes an automatic refinement replaced included) and the worst cases; writes
 ``campaign.json`` beside the scenes. Run::
 
     ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
@@ -189,7 +190,8 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     # below the associative LP only with a proof or the non-associative rigid-block check (bridgefem/evidence.py)
     proved = data.get("evidence", "").startswith(("proof", "agreement: the non-associative"))
     out = {"status": status, "lp_status": lp_status, "fe": mid, "lp": lp["load"], "ratio": ratio,
-           "sliding": sliding, "solves": data["solver"]["solves"], "reason": data.get("failure_reason", "")}
+           "sliding": sliding, "solves": data["solver"]["solves"] + sum(r["solves"] for r in data["mesh_refinements"]),
+           "reason": data.get("failure_reason", "")}
     if status.startswith("solver failure"):
         cls = "solver failure"
         if code != 1 or lim["upper"] is not None:

@@ -93,12 +93,13 @@ class JointState:
 
 @dataclass(frozen=True)
 class MeshRefinement:
-    """A run that a finer mesh replaced: its ``elements_through_thickness``, the status it ended with and its
-    ``seconds`` (wall time of all its phases)."""
+    """A run that a finer mesh replaced: its ``elements_through_thickness``, the status it ended with, its
+    ``seconds`` (wall time of all its phases) and its linear ``solves``."""
 
     elements_through_thickness: int
     status: str
     seconds: float
+    solves: int
 
 
 @dataclass
@@ -254,8 +255,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
             if failed and confirmed is not None:
                 notice(f"the re-run with {ett} elements through the thickness failed ({an.search.status}): the "
                        f"confirmed run with {confirmed.scene.mesh.elements_through_thickness} stands")
-                confirmed.refinements = refinements[:-1] + [MeshRefinement(ett, an.search.status,
-                                                                           sum(an.timings.values()))]
+                confirmed.refinements = refinements[:-1] + [_replaced(an, ett)]
                 return confirmed
             moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
             finer, why = None, refinement_reason(an, ett)
@@ -265,11 +265,16 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
             if finer is None:
                 an.refinements = refinements
                 return an
-            refinements.append(MeshRefinement(ett, an.search.status, sum(an.timings.values())))
+            refinements.append(_replaced(an, ett))
             previous, confirmed = carried, None if failed else an
             notice(f"{why}: re-running with {finer} elements through the thickness")
             del an  # free a failed coarse model before the finer one is built
             scene = with_mesh(scene, finer)
+
+
+def _replaced(an: Analysis, ett: int) -> MeshRefinement:
+    """The record of a run with ``ett`` elements through the thickness that another run replaces."""
+    return MeshRefinement(ett, an.search.status, sum(an.timings.values()), an.solver.stats["solves"])
 
 
 def refinement_reason(an: Analysis, ett: int) -> str:

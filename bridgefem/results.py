@@ -55,7 +55,7 @@ CONVENTIONS = {
     "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
     "deflection": "downward displacement under the live load (mean over the loaded nodes), positive down",
     "mesh_refinements": "the other runs of an automatic mesh refinement, coarsest first: their elements through "
-                        "the thickness, status and seconds (the runs a finer mesh replaced; a finer run that failed "
+                        "the thickness, status, seconds and linear solves (the runs a finer mesh replaced; a finer run that failed "
                         "after a confirmed one, which the results then are; otherwise the results are the last "
                         "run's, model)",
     "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "

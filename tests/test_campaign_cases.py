@@ -118,8 +118,10 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
     campaign = campaign_module()
     data = {"status": "limit load found", "limit_load": {"lower": 95280.08, "upper": 95285.92},
             "lp": {"status": "limit load found", "load": 95763.05, "mechanism": {"sliding": [0, 68]}},
-            "mechanism": {"sliding": [68]}, "evidence": "agreement: ...", "solver": {"solves": 90}}
+            "mechanism": {"sliding": [68]}, "evidence": "agreement: ...", "solver": {"solves": 90},
+            "mesh_refinements": [{"elements_through_thickness": 4, "solves": 40}]}
     assert campaign.judge(data, 0, "")["class"] == "confirmed"
+    assert campaign.judge(data, 0, "")["solves"] == 130  # the coarser run that a refinement replaced counts too
     below = {**data, "limit_load": {"lower": 95270.0, "upper": 95280.0}}  # the whole bracket 0.5 % below, no proof
     assert campaign.judge(below, 0, "")["class"] == "wrong"
     assert campaign.judge({**below, "evidence": "proof: ..."}, 0, "")["class"] == "confirmed"
@@ -164,6 +166,7 @@ def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
     data = {"status": "limit load found", "limit_load": {"lower": 500e3, "upper": 500.05e3},
             "lp": {"status": "limit load found", "load": 8000e3, "mechanism": {"sliding": []}},
             "mechanism": {"sliding": []}, "evidence": "equilibrium found", "solver": {"solves": 90},
+            "mesh_refinements": [],
             "fill_bounds": {"lower": 419e3, "upper": 1029e3, "unit": "N"}}
     assert campaign.judge(data, 0, "", fill=True)["class"] == "confirmed"  # far below the dead-load LP
     above = {**data, "limit_load": {"lower": 1430e3, "upper": 1430.1e3}}  # scene 125 before the fill mesh converged

@@ -29,6 +29,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
         lower = lowers.pop(0)
         return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=queue.pop(0)), refinements=None,
                                load_total=1.0, timings={"limit search": 1.0}, scene=scene,
+                               solver=SimpleNamespace(stats={"solves": 30}),
                                lp=SimpleNamespace(load=100.0, level=100.0),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
                                                       tolerance=1e-4))
@@ -105,5 +106,5 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     assert data["mesh_refinements"] == on_disk["mesh_refinements"]
     assert [r["elements_through_thickness"] for r in on_disk["mesh_refinements"]] == [4]
     assert Status.of(on_disk["mesh_refinements"][0]["status"]) is Status.FAILURE
-    assert on_disk["mesh_refinements"][0]["seconds"] > 0
+    assert on_disk["mesh_refinements"][0]["seconds"] > 0 and on_disk["mesh_refinements"][0]["solves"] > 0
     assert on_disk["model"]["elements_through_thickness"] == 8
