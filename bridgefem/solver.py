@@ -51,7 +51,8 @@ the largest applied nodal force. Newton iterations whose out-of-balance force en
 nodal force are reported as diverged, but not as proof of collapse: a smaller step may converge, and a yielding
 fill's limit is where the load-deflection curve becomes flat (:mod:`bridgefem.pathfollow`).
 
-**Line search.** With a plastic fill, every Newton step after the first (which starts from the elastic predictor)
+**Line search.** With a plastic fill, every Newton step after the first (which starts from the elastic predictor,
+at the step's start or at the load incrementation's secant estimate: :mod:`bridgefem.pathfollow`, *Predictor*)
 is backtracked from the linearisation point x_k: the solution x of the linear system becomes x_k + a (x - x_k),
 displacements and joint forces alike, for the first a = 1, 1/2, ... (at most ``LINE_SEARCH_HALVINGS`` halvings)
 whose merit is at most (1 - ``ARMIJO`` a) times the merit at x_k, and stays the full step when none is. The merit is
