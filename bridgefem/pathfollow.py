@@ -56,11 +56,16 @@ through the last two converged states (``lower`` and the one before it, both wit
 state is a poor start for a secant), extrapolated to the trial (:meth:`bridgefem.solver.ContactSolver.solve_step`):
 on a load path whose joints open and slide progressively that saves the first Newton iteration. A trial within
 the width of ``lower`` (one that can close the bracket) starts from the converged active set, so that its
-failure is the Newton method's own evidence. With a plastic fill a predicted trial also starts from the secant's
-displacements and joint forces (:func:`_displaced`; the active set, slip reference and plastic strain stay the
-converged state's, so what counts as converged is unchanged): the yielding zone then starts where the last two
-steps were taking it, instead of being carried there again by a nearly singular tangent in line-searched steps of
-1/8 to 1/32 (campaign seed 1, #145: converged steps of 3 to 5 Newton iterations instead of 7 to 9).
+failure is the Newton method's own evidence. With a plastic fill every trial after two live-load states, the
+closing ones too, also starts from the secant's displacements and joint forces (:func:`_displaced`), its active
+set chosen as above, its slip reference and plastic strain the converged state's (a start changes the Newton
+iteration's path, never what counts as converged; a fill's failure without proof is never decisive): the yielding zone
+then starts where the last two steps were taking it, instead of being carried there again by a nearly singular
+tangent in line-searched steps of 1/8 to 1/32. Campaign seed 1, #145: converged steps of 3 to 5 Newton iterations
+instead of 7 to 9; #136, near its fill's mechanism (the curve's secant a few per cent of its initial stiffness):
+the trials within the width of ``lower`` crawled at out-of-balance forces of 1e-5 to 1e-4 of the largest applied
+nodal force through their 60 iterations from the converged state, a solver failure; from the secant the closing
+trial converges in 17 and its flat secant closes the bracket.
 
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
@@ -198,9 +203,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
 
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
-                give_up: bool = False, iterations: int | None = None) -> StepOutcome:
+                give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
+                ) -> StepOutcome:
         t0 = time.perf_counter()
-        begin = _displaced(start, predictor) if solver.material is not None and predictor is not None else start
+        begin = _displaced(start, estimate) if estimate is not None else start
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
         reached = deflection(out.iterate) if out.converged else None
         if reached is not None and k_initial < math.inf:
@@ -272,10 +278,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             trial = lower + step
         trial = min(trial, max_load, cap)
-        predict = trial - lower > width and history and history[-1][0] > 0  # two live-load states, not closing
-        predictor = _secant(history[-1], lower, state, trial) if predict else None
+        secant = _secant(history[-1], lower, state, trial) if history and history[-1][0] > 0 else None
+        predictor = secant if trial - lower > width else None  # two live-load states, not closing
+        estimate = secant if solver.material is not None else None
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
-        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
+        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
         suspect = not plausible(trial)
         backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
             and backtracks < BACKTRACKS

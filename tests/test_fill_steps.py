@@ -19,11 +19,11 @@ class PlasticFillOneDof(OneDof):
 
     def __init__(self):
         super().__init__()
-        self.starts = []  # (converged start level, start displacement given to the solver, trial level)
+        self.starts = []  # (displacement the solver is given to start from, trial level, active set predicted)
 
     def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
         out = super().solve_step(level, start, predictor, give_up, iterations)
-        self.starts.append((float(start.x.array[0]) if predictor is None else None, float(start.x.array[0]), level))
+        self.starts.append((float(start.x.array[0]), level, predictor is not None))
         if out.converged and level > 0:
             return StepOutcome(True, "", FILL_ITERATIONS, 0.0, FILL_ITERATIONS, out.iterate, {})
         return out
@@ -40,14 +40,14 @@ def test_a_plastic_fill_whose_steps_all_need_many_iterations_still_doubles_its_s
 
 
 def test_a_plastic_fill_trial_starts_from_the_secant_through_the_last_two_states():
-    """On this path the displacement is the load level: the secant through the last two converged states is exact, so
-    every trial more than the width above its start begins at the trial's own solution; a trial that can close the
-    bracket begins at the converged state."""
+    """On this path the displacement is the load level: the secant through the last two converged live-load states is
+    exact, so every trial after the first two live-load steps begins at the trial's own solution, the trials that can
+    close the bracket too; only the trials more than the width above their start are given a predicted active set."""
     solver = PlasticFillOneDof()
     s = search(solver)
     assert_bracket(s)
-    predicted = [(given, level) for converged, given, level in solver.starts if converged is None]
-    assert len(predicted) > 3, "no trial was predicted: the test proves nothing"
-    assert all(abs(given - level) <= 1e-9 * level for given, level in predicted)
-    closing = solver.starts[-1]
-    assert closing[0] == closing[1] < closing[2]
+    later = solver.starts[3:]  # after the self-weight and the first two live-load steps
+    assert all(abs(given - level) <= 1e-9 * level for given, level, _ in later)
+    closing = [(given, level) for given, level, predicted in later if not predicted]
+    assert closing, "no trial could close the bracket: the test proves nothing"
+    assert s.steps[-1].level == closing[-1][1] and not solver.starts[-1][2]
