@@ -37,9 +37,12 @@ converged state before it (of the last ``BACKTRACK``) and goes on with ``BACKTRA
 guess therefore costs steps, never the bracket rule.
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
-Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step); it
-never shrinks after a converged step (that would stall where every step needs many iterations), a soft failure
-halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
+Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step) and, with a
+plastic fill, after a converged step of no more iterations than the step before it: a yielding fill takes 10 to 30
+on every step near its mechanism whatever the step's size (campaign seed 2, #13: 11-20 on each of 75 steps of the
+width, from the guess's target up to the limit 37 % above it), so only the iterations' growth says the step is too
+long. It never shrinks after a converged step (that would stall where every step needs many iterations), a soft
+failure halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
 and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high.
 
 **Flat curve.** A structure whose mechanism is restrained by a soft or yielding fill never loses equilibrium
@@ -53,7 +56,16 @@ through the last two converged states (``lower`` and the one before it, both wit
 state is a poor start for a secant), extrapolated to the trial (:meth:`bridgefem.solver.ContactSolver.solve_step`):
 on a load path whose joints open and slide progressively that saves the first Newton iteration. A trial within
 the width of ``lower`` (one that can close the bracket) starts from the converged active set, so that its
-failure is the Newton method's own evidence.
+failure is the Newton method's own evidence. With a plastic fill every trial after two live-load states, the
+closing ones too, also starts from the secant's displacements and joint forces (:func:`_displaced`), its active
+set chosen as above, its slip reference and plastic strain the converged state's (a start changes the Newton
+iteration's path, never what counts as converged; a fill's failure without proof is never decisive): the yielding zone
+then starts where the last two steps were taking it, instead of being carried there again by a nearly singular
+tangent in line-searched steps of 1/8 to 1/32. Campaign seed 1, #145: converged steps of 3 to 5 Newton iterations
+instead of 7 to 9; #136, near its fill's mechanism (the curve's secant a few per cent of its initial stiffness):
+the trials within the width of ``lower`` crawled at out-of-balance forces of 1e-5 to 1e-4 of the largest applied
+nodal force through their 60 iterations from the converged state, a solver failure; from the secant the closing
+trial converges in 17 and its flat secant closes the bracket.
 
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
@@ -191,9 +203,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
 
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
-                give_up: bool = False, iterations: int | None = None) -> StepOutcome:
+                give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
+                ) -> StepOutcome:
         t0 = time.perf_counter()
-        out = solver.solve_step(level, start, predictor, give_up, iterations)
+        begin = _displaced(start, estimate) if estimate is not None else start
+        out = solver.solve_step(level, begin, predictor, give_up, iterations)
         reached = deflection(out.iterate) if out.converged else None
         if reached is not None and k_initial < math.inf:
             rise = reached - deflection(start)
@@ -247,6 +261,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     retry = False  # the next trial retries the soft bound
     stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     hardest = first.iterations  # Newton iterations of the hardest converged step
+    latest = first.iterations  # Newton iterations of the step that reached lower
     backtracks = 0
     linear = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
     while len(steps) < max_steps:
@@ -263,10 +278,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             trial = lower + step
         trial = min(trial, max_load, cap)
-        predict = trial - lower > width and history and history[-1][0] > 0  # two live-load states, not closing
-        predictor = _secant(history[-1], lower, state, trial) if predict else None
+        secant = _secant(history[-1], lower, state, trial) if history and history[-1][0] > 0 else None
+        predictor = secant if trial - lower > width else None  # two live-load states, not closing
+        estimate = secant if solver.material is not None else None
         budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
-        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget)
+        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
         suspect = not plausible(trial)
         backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
             and backtracks < BACKTRACKS
@@ -278,6 +294,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if out.converged:
             linear = out.iterations == 1 and not jump
             hardest = max(hardest, out.iterations)
+            easy = out.iterations <= max(EASY_ITERATIONS, first.iterations) or (
+                solver.material is not None and out.iterations <= latest)
+            latest = out.iterations
             history.append((lower, state, taken, visit))
             visit = len(steps)
             taken, arrived = trial - lower, lower < target <= trial
@@ -296,7 +315,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             if arrived:
                 step = CLOSE * tolerance * lower
             else:
-                step = 2.0 * taken if out.iterations <= max(EASY_ITERATIONS, first.iterations) else taken
+                step = 2.0 * taken if easy else taken
             continue
         failed_from.add((visit, trial))
         if backtrack:
@@ -326,6 +345,14 @@ def _secant(previous: tuple[float, Iterate, float, int], level: float, state: It
     x = state.x.copy()
     x.axpy((trial - level) / (level - before), state.x - earlier.x)
     return x
+
+
+def _displaced(state: Iterate, predictor: PETSc.Vec) -> Iterate:
+    """The converged ``state`` with its displacements and joint forces replaced by the ``predictor``'s (the Newton
+    iteration's first linearisation point, and the origin of the modes its diverging solves are judged by, which
+    are beyond a million times the self-weight response); its active set, slip reference and plastic strain stay the
+    converged state's (module docstring, *Predictor*)."""
+    return Iterate(predictor, state.active, state.slip_ref, state.plastic_strain)
 
 
 def _initial_stiffness(solver: ContactSolver, deflection: Callable[[Iterate], float], state: Iterate) -> float:

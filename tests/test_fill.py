@@ -13,12 +13,14 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
+from bridgefem.bounds import fill_bounds
 from bridgefem.mesh import FILL_BASE_TAG
 from bridgefem.model import beam_lame, cell_constant, lame, strain
 from bridgefem.pathfollow import LIMIT_FOUND
 from bridgefem.selfweight import cohesion_continuation
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
+from bridgefem.solver import DIVERGED_OUT_OF_BALANCE
 
 from conftest import ROOT, bridgefem, scene_dict, write_toml
 
@@ -518,3 +520,20 @@ def test_loading_beam_on_a_cohesive_fill_bears_prandtls_load():
     prandtl = (2 + np.pi) * 1e4 * 0.3
     assert prandtl < s.lower * an.load_total and s.upper * an.load_total < 1.12 * prandtl
     assert not any(j.hinge for j in an.joints)  # the fill fails, not the ring
+
+
+@pytest.mark.slow
+def test_a_fill_step_far_beyond_the_collapse_load_stops_as_diverged():
+    """From the settled self-weight state of the reference arch under a cohesive Mohr-Coulomb fill, a live load ten
+    times the conic upper bound of the bridge with its fill (no equilibrium exists: the kinematic theorem) drives the
+    out-of-balance force beyond DIVERGED_OUT_OF_BALANCE times the largest applied nodal force: the step ends there as
+    diverged, well within its iteration budget, without claiming a mechanism (a fill's failure proves nothing)."""
+    mohr = {**FILL, "material": "mohr-coulomb", "friction_angle": 30.0, "cohesion": 5e3}
+    patch = [{"kind": "patch", "position": 0.25, "length": 0.5}]
+    scene = scene_from_dict(scene_dict(fill=mohr, load=patch, solver={"max_load": 1.0}))  # settles, locked at 1 N
+    an = run_analysis(scene)
+    upper = fill_bounds(scene)["upper"]
+    budget = an.solver.max_iterations
+    out = an.solver.solve_step(10 * upper / an.load_total, an.search.last, iterations=budget)
+    assert not out.converged and not out.mechanism
+    assert out.reason.startswith("diverged") and out.residual > DIVERGED_OUT_OF_BALANCE and out.iterations < budget

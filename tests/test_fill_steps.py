@@ -1,0 +1,53 @@
+"""Step control of the limit search with a plastic fill (bridgefem.pathfollow, *Steps* and *Predictor*) on the
+one-degree-of-freedom fake solver of test_bracket (displacement = load level, no equilibrium above LIMIT), made to
+behave like a Mohr-Coulomb fill: every converged live-load step takes more Newton iterations than the self-weight
+step did."""
+from types import SimpleNamespace
+
+from test_bracket import LIMIT, OneDof, assert_bracket, search
+
+from bridgefem.solver import StepOutcome
+
+FILL_ITERATIONS = 12  # Newton iterations of every converged live-load step (the self-weight takes 2)
+
+
+class PlasticFillOneDof(OneDof):
+    """``OneDof`` with a plastic fill: each converged live-load step takes ``FILL_ITERATIONS`` Newton iterations;
+    records the displacement each trial starts from."""
+
+    material = SimpleNamespace(cohesion=0.0, material=SimpleNamespace(cohesion=0.0))
+
+    def __init__(self):
+        super().__init__()
+        self.starts = []  # (displacement the solver is given to start from, trial level, active set predicted)
+
+    def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
+        out = super().solve_step(level, start, predictor, give_up, iterations)
+        self.starts.append((float(start.x.array[0]), level, predictor is not None))
+        if out.converged and level > 0:
+            return StepOutcome(True, "", FILL_ITERATIONS, 0.0, FILL_ITERATIONS, out.iterate, {})
+        return out
+
+
+def test_a_plastic_fill_whose_steps_all_need_many_iterations_still_doubles_its_steps():
+    """A guess at 0.3 of the limit: after landing on it the step is the width (1e-4 of the load, 0.04 N), and the
+    limit is 860 N further. Steps that never grow would need about 23 000 of them (the search stops at 200, a solver
+    failure); doubled while no step takes more Newton iterations than the one before, about 15."""
+    solver = PlasticFillOneDof()
+    s = search(solver, guess=0.3 * LIMIT)
+    assert_bracket(s)
+    assert len(s.steps) < 60
+
+
+def test_a_plastic_fill_trial_starts_from_the_secant_through_the_last_two_states():
+    """On this path the displacement is the load level: the secant through the last two converged live-load states is
+    exact, so every trial after the first two live-load steps begins at the trial's own solution, the trials that can
+    close the bracket too; only the trials more than the width above their start are given a predicted active set."""
+    solver = PlasticFillOneDof()
+    s = search(solver)
+    assert_bracket(s)
+    later = solver.starts[3:]  # after the self-weight and the first two live-load steps
+    assert all(abs(given - level) <= 1e-9 * level for given, level, _ in later)
+    closing = [(given, level) for given, level, predicted in later if not predicted]
+    assert closing, "no trial could close the bracket: the test proves nothing"
+    assert s.steps[-1].level == closing[-1][1] and not solver.starts[-1][2]
