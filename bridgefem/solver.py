@@ -22,9 +22,9 @@ Why this method: each iteration costs one sparse solve that reuses the symbolic 
 campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) a bare ring needs a median of about 30 solves per limit
 load; its failures there are sliding stalls below the associative LP and, with an elastic fill, cycles of many pairs
 at the ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
-failures*). Cycles of a few pairs are solved exactly on their condensed compliance (*Cycles* below) rather than by a
-condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at one to four pairs, so the
-small problem costs 2p + 1 solves with one factorisation, once per cycle.
+failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on their condensed compliance (*Cycles*
+below) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at
+a few pairs, so the small problem costs 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
@@ -90,10 +90,10 @@ trial at the bracket's width, the self-weight after its continuation) is solved 
 start with other algorithmic settings (:class:`Setting`, ``RETRIES``, :func:`retried`): the Alart-Curnier constants
 x 10 and x 0.1 (they weigh forces against displacements only in the classification, so they change the path of
 the active sets, not the solution), a start from every joint closed and sticking instead of the start's active
-set, the line search, unlimited damping chains, cycles of up to ``CONDENSED_PAIRS`` pairs solved exactly
-(*Cycles*). The first that converges or proves its mechanism is taken; every outcome is judged as any other (a
-converged state is an equilibrium of the scene's laws, a mechanism still needs its proof or the LP's agreement), so
-a retry changes how often the Newton method finds the answer, never what counts as one.
+set, the line search, unlimited damping chains. The first that converges or proves its mechanism is taken; every
+outcome is judged as any other (a converged state is an equilibrium of the scene's laws, a mechanism still needs
+its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
+counts as one.
 
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth, or
 stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair next to a
@@ -112,10 +112,9 @@ pair has no consistent state in the discrete law: e.g. a springing pair of an el
 seed 1, #51) penetrated 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual
 of a few newtons and the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
-**Cycles.** When the active set returns to one already solved in the step and at most the setting's ``condensed``
-pairs change (``ENUMERATED_PAIRS``, 4, by default; ``CONDENSED_PAIRS``, 24, in the last retry setting), those pairs
-are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their relative
-displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
+**Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
+change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
+relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
 solves), and :func:`bridgefem.joint_condensation.consistent_states` finds a state of theirs that the joint law
 accepts: up to four pairs by enumerating their 4^p states, above by Lemke's method on the Coulomb law written as a
 linear complementarity problem (finite, and sure to find a solution when C's symmetric part is positive definite);
@@ -131,11 +130,11 @@ opening it sends the ring into a diverging mode). Such a condensation is not use
 sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
 a symmetric C. With an elastic fill the ring's collapse under the loads the fill transmits cycles at 5 to 40 pairs
 (ring joints and arch-fill pairs; #9: segmental, 220 voussoirs, mu = 6.78), most of them with a P-matrix normal block
-once the other slips stick. Condensed at once, such cycles cost bare rings two to three times the solves (campaign
-seed 1: #48 390 -> 852, #197 463 -> 993, #230 296 -> 612) where damping and bonding (below) would have done, and
-tried only after damping and bonding fail within a step they still cost more (574, 998, 488) without confirming
-#9 or #181: so cycles of more than four pairs are condensed only by the last retry setting, on a trial whose
-failure would end the search.
+once the other slips stick. Condensed at once, cycles of 5 to 24 pairs cost some bare rings two to three times the
+solves (campaign seed 1: #48 390 -> 852, #197 463 -> 993, #230 296 -> 612 against condensing at most four pairs);
+condensed only in the last retry of a failing trial, #182 (pointed, 171 voussoirs, mu = 0.325) ends 7.5 % below the
+LP as a solver failure instead of at the LP's limit, and tried only after damping and bonding fail they cost more
+still without confirming #9 or #181. An answer comes before its cost: they are condensed at once.
 A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
 
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
@@ -191,7 +190,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
-from .joint_condensation import ENUMERATED_PAIRS, consistent_states, opens_when_pulled
+from .joint_condensation import consistent_states, opens_when_pulled
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -207,8 +206,7 @@ DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force 
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-CONDENSED_PAIRS = 24  # with the retry setting ``condensed``, a cycle of at most this many pairs is solved exactly
-# on their compliance (2p + 1 solves); by default only cycles of up to ENUMERATED_PAIRS (module's *Cycles*)
+CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (2p + 1 solves)
 
 
 @dataclass(frozen=True)
@@ -218,19 +216,17 @@ class Setting:
     forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
     instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
     ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
-    a damped semismooth Newton method on the Alart-Curnier residual), ``condensed`` is the most pairs of a cycle
-    solved exactly on their compliance (the module's *Cycles*)."""
+    a damped semismooth Newton method on the Alart-Curnier residual)."""
 
     scale: float = 1.0
     fresh: bool = False
     patient: bool = False
     line_search: bool = False
-    condensed: int = ENUMERATED_PAIRS
 
 
 DEFAULT_SETTING = Setting()
 RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
-           Setting(fresh=True, patient=True), Setting(condensed=CONDENSED_PAIRS))
+           Setting(fresh=True, patient=True))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
@@ -725,12 +721,12 @@ class ContactSolver:
     def _condensed(self, level: float, active: ContactState, cycling: np.ndarray, slip_ref: np.ndarray,
                    reference: ContactState) -> ContactState | None:
         """An active set with the pairs of a cycle in consistent states (the module's *Cycles*): the pairs
-        ``cycling`` (a local mask, at most the setting's ``condensed`` in all), condensed onto their forces
+        ``cycling`` (a local mask, at most ``CONDENSED_PAIRS`` in all), condensed onto their forces
         (:mod:`bridgefem.joint_condensation`; ``reference``, the converged start's active set, breaks ties) with every
         other pair's state of ``active`` held, else with every other sliding pair sticking; a condensation whose normal
         compliance is not a P-matrix is not used. None when there are too many, a solve fails, or no combination is
         consistent. Collective."""
-        if self.comm.allreduce(int(cycling.sum())) > self.setting.condensed:
+        if self.comm.allreduce(int(cycling.sum())) > CONDENSED_PAIRS:
             return None
 
         def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order

@@ -113,17 +113,18 @@ def test_which_failures_are_re_run_on_a_finer_mesh(case, re_run):
 
 
 @pytest.mark.slow
-def test_a_ring_near_its_least_thickness_stands_on_a_finer_mesh():
-    """Campaign scene 251, 0.3 % thicker than the LP's least thickness (computed here): with 4 elements through the
-    thickness the self-weight fails without proof; the re-run with 8 stands and brackets the LP's collapse load
-    (computed independently) within 0.5 %."""
+def test_a_ring_near_its_least_thickness_stands():
+    """Campaign scene 251, 0.3 % thicker than the LP's least thickness (computed here): it stands (with 4 elements
+    through the thickness, or after a re-run with 8 where the self-weight fails without proof on 4, as it did before
+    predicted steps could return to their start's active set) and brackets the LP's collapse load (computed
+    independently) within 0.5 %."""
     from bridgefem.rigid_block import collapse_load, min_thickness
 
     scene = scene_from_dict(SCENE_251)
     assert 1.0 < scene.arch.thickness / min_thickness(scene).thickness < 1.005
     lp = collapse_load(scene).load
     an = run_analysis(scene)
-    assert [r.elements_through_thickness for r in an.refinements] == [4]
-    assert an.scene.mesh.elements_through_thickness == 8
+    assert [r.elements_through_thickness for r in an.refinements] in ([], [4])
+    assert an.scene.mesh.elements_through_thickness == 4 * 2 ** len(an.refinements)
     assert an.search.status == Status.LIMIT
     assert 0.995 * lp <= an.search.upper * an.load_total and an.search.lower * an.load_total <= 1.005 * lp
