@@ -9,7 +9,7 @@ evidence of collapse only when
    the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
 3. for a limit with sliding joints below the associative LP: the FE's last converged state is a *collapse state*
    of its rigid blocks (:class:`SlipCheck`). Its joint forces balance every voussoir under the FE's own loads at
-   the bracket's lower end (the assembled self-weight and live load, :func:`bridgefem.analysis.block_loads`) and
+   the bracket's lower end (the assembled self-weight and live load, :func:`bridgefem.static_bound.block_loads`) and
    obey no tension and Coulomb friction pair by pair, so they are statically admissible for the rigid blocks with
    each joint's shear capacity frozen at mu x the FE's normal force (:func:`bridgefem.rigid_block.
    frozen_capacity_collapse`). That *frozen* LP has a shear limit independent of the normal force, hence normality
@@ -28,7 +28,7 @@ evidence of collapse only when
    Radenkovic's first theorem).
 
 4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the
-   FE's own assembled block loads (:func:`bridgefem.analysis.block_loads`) has the collapse level LP_fe. A
+   FE's own assembled block loads (:func:`bridgefem.static_bound.block_loads`) has the collapse level LP_fe. A
    converged FE state at level L balances every voussoir under those loads (to the solver's equilibrium residual)
    with pair forces that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t,
    m = sum (p - t/2) lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they

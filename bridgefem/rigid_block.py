@@ -494,8 +494,8 @@ def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) ->
 def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> BlockModel:
     """The blocks and joints of ``model`` (e.g. :func:`ring_model`) under given block loads instead of its own:
     ``dead``, ``live`` (nb, 3) Fx, Fy (N) and M (N·m, counter-clockwise) about ``model.ref``, ``live`` for a unit
-    load level, e.g. the FE's assembled self-weight and live load (:func:`bridgefem.analysis.block_loads`): the rigid
-    blocks loaded as the FE's meshed voussoirs are."""
+    load level, e.g. the FE's assembled self-weight and live load (:func:`bridgefem.static_bound.block_loads`): the
+    rigid blocks loaded as the FE's meshed voussoirs are."""
     return dataclasses.replace(model, dead=np.asarray(dead, float), live=np.asarray(live, float))
 
 

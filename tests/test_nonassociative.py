@@ -150,7 +150,8 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
     at no less than its last converged load (lower-bound theorem) and within 0.5 % of it, sliding at joint 28
     where the FE's forces are at their Coulomb limit: the FE's state is a collapse state (evidence rule 3); the
     associative collapse state (hinges 0, 19, 44) is a different mechanism."""
-    from bridgefem.analysis import block_loads, run_analysis
+    from bridgefem.analysis import run_analysis
+    from bridgefem.static_bound import block_loads
     from bridgefem.status import Status
 
     sc = scene_from_dict(SCENE_124)

@@ -6,7 +6,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bridgefem.analysis import run_analysis, static_cap
+from bridgefem.analysis import run_analysis
+from bridgefem.static_bound import static_cap
 from bridgefem.evidence import AGREEMENT, admissible
 from bridgefem.rigid_block import BlockModel, Statics, standing_deficit
 from bridgefem.scene import scene_from_dict
