@@ -41,13 +41,13 @@ from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
 from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
-from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, ring_model,
-                          ring_under_forces, ring_with_loads, solve_blocks)
+from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, ring_under_forces,
+                          solve_blocks)
 from .scene import Scene, SceneError
 from .sizing import check_size
 from .status import Status
 from .solver import ContactSolver, Iterate
-from .static_bound import block_loads, static_cap
+from .static_bound import fe_blocks, static_cap
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
 HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
@@ -426,20 +426,19 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
                model: ElasticModel, bm: BlockMesh) -> SlipCheck | None:
     """The non-associative rigid-block check of an unproven limit with sliding joints that the associative LP does
     not confirm (:func:`bridgefem.evidence.needs_slip_check`), from the joint normal forces of the last converged
-    step: the rigid blocks loaded as the FE loads its voussoirs (:func:`bridgefem.static_bound.block_loads`) with
+    step: the rigid blocks loaded as the FE loads its voussoirs (:func:`bridgefem.static_bound.fe_blocks`) with
     their shear capacities frozen there (:func:`bridgefem.rigid_block.frozen_capacity_collapse`) and the Tresca fixed
-    point from them,
-    and the frozen LP under the scene's own block loads (:func:`bridgefem.rigid_block.collapse_state_from`).
+    point from them, and the frozen LP under the scene's own block loads
+    (:func:`bridgefem.rigid_block.collapse_state_from`).
     Collective (the block loads); the LPs on rank 0, broadcast; None when no check is needed."""
     sliding = tuple(j.id for j in joints if j.sliding)
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, bool(sliding)):
         return None
-    ring = ring_model(scene, live=False)
-    blocks = ring_with_loads(ring, *block_loads(model, bm, ring.ref))
+    blocks = fe_blocks(scene, model, bm)
     out = None
     if comm.rank == 0:
-        normal = np.zeros(ring.n_joints)
+        normal = np.zeros(blocks.n_joints)
         normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
             frozen = frozen_capacity_collapse(blocks, normal)

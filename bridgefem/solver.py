@@ -837,8 +837,7 @@ class ContactSolver:
         ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
         if self.material is None:
-            self.A.mult(x, self.r)
-            out, response = self.b.array[:self.n_u] - self.r.array[:self.n_u], None
+            out, response = self._elastic_out_of_balance(x), None
         else:
             response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
             out = self._out_of_balance(x, response.f_int, level)
@@ -866,8 +865,12 @@ class ContactSolver:
         return value, response
 
     def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
+        return self._norm_inf(self._elastic_out_of_balance(x)) / f_scale
+
+    def _elastic_out_of_balance(self, x: PETSc.Vec) -> np.ndarray:
+        """Out-of-balance force of the assembled linear system's equilibrium rows at x, b - A x (owned, N)."""
         self.A.mult(x, self.r)
-        return self._norm_inf(self.r.array[:self.n_u] - self.b.array[:self.n_u]) / f_scale
+        return self.b.array[:self.n_u] - self.r.array[:self.n_u]
 
 
 def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: StepOutcome,

@@ -31,12 +31,11 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
     and its failing step, the evidence rule and a finer mesh decide). The LPs on rank 0, broadcast; None when an LP
     fails (no bound). Collective."""
     comm = solver.comm
-    ring = ring_model(scene, live=False)
-    blocks = ring_with_loads(ring, *block_loads(model, bm, ring.ref))
-    pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=ring.n_joints))
-    nodes, radius = block_extents(model, bm, ring.ref)
+    blocks = fe_blocks(scene, model, bm)
+    pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=blocks.n_joints))
+    nodes, radius = block_extents(model, bm, blocks.ref)
     delta = 10 * solver.law.force_tol  # the complementarity residual of a converged pair (N)
-    t = ring.frames()[0]
+    t = blocks.frames()[0]
 
     def f_scale(level: float) -> float:  # the largest applied nodal force (N), the solver's scale
         local = np.abs(model.f_dead.array + level * model.f_live.array).max(initial=0.0)
@@ -70,6 +69,13 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
         return None
     capped = static.level is not None and lp.level is not None and abs(static.level - lp.level) <= AGREEMENT * lp.level
     return static, StaticCap(static.level if capped else None, static.falls, check)
+
+
+def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
+    """The rigid-block LP's ring on the scene's joints loaded as the FE loads its voussoirs: its assembled
+    self-weight and unit live load summed per block (:func:`block_loads`). Collective."""
+    ring = ring_model(scene, live=False)
+    return ring_with_loads(ring, *block_loads(model, bm, ring.ref))
 
 
 def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockModel, it: Iterate) -> np.ndarray:

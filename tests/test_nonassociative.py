@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 from bridgefem.evidence import coulomb_limited
-from bridgefem.rigid_block import (BlockModel, _Programme, _relative_motion, collapse_load, collapse_state_from,
-                                   frozen_capacity_collapse, generalised_loads, ring_model, ring_with_loads,
-                                   solve_blocks)
+from bridgefem.rigid_block import (BlockModel, _relative_motion, collapse_load, collapse_state_from,
+                                   frozen_capacity_collapse, generalised_loads, ring_model, solve_blocks, statics)
 from bridgefem.scene import scene_from_dict
 
 from test_joint_loads import push_through, three_voussoirs
@@ -151,7 +150,7 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
     where the FE's forces are at their Coulomb limit: the FE's state is a collapse state (evidence rule 3); the
     associative collapse state (hinges 0, 19, 44) is a different mechanism."""
     from bridgefem.analysis import run_analysis
-    from bridgefem.static_bound import block_loads
+    from bridgefem.static_bound import fe_blocks
     from bridgefem.status import Status
 
     sc = scene_from_dict(SCENE_124)
@@ -161,12 +160,11 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
     assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert [j.id for j in an.joints if j.sliding] == [28]
     assert s.upper < 0.98 * an.lp.level and an.lp.hinges == [0, 19, 44]
-    ring = ring_model(sc, live=False)
-    blocks = ring_with_loads(ring, *block_loads(an.model, an.block_mesh, ring.ref))
+    blocks = fe_blocks(sc, an.model, an.block_mesh)
     q = np.zeros((len(an.ring.joints), 3))
     q[[j.id for j in an.joints]] = [(j.normal_force, j.shear_force, j.normal_force * j.eccentricity)
                                     for j in an.joints]
-    residual = _Programme(blocks).A @ q.ravel() + s.lower * blocks.live.ravel() + blocks.dead.ravel()
+    residual = statics(blocks, s.lower, q).equilibrium
     weight = -blocks.dead[:, 1].sum()
     assert np.abs(residual).max() < 1e-6 * weight
     frozen = frozen_capacity_collapse(blocks, q[:, 0])
