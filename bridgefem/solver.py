@@ -24,7 +24,7 @@ load; its failures there are sliding stalls below the associative LP and, with a
 at the ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
 failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on their condensed compliance (*Cycles*
 below) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at
-a few pairs, so the small problem costs 2p + 1 solves with one factorisation, once per cycle.
+a few pairs, so the small problem costs at most 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
@@ -114,11 +114,12 @@ of a few newtons and the search went on to a proved limit equal to the LP's. Oth
 
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
 change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
-relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
-solves), and :func:`bridgefem.joint_condensation.consistent_states` finds a state of theirs that the joint law
-accepts: up to four pairs by enumerating their 4^p states, above by Lemke's method on the Coulomb law written as a
-linear complementarity problem (finite, and sure to find a solution when C's symmetric part is positive definite);
-the iteration goes on from that active set, so its end is checked like any other (no law is waived).
+relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, at
+most 2p + 1 solves: :meth:`ContactSolver._compliance`), and :func:`bridgefem.joint_condensation.consistent_states`
+finds a state of theirs that the joint law accepts: up to four pairs by enumerating their 4^p states, above by
+Lemke's method on the Coulomb law written as a linear complementarity problem (finite, and sure to find a solution
+when C's symmetric part is positive definite); the iteration goes on from that active set, so its end is checked
+like any other (no law is waived).
 With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
 sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
 P-matrix (:func:`bridgefem.joint_condensation.opens_when_pulled`): then the small problem has no solution or several,
@@ -206,7 +207,7 @@ DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force 
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (2p + 1 solves)
+CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
 
 
 @dataclass(frozen=True)
@@ -293,6 +294,7 @@ class ContactSolver:
         self.set_support_movement(0.0)
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
         self.law = CoulombJoints(self.friction.copy(), c, force_tol)
+        self._compliances: dict = {}  # (active set, pairs) -> condensed compliance or None (:meth:`_compliance`)
         self.set_friction(self.friction, 1.0)
         self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
@@ -406,12 +408,12 @@ class ContactSolver:
     def set_friction(self, mu: np.ndarray, factor: float) -> None:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
-        self._matrix_key = None  # the slip rows hold mu
+        self._matrix_key, self._compliances = None, {}  # the slip rows hold mu
 
     def use(self, setting: Setting) -> None:
         """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores)."""
         self.law.c = self.law.c * (setting.scale / self.setting.scale)
-        self.setting, self._matrix_key = setting, None  # the law's rows hold c
+        self.setting, self._matrix_key, self._compliances = setting, None, {}  # the law's rows hold c
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
@@ -737,7 +739,7 @@ class ContactSolver:
         _stick(stuck, (stuck.state == SLIP) & ~cycling)
         for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
             response = self._pair_response(level, held, cycling, slip_ref)
-            found = None if response is None or not opens_when_pulled(response[1]) else consistent_states(
+            found = None if response is None else consistent_states(
                 law, *response, ContactState(gather(reference.state), gather(reference.sign)),
                 ContactState(gather(active.state), gather(active.sign)))
             if found is not None:
@@ -752,28 +754,53 @@ class ContactSolver:
                        ) -> "tuple[np.ndarray, np.ndarray] | None":
         """The relative displacements of ``pairs`` (local mask; gathered in global order) as an affine function of
         their forces, every other pair's state of ``active`` held: d0 (p, 2; normal with the ground offset, slip
-        since the last converged step, m) with the pairs open, and the compliance C (2p, 2p, m/N) from one
-        factorisation and 2p + 1 solves (a unit force at each pair's rows of the open law, lam = r); None when a
-        solve fails. Collective."""
+        since the last converged step, m) with the pairs open (one solve), and their compliance C (2p, 2p, m/N,
+        :meth:`_compliance`); None when a solve fails or C's normal block is not a P-matrix (the condensation is not
+        used: the module's *Cycles*). Collective."""
         trial = active.copy()
         trial.state[pairs], trial.sign[pairs] = OPEN, 0
+        C = self._compliance(trial, pairs)
+        if C is None:
+            return None
         self._rhs(level, trial, slip_ref)
+        if self._solve(trial, self._mode) is not None:
+            return None
+        _, _, d = self.split(self._mode)
+        d0 = d[pairs] - np.column_stack([np.zeros_like(slip_ref), slip_ref])[pairs]
+        return np.concatenate(self.comm.allgather(d0)), C
+
+    def _compliance(self, trial: ContactState, pairs: np.ndarray) -> np.ndarray | None:
+        """The compliance C (2p, 2p, m/N; rows and columns (n, t) per pair in global order) of ``pairs`` (local mask),
+        open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law
+        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first:
+        after each, the leading block of C_nn is tested (:func:`bridgefem.joint_condensation.opens_when_pulled`),
+        and a block that fails stops with None (every principal submatrix of a P-matrix is one, and of a matrix
+        with a positive definite symmetric part has one, so C_nn fails too): a declined condensation costs only the
+        solves up to the pair that shows it. None too when a solve fails. Without a plastic fill the matrix depends
+        only on the active set and the law's constants, so C (or its decline) is kept per (``trial``, ``pairs``)
+        until they change (:meth:`set_friction`, :meth:`use`): a cycle condensed again costs no solve. Collective."""
+        key = (self._global_key(trial), hash(tuple(self.comm.allgather(np.flatnonzero(pairs).tobytes()))))
+        if self.material is None and key in self._compliances:
+            return self._compliances[key]
         rows = self.n_u + 2 * np.flatnonzero(pairs)
         owner = np.concatenate([np.full(n, r) for r, n in enumerate(self.comm.allgather(int(pairs.sum())))])
         first = np.searchsorted(owner, self.comm.rank)
-        x = self._mode
-        columns = []
-        for j in range(-1, 2 * len(owner)):  # the open response, then a unit force alone in each of 2p directions
-            if j >= 0:
-                self.b.array[:] = 0.0
-                if owner[j // 2] == self.comm.rank:
-                    self.b.array[rows[j // 2 - first] + j % 2] = 1.0
-            if self._solve(trial, x) is not None:
+        C = np.zeros((2 * len(owner), 2 * len(owner)))
+        declined = False
+        for j in [*range(0, len(C), 2), *range(1, len(C), 2)]:  # normal columns, then tangential
+            self.b.array[:] = 0.0
+            if owner[j // 2] == self.comm.rank:
+                self.b.array[rows[j // 2 - first] + j % 2] = 1.0
+            if self._solve(trial, self._mode) is not None:
                 return None
-            _, _, d = self.split(x)
-            d = d - self._ground if j >= 0 else d - np.column_stack([np.zeros_like(slip_ref), slip_ref])
-            columns.append(np.concatenate(self.comm.allgather(d[pairs])).ravel())
-        return columns[0].reshape(-1, 2), np.column_stack(columns[1:])
+            _, _, d = self.split(self._mode)
+            C[:, j] = np.concatenate(self.comm.allgather(d[pairs] - self._ground[pairs])).ravel()
+            if j % 2 == 0 and not opens_when_pulled(C[:j + 2, :j + 2]):
+                declined = True
+                break
+        if self.material is None:
+            self._compliances[key] = None if declined else C
+        return None if declined else C
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
