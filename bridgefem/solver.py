@@ -294,6 +294,7 @@ class ContactSolver:
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
         self.law = CoulombJoints(self.friction.copy(), c, force_tol)
         self._compliances: dict = {}  # (active set, pairs) -> condensed compliance or None (:meth:`_compliance`)
+        self._declining: set[int] = set()  # global pairs at which a condensation's normal block failed
         self.set_friction(self.friction, 1.0)
         self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
@@ -770,22 +771,27 @@ class ContactSolver:
     def _compliance(self, trial: ContactState, pairs: np.ndarray) -> np.ndarray | None:
         """The compliance C (2p, 2p, m/N; rows and columns (n, t) per pair in global order) of ``pairs`` (local mask),
         open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law
-        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first:
-        after each, the leading block of C_nn is tested (:func:`bridgefem.joint_condensation.opens_when_pulled`),
-        and a block that fails stops with None (every principal submatrix of a P-matrix is one, and of a matrix
-        with a positive definite symmetric part has one, so C_nn fails too): a declined condensation costs only the
-        solves up to the pair that shows it. None too when a solve fails. Without a plastic fill the matrix depends
-        only on the active set and the law's constants, so C (or its decline) is kept per (``trial``, ``pairs``)
-        until they change (:meth:`set_friction`, :meth:`use`): a cycle condensed again costs no solve. Collective."""
-        key = (self._global_key(trial), hash(tuple(self.comm.allgather(np.flatnonzero(pairs).tobytes()))))
+        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first,
+        and after each the principal block of C_nn of the pairs solved so far is tested
+        (:func:`bridgefem.joint_condensation.opens_when_pulled`): a block that fails stops with None (every principal
+        submatrix of a P-matrix is one, and of a matrix with a positive definite symmetric part has one, so C_nn
+        fails too), so a declined condensation costs only the solves up to the pair that shows it. Pairs that showed
+        it before are solved first: a cycle condensed again, with other pairs or held states, usually fails at the
+        same crack-tip pair (campaign seed 1, #48 and #197: 14 of 19 declines at a pair with C_nn <= 0). None too when a
+        solve fails. Without a plastic fill the matrix depends only on the active set and the law's constants, so C
+        (or its decline) is kept per (``trial``, ``pairs``) until they change (:meth:`set_friction`, :meth:`use`): a
+        cycle condensed again with the same held states costs no solve. Collective."""
+        ids = np.concatenate(self.comm.allgather(self.pairs.offset + np.flatnonzero(pairs)))  # global, in C's order
+        key = (self._global_key(trial), hash(ids.tobytes()))
         if self.material is None and key in self._compliances:
             return self._compliances[key]
         rows = self.n_u + 2 * np.flatnonzero(pairs)
         owner = np.concatenate([np.full(n, r) for r, n in enumerate(self.comm.allgather(int(pairs.sum())))])
         first = np.searchsorted(owner, self.comm.rank)
-        C = np.zeros((2 * len(owner), 2 * len(owner)))
+        order = sorted(range(len(ids)), key=lambda i: ids[i] not in self._declining)  # stable: known ones first
+        C = np.zeros((2 * len(ids), 2 * len(ids)))
         declined = False
-        for j in [*range(0, len(C), 2), *range(1, len(C), 2)]:  # normal columns, then tangential
+        for k, j in enumerate([*(2 * i for i in order), *(2 * i + 1 for i in order)]):  # normal, then tangential
             self.b.array[:] = 0.0
             if owner[j // 2] == self.comm.rank:
                 self.b.array[rows[j // 2 - first] + j % 2] = 1.0
@@ -793,7 +799,9 @@ class ContactSolver:
                 return None
             _, _, d = self.split(self._mode)
             C[:, j] = np.concatenate(self.comm.allgather(d[pairs] - self._ground[pairs])).ravel()
-            if j % 2 == 0 and not opens_when_pulled(C[:j + 2, :j + 2]):
+            solved = np.ravel([(2 * i, 2 * i + 1) for i in order[:k + 1]]) if k < len(ids) else None
+            if solved is not None and not opens_when_pulled(C[np.ix_(solved, solved)]):
+                self._declining.add(int(ids[j // 2]))
                 declined = True
                 break
         if self.material is None:

@@ -1,6 +1,7 @@
 """What a cycle's condensation costs in linear solves (bridgefem/solver.py, *Cycles*; ``ContactSolver._compliance``):
 2p + 1 solves for p pairs the first time, one (the open response d0) when the same pairs are condensed again with the
-same held states, and only the normal columns up to the pair that shows a normal block that is not a P-matrix."""
+same held states, and only the normal columns up to the pair that shows a normal block that is not a P-matrix, that
+pair first the next time."""
 import numpy as np
 import pytest
 
@@ -51,6 +52,25 @@ def test_a_declined_condensation_stops_at_the_pair_that_shows_it(monkeypatch):
     assert solver.stats["solves"] - solves == 2
     assert solver._pair_response(level, start.active, pairs, start.slip_ref) is None
     assert solver.stats["solves"] - solves == 2
+
+
+def test_a_pair_that_declined_a_condensation_is_solved_first_the_next_time(monkeypatch):
+    """A made-up normal test that declines every block of two or more pairs: pairs (a, b, c) decline at b, after the
+    normal solves of a and b; then (a, b) is solved from b, the pair that showed it (a first without that memory)."""
+    monkeypatch.setattr(solver_module, "opens_when_pulled", lambda block: len(block) < 4)
+    solver, start, pairs, level = settled_block()
+    a, b, _ = np.flatnonzero(pairs)
+    unit_rows = []
+    solve = solver._solve
+    monkeypatch.setattr(solver, "_solve", lambda active, x: unit_rows.append(np.flatnonzero(solver.b.array)[0])
+                        or solve(active, x))
+    assert solver._pair_response(level, start.active, pairs, start.slip_ref) is None
+    assert unit_rows == [solver.n_u + 2 * a, solver.n_u + 2 * b]
+    both = np.zeros_like(pairs)
+    both[[a, b]] = True
+    unit_rows.clear()
+    assert solver._pair_response(level, start.active, both, start.slip_ref) is None
+    assert unit_rows == [solver.n_u + 2 * b, solver.n_u + 2 * a]
 
 
 @pytest.mark.parametrize("change", ["friction", "setting"])
