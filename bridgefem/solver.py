@@ -301,7 +301,7 @@ class ContactSolver:
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
-        self.setting = DEFAULT_SETTING
+        self.setting, self._setting_from = DEFAULT_SETTING, 0  # the setting, and the solves made before it was set
         self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._layout(K)
         self._build(K)
@@ -411,7 +411,11 @@ class ContactSolver:
         self._matrix_key, self._compliances = None, {}  # the slip rows hold mu
 
     def use(self, setting: Setting) -> None:
-        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores)."""
+        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores); the solves
+        made with another setting count as ``retry_solves``."""
+        if self.setting != DEFAULT_SETTING:
+            self.stats["retry_solves"] += self.stats["solves"] - self._setting_from
+        self._setting_from = self.stats["solves"]
         self.law.c = self.law.c * (setting.scale / self.setting.scale)
         self.setting, self._matrix_key, self._compliances = setting, None, {}  # the law's rows hold c
 
@@ -430,6 +434,8 @@ class ContactSolver:
     def _ksp(self, options: dict) -> None:
         self.linear = CheckedSolve(self.A, options)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
+        # of the solves: those that condensed cycles (:meth:`_pair_response`) and those of retries (:meth:`use`)
+        self.stats.update(condensation_solves=0, retry_solves=0)
         self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
 
     # ----------------------------------------------------------------- Newton
@@ -737,7 +743,9 @@ class ContactSolver:
         stuck = active.copy()
         _stick(stuck, (stuck.state == SLIP) & ~cycling)
         for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
+            before = self.stats["solves"]
             response = self._pair_response(level, held, cycling, slip_ref)
+            self.stats["condensation_solves"] += self.stats["solves"] - before
             found = None if response is None else consistent_states(
                 law, *response, ContactState(gather(reference.state), gather(reference.sign)),
                 ContactState(gather(active.state), gather(active.sign)))

@@ -1,7 +1,8 @@
-"""What a cycle's condensation costs in linear solves (bridgefem/solver.py, *Cycles*; ``ContactSolver._compliance``):
-2p + 1 solves for p pairs the first time, one (the open response d0) when the same pairs are condensed again with the
-same held states, and only the normal columns up to the pair that shows a normal block that is not a P-matrix, that
-pair first the next time."""
+"""Linear solves and what they are spent on (bridgefem/solver.py). A cycle's condensation (*Cycles*;
+``ContactSolver._compliance``) costs 2p + 1 solves for p pairs the first time, one (the open response d0) when the
+same pairs are condensed again with the same held states, and only the normal columns up to the pair that shows a
+normal block that is not a P-matrix, that pair first the next time; the solves of condensations and of retries are
+counted apart (``condensation_solves``, ``retry_solves``)."""
 import numpy as np
 import pytest
 
@@ -85,3 +86,17 @@ def test_a_changed_law_computes_the_compliance_again(change):
     solves = solver.stats["solves"]
     solver._pair_response(level, start.active, pairs, start.slip_ref)
     assert solver.stats["solves"] - solves == 7
+
+
+def test_the_solves_of_a_retry_and_of_a_condensation_are_counted_apart():
+    """A step solved with the Alart-Curnier constants x 10 counts its Newton iterations (one solve each, no cycle in a
+    sticking block) as retry solves; a condensation of three pairs counts its 7."""
+    solver, start, pairs, level = settled_block()
+    solver.use(solver_module.Setting(scale=10.0))
+    out = solver.solve_step(level, start)
+    solver.use(solver_module.DEFAULT_SETTING)
+    assert out.converged and solver.stats["retry_solves"] == out.iterations
+    solver.solve_step(level, start)
+    assert solver.stats["retry_solves"] == out.iterations
+    solver._condensed(level, start.active, pairs, start.slip_ref, start.active)
+    assert solver.stats["condensation_solves"] == 7
