@@ -807,8 +807,7 @@ class ContactSolver:
                 return None
             _, _, d = self.split(self._mode)
             C[:, j] = np.concatenate(self.comm.allgather(d[pairs] - self._ground[pairs])).ravel()
-            solved = np.ravel([(2 * i, 2 * i + 1) for i in order[:k + 1]]) if k < len(ids) else None
-            if solved is not None and not opens_when_pulled(C[np.ix_(solved, solved)]):
+            if k < len(ids) and not opens_when_pulled(_pairs_block(C, order[:k + 1])):
                 self._declining.add(int(ids[j // 2]))
                 declined = True
                 break
@@ -942,6 +941,12 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     if best is failed:
         return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
     return best
+
+
+def _pairs_block(C: np.ndarray, pairs: list[int]) -> np.ndarray:
+    """The principal block of a condensed compliance C (rows and columns (n, t) per pair) of some of its pairs."""
+    rows = np.ravel([(2 * i, 2 * i + 1) for i in pairs])
+    return C[np.ix_(rows, rows)]
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
