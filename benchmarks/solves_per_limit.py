@@ -6,9 +6,10 @@ demos/bare_arch.toml and the Prestwood bridge with backfill (demos/prestwood.tom
 :func:`bridgefem.analysis.run_analysis`, which seeds the search with the rigid-block LP level. The "guess" column
 scales that seed (x0.1, x10: a deliberately wrong guess; none: no guess; done by wrapping the search that
 run_analysis calls) to show that the bracket stays correct and the cost bounded when the estimate is wrong. The
-table lists linear solves, factorisations, load steps (failed ones in brackets), the FE bracket and the LP value
-(kN for the scene's width) and whether the solves meet the target. A benchmark that prints figures, not a timed
-test.
+table lists linear solves (and of them those that condensed cycles and those of retries with other solver
+settings: :mod:`bridgefem.solver`, *Cycles* and *Retries*), factorisations, load steps (failed ones in brackets),
+the FE bracket and the LP value (kN for the scene's width) and whether the solves meet the target. A benchmark that
+prints figures, not a timed test.
 
 Run:
 
@@ -86,20 +87,22 @@ def measure(name: str, scene: Scene, factor: float | None, comm: MPI.Comm) -> di
     lp = collapse_load(scene)
     return {"case": name, "guess": "none" if factor is None else f"x{factor:g}",
             "solves": an.solver.stats["solves"], "factorisations": an.solver.stats["factorisations"],
+            "condensing": an.solver.stats["condensation_solves"], "retries": an.solver.stats["retry_solves"],
             "steps": len(s.steps), "failed": sum(not st.converged for st in s.steps),
             "lower": s.lower * kn, "upper": None if s.upper is None else s.upper * kn,
             "lp": None if lp.load is None else lp.load / 1e3, "status": s.status}
 
 
 def table(rows: list[dict]) -> str:
-    head = ["case", "guess", "solves", "factorisations", "steps (failed)", "FE bracket kN", "LP kN", "FE/LP",
-            f"<= {TARGET_SOLVES} solves", "status"]
+    head = ["case", "guess", "solves", "of which condensing / retries", "factorisations", "steps (failed)",
+            "FE bracket kN", "LP kN", "FE/LP", f"<= {TARGET_SOLVES} solves", "status"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         upper = "-" if r["upper"] is None else f"{r['upper']:.2f}"
         ratio = ("-" if r["upper"] is None or not r["lp"] else f"{(r['lower'] + r['upper']) / 2 / r['lp']:.4f}")
         lines.append("| " + " | ".join([
-            r["case"], r["guess"], str(r["solves"]), str(r["factorisations"]), f"{r['steps']} ({r['failed']})",
+            r["case"], r["guess"], str(r["solves"]), f"{r['condensing']} / {r['retries']}", str(r["factorisations"]),
+            f"{r['steps']} ({r['failed']})",
             f"[{r['lower']:.2f}, {upper}]", "-" if r["lp"] is None else f"{r['lp']:.2f}", ratio,
             "yes" if r["solves"] <= TARGET_SOLVES else "no", r["status"]]) + " |")
     return "\n".join(lines)

@@ -24,7 +24,7 @@ load; its failures there are sliding stalls below the associative LP and, with a
 at the ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
 failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on their condensed compliance (*Cycles*
 below) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at
-a few pairs, so the small problem costs 2p + 1 solves with one factorisation, once per cycle.
+a few pairs, so the small problem costs at most 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
@@ -90,10 +90,12 @@ trial at the bracket's width, the self-weight after its continuation) is solved 
 start with other algorithmic settings (:class:`Setting`, ``RETRIES``, :func:`retried`): the Alart-Curnier constants
 x 10 and x 0.1 (they weigh forces against displacements only in the classification, so they change the path of
 the active sets, not the solution), a start from every joint closed and sticking instead of the start's active
-set, the line search, unlimited damping chains. The first that converges or proves its mechanism is taken; every
-outcome is judged as any other (a converged state is an equilibrium of the scene's laws, a mechanism still needs
-its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
-counts as one.
+set, the line search. The first that converges or proves its mechanism is taken; every outcome is judged as any
+other (a converged state is an equilibrium of the scene's laws, a mechanism still needs its proof or the LP's
+agreement), so a retry changes how often the Newton method finds the answer, never what counts as one. The fresh
+start, x 0.1 and x 10 each rescued a step on the seeded campaign (seed 1: #182, #181, a mesh of #193); a fresh start
+with unlimited damping chains, tried last 32 times in five campaign runs (seeds 1 and 2), rescued none and cost up to
+60 solves each time, so it is no retry.
 
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth, or
 stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair next to a
@@ -114,11 +116,12 @@ of a few newtons and the search went on to a proved limit equal to the LP's. Oth
 
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
 change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
-relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, 2p + 1
-solves), and :func:`bridgefem.joint_condensation.consistent_states` finds a state of theirs that the joint law
-accepts: up to four pairs by enumerating their 4^p states, above by Lemke's method on the Coulomb law written as a
-linear complementarity problem (finite, and sure to find a solution when C's symmetric part is positive definite);
-the iteration goes on from that active set, so its end is checked like any other (no law is waived).
+relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, at
+most 2p + 1 solves: :meth:`ContactSolver._compliance`), and :func:`bridgefem.joint_condensation.consistent_states`
+finds a state of theirs that the joint law accepts: up to four pairs by enumerating their 4^p states, above by
+Lemke's method on the Coulomb law written as a linear complementarity problem (finite, and sure to find a solution
+when C's symmetric part is positive definite); the iteration goes on from that active set, so its end is checked
+like any other (no law is waived).
 With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
 sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
 P-matrix (:func:`bridgefem.joint_condensation.opens_when_pulled`): then the small problem has no solution or several,
@@ -206,7 +209,7 @@ DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force 
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (2p + 1 solves)
+CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
 
 
 @dataclass(frozen=True)
@@ -214,19 +217,16 @@ class Setting:
     """The algorithmic choices of a load step that decide only how the Newton iteration searches, never what
     counts as converged (the module's *Retries*): ``scale`` multiplies the Alart-Curnier constants (they weigh
     forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
-    instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
-    ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
-    a damped semismooth Newton method on the Alart-Curnier residual)."""
+    instead of the converged start's active set, ``line_search`` backtracks every Newton step of a ring without a
+    plastic fill too (the module's *Line search*: a damped semismooth Newton method on the Alart-Curnier residual)."""
 
     scale: float = 1.0
     fresh: bool = False
-    patient: bool = False
     line_search: bool = False
 
 
 DEFAULT_SETTING = Setting()
-RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
-           Setting(fresh=True, patient=True))
+RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
@@ -293,13 +293,15 @@ class ContactSolver:
         self.set_support_movement(0.0)
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
         self.law = CoulombJoints(self.friction.copy(), c, force_tol)
+        self._compliances: dict = {}  # (active set, pairs) -> condensed compliance or None (:meth:`_compliance`)
+        self._declining: set[int] = set()  # global pairs at which a condensation's normal block failed
         self.set_friction(self.friction, 1.0)
         self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
-        self.setting = DEFAULT_SETTING
+        self.setting, self._setting_from = DEFAULT_SETTING, 0  # the setting, and the solves made before it was set
         self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._layout(K)
         self._build(K)
@@ -406,12 +408,16 @@ class ContactSolver:
     def set_friction(self, mu: np.ndarray, factor: float) -> None:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
-        self._matrix_key = None  # the slip rows hold mu
+        self._matrix_key, self._compliances = None, {}  # the slip rows hold mu
 
     def use(self, setting: Setting) -> None:
-        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores)."""
+        """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores); the solves
+        made with another setting count as ``retry_solves``."""
+        if self.setting != DEFAULT_SETTING:
+            self.stats["retry_solves"] += self.stats["solves"] - self._setting_from
+        self._setting_from = self.stats["solves"]
         self.law.c = self.law.c * (setting.scale / self.setting.scale)
-        self.setting, self._matrix_key = setting, None  # the law's rows hold c
+        self.setting, self._matrix_key, self._compliances = setting, None, {}  # the law's rows hold c
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
@@ -428,6 +434,8 @@ class ContactSolver:
     def _ksp(self, options: dict) -> None:
         self.linear = CheckedSolve(self.A, options)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
+        # of the solves: those that condensed cycles (:meth:`_pair_response`) and those of retries (:meth:`use`)
+        self.stats.update(condensation_solves=0, retry_solves=0)
         self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
 
     # ----------------------------------------------------------------- Newton
@@ -580,7 +588,6 @@ class ContactSolver:
         if self.setting.fresh:
             active = ContactState.all_stick(len(self.pairs))
             predictor = None
-        give_up = give_up and not self.setting.patient
         x = self.A.createVecRight()
         start.x.copy(x)
         frozen = np.zeros(len(self.pairs), dtype=bool)
@@ -736,8 +743,10 @@ class ContactSolver:
         stuck = active.copy()
         _stick(stuck, (stuck.state == SLIP) & ~cycling)
         for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
+            before = self.stats["solves"]
             response = self._pair_response(level, held, cycling, slip_ref)
-            found = None if response is None or not opens_when_pulled(response[1]) else consistent_states(
+            self.stats["condensation_solves"] += self.stats["solves"] - before
+            found = None if response is None else consistent_states(
                 law, *response, ContactState(gather(reference.state), gather(reference.sign)),
                 ContactState(gather(active.state), gather(active.sign)))
             if found is not None:
@@ -752,28 +761,59 @@ class ContactSolver:
                        ) -> "tuple[np.ndarray, np.ndarray] | None":
         """The relative displacements of ``pairs`` (local mask; gathered in global order) as an affine function of
         their forces, every other pair's state of ``active`` held: d0 (p, 2; normal with the ground offset, slip
-        since the last converged step, m) with the pairs open, and the compliance C (2p, 2p, m/N) from one
-        factorisation and 2p + 1 solves (a unit force at each pair's rows of the open law, lam = r); None when a
-        solve fails. Collective."""
+        since the last converged step, m) with the pairs open (one solve), and their compliance C (2p, 2p, m/N,
+        :meth:`_compliance`); None when a solve fails or C's normal block is not a P-matrix (the condensation is not
+        used: the module's *Cycles*). Collective."""
         trial = active.copy()
         trial.state[pairs], trial.sign[pairs] = OPEN, 0
+        C = self._compliance(trial, pairs)
+        if C is None:
+            return None
         self._rhs(level, trial, slip_ref)
+        if self._solve(trial, self._mode) is not None:
+            return None
+        _, _, d = self.split(self._mode)
+        d0 = d[pairs] - np.column_stack([np.zeros_like(slip_ref), slip_ref])[pairs]
+        return np.concatenate(self.comm.allgather(d0)), C
+
+    def _compliance(self, trial: ContactState, pairs: np.ndarray) -> np.ndarray | None:
+        """The compliance C (2p, 2p, m/N; rows and columns (n, t) per pair in global order) of ``pairs`` (local mask),
+        open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law
+        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first,
+        and after each the principal block of C_nn of the pairs solved so far is tested
+        (:func:`bridgefem.joint_condensation.opens_when_pulled`): a block that fails stops with None (every principal
+        submatrix of a P-matrix is one, and of a matrix with a positive definite symmetric part has one, so C_nn
+        fails too), so a declined condensation costs only the solves up to the pair that shows it. Pairs that showed
+        it before are solved first: a cycle condensed again, with other pairs or held states, usually fails at the
+        same crack-tip pair (campaign seed 1, #48 and #197: 14 of 19 declines at a pair with C_nn <= 0). None too when a
+        solve fails. Without a plastic fill the matrix depends only on the active set and the law's constants, so C
+        (or its decline) is kept per (``trial``, ``pairs``) until they change (:meth:`set_friction`, :meth:`use`): a
+        cycle condensed again with the same held states costs no solve. Collective."""
+        ids = np.concatenate(self.comm.allgather(self.pairs.offset + np.flatnonzero(pairs)))  # global, in C's order
+        key = (self._global_key(trial), hash(ids.tobytes()))
+        if self.material is None and key in self._compliances:
+            return self._compliances[key]
         rows = self.n_u + 2 * np.flatnonzero(pairs)
         owner = np.concatenate([np.full(n, r) for r, n in enumerate(self.comm.allgather(int(pairs.sum())))])
         first = np.searchsorted(owner, self.comm.rank)
-        x = self._mode
-        columns = []
-        for j in range(-1, 2 * len(owner)):  # the open response, then a unit force alone in each of 2p directions
-            if j >= 0:
-                self.b.array[:] = 0.0
-                if owner[j // 2] == self.comm.rank:
-                    self.b.array[rows[j // 2 - first] + j % 2] = 1.0
-            if self._solve(trial, x) is not None:
+        order = sorted(range(len(ids)), key=lambda i: ids[i] not in self._declining)  # stable: known ones first
+        C = np.zeros((2 * len(ids), 2 * len(ids)))
+        declined = False
+        for k, j in enumerate([*(2 * i for i in order), *(2 * i + 1 for i in order)]):  # normal, then tangential
+            self.b.array[:] = 0.0
+            if owner[j // 2] == self.comm.rank:
+                self.b.array[rows[j // 2 - first] + j % 2] = 1.0
+            if self._solve(trial, self._mode) is not None:
                 return None
-            _, _, d = self.split(x)
-            d = d - self._ground if j >= 0 else d - np.column_stack([np.zeros_like(slip_ref), slip_ref])
-            columns.append(np.concatenate(self.comm.allgather(d[pairs])).ravel())
-        return columns[0].reshape(-1, 2), np.column_stack(columns[1:])
+            _, _, d = self.split(self._mode)
+            C[:, j] = np.concatenate(self.comm.allgather(d[pairs] - self._ground[pairs])).ravel()
+            if k < len(ids) and not opens_when_pulled(_pairs_block(C, order[:k + 1])):
+                self._declining.add(int(ids[j // 2]))
+                declined = True
+                break
+        if self.material is None:
+            self._compliances[key] = None if declined else C
+        return None if declined else C
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
@@ -901,6 +941,12 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     if best is failed:
         return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
     return best
+
+
+def _pairs_block(C: np.ndarray, pairs: list[int]) -> np.ndarray:
+    """The principal block of a condensed compliance C (rows and columns (n, t) per pair) of some of its pairs."""
+    rows = np.ravel([(2 * i, 2 * i + 1) for i in pairs])
+    return C[np.ix_(rows, rows)]
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
