@@ -79,7 +79,7 @@ def test_a_flattening_curve_is_bracketed_where_its_tangent_drops_whatever_the_st
     one, a property of the curve: the bracket holds it for every step schedule (the guess sets the approach, the
     initial step the first steps). A secant over a converged step is above the tangent at its end on this concave
     curve: alone, a long step from below FLAT to above it converges and counts as steep."""
-    s = find_limit_load(Softening(limit=LIMIT), lambda it: float(it.x.array[0]), tolerance=1e-4,
+    s = find_limit_load(Softening(), lambda it: float(it.x.array[0]), tolerance=1e-4,
                         initial_step=initial_step, max_load=100 * WEIGHT, max_steps=200, guess=guess,
                         stiffness_drop=DROP)
     assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
