@@ -44,7 +44,7 @@ from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflecti
 from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, ring_under_forces,
                           solve_blocks)
 from .scene import Scene, SceneError
-from .sizing import check_size
+from .sizing import MAX_DOFS, check_size
 from .status import Status
 from .solver import ContactSolver, Iterate
 from .static_bound import fe_blocks, static_cap
@@ -230,7 +230,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                  report: Callable[[LoadStep], None] = lambda s: None,
                  phase: Callable[[str], None] = lambda name: None,
                  notice: Callable[[str], None] = lambda line: None,
-                 max_refinements: int = MAX_REFINEMENTS) -> Analysis:
+                 max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS) -> Analysis:
     """Compute the limit load of a scene: the ring, with its fill and elastic abutments when the scene has them,
     after the support movement it imposes (collective over ``comm``); ``phase(name)`` announces each set-up phase
     and ``report(step)`` each load step.
@@ -238,9 +238,9 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
     ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a self-weight failed
     without proof on voussoirs shorter than an element) is run again with twice the elements through the thickness
-    (:func:`refined_elements`), at most ``max_refinements`` times, and not again when the re-run's last converged
-    load is the previous one's (within the search's tolerance: the limit does not depend on these elements);
-    ``notice(line)`` announces each re-run. The last run is returned, the runs it replaced listed in
+    (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
+    the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
+    on these elements); ``notice(line)`` announces each re-run. The last run is returned, the runs it replaced listed in
     ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state
     of evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh
     does not undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``).
@@ -259,7 +259,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
             moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
             finer, why = None, refinement_reason(an, ett)
             if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
-                finer = refined_elements(scene)
+                finer = refined_elements(scene, max_dofs)
             finer = comm.bcast(finer, root=0)
             if finer is None:
                 an.refinements = refinements
@@ -302,14 +302,15 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     return ""
 
 
-def refined_elements(scene: Scene) -> int | None:
+def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:
     """Twice the scene's elements through the ring thickness, or None when that exceeds
-    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.sizing.check_size`)."""
+    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.sizing.check_size` with at most
+    ``max_dofs`` unknowns)."""
     ett = 2 * scene.mesh.elements_through_thickness
     if ett > REFINED_ELEMENTS_MAX:
         return None
     try:
-        check_size(with_mesh(scene, ett))
+        check_size(with_mesh(scene, ett), max_dofs=max_dofs)
     except SceneError:
         return None
     return ett

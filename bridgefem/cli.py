@@ -118,7 +118,8 @@ def _collapse(reason: str) -> str:
 
 def _run(args, petsc: dict) -> int:
     scene = load_scene(args.scene)
-    size = check_size(scene, max_dofs=math.inf if args.no_size_limit else MAX_DOFS)
+    max_dofs = math.inf if args.no_size_limit else MAX_DOFS
+    size = check_size(scene, max_dofs=max_dofs)
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
@@ -134,7 +135,7 @@ def _run(args, petsc: dict) -> int:
         if announce:
             print(f"{scene.name}: {size.describe()}", flush=True)
         an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
-                          phase=_phase if announce else (lambda name: None), notice=_notice)
+                          phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
         extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
                             "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
         failed = Status.of(an.search.status) is Status.FAILURE

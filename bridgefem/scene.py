@@ -244,8 +244,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
                         low=0.0, high=1e15),
         "initial_step": Key(float, "first live-load step (0: ring weight / 4)", 0.0, "N", low=0.0, high=1e15),
         "max_steps": Key(int, "load steps in all", 200, low=1, high=100000),
-        "stiffness_drop": Key(float, "with a fill: a step whose secant stiffness falls below this fraction of the "
-                              "initial one marks the limit (0: off)", 0.02, low=0.0, high=1.0, high_open=True),
+        "stiffness_drop": Key(float, "with a fill: a step whose secant stiffness, or tangent stiffness at its end, "
+                              "falls below this fraction of the initial one marks the limit (0: off)", 0.02, low=0.0,
+                              high=1.0, high_open=True),
         "petsc": Key(dict, "PETSc options of the contact solver, from the allow-list below", {}),
     },
 }
@@ -441,8 +442,9 @@ class SolverOptions:
     petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"};
     preset: the speed-accuracy preset (:data:`PRESETS`, :data:`FILL_PRESETS` with a Mohr-Coulomb fill) that
     supplied the mesh and tolerance defaults;
-    stiffness_drop: with a fill, a load step whose secant stiffness falls below this fraction of the tangent
-    stiffness after self-weight marks the limit (the load-deflection curve is flat; 0: only a lost equilibrium).
+    stiffness_drop: with a fill, a load step whose secant stiffness (load over deflection increment), or tangent
+    stiffness at its converged state, falls below this fraction of the tangent stiffness after self-weight marks the
+    limit (the load-deflection curve is flat: :mod:`bridgefem.pathfollow`, *Flat curve*; 0: only a lost equilibrium).
     """
 
     tolerance: float = _default("solver", "tolerance")

@@ -537,9 +537,10 @@ class ContactSolver:
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
         held (open pairs open, closed pairs keep their gap, stick pairs their slip, slip pairs their friction
-        law) and, with a plastic fill, the fill's tangent of the last Newton iteration (call it right after the
-        step that converged to ``it``): displacements in m per N of live load, the tangent of the
-        load-deflection curve. None when that system cannot be solved."""
+        law) and, with a plastic fill, the fill's consistent tangent at the converged displacements (the return map
+        from the step's start, as the convergence test evaluated it: call this right after the step that converged
+        to ``it``): displacements in m per N of live load, the tangent of the load-deflection curve. One solve (with
+        a plastic fill after a factorisation of that tangent). None when that system cannot be solved."""
         self.b.array[:self.n_u] = self.f_live.array
         self.b.array[self.n_u:] = 0.0
         dx = self.A.createVecRight()

@@ -1,6 +1,7 @@
 """The command line end to end: results files, bad input (exit 2, nothing written), the same answer under
 mpirun -n 2, and the demo scene."""
 import json
+import math
 import os
 import subprocess
 import sys
@@ -240,3 +241,27 @@ def test_abutments_example_in_the_docs_is_its_output(tmp_path):
     assert summary[0].startswith("abutments: limit load found; limit load in [29.5504, 29.5533] kN")
     for line in summary:
         assert line in docs, line
+
+
+def test_no_size_limit_holds_for_the_re_runs_on_finer_meshes(tmp_path, monkeypatch):
+    """``run --no-size-limit`` reaches the analysis, whose automatic re-runs on finer meshes it also frees
+    (tests/test_refinement.py); without it they keep the default limit."""
+    from bridgefem import analysis, cli
+    from bridgefem.sizing import MAX_DOFS
+
+    class Stop(Exception):
+        pass
+
+    limits = []
+
+    def record(*args, max_dofs, **kwargs):
+        limits.append(max_dofs)
+        raise Stop
+
+    monkeypatch.setattr(analysis, "run_analysis", record)
+    scene = write_toml(tmp_path / "s.toml", scene_dict())
+    for flags in ([], ["--no-size-limit"]):
+        with pytest.raises(Stop):
+            cli.main(["run", str(scene), "--quiet", "--out", str(tmp_path / "out"), *flags])
+    assert limits == [MAX_DOFS, math.inf]
+    assert not (tmp_path / "out").exists()

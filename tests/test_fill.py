@@ -216,6 +216,7 @@ def test_assembled_tangent_is_the_derivative_of_the_internal_force():
                                atol=10 * APEX_STIFFNESS * scale)
 
 
+@pytest.mark.slow
 def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     """A stiff fill (a tenth of the masonry's modulus) with a rough interface (mu = 100) holds the ring: the FE
     carries more than the LP with the fill as dead load only (whose mechanism needs the ring to sway into the

@@ -2,13 +2,20 @@
 one-degree-of-freedom fake solver of test_bracket (displacement = load level, no equilibrium above LIMIT), made to
 behave like a Mohr-Coulomb fill: every converged live-load step takes more Newton iterations than the self-weight
 step did."""
+import math
 from types import SimpleNamespace
 
-from test_bracket import LIMIT, OneDof, assert_bracket, search
+import pytest
+from test_bracket import LIMIT, WEIGHT, OneDof, assert_bracket, search
 
+from bridgefem.pathfollow import find_limit_load
 from bridgefem.solver import StepOutcome
+from bridgefem.status import Status
 
 FILL_ITERATIONS = 12  # Newton iterations of every converged live-load step (the self-weight takes 2)
+STIFFNESS = 1e6  # N/m: the softening structure's initial stiffness
+DROP = 0.02  # the default stiffness_drop
+FLAT = (1.0 - DROP) * LIMIT  # N: where the softening structure's tangent stiffness falls to DROP x STIFFNESS
 
 
 class PlasticFillOneDof(OneDof):
@@ -51,3 +58,29 @@ def test_a_plastic_fill_trial_starts_from_the_secant_through_the_last_two_states
     closing = [(given, level) for given, level, predicted in later if not predicted]
     assert closing, "no trial could close the bracket: the test proves nothing"
     assert s.steps[-1].level == closing[-1][1] and not solver.starts[-1][2]
+
+
+class Softening(OneDof):
+    """A structure whose load-deflection curve flattens towards LIMIT: P = LIMIT (1 - exp(-STIFFNESS delta /
+    LIMIT)), its tangent stiffness STIFFNESS (1 - P / LIMIT) (N/m) at load level P (N); no equilibrium above LIMIT."""
+
+    def _iterate(self, level):
+        return super()._iterate(-LIMIT / STIFFNESS * math.log1p(-min(level, LIMIT) / LIMIT))
+
+    def live_load_tangent(self, it):
+        level = -LIMIT * math.expm1(-STIFFNESS * it.x.array[0] / LIMIT)
+        return OneDof._iterate(self, 1.0 / (STIFFNESS * (1.0 - level / LIMIT)))
+
+
+@pytest.mark.parametrize("guess", [None, 0.8 * LIMIT, LIMIT, 1.5 * LIMIT])
+@pytest.mark.parametrize("initial_step", [0.5 * WEIGHT / 4, WEIGHT / 4, 2 * WEIGHT / 4])
+def test_a_flattening_curve_is_bracketed_where_its_tangent_drops_whatever_the_steps(guess, initial_step):
+    """The flat-curve limit is the level FLAT = 0.98 LIMIT where the tangent stiffness falls to DROP x the initial
+    one, a property of the curve: the bracket holds it for every step schedule (the guess sets the approach, the
+    initial step the first steps). A secant over a converged step is above the tangent at its end on this concave
+    curve: alone, a long step from below FLAT to above it converges and counts as steep."""
+    s = find_limit_load(Softening(), lambda it: float(it.x.array[0]), tolerance=1e-4,
+                        initial_step=initial_step, max_load=100 * WEIGHT, max_steps=200, guess=guess,
+                        stiffness_drop=DROP)
+    assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
+    assert s.lower <= FLAT < s.upper and s.upper - s.lower <= 1e-4 * s.lower * (1 + 1e-9), (s.lower, s.upper)

@@ -1,10 +1,11 @@
 """A limit that depends on the mesh is re-run on finer meshes (bridgefem.analysis.run_analysis, issue 12)."""
 import json
+import math
 from types import SimpleNamespace
 
 import pytest
 
-from bridgefem import analysis
+from bridgefem import analysis, sizing
 from bridgefem.analysis import MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, refined_elements, run_analysis
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
@@ -16,6 +17,10 @@ from conftest import campaign_scene, scene_dict
 # thickness the FE's state is a collapse state of its meshed voussoirs, 0.7 % below the LP, but the exact
 # voussoirs' weights (0.075 % more) move that collapse load by 2.6 %: its limit depends on the mesh
 SCENE_45 = campaign_scene(45, 1.4923)
+# 6 voussoirs on a 100 m span, 8 elements through the 0.08 m ring: the re-run with 16 has about 1.07 million
+# unknowns
+HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness": 0.08, "voussoirs": 6},
+                                  mesh={"elements_through_thickness": 8}))
 
 
 def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None):
@@ -82,9 +87,17 @@ def test_no_re_run_beyond_the_cap_or_the_size_limit(monkeypatch):
     assert refined_elements(at_cap) is None
     ran = fake_analyses(monkeypatch, (True,))
     assert run_analysis(at_cap).refinements == [] and ran == [REFINED_ELEMENTS_MAX]
-    long_voussoirs = scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness": 0.08, "voussoirs": 6})
-    huge = scene_from_dict({**long_voussoirs, "mesh": {"elements_through_thickness": 8}})
-    assert refined_elements(huge) is None  # 16 elements: about 1.07 million unknowns, refused by check_size
+    assert refined_elements(HUGE) is None  # 16 elements: about 1.07 million unknowns, refused by check_size
+
+
+def test_a_lifted_size_limit_reaches_the_re_runs(monkeypatch):
+    """``max_dofs`` (``bridgefem run --no-size-limit``: inf) holds for the re-runs too: the re-run past
+    MAX_DOFS unknowns that the default refuses is tried."""
+    monkeypatch.setattr(sizing, "machine_memory", lambda: 1e12)  # only the unknowns can refuse it, on any machine
+    assert refined_elements(HUGE) is None and refined_elements(HUGE, math.inf) == 16
+    ran = fake_analyses(monkeypatch, (True, False))
+    assert [r.elements_through_thickness for r in run_analysis(HUGE, max_dofs=math.inf).refinements] == [8]
+    assert ran == [8, 16]
 
 
 @pytest.mark.slow
