@@ -664,27 +664,26 @@ class ContactSolver:
         near = start.x.copy()  # the last solved iterate: the proximal term's anchor
         for it in range(1, budget + 1):
             key = self._global_key(active)
-            if drift is not None:  # a proximal set that drifts along its mode: its plain solve's failure, no solve
-                failure, fix, drift = drift, repairs.get(key), None
-                self._unbounded = True
-            else:
-                failure = self._solve_active(level, active, slip_ref, x, start.x, near if key in proximal else None)
-                if failure is not None:
-                    if failure.proof:
-                        return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
-                                           proved=True)
-                    singular = failure if failure.mechanism else singular
-                    self._unbounded = failure.mechanism or failure.unbounded
-                    self._diverged |= self._unbounded
-                    mechanisms += failure.mechanism
-                    fix = self._repaired(active, failure.repair, frozen)
-                    if fix is not None:
-                        repairs[key] = fix
-                    near_set = base is None or self.comm.allreduce(
-                        int(np.count_nonzero(_changes(active, base.good)))) <= PROXIMAL_CHANGES
-                    if near_set and not damping and failure.slides and proximal_sets < PROXIMAL_SETS:
-                        proximal[key], proximal_sets = failure, proximal_sets + 1  # the module's *Proximal solves*
-                        failure = self._solve_active(level, active, slip_ref, x, start.x, near)
+            failure = drift or self._solve_active(level, active, slip_ref, x, start.x,
+                                                  near if key in proximal else None)
+            if failure is not None and drift is not None:  # a proximal set that drifts: its plain failure, no solve
+                fix, drift, self._unbounded = repairs.get(key), None, True
+            elif failure is not None:
+                if failure.proof:
+                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
+                                       proved=True)
+                singular = failure if failure.mechanism else singular
+                self._unbounded = failure.mechanism or failure.unbounded
+                self._diverged |= self._unbounded
+                mechanisms += failure.mechanism
+                fix = self._repaired(active, failure.repair, frozen)
+                if fix is not None:
+                    repairs[key] = fix
+                near_set = base is None or self.comm.allreduce(
+                    int(np.count_nonzero(_changes(active, base.good)))) <= PROXIMAL_CHANGES
+                if near_set and not damping and failure.slides and proximal_sets < PROXIMAL_SETS:
+                    proximal[key], proximal_sets = failure, proximal_sets + 1  # the module's *Proximal solves*
+                    failure = self._solve_active(level, active, slip_ref, x, start.x, near)
             if failure is not None:
                 if recovered >= chains and not damping:
                     return StepOutcome(False, f"no convergence: a proposed active set failed again after "
