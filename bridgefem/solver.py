@@ -174,13 +174,19 @@ force that drives it over k, and the classification sees which pairs the mode cl
 proposes their change. The term vanishes at a fixed point (d = d_k), so it changes the iteration's path, never
 what counts as converged: the convergence test stays on the law itself. A proximal iterate that proposes no change
 while the law does not hold drifts along a mode nothing stops: the set's plain failure then stands (damping, repair,
-verdicts as above), without another solve. Limits, each measured (solves per limit; seed 1 #299 / #75 / #197 / #182
-before: failure at 325 / 385 / 993 / 839): a proximal solve for every such divergence crawled through sets that each
-diverged (#75: 2419 solves; #182 lost), so at most ``PROXIMAL_SETS`` set per step, and only one that differs from
-the last solved set at no more than ``PROXIMAL_CHANGES`` pairs (the step linearises about x_k); k = c, c / 100,
-c / 1000, c / 10^4 and c / 10^6 all confirm #299, but c and c / 10^6 lose #182 (small steps crawl, large ones, 1.2 m
-on #235, reach sets of hundreds of changes). Modes that only close open pairs (no slip) are left to damping: on
-seed 2 #3 and #5 the proximal step took a hinge mode to another path and cost 18 -> 42 and 92 -> 128 solves.
+verdicts as above), without another solve. Each limit was measured (solves per limit load): a proximal solve (k = c)
+for every such divergence crawled through sets that each diverged (seed 1 #75: 385 -> 2419 solves, #182 lost); two
+sets per step instead of ``PROXIMAL_SETS`` = 1 cost 7348 solves against 6042 on twelve of the scenes below; a set
+far from the last solved one (more than ``PROXIMAL_CHANGES`` pairs changed: a step linearised at x_k says little
+about it) and modes that only close open pairs (no slip) are left to damping: with them the fifty seed-1 scenes
+below took 12611 solves against 10641 (k = c / 1000), seed 2 #3 and #5 18 -> 42 and 92 -> 128. k = c / 10^4: on
+the twelve scenes 5454 solves, against 6042 at c / 1000 and 7390 at c / 100; with one set per step and no other
+limit, every k from c to c / 10^6 confirmed #299, but c and c / 10^6 lost #182 (small steps crawl; large ones, 1.2 m on
+#235, reach sets of hundreds of changes). Against the runs before (seed 1: 24 bare rings that failed or took more
+than 150 solves per limit, and every tenth scene, 50 in all; seed 2: the first 30): #299 is confirmed (FE/LP
+0.9992, 221 solves), no scene lost, seed 2 unchanged; seed 1 solves 11341 -> 9858 (#197 993 -> 242, #182
+839 -> 395, #193 813 -> 610, #267 214 -> 106, #119 189 -> 52; #270 166 -> 405 and #297 379 -> 492, whose
+proximal step at the limit leads to another path). #235 still stops 10 % below the LP.
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -235,7 +241,7 @@ DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after 
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
 CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (2p + 1 solves)
-PROXIMAL = 1e-3  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
+PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
 PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
 PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
 
