@@ -45,8 +45,8 @@ def test_a_free_slide_moves_the_block_by_its_unbalanced_force_over_the_springs()
     in one sense (lam_t = s mu lam_n): its system lets the block slide freely (singular along a rigid slide), so the
     plain solve fails. With the proximal term anchored at the self-weight state, the base's tangential forces are
     s mu W (vertical equilibrium: the normal forces carry W) less sum k (d_t - d_t,k); horizontal equilibrium then
-    asks a slide of |P -+ mu W| / sum k, 0.2 W or 0.6 W over the springs for the two senses (the block is a
-    thousand times stiffer than them: within 1 %), and the normal forces still carry W."""
+    asks a slide of |P -+ mu W| / sum k, 0.2 W or 0.6 W over the springs for the two senses (the elastic block is
+    far stiffer than springs of PROXIMAL c: within 0.1 %), and the normal forces still carry W."""
     solver, start = _self_weight(0.4, 0.5)
     k = PROXIMAL * solver.law.c.sum()
     slides = []
@@ -59,7 +59,7 @@ def test_a_free_slide_moves_the_block_by_its_unbalanced_force_over_the_springs()
         _, lam, d = solver.split(x)
         assert lam[:, 0].sum() == pytest.approx(W, rel=1e-6)
         slides.append(abs(np.mean(d[:, 1] - start.slip_ref)) * k / W)
-    assert sorted(slides) == pytest.approx([0.2, 0.6], rel=0.01)
+    assert sorted(slides) == pytest.approx([0.2, 0.6], rel=1e-3)
 
 
 def test_the_proximal_term_vanishes_at_a_converged_state():
