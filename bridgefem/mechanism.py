@@ -15,7 +15,8 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
 3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a
    part of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
    displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes and sticks the pairs whose
-   violation is within ``REPAIR`` of the worst.
+   violation is within ``REPAIR`` of the worst. A flaw that is a slip against the friction force marks a *sliding*
+   mode (``Verdict.slides``: the solver solves its set again with a proximal term).
 4. A *proof*: an admissible rigid-block hinge mode, with violation and friction slip below ``PROOF_TOL`` (mu = 0
    pairs may slip) on which the whole load and the driving load do positive work. By virtual work any equilibrium
    with compressive joint forces lam_n >= 0 would give that work as -sum(lam_n d_n) <= 0: no equilibrium exists.
@@ -58,12 +59,13 @@ class Mode:
 
 
 class Verdict(NamedTuple):
-    """Why the mode is no mechanism (None: admissible), the local pairs its repair closes, and whether it proves
-    that no equilibrium exists."""
+    """Why the mode is no mechanism (None: admissible), the local pairs its repair closes, whether it proves
+    that no equilibrium exists, and whether its flaw is a slip against the friction force (a sliding mode)."""
 
     flaw: str | None
     repair: np.ndarray | None
     proof: bool
+    slides: bool = False
 
 
 def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> Verdict:
@@ -92,15 +94,15 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
         worst.append(max(comm.allgather(local)))
     k = int(np.argmin([w[0] for w in worst]))
     orient, (value, joint, backward) = senses[k], worst[k]
-    flaw = None
+    flaw, slides = None, False
     if not significant[0] and not slipping:
         flaw = f"the {mode.driver} does no work on it ({abs(works[0]) / max(scales[0], 1e-300):.2g} of its largest)"
     elif value > ADMISSIBLE_TOL * span:
         what = "a slip against the friction force" if backward else "interpenetration"
-        flaw = f"{what} {value / span:.2g} of its largest joint displacement at joint {joint}"
+        flaw, slides = f"{what} {value / span:.2g} of its largest joint displacement at joint {joint}", bool(backward)
     if flaw is not None:
         violation = np.nan_to_num(np.fmax(orient * closing, orient * backwards), nan=-np.inf)
-        return Verdict(flaw, violation > max(ADMISSIBLE_TOL * span, REPAIR * value), False)
+        return Verdict(flaw, violation > max(ADMISSIBLE_TOL * span, REPAIR * value), False, slides)
     proof = (provable and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
              and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
     return Verdict(None, None, bool(proof))

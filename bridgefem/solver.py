@@ -8,8 +8,9 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism).
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
-   wrong active set is damped (the half of the proposed changes farthest from the joint law they leave:
-   :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired; an admissible mode is a mechanism without proof.
+   wrong active set is solved again with a proximal term (*Proximal solves*), else damped (the half of the proposed
+   changes farthest from the joint law they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired;
+   an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
    compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
@@ -140,22 +141,55 @@ LP as a solver failure instead of at the LP's limit, and tried only after dampin
 still without confirming #9 or #181. An answer comes before its cost: they are condensed at once.
 A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
 
-**Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which
-the load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) =
--10), when a step ends on an active set that does not change but cannot be solved accurately, or when a solve
-diverges (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible
-mode: :func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at
-the pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip
-against the friction force; a failure without proof, damped like any failed proposal, carrying a *repair* that
-closes and sticks the offending pairs), a mechanism, or a *proof* of collapse (``StepOutcome.proved``: an
-admissible rigid-block hinge mode on which the loads do positive work). A proof ends the step at once whatever its
-history (a predicted or damped active set). The repair is tried when damping has nothing left to halve, or when
-the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the last pair of a joint
-gave a mode that rotates the springing voussoir into the ground: damping returns to it, the repair converges; the
-thick semicircle at mu = 0.35, whose damped iterations returned to modes that slip pairs backwards). Other
-admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms without proof: the
-damping chain or the cycle that returns to them decides, and the verdict needs other evidence
+**Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which the
+load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) = -10), when
+a step ends on an active set that does not change but cannot be solved accurately, or when a solve diverges
+(displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible mode:
+:func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at the
+pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip against
+the friction force; a failure without proof, solved with a proximal term (below) or damped like any failed proposal,
+carrying a *repair* that closes and sticks the offending pairs), a mechanism, or a *proof* of collapse
+(``StepOutcome.proved``: an admissible rigid-block hinge mode on which the loads do positive work). A proof ends the
+step at once whatever its history (a predicted or damped active set). The repair is tried when damping has nothing
+left to halve, or when the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the
+last pair of a joint gave a mode that rotates the springing voussoir into the ground: damping returns to it, the
+repair converges; the thick semicircle at mu = 0.35, whose damped iterations returned to modes that slip pairs
+backwards). Other admissible diverging modes (with slip, or positive work too small to resolve) are mechanisms
+without proof: the damping chain or the cycle that returns to them decides, and the verdict needs other evidence
 (:mod:`bridgefem.evidence`).
+
+**Proximal solves.** The system of a wrong active set can be exactly singular along a strain-free rigid slide:
+campaign seed 1 #299 (semicircle, 90 voussoirs, mu = 0.338) stopped at 30.74 kN, 4.3 % below the LP, where a load
+increment of 1e-5 proposed one more pair of joint 56 sliding: with every closed pair of joints 0, 56 and 57 sliding,
+the blocks between them slide rigidly with their friction forces held at s mu lam_n (smallest singular value 1e-6
+against 3e9; the loads' work on the mode 6 % of the friction dissipation): no mechanism, but damping and the repair
+(the offending pairs closed and sticking) both return to the sets the iteration came from, and every trial failed
+down to the bracket's width. So when the first proposal of a damping chain diverges along a mode that slips pairs
+against their friction force (:func:`bridgefem.mechanism.judge`), that set is solved again with a proximal term
+(Rockafellar 1976, *Monotone operators and the proximal point algorithm*) anchored at the last solved iterate x_k:
+a spring k = ``PROXIMAL`` c against each free direction's relative displacement from x_k,
+
+    open pair:   lam + k (d - d_k) = 0                   (both directions)
+    slip pair:   lam_t - s mu lam_n + k (d_t - d_t,k) = 0
+
+Every pair is then held by a spring or a constraint, so the step is bounded: it goes along the mode as far as the
+force that drives it over k, and the classification sees which pairs the mode closes or slips backwards and
+proposes their change. The term vanishes at a fixed point (d = d_k), so it changes the iteration's path, never
+what counts as converged: the convergence test stays on the law itself. A proximal iterate that proposes no change
+while the law does not hold drifts along a mode nothing stops: the set's plain failure then stands (damping, repair,
+verdicts as above), without another solve. Each limit was measured (solves per limit load): a proximal solve (k = c)
+for every such divergence crawled through sets that each diverged (seed 1 #75: 385 -> 2419 solves, #182 lost); two
+sets per step instead of ``PROXIMAL_SETS`` = 1 cost 7348 solves against 6042 on twelve of the scenes below; a set
+far from the last solved one (more than ``PROXIMAL_CHANGES`` pairs changed: a step linearised at x_k says little
+about it) and modes that only close open pairs (no slip) are left to damping: with them the fifty seed-1 scenes
+below took 12611 solves against 10641 (k = c / 1000), seed 2 #3 and #5 18 -> 42 and 92 -> 128. k = c / 10^4: on
+the twelve scenes 5454 solves, against 6042 at c / 1000 and 7390 at c / 100; with one set per step and no other
+limit, every k from c to c / 10^6 confirmed #299, but c and c / 10^6 lost #182 (small steps crawl; large ones, 1.2 m on
+#235, reach sets of hundreds of changes). Against the runs before (seed 1: 24 bare rings that failed or took more
+than 150 solves per limit, and every tenth scene, 50 in all; seed 2: the first 30): #299 is confirmed (FE/LP
+0.9992, 221 solves), no scene lost, seed 2 unchanged; seed 1 solves 11341 -> 9858 (#197 993 -> 242, #182
+839 -> 395, #193 813 -> 610, #267 214 -> 106, #119 189 -> 52; #270 166 -> 405 and #297 379 -> 492, whose
+proximal step at the limit leads to another path). #235 still stops 10 % below the LP.
 
 **Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
@@ -192,7 +226,7 @@ import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
+from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs, LawRows
 from .joint_condensation import consistent_states, opens_when_pulled
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
@@ -210,6 +244,9 @@ DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after 
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
 CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
+PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
+PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
+PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
 
 
 @dataclass(frozen=True)
@@ -278,6 +315,7 @@ class _Failure(NamedTuple):
     repair: np.ndarray | None = None
     proof: bool = False
     unbounded: bool = False  # the solve diverged (along any mode) or was singular
+    slides: bool = False  # the solve diverged along a mode that slips pairs against their friction force
 
 
 class ContactSolver:
@@ -396,9 +434,10 @@ class ContactSolver:
         G.destroy()
         Gt.destroy()
 
-    def _values(self, active: ContactState) -> np.ndarray:
-        """Matrix values (CSR order) of the linear system of an active set."""
-        rows = self.law.rows(active)
+    def _values(self, active: ContactState, proximal: bool = False) -> np.ndarray:
+        """Matrix values (CSR order) of the linear system of an active set (with the proximal term:
+        :meth:`_proximal_rows`)."""
+        rows = self._proximal_rows(active) if proximal else self.law.rows(active)
         pair = self._g_rows // 2
         law_active = np.where(self._g_rows % 2 == 0, rows.a_n[pair], rows.a_t[pair])
         g_part = self._g_vals * self.law.c[pair] * law_active
@@ -424,19 +463,35 @@ class ContactSolver:
         self.movement = fraction
         self._ground = fraction * self.support_motion
 
-    def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray) -> None:
+    def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray, near: PETSc.Vec | None = None) -> None:
+        """The right-hand side of an active set's system; with ``near``, the proximal term's anchor
+        (:meth:`_proximal_rows`)."""
         b = self.b.array
         b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
         lam_rhs = np.zeros(self.n_lam)
         lam_rhs[0::2], lam_rhs[1::2] = self.law.rhs(active, slip_ref, self._ground)
+        if near is not None:
+            rows, plain = self._proximal_rows(active), self.law.rows(active)
+            _, _, d = self.split(near)
+            lam_rhs[0::2] += (rows.a_n - plain.a_n) * self.law.c * (d[:, 0] - self._ground[:, 0])
+            lam_rhs[1::2] += (rows.a_t - plain.a_t) * self.law.c * (d[:, 1] - self._ground[:, 1])
         b[self.n_u:] = lam_rhs
+
+    def _proximal_rows(self, active: ContactState) -> LawRows:
+        """The joint law's rows of an active set with a proximal term (the module's *Proximal solves*): a spring of
+        ``PROXIMAL`` times the Alart-Curnier constant c against each free direction's relative displacement from
+        the anchor x_k (open pairs: lam + k (d - d_k) = 0 in both directions; sliding pairs:
+        lam_t - s mu lam_n + k (d_t - d_t,k) = 0), the rows of the law itself elsewhere."""
+        rows = self.law.rows(active)
+        return rows._replace(a_n=rows.a_n + PROXIMAL * (active.state == OPEN),
+                             a_t=rows.a_t + PROXIMAL * (active.state != STICK))
 
     def _ksp(self, options: dict) -> None:
         self.linear = CheckedSolve(self.A, options)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
         # of the solves: those that condensed cycles (:meth:`_pair_response`) and those of retries (:meth:`use`)
         self.stats.update(condensation_solves=0, retry_solves=0)
-        self._matrix_key = ContactState.all_stick(len(self.pairs)).key()
+        self._matrix_key = ContactState.all_stick(len(self.pairs)).key() + bytes([False])
 
     # ----------------------------------------------------------------- Newton
     def initial_iterate(self) -> Iterate:
@@ -479,12 +534,13 @@ class ContactSolver:
         return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
 
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
-                      origin: PETSc.Vec):
-        """Solve the linear system of an active set into x; returns None or the :class:`_Failure`. A
-        displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
-        converged start) is admissible (:meth:`_verdict`)."""
-        self._rhs(level, active, slip_ref)
-        failure = self._solve(active, x)
+                      origin: PETSc.Vec, near: PETSc.Vec | None = None):
+        """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
+        :meth:`_proximal_rows`); returns None or the :class:`_Failure`. A displacement beyond the cap is a mechanism
+        only when the diverging direction from ``origin`` (the step's converged start) is admissible
+        (:meth:`_verdict`)."""
+        self._rhs(level, active, slip_ref, near)
+        failure = self._solve(active, x, near is not None)
         if failure is not None:
             return failure
         u_max = self._norm_inf(x.array[:self.n_u])
@@ -495,7 +551,7 @@ class ContactSolver:
             verdict = self._verdict(level, active, x, origin)
             if verdict.flaw is not None:
                 return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
-                                "mechanism)", False, verdict.repair, unbounded=True)
+                                "mechanism)", False, verdict.repair, unbounded=True, slides=verdict.slides)
             if verdict.proof:
                 return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
                                 "the loads do positive work)", True, proof=True)
@@ -519,12 +575,13 @@ class ContactSolver:
         return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
                           name), provable=self.material is None, comm=self.comm)
 
-    def _solve(self, active: ContactState, x: PETSc.Vec):
-        """Solve the system of an active set with the right-hand side in ``self.b`` (refactorising only when the
-        active set or the fill's tangent changed); returns None or the :class:`_Failure`."""
-        key = active.key()
+    def _solve(self, active: ContactState, x: PETSc.Vec, proximal: bool = False):
+        """Solve the system of an active set (``proximal``: with the proximal term) with the right-hand side in
+        ``self.b`` (refactorising only when the system or the fill's tangent changed); returns None or the
+        :class:`_Failure`."""
+        key = active.key() + bytes([proximal])
         if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
-            self.A.setValuesCSR(self._indptr, self._indices, self._values(active))
+            self.A.setValuesCSR(self._indptr, self._indices, self._values(active, proximal))
             self.A.assemble()
             self.linear.matrix_changed()
             self._matrix_key = key
@@ -616,9 +673,16 @@ class ContactSolver:
             base, active = predicted, predicted.proposal
         seen = {self._global_key(active)}  # the active sets visited at this level (the start's only if solved here)
         budget = self.max_iterations if iterations is None else min(iterations, self.max_iterations)
+        proximal, proximal_sets = {}, 0  # sets solved with the proximal term: key -> their plain solve's failure
+        drift = None  # the failure of a proximal set that drifts along its mode (*Proximal solves*)
+        near = start.x.copy()  # the last solved iterate: the proximal term's anchor
         for it in range(1, budget + 1):
-            failure = self._solve_active(level, active, slip_ref, x, start.x)
-            if failure is not None:
+            key = self._global_key(active)
+            failure = drift or self._solve_active(level, active, slip_ref, x, start.x,
+                                                  near if key in proximal else None)
+            if failure is not None and drift is not None:  # a proximal set that drifts: its plain failure, no solve
+                fix, drift, self._unbounded = repairs.get(key), None, True
+            elif failure is not None:
                 if failure.proof:
                     return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
                                        proved=True)
@@ -628,7 +692,13 @@ class ContactSolver:
                 mechanisms += failure.mechanism
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
-                    repairs[self._global_key(active)] = fix
+                    repairs[key] = fix
+                near_set = base is None or self.comm.allreduce(
+                    int(np.count_nonzero(_changes(active, base.good)))) <= PROXIMAL_CHANGES
+                if near_set and not damping and failure.slides and proximal_sets < PROXIMAL_SETS:
+                    proximal[key], proximal_sets = failure, proximal_sets + 1  # the module's *Proximal solves*
+                    failure = self._solve_active(level, active, slip_ref, x, start.x, near)
+            if failure is not None:
                 if recovered >= chains and not damping:
                     return StepOutcome(False, f"no convergence: a proposed active set failed again after "
                                               f"{recovered} damping chain(s): {failure.message}", it, residual,
@@ -650,6 +720,7 @@ class ContactSolver:
                 merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
                                                     f_scale)
                 x.copy(anchor)
+            x.copy(near)
             _, lam, d = self.split(x)
             proposal = self._propose(active, lam, d, slip_ref, frozen, bonded)
             new, pending = proposal.proposal, proposal.pending
@@ -676,6 +747,9 @@ class ContactSolver:
                 if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
                     return StepOutcome(True, "", it, residual, factorisations(),
                                        Iterate(x, active, slip_ref, plastic), counts)
+                if key in proximal:  # a drift along the mode that changes no pair: its plain solve's failure
+                    drift = proximal.pop(key)
+                    continue
                 if searching:
                     continue  # same active set, damped step or fill not in equilibrium: next Newton iteration
                 return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
@@ -791,7 +865,7 @@ class ContactSolver:
         (or its decline) is kept per (``trial``, ``pairs``) until they change (:meth:`set_friction`, :meth:`use`): a
         cycle condensed again with the same held states costs no solve. Collective."""
         ids = np.concatenate(self.comm.allgather(self.pairs.offset + np.flatnonzero(pairs)))  # global, in C's order
-        key = (self._global_key(trial), hash(ids.tobytes()))
+        key = (self._global_key(trial), ids.tobytes())
         if self.material is None and key in self._compliances:
             return self._compliances[key]
         rows = self.n_u + 2 * np.flatnonzero(pairs)
