@@ -91,12 +91,10 @@ trial at the bracket's width, the self-weight after its continuation) is solved 
 start with other algorithmic settings (:class:`Setting`, ``RETRIES``, :func:`retried`): the Alart-Curnier constants
 x 10 and x 0.1 (they weigh forces against displacements only in the classification, so they change the path of
 the active sets, not the solution), a start from every joint closed and sticking instead of the start's active
-set, the line search. The first that converges or proves its mechanism is taken; every outcome is judged as any
-other (a converged state is an equilibrium of the scene's laws, a mechanism still needs its proof or the LP's
-agreement), so a retry changes how often the Newton method finds the answer, never what counts as one. The fresh
-start, x 0.1 and x 10 each rescued a step on the seeded campaign (seed 1: #182, #181, a mesh of #193); a fresh start
-with unlimited damping chains, tried last 32 times in five campaign runs (seeds 1 and 2), rescued none and cost up to
-60 solves each time, so it is no retry.
+set, the line search, unlimited damping chains. The first that converges or proves its mechanism is taken; every
+outcome is judged as any other (a converged state is an equilibrium of the scene's laws, a mechanism still needs
+its proof or the LP's agreement), so a retry changes how often the Newton method finds the answer, never what
+counts as one.
 
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth, or
 stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair next to a
@@ -254,16 +252,19 @@ class Setting:
     """The algorithmic choices of a load step that decide only how the Newton iteration searches, never what
     counts as converged (the module's *Retries*): ``scale`` multiplies the Alart-Curnier constants (they weigh
     forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
-    instead of the converged start's active set, ``line_search`` backtracks every Newton step of a ring without a
-    plastic fill too (the module's *Line search*: a damped semismooth Newton method on the Alart-Curnier residual)."""
+    instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
+    ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
+    a damped semismooth Newton method on the Alart-Curnier residual)."""
 
     scale: float = 1.0
     fresh: bool = False
+    patient: bool = False
     line_search: bool = False
 
 
 DEFAULT_SETTING = Setting()
-RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True))
+RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
+           Setting(fresh=True, patient=True))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
@@ -646,6 +647,7 @@ class ContactSolver:
         if self.setting.fresh:
             active = ContactState.all_stick(len(self.pairs))
             predictor = None
+        give_up = give_up and not self.setting.patient
         x = self.A.createVecRight()
         start.x.copy(x)
         frozen = np.zeros(len(self.pairs), dtype=bool)
