@@ -6,7 +6,8 @@ from types import SimpleNamespace
 import pytest
 
 from bridgefem import analysis, sizing
-from bridgefem.analysis import MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, refined_elements, run_analysis
+from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, first_step, refined_elements,
+                                run_analysis)
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
 
@@ -23,14 +24,17 @@ HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness"
                                   mesh={"elements_through_thickness": 8}))
 
 
-def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None):
+def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None, coarser=None):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
-    unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit); returns the meshes run."""
+    unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit); returns the meshes run,
+    and appends to the list ``coarser`` the coarser run's level each run was given."""
     meshes, queue, lowers = [], list(outcomes), list(lowers)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
-    def fake(scene, comm, petsc, report, phase):
+    def fake(scene, comm, petsc, report, phase, coarser_level=None):
         meshes.append(scene.mesh.elements_through_thickness)
+        if coarser is not None:
+            coarser.append(coarser_level)
         lower = lowers.pop(0)
         return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=queue.pop(0)), refinements=None,
                                load_total=1.0, timings={"limit search": 1.0}, scene=scene,
@@ -55,6 +59,18 @@ def test_a_mesh_dependent_failure_is_re_run_twice_at_most(monkeypatch, outcomes,
     assert len(lines) == len(meshes) - 1
     assert all(line.startswith("the limit depends on the mesh") for line in lines)
     assert all(f"re-running with {n} elements through the thickness" in line for line, n in zip(lines, meshes[1:]))
+
+
+def test_a_re_run_starts_its_live_load_with_the_level_the_coarser_run_reached(monkeypatch):
+    """Each re-run gets the previous run's last converged level; its first step is that level unless a quarter of
+    the ring's weight is larger (a first run, or a coarser run that reached less, keeps the default), and a scene's
+    own ``initial_step`` is not replaced (``_analyse``: ``s.initial_step or first_step(...)``)."""
+    given = []
+    fake_analyses(monkeypatch, (True, True, False), lowers=(97.0, 98.5, 99.0), coarser=given)
+    run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
+    assert given == [None, 97.0, 98.5]
+    assert first_step(400.0) == 100.0 and first_step(400.0, None) == 100.0
+    assert first_step(400.0, 97.0) == 100.0 and first_step(400.0, 130.0) == 130.0
 
 
 def test_no_second_re_run_when_the_first_did_not_move_the_limit(monkeypatch):
