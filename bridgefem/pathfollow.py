@@ -221,13 +221,15 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if reached is not None and k_initial < math.inf:
             rise = reached - deflection(start)
             secant = (level - start_level) / rise if rise > 0 else math.inf
-            tangent = _tangent_stiffness(solver, deflection, out.iterate)
-            if min(secant, tangent or math.inf) < stiffness_drop * k_initial:
+            flat = stiffness_drop * k_initial
+            # the tangent (one solve) only where the secant has not already shown the curve flat
+            tangent = _tangent_stiffness(solver, deflection, out.iterate) if secant >= flat else None
+            if min(secant, tangent or math.inf) < flat:
+                at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "tangent not needed"
                 out, reached = StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m "
-                                                  f"over the step, tangent {tangent or math.nan:.3g} N/m at its end: "
-                                                  f"the lesser is below {stiffness_drop:g} x the initial "
-                                                  f"{k_initial:.3g} N/m (collapse)", out.iterations, out.residual,
-                                           out.factorisations, mechanism=True), None
+                                                  f"over the step, {at_end}: the lesser is below {stiffness_drop:g} "
+                                                  f"x the initial {k_initial:.3g} N/m (collapse)", out.iterations,
+                                           out.residual, out.factorisations, mechanism=True), None
         step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
                         _raised_cohesion(solver), out.mechanism,

@@ -537,6 +537,10 @@ class ContactSolver:
     def _any(self, flag: bool) -> bool:
         return bool(self.comm.allreduce(int(flag), op=MPI.MAX))
 
+    def _count(self, mask: np.ndarray) -> int:
+        """The number of pairs set in a local mask, over all ranks."""
+        return self.comm.allreduce(int(np.count_nonzero(mask)))
+
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
                       origin: PETSc.Vec, near: PETSc.Vec | None = None):
         """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
@@ -698,9 +702,8 @@ class ContactSolver:
                 fix = self._repaired(active, failure.repair, frozen)
                 if fix is not None:
                     repairs[key] = fix
-                near_set = base is None or self.comm.allreduce(
-                    int(np.count_nonzero(_changes(active, base.good)))) <= PROXIMAL_CHANGES
-                if near_set and not damping and failure.slides and proximal_sets < PROXIMAL_SETS:
+                if not damping and failure.slides and proximal_sets < PROXIMAL_SETS and (
+                        base is None or self._count(_changes(active, base.good)) <= PROXIMAL_CHANGES):
                     proximal[key], proximal_sets = failure, proximal_sets + 1  # the module's *Proximal solves*
                     failure = self._solve_active(level, active, slip_ref, x, start.x, near)
             if failure is not None:
@@ -729,7 +732,7 @@ class ContactSolver:
             _, lam, d = self.split(x)
             proposal = self._propose(active, lam, d, slip_ref, frozen, bonded)
             new, pending = proposal.proposal, proposal.pending
-            changed = self.comm.allreduce(int(np.count_nonzero(pending)))
+            changed = self._count(pending)
             if self.material is not None:
                 f_int, plastic = self._linearise(x, start.plastic_strain, response=accepted)
                 residual = self._material_residual(x, f_int, level, f_scale)
@@ -744,8 +747,8 @@ class ContactSolver:
                 ncp[frozen, 1] = 0.0  # friction waived there (bounded above); the normal law is still checked
                 ncp[bonded] = 0.0
                 comp = self._norm_inf(ncp.ravel())
-                counts = {**self._counts(active), "frozen": self.comm.allreduce(int(frozen.sum())),
-                          "bonded": self.comm.allreduce(int(bonded.sum()))}
+                counts = {**self._counts(active), "frozen": self._count(frozen),
+                          "bonded": self._count(bonded)}
                 if waived > BOND_RTOL * f_scale:
                     return StepOutcome(False, f"active set cycling: the joint law is violated by {waived:.3g} N at "
                                               "the bonded or frozen pairs", it, residual, factorisations())
@@ -781,10 +784,10 @@ class ContactSolver:
                     base, active = _Proposal(active, solved, _changes(solved, active), proposal.violation), solved
                     continue
                 flips = pending & ~frozen & (new.state != OPEN) & (active.state != OPEN)  # stick/slip, slip sign
-                if self.comm.allreduce(int(np.count_nonzero(flips))) != changed:
+                if self._count(flips) != changed:
                     damped = self._damp(proposal) if recovered < chains else None
                     toggles = pending & ~bonded & ((new.state == OPEN) != (active.state == OPEN))
-                    if damped is None and self.comm.allreduce(int(np.count_nonzero(toggles | flips))) == changed:
+                    if damped is None and self._count(toggles | flips) == changed:
                         bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
                     elif damped is None:
                         return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
@@ -813,7 +816,7 @@ class ContactSolver:
         other pair's state of ``active`` held, else with every other sliding pair sticking; a condensation whose normal
         compliance is not a P-matrix is not used. None when there are too many, a solve fails, or no combination is
         consistent. Collective."""
-        if self.comm.allreduce(int(cycling.sum())) > CONDENSED_PAIRS:
+        if self._count(cycling) > CONDENSED_PAIRS:
             return None
 
         def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order
