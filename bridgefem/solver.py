@@ -13,8 +13,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
 5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
-   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
-   pairs that cycle between open and closed are bonded.
+   compliance (:mod:`bridgefem.cycles`); in other cycles closed pairs that cycle between friction states are frozen
+   to stick, pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
    (:func:`retried`, *Retries* below).
@@ -23,9 +23,9 @@ Why this method: each iteration costs one sparse solve that reuses the symbolic 
 campaign (``benchmarks/campaign.py``, ``docs/robustness.md``) a bare ring needs a median of about 30 solves per limit
 load; its failures there are sliding stalls below the associative LP and, with an elastic fill, cycles of many pairs
 at the ring's collapse under the loads the fill transmits, measured and listed in ``docs/robustness.md`` (*Solver
-failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on their condensed compliance (*Cycles*
-below) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of a cycle lives at
-a few pairs, so the small problem costs at most 2p + 1 solves with one factorisation, once per cycle.
+failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on their condensed compliance
+(:mod:`bridgefem.cycles`) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of
+a cycle lives at a few pairs, so the small problem costs at most 2p + 1 solves with one factorisation, once per cycle.
 
 Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
 
@@ -116,32 +116,6 @@ pair has no consistent state in the discrete law: e.g. a springing pair of an el
 seed 1, #51) penetrated 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual
 of a few newtons and the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
-**Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
-change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
-relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, at
-most 2p + 1 solves: :meth:`ContactSolver._compliance`), and :func:`bridgefem.joint_condensation.consistent_states`
-finds a state of theirs that the joint law accepts: up to four pairs by enumerating their 4^p states, above by
-Lemke's method on the Coulomb law written as a linear complementarity problem (finite, and sure to find a solution
-when C's symmetric part is positive definite); the iteration goes on from that active set, so its end is checked
-like any other (no law is waived).
-With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
-sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
-P-matrix (:func:`bridgefem.joint_condensation.opens_when_pulled`): then the small problem has no solution or several,
-and the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174
-voussoirs, mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
-(segmental, mu = 0.424, 166 kN) C_nn = -1.0e-8, -1.2e-7, -1.1e-7 and -6.7e-7 m/N, a hundred times the elastic
-compliance (the held slips make the ring nearly a mechanism): penetrating when open, in tension when closed (#151:
-opening it sends the ring into a diverging mode). Such a condensation is not used; it is repeated with every other
-sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
-a symmetric C. With an elastic fill the ring's collapse under the loads the fill transmits cycles at 5 to 40 pairs
-(ring joints and arch-fill pairs; #9: segmental, 220 voussoirs, mu = 6.78), most of them with a P-matrix normal block
-once the other slips stick. Condensed at once, cycles of 5 to 24 pairs cost some bare rings two to three times the
-solves (campaign seed 1: #48 390 -> 852, #197 463 -> 993, #230 296 -> 612 against condensing at most four pairs);
-condensed only in the last retry of a failing trial, #182 (pointed, 171 voussoirs, mu = 0.325) ends 7.5 % below the
-LP as a solver failure instead of at the LP's limit, and tried only after damping and bonding fail they cost more
-still without confirming #9 or #181. An answer comes before its cost: they are condensed at once.
-A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding (below).
-
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which the
 load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) = -10), when
 a step ends on an active set that does not change but cannot be solved accurately, or when a solve diverges
@@ -228,7 +202,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs, LawRows
-from .joint_condensation import consistent_states, opens_when_pulled
+from .cycles import CycleCondenser
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -244,7 +218,6 @@ DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force 
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
 PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
 PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
 PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
@@ -335,8 +308,7 @@ class ContactSolver:
         self.set_support_movement(0.0)
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
         self.law = CoulombJoints(self.friction.copy(), c, force_tol)
-        self._compliances: dict = {}  # (active set, pairs) -> condensed compliance or None (:meth:`_compliance`)
-        self._declining: set[int] = set()  # global pairs at which a condensation's normal block failed
+        self.cycles = CycleCondenser(self, reuse=material is None)  # the module's step 5
         self.set_friction(self.friction, 1.0)
         self.max_iterations = max_iterations
         self.f_dead, self.f_live = f_dead, f_live
@@ -451,7 +423,8 @@ class ContactSolver:
     def set_friction(self, mu: np.ndarray, factor: float) -> None:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
-        self._matrix_key, self._compliances = None, {}  # the slip rows hold mu
+        self._matrix_key = None  # the slip rows hold mu
+        self.cycles.forget()
 
     def use(self, setting: Setting) -> None:
         """Solve the next load steps with ``setting`` (the module's *Retries*; ``DEFAULT_SETTING`` restores); the solves
@@ -460,7 +433,8 @@ class ContactSolver:
             self.stats["retry_solves"] += self.stats["solves"] - self._setting_from
         self._setting_from = self.stats["solves"]
         self.law.c = self.law.c * (setting.scale / self.setting.scale)
-        self.setting, self._matrix_key, self._compliances = setting, None, {}  # the law's rows hold c
+        self.setting, self._matrix_key = setting, None  # the law's rows hold c
+        self.cycles.forget()
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
@@ -493,7 +467,7 @@ class ContactSolver:
     def _ksp(self, options: dict) -> None:
         self.linear = CheckedSolve(self.A, options)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
-        # of the solves: those that condensed cycles (:meth:`_pair_response`) and those of retries (:meth:`use`)
+        # of the solves: those that condensed cycles (:mod:`bridgefem.cycles`) and those of retries (:meth:`use`)
         self.stats.update(condensation_solves=0, retry_solves=0)
         self._matrix_key = ContactState.all_stick(len(self.pairs)).key() + bytes([False])
 
@@ -777,7 +751,7 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
-                solved = self._condensed(level, active, pending, slip_ref, start.active)
+                solved = self.cycles.condensed(level, active, pending, slip_ref, start.active)
                 if solved is not None and self._global_key(solved) not in seen:
                     frozen &= ~_changes(solved, active)  # the condensed pairs' friction state is now exact
                     seen.add(self._global_key(solved))
@@ -808,95 +782,24 @@ class ContactSolver:
         return StepOutcome(False, f"max iterations ({budget}) reached with the active set still changing", budget,
                            residual, factorisations())
 
-    def _condensed(self, level: float, active: ContactState, cycling: np.ndarray, slip_ref: np.ndarray,
-                   reference: ContactState) -> ContactState | None:
-        """An active set with the pairs of a cycle in consistent states (the module's *Cycles*): the pairs
-        ``cycling`` (a local mask, at most ``CONDENSED_PAIRS`` in all), condensed onto their forces
-        (:mod:`bridgefem.joint_condensation`; ``reference``, the converged start's active set, breaks ties) with every
-        other pair's state of ``active`` held, else with every other sliding pair sticking; a condensation whose normal
-        compliance is not a P-matrix is not used. None when there are too many, a solve fails, or no combination is
-        consistent. Collective."""
-        if self._count(cycling) > CONDENSED_PAIRS:
+    def active_set_displacements(self, level: float, active: ContactState, slip_ref: np.ndarray
+                                 ) -> np.ndarray | None:
+        """The relative displacements (m) of ``active``'s solution under the loads at ``level``, or None
+        (:class:`bridgefem.cycles.PairSolves`). Collective."""
+        self._rhs(level, active, slip_ref)
+        if self._solve(active, self._mode) is not None:
             return None
+        return self.split(self._mode)[2]
 
-        def gather(a: np.ndarray) -> np.ndarray:  # the cycling pairs' entries of all ranks, in global order
-            return np.concatenate(self.comm.allgather(a[cycling]))
-
-        law = CoulombJoints(gather(self.law.mu), gather(self.law.c), self.law.force_tol)
-        stuck = active.copy()
-        _stick(stuck, (stuck.state == SLIP) & ~cycling)
-        for held in (active, stuck)[:1 + self._any(np.any(stuck.state != active.state))]:
-            before = self.stats["solves"]
-            response = self._pair_response(level, held, cycling, slip_ref)
-            self.stats["condensation_solves"] += self.stats["solves"] - before
-            found = None if response is None else consistent_states(
-                law, *response, ContactState(gather(reference.state), gather(reference.sign)),
-                ContactState(gather(active.state), gather(active.sign)))
-            if found is not None:
-                lo = self.comm.exscan(int(cycling.sum())) or 0
-                mine = slice(lo, lo + int(cycling.sum()))
-                solved = held.copy()
-                solved.state[cycling], solved.sign[cycling] = found[0].state[mine], found[0].sign[mine]
-                return solved
-        return None
-
-    def _pair_response(self, level: float, active: ContactState, pairs: np.ndarray, slip_ref: np.ndarray
-                       ) -> "tuple[np.ndarray, np.ndarray] | None":
-        """The relative displacements of ``pairs`` (local mask; gathered in global order) as an affine function of
-        their forces, every other pair's state of ``active`` held: d0 (p, 2; normal with the ground offset, slip
-        since the last converged step, m) with the pairs open (one solve), and their compliance C (2p, 2p, m/N,
-        :meth:`_compliance`); None when a solve fails or C's normal block is not a P-matrix (the condensation is not
-        used: the module's *Cycles*). Collective."""
-        trial = active.copy()
-        trial.state[pairs], trial.sign[pairs] = OPEN, 0
-        C = self._compliance(trial, pairs)
-        if C is None:
+    def unit_force_displacements(self, active: ContactState, row: int | None) -> np.ndarray | None:
+        """The relative displacements (m per N) of ``active``'s solution under a unit force alone at local law row
+        ``row``, or None (:class:`bridgefem.cycles.PairSolves`). Collective."""
+        self.b.array[:] = 0.0
+        if row is not None:
+            self.b.array[self.n_u + row] = 1.0
+        if self._solve(active, self._mode) is not None:
             return None
-        self._rhs(level, trial, slip_ref)
-        if self._solve(trial, self._mode) is not None:
-            return None
-        _, _, d = self.split(self._mode)
-        d0 = d[pairs] - np.column_stack([np.zeros_like(slip_ref), slip_ref])[pairs]
-        return np.concatenate(self.comm.allgather(d0)), C
-
-    def _compliance(self, trial: ContactState, pairs: np.ndarray) -> np.ndarray | None:
-        """The compliance C (2p, 2p, m/N; rows and columns (n, t) per pair in global order) of ``pairs`` (local mask),
-        open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law
-        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first,
-        and after each the principal block of C_nn of the pairs solved so far is tested
-        (:func:`bridgefem.joint_condensation.opens_when_pulled`): a block that fails stops with None (every principal
-        submatrix of a P-matrix is one, and of a matrix with a positive definite symmetric part has one, so C_nn
-        fails too), so a declined condensation costs only the solves up to the pair that shows it. Pairs that showed
-        it before are solved first: a cycle condensed again, with other pairs or held states, usually fails at the
-        same crack-tip pair (campaign seed 1, #48 and #197: 14 of 19 declines at a pair with C_nn <= 0). None too when a
-        solve fails. Without a plastic fill the matrix depends only on the active set and the law's constants, so C
-        (or its decline) is kept per (``trial``, ``pairs``) until they change (:meth:`set_friction`, :meth:`use`): a
-        cycle condensed again with the same held states costs no solve. Collective."""
-        ids = np.concatenate(self.comm.allgather(self.pairs.offset + np.flatnonzero(pairs)))  # global, in C's order
-        key = (self._global_key(trial), ids.tobytes())
-        if self.material is None and key in self._compliances:
-            return self._compliances[key]
-        rows = self.n_u + 2 * np.flatnonzero(pairs)
-        owner = np.concatenate([np.full(n, r) for r, n in enumerate(self.comm.allgather(int(pairs.sum())))])
-        first = np.searchsorted(owner, self.comm.rank)
-        order = sorted(range(len(ids)), key=lambda i: ids[i] not in self._declining)  # stable: known ones first
-        C = np.zeros((2 * len(ids), 2 * len(ids)))
-        declined = False
-        for k, j in enumerate([*(2 * i for i in order), *(2 * i + 1 for i in order)]):  # normal, then tangential
-            self.b.array[:] = 0.0
-            if owner[j // 2] == self.comm.rank:
-                self.b.array[rows[j // 2 - first] + j % 2] = 1.0
-            if self._solve(trial, self._mode) is not None:
-                return None
-            _, _, d = self.split(self._mode)
-            C[:, j] = np.concatenate(self.comm.allgather(d[pairs] - self._ground[pairs])).ravel()
-            if k < len(ids) and not opens_when_pulled(_pairs_block(C, order[:k + 1])):
-                self._declining.add(int(ids[j // 2]))
-                declined = True
-                break
-        if self.material is None:
-            self._compliances[key] = None if declined else C
-        return None if declined else C
+        return self.split(self._mode)[2] - self._ground
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
@@ -1024,12 +927,6 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     if best is failed:
         return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
     return best
-
-
-def _pairs_block(C: np.ndarray, pairs: list[int]) -> np.ndarray:
-    """The principal block of a condensed compliance C (rows and columns (n, t) per pair) of some of its pairs."""
-    rows = np.ravel([(2 * i, 2 * i + 1) for i in pairs])
-    return C[np.ix_(rows, rows)]
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:

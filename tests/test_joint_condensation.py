@@ -89,9 +89,10 @@ def test_two_coupled_pairs():
 
 def test_condensed_compliance_reproduces_the_full_solve():
     """The standing block of tests/test_block.py pushed at half its tipping load: the base pairs' response condensed
-    from open (d = d0 + C lam, :meth:`ContactSolver._pair_response`) with the converged forces at two base pairs gives
-    back their converged relative displacements (closed, no slip), and their consistent state is the converged one
-    with the same forces: superposition on the full linear system, independent of the active-set iteration."""
+    from open (d = d0 + C lam, :meth:`bridgefem.cycles.CycleCondenser.pair_response`) with the converged forces at
+    two base pairs gives back their converged relative displacements (closed, no slip), and their consistent state is
+    the converged one with the same forces: superposition on the full linear system, independent of the active-set
+    iteration."""
     from test_block import B, RHO, W, standing_block
 
     from bridgefem.contact import build_pairs
@@ -121,7 +122,7 @@ def test_condensed_compliance_reproduces_the_full_solve():
     closed = np.flatnonzero(out.iterate.active.state != OPEN)
     chosen = np.zeros(len(pairs), dtype=bool)
     chosen[closed[[0, len(closed) // 2]]] = True
-    d0, C = solver._pair_response(level, out.iterate.active, chosen, start.slip_ref)
+    d0, C = solver.cycles.pair_response(level, out.iterate.active, chosen, start.slip_ref)
     predicted = d0.ravel() + C @ lam[chosen].ravel()
     assert np.all(lam[chosen][:, 0] > 0) and np.abs(d0).max() > 0  # compressed, and penetrating when open
     assert predicted == pytest.approx(np.zeros(4), abs=1e-6 * np.abs(d0).max())

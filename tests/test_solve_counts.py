@@ -1,11 +1,12 @@
-"""Linear solves and what they are spent on (bridgefem/solver.py). A cycle's condensation (*Cycles*;
-``ContactSolver._compliance``) costs 2p + 1 solves for p pairs the first time, one (the open response d0) when the
+"""Linear solves and what they are spent on (bridgefem/solver.py). A cycle's condensation (bridgefem/cycles.py;
+``CycleCondenser.compliance``) costs 2p + 1 solves for p pairs the first time, one (the open response d0) when the
 same pairs are condensed again with the same held states, and only the normal columns up to the pair that shows a
 normal block that is not a P-matrix, that pair first the next time; the solves of condensations and of retries are
 counted apart (``condensation_solves``, ``retry_solves``)."""
 import numpy as np
 import pytest
 
+from bridgefem import cycles as cycles_module
 from bridgefem import solver as solver_module
 from bridgefem.contact import OPEN
 
@@ -30,47 +31,47 @@ def test_a_condensation_repeated_with_the_same_held_states_costs_one_solve():
     the three) cost 2 x 2 + 1 again."""
     solver, start, pairs, level = settled_block()
     solves = solver.stats["solves"]
-    d0, C = solver._pair_response(level, start.active, pairs, start.slip_ref)
+    d0, C = solver.cycles.pair_response(level, start.active, pairs, start.slip_ref)
     assert solver.stats["solves"] - solves == 7
     again = solver.stats["solves"]
-    d0_again, C_again = solver._pair_response(level, start.active, pairs, start.slip_ref)
+    d0_again, C_again = solver.cycles.pair_response(level, start.active, pairs, start.slip_ref)
     assert solver.stats["solves"] - again == 1
     assert np.array_equal(C, C_again) and np.array_equal(d0, d0_again)
     fewer = pairs.copy()
     fewer[np.flatnonzero(pairs)[0]] = False
     before = solver.stats["solves"]
-    assert solver._pair_response(level, start.active, fewer, start.slip_ref) is not None
+    assert solver.cycles.pair_response(level, start.active, fewer, start.slip_ref) is not None
     assert solver.stats["solves"] - before == 5
 
 
 def test_a_declined_condensation_stops_at_the_pair_that_shows_it(monkeypatch):
     """A made-up normal test that declines every block of two or more pairs: the condensation of three pairs stops
     after the normal columns of the first two (2 solves), and the same condensation again costs none."""
-    monkeypatch.setattr(solver_module, "opens_when_pulled", lambda C: len(C) < 4)
+    monkeypatch.setattr(cycles_module, "opens_when_pulled", lambda C: len(C) < 4)
     solver, start, pairs, level = settled_block()
     solves = solver.stats["solves"]
-    assert solver._pair_response(level, start.active, pairs, start.slip_ref) is None
+    assert solver.cycles.pair_response(level, start.active, pairs, start.slip_ref) is None
     assert solver.stats["solves"] - solves == 2
-    assert solver._pair_response(level, start.active, pairs, start.slip_ref) is None
+    assert solver.cycles.pair_response(level, start.active, pairs, start.slip_ref) is None
     assert solver.stats["solves"] - solves == 2
 
 
 def test_a_pair_that_declined_a_condensation_is_solved_first_the_next_time(monkeypatch):
     """A made-up normal test that declines every block of two or more pairs: pairs (a, b, c) decline at b, after the
     normal solves of a and b; then (a, b) is solved from b, the pair that showed it (a first without that memory)."""
-    monkeypatch.setattr(solver_module, "opens_when_pulled", lambda block: len(block) < 4)
+    monkeypatch.setattr(cycles_module, "opens_when_pulled", lambda block: len(block) < 4)
     solver, start, pairs, level = settled_block()
     a, b, _ = np.flatnonzero(pairs)
     unit_rows = []
     solve = solver._solve
     monkeypatch.setattr(solver, "_solve", lambda active, x: unit_rows.append(np.flatnonzero(solver.b.array)[0])
                         or solve(active, x))
-    assert solver._pair_response(level, start.active, pairs, start.slip_ref) is None
+    assert solver.cycles.pair_response(level, start.active, pairs, start.slip_ref) is None
     assert unit_rows == [solver.n_u + 2 * a, solver.n_u + 2 * b]
     both = np.zeros_like(pairs)
     both[[a, b]] = True
     unit_rows.clear()
-    assert solver._pair_response(level, start.active, both, start.slip_ref) is None
+    assert solver.cycles.pair_response(level, start.active, both, start.slip_ref) is None
     assert unit_rows == [solver.n_u + 2 * b, solver.n_u + 2 * a]
 
 
@@ -78,13 +79,13 @@ def test_a_pair_that_declined_a_condensation_is_solved_first_the_next_time(monke
 def test_a_changed_law_computes_the_compliance_again(change):
     """New friction coefficients or Alart-Curnier constants change the matrix: the compliance is solved again."""
     solver, start, pairs, level = settled_block()
-    solver._pair_response(level, start.active, pairs, start.slip_ref)
+    solver.cycles.pair_response(level, start.active, pairs, start.slip_ref)
     if change == "friction":
         solver.set_friction(solver.friction, 2.0)
     else:
         solver.use(solver_module.Setting(scale=10.0))
     solves = solver.stats["solves"]
-    solver._pair_response(level, start.active, pairs, start.slip_ref)
+    solver.cycles.pair_response(level, start.active, pairs, start.slip_ref)
     assert solver.stats["solves"] - solves == 7
 
 
@@ -98,5 +99,5 @@ def test_the_solves_of_a_retry_and_of_a_condensation_are_counted_apart():
     assert out.converged and solver.stats["retry_solves"] == out.iterations
     solver.solve_step(level, start)
     assert solver.stats["retry_solves"] == out.iterations
-    solver._condensed(level, start.active, pairs, start.slip_ref, start.active)
+    solver.cycles.condensed(level, start.active, pairs, start.slip_ref, start.active)
     assert solver.stats["condensation_solves"] == 7
