@@ -7,7 +7,7 @@ demos/bare_arch.toml and the Prestwood bridge with backfill (demos/prestwood.tom
 scales that seed (x0.1, x10: a deliberately wrong guess; none: no guess; done by wrapping the search that
 run_analysis calls) to show that the bracket stays correct and the cost bounded when the estimate is wrong. The
 table lists linear solves (and of them those that condensed cycles and those of retries with other solver
-settings: :mod:`bridgefem.solver`, *Cycles* and *Retries*), factorisations, load steps (failed ones in brackets),
+settings: :mod:`bridgefem.cycles` and :mod:`bridgefem.solver` *Retries*), factorisations, load steps (failed ones in brackets),
 the FE bracket and the LP value (kN for the scene's width) and whether the solves meet the target. A benchmark that
 prints figures, not a timed test.
 
