@@ -31,7 +31,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
     meshes, queue, lowers = [], list(outcomes), list(lowers)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
-    def fake(scene, comm, petsc, report, phase, coarser_level=None):
+    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None):
         meshes.append(scene.mesh.elements_through_thickness)
         if coarser is not None:
             coarser.append(coarser_level)
