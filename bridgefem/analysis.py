@@ -403,8 +403,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                  max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
                                  stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                                  movement_steps=scene.abutments.movement_steps if motion else 0,
-                                 bound=bound[1] if bound else None, coarser=coarser, budget=budget, report=report,
-                                 converged=keep)
+                                 bound=bound[1] if bound else None, coarser=coarser, solve_budget=budget,
+                                 report=report, converged=keep)
     except SolveBudgetSpent as spent:
         search = LimitSearch(Status.failure(str(spent)), 0.0, None, s.tolerance, spent.steps, failure=str(spent))
     lap("limit search")

@@ -182,7 +182,7 @@ class LimitSearch:
 
 
 class SolveBudgetSpent(Exception):
-    """A search stopped by its ``budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it took."""
+    """A search stopped by its ``solve_budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it took."""
 
     def __init__(self, budget: int, steps: list[LoadStep]):
         super().__init__(f"not settled within its budget of {budget} linear solves")
@@ -204,7 +204,7 @@ class StaticCap:
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
-                    coarser: float | None = None, budget: int | None = None,
+                    coarser: float | None = None, solve_budget: int | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -218,20 +218,20 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
     *Guess*), None on a first run.
-    ``budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has spent
-    them raises :class:`SolveBudgetSpent` (every rank counts the same solves, so every rank raises at the same step).
+    ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
+    spent them raises :class:`SolveBudgetSpent` (every rank counts the same solves, so every rank raises at the same step).
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
     steps: list[LoadStep] = []
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
-    spent = solver.stats["solves"] if budget is not None else 0  # the solves before the search
+    spent = solver.stats["solves"] if solve_budget is not None else 0  # the solves before the search
 
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
                 give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                 ) -> StepOutcome:
-        if budget is not None and solver.stats["solves"] - spent >= budget:
-            raise SolveBudgetSpent(budget, steps)
+        if solve_budget is not None and solver.stats["solves"] - spent >= solve_budget:
+            raise SolveBudgetSpent(solve_budget, steps)
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
