@@ -327,12 +327,12 @@ def first_step(dead_weight: float, coarser: float | None = None) -> float:
     """The first live-load step (N per unit load factor) when the scene sets none: a quarter of the ring's
     ``dead_weight`` (N), or on a re-run the level the coarser mesh's run reached, ``coarser``, when that is larger.
 
-    The step bounds every step that approaches the search's target (:mod:`bridgefem.pathfollow`, *Steps*); the
-    target of a bare ring is its static bound, which the limits that are re-run lie 1-14 % below, so the approach
-    overshoots, and the coarser run's level is an estimate of the finer limit (the two agree within 2 % on the
-    campaigns' re-runs). Steps that large leave the search two or three steps from the top, not one step per
-    quarter of the ring's weight (campaign seed 1, #220: 13 steps of 0.51 MN up to 7.2 MN). The step sets the path,
-    never what counts as converged or as a bracket (the bracket rule is the search's)."""
+    The step bounds every step that approaches the search's target (:mod:`bridgefem.pathfollow`, *Steps*); a
+    re-run's target is at most the coarser run's level (*Guess*: the two agree within 2 % on the campaigns'
+    re-runs), which the approach then reaches in halves of the distance left, not in steps of a quarter of the
+    ring's weight (campaign seed 1, #220: 47 linear solves for its re-run with 8 elements, 95 with the quarter; #124:
+    38 against 58). The step sets the path, never what counts as converged or as a bracket (the bracket rule is the
+    search's)."""
     return max(dead_weight / 4, coarser or 0.0)
 
 

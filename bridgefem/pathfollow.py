@@ -182,7 +182,8 @@ class LimitSearch:
 
 
 class SolveBudgetSpent(Exception):
-    """A search stopped by its ``solve_budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it took."""
+    """A search stopped by its ``solve_budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it
+    took."""
 
     def __init__(self, budget: int, steps: list[LoadStep]):
         super().__init__(f"not settled within its budget of {budget} linear solves")
@@ -219,7 +220,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
     *Guess*), None on a first run.
     ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
-    spent them raises :class:`SolveBudgetSpent` (every rank counts the same solves, so every rank raises at the same step).
+    spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
+    and raises at the same step).
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
