@@ -64,7 +64,8 @@ REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (
 # within 0.65 % of the LP; docs/joints-and-lp.md)
 REFINEMENT_BUDGET = 3  # a re-run of a confirmed run may spend this many times that run's linear solves: the re-runs
 # that settled on the campaigns (seeds 1 and 2) spent 0.2-1.3 times the solves of the run they re-ran, #297's
-# 16-element run 2.8 times (142 of its 257 in the self-weight); #193's, which failed, 409 against 43
+# 16-element run 2.8 times (142 of its 257 in the self-weight); #193's, which failed in its self-weight, 409 against
+# the 43 of the 8-element run it re-ran
 
 
 @dataclass
@@ -243,13 +244,14 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     without proof on voussoirs shorter than an element) is run again with twice the elements through the thickness
     (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
     the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
-    on these elements); ``notice(line)`` announces each re-run, whose first live-load step is the level the run
-    before it reached (:func:`first_step`). The last run is returned, the runs it replaced listed in
-    ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state
-    of evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh
-    does not undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``).
-    Such a re-run can only refine the answer, so its search gets a budget of ``REFINEMENT_BUDGET`` times the
-    confirmed run's linear solves; one that spends it unsettled is a failure "not settled within its budget".
+    on these elements); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
+    are the level the run before it reached (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last
+    run is returned, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same evidence. A
+    confirmed run that is re-run (a collapse state of evidence 3 below the associative LP) is kept when the finer
+    run fails: a solver failure on the finer mesh does not undo a confirmed answer on the coarser one (the failed
+    run is listed in ``Analysis.refinements``). Such a re-run can only refine the answer, so its search gets a
+    budget of ``REFINEMENT_BUDGET`` times the confirmed run's linear solves; one that spends it unsettled is a
+    failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
     refinements, previous, confirmed = [], None, None
     with quiet_compiler():
