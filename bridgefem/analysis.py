@@ -40,7 +40,7 @@ from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
-from .pathfollow import LimitSearch, LoadStep, find_limit_load, monitor_deflection
+from .pathfollow import LimitSearch, LoadStep, SolveBudgetSpent, find_limit_load, monitor_deflection
 from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, ring_under_forces,
                           solve_blocks)
 from .scene import Scene, SceneError
@@ -62,6 +62,10 @@ SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void t
 MAX_REFINEMENTS = 2  # re-runs of a limit that depends on the mesh, each with twice the elements through the thickness
 REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (campaign scenes 2, 193, 297 at 16:
 # within 0.65 % of the LP; docs/joints-and-lp.md)
+REFINEMENT_BUDGET = 3  # a re-run of a confirmed run may spend this many times that run's linear solves: the re-runs
+# that settled on the campaigns (seeds 1 and 2) spent 0.2-1.3 times the solves of the run they re-ran, #297's
+# 16-element run 2.8 times (142 of its 257 in the self-weight); #193's, which failed in its self-weight, 409 against
+# the 43 of the 8-element run it re-ran
 
 
 @dataclass
@@ -240,16 +244,20 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     without proof on voussoirs shorter than an element) is run again with twice the elements through the thickness
     (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
     the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
-    on these elements); ``notice(line)`` announces each re-run, whose first live-load step is the level the run
-    before it reached (:func:`first_step`). The last run is returned, the runs it replaced listed in
-    ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state
-    of evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh
-    does not undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``).
+    on these elements); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
+    are the level the run before it reached (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last
+    run is returned, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same evidence. A
+    confirmed run that is re-run (a collapse state of evidence 3 below the associative LP) is kept when the finer
+    run fails: a solver failure on the finer mesh does not undo a confirmed answer on the coarser one (the failed
+    run is listed in ``Analysis.refinements``). Such a re-run can only refine the answer, so its search gets a
+    budget of ``REFINEMENT_BUDGET`` times the confirmed run's linear solves; one that spends it unsettled is a
+    failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
     refinements, previous, confirmed = [], None, None
     with quiet_compiler():
         while True:
-            an = _analyse(scene, comm, petsc_options, report, phase, previous)
+            budget = REFINEMENT_BUDGET * confirmed.solver.stats["solves"] if confirmed is not None else None
+            an = _analyse(scene, comm, petsc_options, report, phase, previous, budget)
             ett, carried = scene.mesh.elements_through_thickness, an.search.lower
             failed = Status.of(an.search.status) is Status.FAILURE
             if failed and confirmed is not None:
@@ -321,20 +329,21 @@ def first_step(dead_weight: float, coarser: float | None = None) -> float:
     """The first live-load step (N per unit load factor) when the scene sets none: a quarter of the ring's
     ``dead_weight`` (N), or on a re-run the level the coarser mesh's run reached, ``coarser``, when that is larger.
 
-    The step bounds every step that approaches the search's target (:mod:`bridgefem.pathfollow`, *Steps*); the
-    target of a bare ring is its static bound, which the limits that are re-run lie 1-14 % below, so the approach
-    overshoots, and the coarser run's level is an estimate of the finer limit (the two agree within 2 % on the
-    campaigns' re-runs). Steps that large leave the search two or three steps from the top, not one step per
-    quarter of the ring's weight (campaign seed 1, #220: 13 steps of 0.51 MN up to 7.2 MN). The step sets the path,
-    never what counts as converged or as a bracket (the bracket rule is the search's)."""
+    The step bounds every step that approaches the search's target (:mod:`bridgefem.pathfollow`, *Steps*); a
+    re-run's target is at most the coarser run's level (*Guess*: the two agree within 2 % on the campaigns'
+    re-runs), which the approach then reaches in halves of the distance left, not in steps of a quarter of the
+    ring's weight (campaign seed 1, #220: 47 linear solves for its re-run with 8 elements, 95 with the quarter; #124:
+    38 against 58). The step sets the path, never what counts as converged or as a bracket (the bracket rule is the
+    search's)."""
     return max(dead_weight / 4, coarser or 0.0)
 
 
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
-             coarser: float | None = None) -> Analysis:
+             coarser: float | None = None, budget: int | None = None) -> Analysis:
     """One run of the scene's mesh (:func:`run_analysis`); ``coarser``: the last converged level (N per unit load
-    factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run."""
+    factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run;
+    ``budget``: the linear solves its search may spend (None: no limit), a failure when spent."""
     timings = {}
     t = time.perf_counter()
 
@@ -389,13 +398,17 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
 
     bound = static_cap(scene, model, bm, pairs, solver, lp) if fill is None else None
     lap("static bound")
-    search = find_limit_load(solver, under_load, tolerance=s.tolerance,
-                             initial_step=s.initial_step or first_step(model.dead_weight, coarser),
-                             max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
-                             max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
-                             stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
-                             movement_steps=scene.abutments.movement_steps if motion else 0,
-                             bound=bound[1] if bound else None, report=report, converged=keep)
+    try:
+        search = find_limit_load(solver, under_load, tolerance=s.tolerance,
+                                 initial_step=s.initial_step or first_step(model.dead_weight, coarser),
+                                 max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
+                                 max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
+                                 stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
+                                 movement_steps=scene.abutments.movement_steps if motion else 0,
+                                 bound=bound[1] if bound else None, coarser=coarser, solve_budget=budget,
+                                 report=report, converged=keep)
+    except SolveBudgetSpent as spent:
+        search = LimitSearch(Status.failure(str(spent)), 0.0, None, s.tolerance, spent.steps, failure=str(spent))
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,

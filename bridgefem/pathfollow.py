@@ -34,7 +34,9 @@ suspect failure closes the bracket only with a failing step of at most ``SUSPECT
 a step of at most ``SETTLED`` widths; when that state was reached by a larger step, the search backtracks to the
 converged state before it (of the last ``BACKTRACK``) and goes on with ``BACKTRACK_STEP`` of that step, at most
 ``BACKTRACKS`` times in a search (a search that climbs back to the same failure would otherwise cycle). A wrong
-guess therefore costs steps, never the bracket rule.
+guess therefore costs steps, never the bracket rule. A re-run on a finer mesh also knows the lower end of its coarser
+run's bracket, ``coarser``: T is at most (1 - tolerance) x it, so that its trials above it are plausible, not suspect
+(the re-runs of the campaigns carry within 2 % of their coarser run's limit).
 
 **Steps.** The step is the last step taken, doubled after a converged step of at most ``EASY_ITERATIONS``
 Newton iterations or as many as the self-weight step took (a plastic fill needs several on every step) and, with a
@@ -179,6 +181,15 @@ class LimitSearch:
     static: bool = False
 
 
+class SolveBudgetSpent(Exception):
+    """A search stopped by its ``solve_budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it
+    took."""
+
+    def __init__(self, budget: int, steps: list[LoadStep]):
+        super().__init__(f"not settled within its budget of {budget} linear solves")
+        self.budget, self.steps = budget, steps
+
+
 @dataclass
 class StaticCap:
     """The static theorem's bound on a search (module docstring, *Static bound*): ``level`` the largest level at
@@ -194,6 +205,7 @@ class StaticCap:
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
+                    coarser: float | None = None, solve_budget: int | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -205,15 +217,23 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     counts as failed, like a step without equilibrium: the load-deflection curve is flat (collapse of a structure
     restrained by a soft or yielding fill, which never becomes exactly singular; module docstring, *Flat curve*).
     ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
+    ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
+    *Guess*), None on a first run.
+    ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
+    spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
+    and raises at the same step).
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
     steps: list[LoadStep] = []
     k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
+    spent = solver.stats["solves"] if solve_budget is not None else 0  # the solves before the search
 
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
                 give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                 ) -> StepOutcome:
+        if solve_budget is not None and solver.stats["solves"] - spent >= solve_budget:
+            raise SolveBudgetSpent(solve_budget, steps)
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
@@ -262,6 +282,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
+    target = min(target, (1.0 - tolerance) * coarser) if coarser else target
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target

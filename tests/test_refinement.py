@@ -6,12 +6,14 @@ from types import SimpleNamespace
 import pytest
 
 from bridgefem import analysis, sizing
-from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, first_step, refined_elements,
-                                run_analysis)
+from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, first_step,
+                                refined_elements, run_analysis)
+from bridgefem.pathfollow import SolveBudgetSpent, find_limit_load
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
 
 from conftest import campaign_scene, scene_dict
+from test_bracket import LIMIT, WEIGHT, OneDof, assert_bracket, static_cap
 
 # campaign seed 1, scene 45 (benchmarks/campaign.py): a semicircle of 6 voussoirs at mu 0.312 (the least a
 # semicircle stands with is 0.309) under a point load of 1 % of its weight on a joint. With 4 elements through the
@@ -24,21 +26,25 @@ HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness"
                                   mesh={"elements_through_thickness": 8}))
 
 
-def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None, coarser=None):
+def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None, coarser=None, budgets=None,
+                  solves=(30, 40, 50)):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
-    unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit); returns the meshes run,
-    and appends to the list ``coarser`` the coarser run's level each run was given."""
-    meshes, queue, lowers = [], list(outcomes), list(lowers)
+    unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
+    solves; returns the meshes run, and appends to the list ``coarser`` the coarser run's level each run was given
+    and to ``budgets`` its budget of linear solves."""
+    meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
-    def fake(scene, comm, petsc, report, phase, coarser_level=None):
+    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None):
         meshes.append(scene.mesh.elements_through_thickness)
         if coarser is not None:
             coarser.append(coarser_level)
+        if budgets is not None:
+            budgets.append(budget)
         lower = lowers.pop(0)
         return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=queue.pop(0)), refinements=None,
                                load_total=1.0, timings={"limit search": 1.0}, scene=scene,
-                               solver=SimpleNamespace(stats={"solves": 30}),
+                               solver=SimpleNamespace(stats={"solves": solves.pop(0)}),
                                lp=SimpleNamespace(load=100.0, level=100.0),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
                                                       tolerance=1e-4))
@@ -96,6 +102,67 @@ def test_a_confirmed_collapse_state_below_the_lp_is_re_run_and_stands_if_the_fin
     assert len(lines) == (1 if kept == 8 else 2)
 
 
+@pytest.mark.parametrize("statuses, budgets", [((Status.LIMIT, Status.LIMIT, Status.LIMIT), [None, 30, 40]),
+                                               (("solver failure: x", Status.LIMIT, Status.LIMIT), [None, None, 40])])
+def test_only_a_re_run_of_a_confirmed_run_has_a_budget(monkeypatch, statuses, budgets):
+    """A re-run of a confirmed run (which it cannot undo) may spend REFINEMENT_BUDGET times the solves of that run
+    (30, then 40, in the fake); a first run and a re-run of a failed run, the only chance of an answer, have none."""
+    given = []
+    fake_analyses(monkeypatch, (True, True, False), statuses=statuses, budgets=given)
+    run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
+    assert given == [None if b is None else REFINEMENT_BUDGET * b for b in budgets]
+
+
+class CountedOneDof(OneDof):
+    """test_bracket's one-degree-of-freedom structure, counting its linear solves (one per step) as the solver does."""
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.stats = {"solves": 0}
+
+    def solve_step(self, *args, **kw):
+        self.stats["solves"] += 1
+        return super().solve_step(*args, **kw)
+
+
+def one_dof_search(solver, **kw):
+    return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=1e-4, initial_step=WEIGHT / 4,
+                           max_load=100 * WEIGHT, max_steps=200, **kw)
+
+
+def test_a_search_stops_at_the_first_step_after_its_budget_of_solves():
+    """With a budget of k linear solves the search attempts exactly k steps (one solve each here) and then stops,
+    whatever phase it is in; without one the same search takes more."""
+    assert len(one_dof_search(CountedOneDof(), guess=1.3 * LIMIT).steps) > 7
+    for k in (1, 7):
+        solver = CountedOneDof()
+        with pytest.raises(SolveBudgetSpent, match=f"budget of {k} linear solves") as spent:
+            one_dof_search(solver, guess=1.3 * LIMIT, solve_budget=k)
+        assert solver.stats["solves"] == k and len(spent.value.steps) == k
+
+
+@pytest.mark.parametrize("coarser", [0.9 * LIMIT, 0.99 * LIMIT, LIMIT, 1.01 * LIMIT, 1.1 * LIMIT])
+def test_a_coarser_runs_limit_sets_the_path_never_the_bracket(coarser):
+    """The lower end of a coarser run's bracket caps the target of a re-run (below a static bound far above the
+    limit): the bracket still holds the exact limit whichever side of it that level lies, proved or not."""
+    for proves in (True, False):
+        bound, _ = static_cap(1.3 * LIMIT)
+        assert_bracket(one_dof_search(CountedOneDof(proves=proves), guess=1.3 * LIMIT, bound=bound, coarser=coarser))
+
+
+def test_a_coarser_limit_near_the_true_one_saves_trials():
+    """A limit 23 % below the static bound: approached from the bound's target, its unproven failures are suspect
+    and retried; with the coarser run's level 0.5 % below it the search lands there in 6 trials, doubles its step
+    from the width up to the limit in about 6 and bisects the last step down to the width in about 5."""
+    counts = []
+    for coarser in (None, 0.995 * LIMIT):
+        solver = CountedOneDof(proves=False)
+        bound, _ = static_cap(1.3 * LIMIT)
+        assert_bracket(one_dof_search(solver, guess=1.3 * LIMIT, bound=bound, coarser=coarser))
+        counts.append(solver.stats["solves"])
+    assert counts[1] <= 20 and counts[1] < counts[0], counts
+
+
 def test_no_re_run_beyond_the_cap_or_the_size_limit(monkeypatch):
     """A mesh past REFINED_ELEMENTS_MAX, or one the size estimate refuses, is not tried: the run stands."""
     assert refined_elements(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4}))) == 8
@@ -137,3 +204,23 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     assert Status.of(on_disk["mesh_refinements"][0]["status"]) is Status.FAILURE
     assert on_disk["mesh_refinements"][0]["seconds"] > 0 and on_disk["mesh_refinements"][0]["solves"] > 0
     assert on_disk["model"]["elements_through_thickness"] == 8
+
+
+@pytest.mark.slow
+def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monkeypatch):
+    """Campaign seed 2, scene 55 (4 voussoirs): with 4 elements a confirmed non-associative collapse state below the
+    LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves the re-run stops unsettled, the
+    confirmed run is the answer (below the LP, computed here independently) and the stopped run is listed."""
+    from bridgefem.rigid_block import collapse_load
+
+    monkeypatch.setattr(analysis, "REFINEMENT_BUDGET", 0.1)
+    scene = scene_from_dict({**campaign_scene(55, 3.2951, seed=2), "mesh": {"elements_through_thickness": 4}})
+    lines = []
+    an = run_analysis(scene, notice=lines.append)
+    assert an.scene.mesh.elements_through_thickness == 4 and an.search.status == Status.LIMIT
+    assert an.search.upper * an.load_total <= 1.005 * collapse_load(scene).load
+    (stopped,) = an.refinements
+    budget = 0.1 * an.solver.stats["solves"]
+    assert stopped.elements_through_thickness == 8 and "not settled within its budget" in stopped.status
+    assert budget <= stopped.solves <= budget + scene.solver.max_iterations
+    assert "the confirmed run with 4 stands" in lines[-1]
