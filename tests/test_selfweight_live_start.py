@@ -48,3 +48,30 @@ def test_a_live_load_that_reverses_the_slip_makes_the_pairs_stick(pushed):
     assert again.converged and again.iterations == 1, again.reason
     assert np.array_equal(again.iterate.active.state, start.active.state)
     assert np.allclose(again.iterate.x.array, it.x.array, rtol=1e-9, atol=1e-12 * np.abs(it.x.array).max())
+
+
+@pytest.mark.slow
+def test_the_live_load_goes_on_at_once_after_the_friction_continuation():
+    """Campaign seed 1, scene 76 (elliptical, 145 voussoirs, mu = 0.582, 8 elements through the thickness): the one
+    self-weight step fails and the friction continuation carries the self-weight with about 200 pairs sliding. The
+    first live-load trial after it converges (from the converged active set, it and six halvings down to 1/64 of it
+    each diverged after reversing slips). The bracket closes on the static theorem's bound (the LP under the FE's own
+    loads), at most 1.005 x the associative rigid-block LP on the same joints (computed here), its lower end within
+    1 % of it (a joint slides: the FE's non-associative friction may stop below the associative LP)."""
+    from bridgefem.analysis import run_analysis
+    from bridgefem.rigid_block import collapse_load
+    from bridgefem.scene import scene_from_dict
+    from bridgefem.status import Status
+
+    from conftest import campaign_scene
+
+    scene = scene_from_dict({**campaign_scene(76, 2.4907), "mesh": {"elements_through_thickness": 8}})
+    an = run_analysis(scene)
+    steps = an.search.steps
+    live = next(i for i, s in enumerate(steps) if s.level > 0)
+    assert any(s.friction_factor is not None for s in steps[:live]) and steps[live - 1].converged
+    assert steps[live].converged, steps[live].reason
+    assert an.search.status == Status.LIMIT
+    lp = collapse_load(scene).load
+    assert an.search.static and an.search.upper * an.load_total <= 1.005 * lp
+    assert an.search.lower * an.load_total >= 0.99 * lp
