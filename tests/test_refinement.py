@@ -102,13 +102,16 @@ def test_a_confirmed_collapse_state_below_the_lp_is_re_run_and_stands_if_the_fin
     assert len(lines) == (1 if kept == 8 else 2)
 
 
-@pytest.mark.parametrize("statuses, budgets", [((Status.LIMIT, Status.LIMIT, Status.LIMIT), [None, 30, 40]),
-                                               (("solver failure: x", Status.LIMIT, Status.LIMIT), [None, None, 40])])
-def test_only_a_re_run_of_a_confirmed_run_has_a_budget(monkeypatch, statuses, budgets):
-    """A re-run of a confirmed run (which it cannot undo) may spend REFINEMENT_BUDGET times the solves of that run
-    (30, then 40, in the fake); a first run and a re-run of a failed run, the only chance of an answer, have none."""
+@pytest.mark.parametrize("statuses, solves, budgets", [
+    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (30, 40, 50), [None, 30, 40]),
+    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (150, 40, 50), [None, 150, 150]),
+    (("solver failure: x", Status.LIMIT, Status.LIMIT), (30, 40, 50), [None, None, 40])])
+def test_only_a_re_run_of_a_confirmed_run_has_a_budget(monkeypatch, statuses, solves, budgets):
+    """A re-run of a confirmed run (which it cannot undo) may spend REFINEMENT_BUDGET times the solves of the
+    costliest run before it (a cheap confirmed run after a costly one does not shrink it); a first run and a re-run
+    of a failed run, the only chance of an answer, have none."""
     given = []
-    fake_analyses(monkeypatch, (True, True, False), statuses=statuses, budgets=given)
+    fake_analyses(monkeypatch, (True, True, False), statuses=statuses, budgets=given, solves=solves)
     run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
     assert given == [None if b is None else REFINEMENT_BUDGET * b for b in budgets]
 
