@@ -27,6 +27,22 @@ still without confirming #9 or #181. An answer comes before its cost: they are c
 A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding
 (:mod:`bridgefem.solver`).
 
+**Rounding.** With the pairs open and slips held elsewhere the system can be so nearly singular that a unit force's
+response is rounding: campaign seed 1 #193 (elliptical, 22 voussoirs, mu = 0.489, 2 % above its least thickness),
+self-weight, one crack-tip pair: the unit normal force moved the structure by 9e4 m/N, and one step of iterative
+refinement (:meth:`PairSolves.unit_force_error`) corrected that by 9e5 m/N; the pair's own entry C_nn came out
++4.3e-10 m/N serially and -3.8e-10 m/N on 2 MPI ranks (MUMPS rounds otherwise), so the condensation was used on one
+and declined on the other, and the two runs took different paths to different verdicts. A P-matrix verdict is now
+taken only where it exceeds the rounding: a normal column that moves some pair more than ``AMPLIFIED`` times its
+own entry has its error measured by that refinement (one more solve), and the block is kept only when its distance
+from failing the test (:func:`bridgefem.joint_condensation.pulled_margin`) exceeds ``ROUNDING_MARGIN`` times the
+Frobenius norm of its estimated error (a bound of that error's 2-norm; the factor covers the estimate's own rounding,
+of the order of the backward error's). #193's pair: error 2.1e-10 against 4.3e-10, declined on one rank and on two
+alike. Declining is always safe (the caller holds the other slips stuck, then damps): it changes the path, never what
+counts as converged. Columns that are not amplified are not measured (their cost stays 2p + 1 solves): over the
+condensations of seed 1 #48, #299 and #193 (100 normal columns) the others moved no pair more than 28 times their
+own entry, and their refinement corrections were about 1e-13 of the solution; #193's three rounding columns, 2e14.
+
 The condensation uses the contact solver's linear system through :class:`PairSolves` (its factorisation is reused:
 the pairs' columns of C are solves with one matrix) and counts its solves as ``condensation_solves``.
 """
@@ -38,9 +54,11 @@ import numpy as np
 from mpi4py import MPI
 
 from .contact import OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
-from .joint_condensation import consistent_states, opens_when_pulled
+from .joint_condensation import consistent_states, opens_when_pulled, pulled_margin
 
 CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
+AMPLIFIED = 1e4  # a normal column moving some pair more than this multiple of its own entry has its rounding measured
+ROUNDING_MARGIN = 10.0  # a normal block's P-matrix margin must exceed this multiple of its estimated error's norm
 
 
 class PairSolves(Protocol):
@@ -62,6 +80,11 @@ class PairSolves(Protocol):
         """The relative displacements (local pairs, (m, 2), m per N; no ground offset) of the solution of
         ``active``'s system under a unit force alone at local law row ``row`` (2 k normal, 2 k + 1 tangential of
         local pair k; None: no force on this rank); None when the solve fails. Collective."""
+
+    def unit_force_error(self) -> np.ndarray | None:
+        """An estimate of the error (local pairs, (m, 2), m per N) of the last :meth:`unit_force_displacements`
+        from one step of iterative refinement (:meth:`bridgefem.linsolve.CheckedSolve.correction`: one more solve
+        with its factorisation); None when that solve fails. Collective."""
 
 
 class CycleCondenser:
@@ -155,7 +178,7 @@ class CycleCondenser:
         owner = np.concatenate([np.full(n, r) for r, n in enumerate(comm.allgather(int(pairs.sum())))])
         first = np.searchsorted(owner, comm.rank)
         order = sorted(range(len(ids)), key=lambda i: ids[i] not in self._declining)  # stable: known ones first
-        C = np.zeros((2 * len(ids), 2 * len(ids)))
+        C, error = np.zeros((2 * len(ids), 2 * len(ids))), np.zeros((2 * len(ids), 2 * len(ids)))  # error: of C
         declined = False
         for k, j in enumerate([*(2 * i for i in order), *(2 * i + 1 for i in order)]):  # normal, then tangential
             row = rows[j // 2 - first] + j % 2 if owner[j // 2] == comm.rank else None
@@ -163,7 +186,17 @@ class CycleCondenser:
             if d is None:
                 return None
             C[:, j] = np.concatenate(comm.allgather(d[pairs])).ravel()
-            if k < len(ids) and not opens_when_pulled(_pairs_block(C, order[:k + 1])):
+            if k >= len(ids):
+                continue
+            holds = opens_when_pulled(_pairs_block(C, order[:k + 1]))
+            if holds and comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX) > AMPLIFIED * abs(C[j, j]):
+                e = self.system.unit_force_error()  # the module's *Rounding*
+                if e is None:
+                    return None
+                error[:, j] = np.concatenate(comm.allgather(e[pairs])).ravel()
+                holds = pulled_margin(_pairs_block(C, order[:k + 1])) > ROUNDING_MARGIN * np.linalg.norm(
+                    _pairs_block(error, order[:k + 1])[0::2, 0::2])
+            if not holds:
                 self._declining.add(int(ids[j // 2]))
                 declined = True
                 break

@@ -230,6 +230,21 @@ def opens_when_pulled(C: np.ndarray) -> bool:
     return bool(np.linalg.eigvalsh(0.5 * (normal + normal.T))[0] > 0)
 
 
+def pulled_margin(C: np.ndarray) -> float:
+    """How far the normal block C_nn of a condensed compliance C (2p, 2p, m/N) that passes :func:`opens_when_pulled`
+    is from failing it (m/N): the 2-norm of the smallest perturbation of C_nn that can change the test's verdict is
+    at least this. Up to ``ENUMERATED_PAIRS`` pairs, the least singular value of its principal submatrices: for
+    |E|_2 below it every M_S + t E_S (0 <= t <= 1) is nonsingular, so no principal minor changes sign; above, the
+    least eigenvalue of its symmetric part, which a perturbation moves by at most |E|_2 (Weyl). 0 when it fails."""
+    normal = C[0::2, 0::2]
+    if not opens_when_pulled(C):
+        return 0.0
+    if len(normal) > ENUMERATED_PAIRS:
+        return float(np.linalg.eigvalsh(0.5 * (normal + normal.T))[0])
+    subsets = (np.array(s) for k in range(1, len(normal) + 1) for s in itertools.combinations(range(len(normal)), k))
+    return min(float(np.linalg.svd(normal[np.ix_(s, s)], compute_uv=False)[-1]) for s in subsets)
+
+
 def _equations(tiled: CoulombJoints, candidates: ContactState, d0: np.ndarray, C: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """The joint law's rows for n combinations of the states of the p pairs (``candidates``: n p pairs, the law

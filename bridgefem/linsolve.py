@@ -48,6 +48,7 @@ class CheckedSolve:
         self.ksp = self._new_ksp()
         self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._r = A.createVecLeft()
+        self._residual, self._correction = A.createVecLeft(), A.createVecRight()
         self._broken = False
 
     def _new_ksp(self) -> PETSc.KSP:
@@ -103,6 +104,18 @@ class CheckedSolve:
                                 f"{self.ksp.getType()}/{self.ksp.getPC().getType()} solver did not solve the system; "
                                 "not a proof of a mechanism)", False)
         return None
+
+    def correction(self, b: PETSc.Vec, x: PETSc.Vec) -> "PETSc.Vec | SolveFailure":
+        """One step of iterative refinement of a solve of A x = b: the correction dx = A^-1 (b - A x) with the same
+        factorisation (one more solve, counted and checked as any other; Higham 2002, *Accuracy and Stability of
+        Numerical Algorithms*, ch. 12). It estimates x's forward error to within a modest factor (the residual's own
+        rounding is of the order of the backward error's) whenever that error is below |x|; a correction as large as
+        x says that x is rounding (a nearly singular A). Returns dx (a work vector, overwritten by the next call) or
+        the failure. Collective."""
+        self.A.mult(x, self._residual)
+        self._residual.aypx(-1.0, b)
+        failure = self.solve(self._residual, self._correction)
+        return self._correction if failure is None else failure
 
     def backward_error(self, b: PETSc.Vec, x: PETSc.Vec) -> float:
         """Normwise backward error of a solve, |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf): about the machine

@@ -801,6 +801,15 @@ class ContactSolver:
             return None
         return self.split(self._mode)[2] - self._ground
 
+    def unit_force_error(self) -> np.ndarray | None:
+        """The estimated error (m per N) of the relative displacements of the last :meth:`unit_force_displacements`,
+        or None (:class:`bridgefem.cycles.PairSolves`). Collective."""
+        correction = self.linear.correction(self.b, self._mode)
+        if not isinstance(correction, PETSc.Vec):
+            self._matrix_key = None  # a failed factorisation is never reused
+            return None
+        return self.split(correction)[2] - self._ground
+
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
         """``active`` with the ``repair`` pairs closed and sticking (None without a repair anywhere). Collective."""
