@@ -90,10 +90,10 @@ trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton ite
 mechanisms stops early, as such a failure, instead of spending its iterations.
 A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
 step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
-failure only halves the step, so the budget bounds what a hopeless trial costs and never decides a verdict. Failed
-trials that still converge are rare: with a plastic fill (Prestwood) converged steps take 4-23 iterations, failed ones
+failure only halves the step, so the budget bounds what a hopeless trial costs and never decides a verdict. Steps
+that converge only beyond it are rare: with a plastic fill (Prestwood) converged steps take 4-23 iterations, failed ones
 used 40-60 without recovering; on the campaigns' bare rings and elastic fills (seeds 1 and 2, 3326 converged live
-steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while the
+steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while
 failed trials spent up to 60 (seed 1, #48: 39, 37 and 60 iterations at 306.7 kN from states 28, 14 and 7 kN below,
 before that level converged in 2 from 1.7 kN below).
 
