@@ -42,8 +42,8 @@ def test_a_hopeless_trial_costs_the_budget_and_a_closing_trial_keeps_every_itera
     """Steps longer than 100 N never converge; the last 1.2 N below the limit (ten widths) need 30 Newton iterations,
     more than the floor of the budget. The wandering trials beyond the width stop at the budget (the floor, 20, while
     the hardest converged step took 2 iterations; twice 30 after the band), not at the solver's 60; a trial within the
-    width of the converged state keeps all 60, so the slow band converges and the bracket closes on the known limit instead of ending in a solver
-    failure."""
+    width of the converged state keeps all 60, so the slow band converges and the bracket closes on the known limit
+    instead of ending in a solver failure."""
     solver = Wandering(reach=100.0, band=1e-3 * LIMIT, slow=30)
     s = search(solver)
     assert_bracket(s)
