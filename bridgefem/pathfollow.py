@@ -45,7 +45,13 @@ on every step near its mechanism whatever the step's size (campaign seed 2, #13:
 width, from the guess's target up to the limit 37 % above it), so only the iterations' growth says the step is too
 long. It never shrinks after a converged step (that would stall where every step needs many iterations), a soft
 failure halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
-and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high.
+and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high. Without
+a plastic fill, a converged step that reaches the soft bound clears it and leaves a step of at least half the one whose
+failure set that bound: the level has converged from a nearer state, so the failure was the Newton method's on a long
+step into that level, not the path's beyond it (seed 1, #182: past 2390 kN, which failed from 88 kN below and
+converged from 11 kN below, the next step is 44 kN instead of 11 kN; 391 -> 329 linear solves). With a plastic fill
+the steps stay as they were: its flat-curve bracket moves with the step schedule (*Flat curve*; seed 1, #136 and
+seed 2, #14 moved by 0.25 % and 0.8 % with that rule).
 
 **Flat curve.** A structure whose mechanism is restrained by a soft or yielding fill never loses equilibrium
 exactly: its load-deflection curve flattens. With ``stiffness_drop`` set, a converged trial counts as failed (a
@@ -84,9 +90,14 @@ failure. A failure that would end the search without proof (or a suspect one) is
 solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load
 trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
 mechanisms stops early, as such a failure, instead of spending its iterations.
-With a plastic fill a trial more than the width above ``lower`` gets ``PLASTIC_BUDGET`` times the Newton iterations
-of the hardest converged step (Prestwood: converged steps take 4-23 iterations, failed ones used 40-60 without
-recovering); trials that can close the bracket keep ``max_iterations``.
+A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
+step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
+failure only halves the step, so the budget bounds what a hopeless trial costs and never decides a verdict. Steps
+that converge only beyond it are rare: with a plastic fill (Prestwood) converged steps take 4-23 iterations, failed ones
+used 40-60 without recovering; on the campaigns' bare rings and elastic fills (seeds 1 and 2, 3326 converged live
+steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while
+failed trials spent up to 60 (seed 1, #48: 39, 37 and 60 iterations at 306.7 kN from states 28, 14 and 7 kN below,
+before that level converged in 2 from 1.7 kN below).
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -129,11 +140,13 @@ BACKTRACK_STEP = 0.25  # after a backtrack the step is this fraction of the step
 BACKTRACKS = 2  # backtracks per search: a suspect failure that recurs after them is decisive
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 MOVEMENT_HALVINGS = 6  # a support-movement increment that fails is halved at most this many times
-PLASTIC_BUDGET = 2  # with a plastic fill, a trial that cannot close the bracket gets this many times the Newton
-# iterations of the hardest converged step: on the Mohr-Coulomb fill scenes of the campaign (seeds 1 and 2) and
-# Prestwood no converged step took more than 1.8 times the hardest before it, and the trials that failed at 2 to 3
-# times ended 1e-4 to 1e2 of the largest applied nodal force out of balance (a plastic Newton iteration that has
-# not converged by then does not recover)
+BUDGET = 2  # a trial that cannot close the bracket gets this many times the Newton iterations of the hardest
+# converged step: on the Mohr-Coulomb fill scenes of the campaign (seeds 1 and 2) and Prestwood no converged step
+# took more than 1.8 times the hardest before it, and the trials that failed at 2 to 3 times ended 1e-4 to 1e2 of the
+# largest applied nodal force out of balance (a plastic Newton iteration that has not converged by then does not
+# recover)
+BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's self-weight may converge in one (module docstring,
+# *Failures without proof*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -301,6 +314,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     latest = first.iterations  # Newton iterations of the step that reached lower
     backtracks = 0
     linear = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
+    failed_step = 0.0  # the step whose failure set the soft bound
     while len(steps) < max_steps:
         if lower >= max_load:
             return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
@@ -318,7 +332,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         secant = _secant(history[-1], lower, state, trial) if history and history[-1][0] > 0 else None
         predictor = secant if trial - lower > width else None  # two live-load states, not closing
         estimate = secant if solver.material is not None else None
-        budget = PLASTIC_BUDGET * hardest if solver.material is not None and trial - lower > width else None
+        budget = max(BUDGET_FLOOR, BUDGET * hardest) if trial - lower > width else None
         out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
         suspect = not plausible(trial)
         backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
@@ -346,6 +360,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                        "the rigid-block LP under the FE's own loads (the converged state's joint "
                                        f"resultants are admissible for it; {check})", guess, settled, static=True)
                 cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
+            cleared = lower >= soft and solver.material is None
             if lower >= soft:
                 soft = math.inf
             retry = soft - lower > tolerance * lower and not plausible(soft)
@@ -353,6 +368,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                 step = CLOSE * tolerance * lower
             else:
                 step = 2.0 * taken if easy else taken
+                step = max(step, 0.5 * failed_step) if cleared else step
             continue
         failed_from.add((visit, trial))
         if backtrack:
@@ -364,6 +380,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
                                guess, settled, out.proved)
         else:
+            failed_step = trial - lower if trial < soft else failed_step
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
