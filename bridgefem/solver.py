@@ -12,9 +12,9 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    changes farthest from the joint law they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired;
    an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
-5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
-   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
-   pairs that cycle between open and closed are bonded.
+5. Classify the solution with the joint law (a reversed slip is proposed as stick: *Reversed slips*); a cycle of a
+   few pairs is solved exactly on their condensed compliance (*Cycles*); in other cycles closed pairs that cycle
+   between friction states are frozen to stick, pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
    (:func:`retried`, *Retries* below).
@@ -115,6 +115,21 @@ applied nodal force (at most the default bracket tolerance of the load), else it
 pair has no consistent state in the discrete law: e.g. a springing pair of an elliptical ring at mu = 6.4 (campaign
 seed 1, #51) penetrated 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual
 of a few newtons and the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
+
+**Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
+slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
+slip one way, stick, slip the other way, and a Newton step taken on one slip branch that lands on the opposite one
+has crossed the whole stick branch; the next iteration proposes the reversed slip if the sticking pair's friction
+force leaves the cone again. Only the path changes: a proposal keeps a pair's state exactly where the law's
+classification does (a reversal is a change either way), so the converged states are the law's own
+(``tests/test_solver_reversed_slip.py``). Taken at once, a reversal couples the two slip branches of neighbouring
+pairs at a crack tip: campaign seed 1 #270 (parabolic, 18 voussoirs, mu = 0.349), where one springing pair's
+reversed slip gave a solve whose proposal changed 52 pairs with violations of 1e9 N under a 2 kN load, failed 22 of
+its 47 load steps, from half its limit on. Through stick, on every tenth scene of seeds 1 and 2 with seed 1 #48,
+#75, #182, #235 and #270: classes and limits unchanged but #235's (a solver failure at 1887.55 kN, 815 solves; now
+at the LP's limit, 2102.8 kN, 561 solves); seed 1 4663 -> 3602 solves on its 34 scenes (#270 391 -> 193, #75
+398 -> 226, #182 391 -> 257, #230 359 -> 175, #260 241 -> 114; rises only #290 224 -> 277 and #48 438 -> 443),
+seed 2 709 -> 650 on its 10.
 
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
 change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
@@ -920,9 +935,10 @@ class ContactSolver:
     def _propose(self, active: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
                  frozen: np.ndarray, bonded: np.ndarray | None = None) -> "_Proposal":
         """The active set the Alart-Curnier functions propose from ``active`` for multipliers ``lam`` and relative
-        displacements ``d`` (frozen pairs kept sticking, bonded ones closed and sticking), with the changed pairs
-        and their violations."""
+        displacements ``d`` (frozen pairs kept sticking, bonded ones closed and sticking, reversed slips sticking:
+        :func:`_through_stick`), with the changed pairs and their violations."""
         new, violation = self.law.classify(active, lam, d, slip_ref)
+        _through_stick(new, active)
         _stick(new, frozen)
         if bonded is not None:
             _bond(new, bonded)
@@ -1042,6 +1058,14 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
     """Frozen pairs that are closed stick (their slip direction cycled); open ones stay open."""
     fix = frozen & (active.state != OPEN)
     active.state[fix], active.sign[fix] = STICK, 0
+
+
+def _through_stick(new: ContactState, old: ContactState) -> None:
+    """A pair that slid in ``old`` and is proposed to slide the other way sticks instead (the module's *Reversed
+    slips*): the reversal passes through stick, and the next iteration proposes the reversed slip if the stick
+    state's friction force leaves the cone again."""
+    reversed_slip = (old.state == SLIP) & (new.state == SLIP) & (new.sign != old.sign)
+    new.state[reversed_slip], new.sign[reversed_slip] = STICK, 0
 
 
 def _bond(active: ContactState, bonded: np.ndarray) -> None:
