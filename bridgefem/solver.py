@@ -12,9 +12,9 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    changes farthest from the joint law they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired;
    an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
-5. Classify the solution with the joint law (a reversed slip is proposed as stick: *Reversed slips*); a cycle of a
-   few pairs is solved exactly on their condensed compliance (*Cycles*); in other cycles closed pairs that cycle
-   between friction states are frozen to stick, pairs that cycle between open and closed are bonded.
+5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
+   compliance (*Cycles*); in other cycles closed pairs that cycle between friction states are frozen to stick,
+   pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
 7. A step that failed without proof where its failure would end the search is solved again with other settings
    (:func:`retried`, *Retries* below).
@@ -119,33 +119,8 @@ pair has no consistent state in the discrete law: e.g. a springing pair of an el
 seed 1, #51) penetrated 1.4 mm when open and carried tension when closed; bonded, the step converged with a residual
 of a few newtons and the search went on to a proved limit equal to the LP's. Other cycles fail as non-convergence.
 
-**Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
-slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
-slip one way, stick, slip the other way, and a Newton step taken on one slip branch that lands on the opposite one
-has crossed the whole stick branch; the next iteration proposes the reversed slip if the sticking pair's friction
-force leaves the cone again. Only the path changes: a proposal keeps a pair's state exactly where the law's
-classification does (a reversal is a change either way), so the converged states are the law's own
-(``tests/test_solver_reversed_slip.py``). Taken at once, a reversal couples the two slip branches of neighbouring
-pairs at a crack tip: campaign seed 1 #270 (parabolic, 18 voussoirs, mu = 0.349), where one springing pair's
-reversed slip gave a solve whose proposal changed 52 pairs with violations of 1e9 N under a 2 kN load, failed 22 of
-its 47 load steps, from half its limit on. Through stick, on every tenth scene of seeds 1 and 2 with seed 1 #48,
-#75, #182, #235 and #270: classes and limits unchanged but #235's (a solver failure at 1887.55 kN, 815 solves; now
-at the LP's limit, 2102.8 kN, 561 solves); seed 1 4663 -> 3602 solves on its 34 scenes (#270 391 -> 193, #75
-398 -> 226, #182 391 -> 257, #230 359 -> 175, #260 241 -> 114; rises only #290 224 -> 277 and #48 438 -> 443),
-seed 2 709 -> 650 on its 10.
-
-**Churning pairs.** A cycle is condensed (*Cycles*, below) with the pairs that changed in two or more of the step's
-proposals as well as those its returning proposal changes (:meth:`ContactSolver._cycle`), when they are at most
-``CONDENSED_PAIRS`` in all: a return may change one pair of the cycle only. At the loaded springing of campaign seed 1
-#270 three pairs went stick / slip in turn, each return changing one, whose condensation alone found only states
-already solved; frozen to stick, they broke the friction law by more the larger the load step (2.2 kN at a step of
-3.4 %, halving with each halving of the step), and eleven trials failed. With the churning pairs condensed too, the
-first such trial converges (193 -> 52 solves); on every tenth scene of seeds 1 and 2 with seed 1 #48, #75, #182 and
-#235 nothing else changed but #182's 257 -> 259 solves.
-
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
-change (with the pairs that churned: *Churning pairs*), those pairs are solved exactly with every other pair's state
-held (:meth:`ContactSolver._condensed`): their
+change, those pairs are solved exactly with every other pair's state held (:meth:`ContactSolver._condensed`): their
 relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, at
 most 2p + 1 solves: :meth:`ContactSolver._compliance`), and :func:`bridgefem.joint_condensation.consistent_states`
 finds a state of theirs that the joint law accepts: up to four pairs by enumerating their 4^p states, above by
@@ -244,6 +219,30 @@ where a return to a visited set is a cycle. A block on the ground pushed by half
 set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
 counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
 the equilibrium (``tests/test_predicted_step.py``).
+
+**Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
+slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
+slip one way, stick, slip the other way, and a Newton step taken on one slip branch that lands on the opposite one
+has crossed the whole stick branch; the next iteration proposes the reversed slip if the sticking pair's friction
+force leaves the cone again. Only the path changes: a proposal keeps a pair's state exactly where the law's
+classification does (a reversal is a change either way), so the converged states are the law's own
+(``tests/test_solver_reversed_slip.py``). Taken at once, a reversal couples the two slip branches of neighbouring
+pairs at a crack tip: campaign seed 1 #270 (parabolic, 18 voussoirs, mu = 0.349), where one springing pair's
+reversed slip gave a solve whose proposal changed 52 pairs with violations of 1e9 N under a 2 kN load, failed 22 of
+its 47 load steps, from half its limit on. Through stick, on every tenth scene of seeds 1 and 2 with seed 1 #48,
+#75, #182, #235 and #270: classes and limits unchanged but #235's (a solver failure at 1887.55 kN, 815 solves; now
+at the LP's limit, 2102.8 kN, 561 solves); seed 1 4663 -> 3602 solves on its 34 scenes (#270 391 -> 193, #75
+398 -> 226, #182 391 -> 257, #230 359 -> 175, #260 241 -> 114; rises only #290 224 -> 277 and #48 438 -> 443),
+seed 2 709 -> 650 on its 10.
+
+**Churning pairs.** A cycle is condensed (*Cycles*) with the pairs that changed in two or more of the step's
+proposals as well as those its returning proposal changes (:meth:`ContactSolver._cycle`), when they are at most
+``CONDENSED_PAIRS`` in all: a return may change one pair of the cycle only. At the loaded springing of campaign seed 1
+#270 three pairs went stick / slip in turn, each return changing one, whose condensation alone found only states
+already solved; frozen to stick, they broke the friction law by more the larger the load step (2.2 kN at a step of
+3.4 %, halving with each halving of the step), and eleven trials failed. With the churning pairs condensed too, the
+first such trial converges (193 -> 52 solves); on every tenth scene of seeds 1 and 2 with seed 1 #48, #75, #182 and
+#235 nothing else changed but #182's 257 -> 259 solves.
 """
 from __future__ import annotations
 
