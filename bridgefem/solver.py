@@ -226,7 +226,8 @@ slip one way, stick, slip the other way, and a Newton step taken on one slip bra
 has crossed the whole stick branch; the next iteration proposes the reversed slip if the sticking pair's friction
 force leaves the cone again. Only the path changes: a proposal keeps a pair's state exactly where the law's
 classification does (a reversal is a change either way), so the converged states are the law's own
-(``tests/test_solver_reversed_slip.py``). Taken at once, a reversal couples the two slip branches of neighbouring
+(``tests/test_solver_reversed_slip.py``), though which of them a step reaches may change: friction's equilibria are
+not unique (*Retries*). Taken at once, a reversal couples the two slip branches of neighbouring
 pairs at a crack tip: campaign seed 1 #270 (parabolic, 18 voussoirs, mu = 0.349), where one springing pair's
 reversed slip gave a solve whose proposal changed 52 pairs with violations of 1e9 N under a 2 kN load, failed 22 of
 its 47 load steps, from half its limit on. Through stick, on every tenth scene of seeds 1 and 2 with seed 1 #48,
