@@ -12,7 +12,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state:
    changes farthest from the joint law they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired;
    an admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
-5. Classify the solution with the joint law; a cycle of a few pairs is solved exactly on their condensed
+5. Classify the solution with the joint law (a reversed slip is proposed as stick: *Reversed slips*); a cycle of a
+   few pairs, with the pairs that keep changing (*Churning pairs*), is solved exactly on their condensed
    compliance (:mod:`bridgefem.cycles`); in other cycles closed pairs that cycle between friction states are frozen
    to stick, pairs that cycle between open and closed are bonded.
 6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
@@ -97,7 +98,10 @@ its proof or the LP's agreement), so a retry changes how often the Newton method
 counts as one. The last, unlimited damping chains from the fresh start, rescued no step in five campaign runs
 (seeds 1 and 2: tried 32 times, up to 60 solves each) but is the only setting that carries the 15-voussoir
 elliptical ring of ``tests/test_features.py`` (rise 3 m, t = 1 m) past 74.0 kN to the LP's limit (77.0 kN): without
-it that ring is a solver failure 4 % below the LP.
+it that ring is a solver failure 4 % below the LP. It proposes reversed slips as the law classifies them (*Reversed
+slips*): through stick, its 56 iterations there reached another equilibrium (friction's are not unique), from which
+every trial failed, and the ring ended a solver failure at 74.05 kN again; the plain proposal reaches the one from which
+the search goes on to 76.93 kN. No other scene of the checks under *Reversed slips* reached that setting.
 
 Closed pairs whose friction state cycles between Newton iterations (a slip direction that flips back and forth, or
 stick and slip in turn: with large friction the discrete Coulomb law can have no consistent state at a pair next to a
@@ -190,6 +194,33 @@ where a return to a visited set is a cycle. A block on the ground pushed by half
 set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
 counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
 the equilibrium (``tests/test_predicted_step.py``).
+
+**Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
+slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
+slip one way, stick, slip the other way, and a Newton step taken on one slip branch that lands on the opposite one
+has crossed the whole stick branch; the next iteration proposes the reversed slip if the sticking pair's friction
+force leaves the cone again. Only the path changes: a proposal keeps a pair's state exactly where the law's
+classification does (a reversal is a change either way), so the converged states are the law's own
+(``tests/test_solver_reversed_slip.py``), though which of them a step reaches may change: friction's equilibria are
+not unique (*Retries*). Taken at once, a reversal couples the two slip branches of neighbouring
+pairs at a crack tip: campaign seed 1 #270 (parabolic, 18 voussoirs, mu = 0.349), where one springing pair's
+reversed slip gave a solve whose proposal changed 52 pairs with violations of 1e9 N under a 2 kN load, failed 22 of
+its 47 load steps, from half its limit on. Through stick, on every tenth scene of seeds 1 and 2 with seed 1 #48,
+#75, #182, #235 and #270: classes and limits unchanged but #235's (a solver failure at 1887.55 kN, 815 solves; now
+at the LP's limit, 2102.8 kN, 561 solves); seed 1 4663 -> 3602 solves on its 34 scenes (#270 391 -> 193, #75
+398 -> 226, #182 391 -> 257, #230 359 -> 175, #260 241 -> 114; rises only #290 224 -> 277 and #48 438 -> 443),
+seed 2 709 -> 650 on its 10.
+
+**Churning pairs.** A cycle is condensed (:mod:`bridgefem.cycles`) with the pairs that changed in two or more of the step's
+proposals as well as those its returning proposal changes (:meth:`ContactSolver._cycle`), when they are at most
+``ENUMERATED_PAIRS`` in all (every combination of their states is tried: :mod:`bridgefem.joint_condensation`): a
+return may change one pair of the cycle only. At the loaded springing of campaign seed 1
+#270 three pairs went stick / slip in turn, each return changing one, whose condensation alone found only states
+already solved; frozen to stick, they broke the friction law by more the larger the load step (2.2 kN at a step of
+3.4 %, halving with each halving of the step), and eleven trials failed. With the churning pairs condensed too, the
+first such trial converges (193 -> 52 solves). Up to ``CONDENSED_PAIRS`` churning pairs instead, the elastic fill
+scene seed 1 #181 (247 voussoirs, mu = 1.529; a solver failure either way) condensed cycles of up to 24 pairs again and
+again: 3613 -> 6838 solves (4009 of them condensing) until its step budget ran out; with at most four, 2295.
 """
 from __future__ import annotations
 
@@ -203,6 +234,7 @@ from petsc4py import PETSc
 
 from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs, LawRows
 from .cycles import CycleCondenser
+from .joint_condensation import ENUMERATED_PAIRS
 from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
@@ -230,17 +262,19 @@ class Setting:
     forces against displacements in the classification only), ``fresh`` starts from every joint closed and sticking
     instead of the converged start's active set, ``patient`` lets damping chains recover without limit,
     ``line_search`` backtracks every Newton step of a ring without a plastic fill too (the module's *Line search*:
-    a damped semismooth Newton method on the Alart-Curnier residual)."""
+    a damped semismooth Newton method on the Alart-Curnier residual), ``through_stick`` proposes a reversed slip as
+    stick (the module's *Reversed slips*; without it, as the law classifies it)."""
 
     scale: float = 1.0
     fresh: bool = False
     patient: bool = False
     line_search: bool = False
+    through_stick: bool = True
 
 
 DEFAULT_SETTING = Setting()
 RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
-           Setting(fresh=True, patient=True))
+           Setting(fresh=True, patient=True, through_stick=False))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
 
 
@@ -658,6 +692,7 @@ class ContactSolver:
         budget = self.max_iterations if iterations is None else min(iterations, self.max_iterations)
         proximal, proximal_sets = {}, 0  # sets solved with the proximal term: key -> their plain solve's failure
         drift = None  # the failure of a proximal set that drifts along its mode (*Proximal solves*)
+        churn = np.zeros(len(self.pairs), dtype=np.int64)  # the proposals of this step that changed each pair
         near = start.x.copy()  # the last solved iterate: the proximal term's anchor
         for it in range(1, budget + 1):
             key = self._global_key(active)
@@ -707,6 +742,7 @@ class ContactSolver:
             proposal = self._propose(active, lam, d, slip_ref, frozen, bonded)
             new, pending = proposal.proposal, proposal.pending
             changed = self._count(pending)
+            churn += pending
             if self.material is not None:
                 f_int, plastic = self._linearise(x, start.plastic_strain, response=accepted)
                 residual = self._material_residual(x, f_int, level, f_scale)
@@ -751,7 +787,7 @@ class ContactSolver:
                 if singular is not None:
                     return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
                                        residual, factorisations(), mechanism=True)
-                solved = self.cycles.condensed(level, active, pending, slip_ref, start.active)
+                solved = self.cycles.condensed(level, active, self._cycle(pending, churn), slip_ref, start.active)
                 if solved is not None and self._global_key(solved) not in seen:
                     frozen &= ~_changes(solved, active)  # the condensed pairs' friction state is now exact
                     seen.add(self._global_key(solved))
@@ -810,6 +846,13 @@ class ContactSolver:
             return None
         return self.split(correction)[2] - self._ground
 
+    def _cycle(self, pending: np.ndarray, churn: np.ndarray) -> np.ndarray:
+        """The pairs of a cycle to condense (the module's *Churning pairs*): those the returning proposal changes,
+        with those that changed in two or more of the step's proposals (``churn``: counts per local pair) when they
+        are at most ``ENUMERATED_PAIRS`` in all, else the first alone. Collective."""
+        cycle = pending | (churn >= 2)
+        return cycle if self._count(cycle) <= ENUMERATED_PAIRS else pending
+
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
         """``active`` with the ``repair`` pairs closed and sticking (None without a repair anywhere). Collective."""
@@ -832,9 +875,11 @@ class ContactSolver:
     def _propose(self, active: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray,
                  frozen: np.ndarray, bonded: np.ndarray | None = None) -> "_Proposal":
         """The active set the Alart-Curnier functions propose from ``active`` for multipliers ``lam`` and relative
-        displacements ``d`` (frozen pairs kept sticking, bonded ones closed and sticking), with the changed pairs
-        and their violations."""
+        displacements ``d`` (frozen pairs kept sticking, bonded ones closed and sticking, reversed slips sticking
+        with the setting's ``through_stick``: :func:`_through_stick`), with the changed pairs and their violations."""
         new, violation = self.law.classify(active, lam, d, slip_ref)
+        if self.setting.through_stick:
+            _through_stick(new, active)
         _stick(new, frozen)
         if bonded is not None:
             _bond(new, bonded)
@@ -970,6 +1015,14 @@ def _stick(active: ContactState, frozen: np.ndarray) -> None:
     """Frozen pairs that are closed stick (their slip direction cycled); open ones stay open."""
     fix = frozen & (active.state != OPEN)
     active.state[fix], active.sign[fix] = STICK, 0
+
+
+def _through_stick(new: ContactState, old: ContactState) -> None:
+    """A pair that slid in ``old`` and is proposed to slide the other way sticks instead (the module's *Reversed
+    slips*): the reversal passes through stick, and the next iteration proposes the reversed slip if the stick
+    state's friction force leaves the cone again."""
+    reversed_slip = (old.state == SLIP) & (new.state == SLIP) & (new.sign != old.sign)
+    new.state[reversed_slip], new.sign[reversed_slip] = STICK, 0
 
 
 def _bond(active: ContactState, bonded: np.ndarray) -> None:
