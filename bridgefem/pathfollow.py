@@ -104,9 +104,7 @@ at live load 0, in that many equal increments (friction is path dependent; a fai
 stays for the live load.
 
 **Self-weight.** The search starts from the self-weight state of :func:`bridgefem.selfweight.carry_self_weight`
-(one step, or a continuation through a stronger structure when that step fails without proof). The live load starts
-from it with the sliding pairs that a live-load increment would slide backwards sticking
-(:meth:`bridgefem.solver.ContactSolver.converged_slip_reference`, ``live_load``).
+(one step, or a continuation through a stronger structure when that step fails without proof).
 
 Statuses: "limit load found", "unstable under self-weight", "stable under self-weight" (no live load),
 "no collapse up to the maximum load (locked)", "solver failure: <reason>" (a failure that shows no mechanism,
@@ -292,7 +290,6 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     settled = state
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
-    state = solver.converged_slip_reference(state, live_load=True)  # pairs the live load would slide back stick
     if stiffness_drop > 0:
         k_initial = _tangent_stiffness(solver, deflection, state) or math.inf
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)

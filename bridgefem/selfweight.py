@@ -24,9 +24,8 @@
    solves per scene on five of the seven continuation scenes of campaign seeds 1 and 2 (seed 1 #76 318 -> 235),
    but seed 1 #197's last step then failed after 60 iterations four times (240 -> 519 solves).
 
-   The continuation's last state has the pairs that slid as the friction was lowered sliding: the live load
-   starts from it with those that its first increment would slide backwards sticking
-   (:meth:`bridgefem.solver.ContactSolver.converged_slip_reference`, ``live_load``).
+   The continuation's last state has the pairs that slid as the friction was lowered sliding; a first live-load
+   trial that would slide them backwards proposes them sticking (:mod:`bridgefem.solver`, *Reversed slips*).
 
 3. When the static theorem shows that no equilibrium under self-weight exists (``falls``: the rigid blocks under the
    FE's own dead loads need joint tension or cohesion beyond what any converged FE state's tolerances can hide,

@@ -885,32 +885,10 @@ class ContactSolver:
             _bond(new, bonded)
         return _Proposal(active, new, _changes(new, active), violation)
 
-    def converged_slip_reference(self, it: Iterate, live_load: bool = False) -> Iterate:
-        """The converged state becomes the reference for the incremental slip of the next step.
-
-        ``live_load``: the state starts the live load, a loading other than the one that made its pairs slide (the
-        self-weight, or the friction lowered by :mod:`bridgefem.selfweight`). At the reference no pair has slipped
-        yet, so a sliding pair (lam_t = s mu lam_n) satisfies the stick law as well: both active sets describe the
-        same converged state, and the choice changes only the Newton iteration's path. The live load's response
-        with the active set held (:meth:`live_load_tangent`, one solve, only when some pair slides) gives each
-        sliding pair's slip increment d_t per unit load: where s d_t > 0 the increment opposes the sliding
-        direction -s, the Alart-Curnier function leaves the cone's edge inwards (its excess is -c s d_t), and the
-        pair sticks. That is the first Newton iteration's classification of these pairs, for an infinitesimal load,
-        so without the reversals (slip flipped to the other edge of the cone) that a finite trial proposes where
-        c |d_t| > 2 mu lam_n. Campaign seed 1 #297 (290 pairs sliding after the friction continuation): from the
-        converged set every first live-load trial from 1383 N down to 21.6 N proposed 13 to 21 such reversals at
-        once and diverged, 10.8 N converged after 11 iterations; with 183 of the 290 pairs sticking, 1383 N
-        converges in 8. Unchanged when that system cannot be solved."""
+    def converged_slip_reference(self, it: Iterate) -> Iterate:
+        """The converged state becomes the reference for the incremental slip of the next step."""
         _, _, d = self.split(it.x)
-        active = it.active
-        if live_load and self._any(np.any(active.state == SLIP)):
-            tangent = self.live_load_tangent(it)
-            if tangent is not None:
-                _, _, rate = self.split(tangent.x)
-                backwards = (active.state == SLIP) & (active.sign * (rate[:, 1] - self._ground[:, 1]) > 0)
-                active = active.copy()
-                _stick(active, backwards)
-        return Iterate(it.x, active, d[:, 1].copy(), it.plastic_strain)
+        return Iterate(it.x, it.active, d[:, 1].copy(), it.plastic_strain)
 
     def _global_key(self, active: ContactState) -> int:
         return hash(tuple(self.comm.allgather(active.key())))

@@ -39,7 +39,7 @@ class OneDof:
     def initial_iterate(self):
         return self._iterate(0.0)
 
-    def converged_slip_reference(self, it, live_load=False):
+    def converged_slip_reference(self, it):
         return it
 
     def use(self, setting):  # one algorithm here: a retry solves the same step alike
