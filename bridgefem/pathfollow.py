@@ -143,8 +143,8 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # took more than 1.8 times the hardest before it, and the trials that failed at 2 to 3 times ended 1e-4 to 1e2 of the
 # largest applied nodal force out of balance (a plastic Newton iteration that has not converged by then does not
 # recover)
-BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's self-weight may converge in one (module docstring,
-# *Failures without proof*)
+BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
+# (module docstring, *Failures without proof*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
