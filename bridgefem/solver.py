@@ -211,8 +211,8 @@ at the LP's limit, 2102.8 kN, 561 solves); seed 1 4663 -> 3602 solves on its 34 
 398 -> 226, #182 391 -> 257, #230 359 -> 175, #260 241 -> 114; rises only #290 224 -> 277 and #48 438 -> 443),
 seed 2 709 -> 650 on its 10.
 
-**Churning pairs.** A cycle is condensed (:mod:`bridgefem.cycles`) with the pairs that changed in two or more of the step's
-proposals as well as those its returning proposal changes (:meth:`ContactSolver._cycle`), when they are at most
+**Churning pairs.** A cycle is condensed (:mod:`bridgefem.cycles`) with the pairs that changed in two or more of
+the step's proposals as well as those its returning proposal changes (:meth:`ContactSolver._cycle`), when they are at most
 ``ENUMERATED_PAIRS`` in all (every combination of their states is tried: :mod:`bridgefem.joint_condensation`): a
 return may change one pair of the cycle only. At the loaded springing of campaign seed 1
 #270 three pairs went stick / slip in turn, each return changing one, whose condensation alone found only states
