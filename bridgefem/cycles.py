@@ -32,7 +32,7 @@ response is rounding: campaign seed 1 #193 (elliptical, 22 voussoirs, mu = 0.489
 self-weight, one crack-tip pair: the unit normal force moved the structure by 9e4 m/N, and one step of iterative
 refinement (:meth:`PairSolves.unit_force_error`) corrected that by 9e5 m/N; the pair's own entry C_nn came out
 +4.3e-10 m/N serially and -3.8e-10 m/N on 2 MPI ranks (MUMPS rounds otherwise), so the condensation was used on one
-and declined on the other, and the two runs took different paths to different verdicts. A P-matrix verdict is now
+and declined on the other, and the two runs took different paths to different verdicts. A P-matrix verdict is
 taken only where it exceeds the rounding: a normal column that moves some pair more than ``AMPLIFIED`` times its
 own entry has its error measured by that refinement (one more solve), and the block is kept only when its distance
 from failing the test (:func:`bridgefem.joint_condensation.pulled_margin`) exceeds ``ROUNDING_MARGIN`` times the
