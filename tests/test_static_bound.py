@@ -66,7 +66,8 @@ def test_a_state_that_violates_one_yield_condition_is_not_admissible():
 def test_the_bracket_of_a_campaign_ring_ends_on_the_static_theorem():
     """The search ends on a converged state within the width of the bound, the bound is the upper end and no trial
     went above it; the bracket holds the independent LP (exact voussoir weights) within AGREEMENT. The converged
-    state passes the admissibility check, and fails it once one joint's forces are made tensile."""
+    state passes the admissibility check, and fails it once one joint's forces are made tensile, or with a pair's
+    law waived."""
     an = run_analysis(scene_from_dict(SCENE_3))
     s = an.search
     assert s.status == Status.LIMIT and s.static and an.verdict.evidence.startswith("static theorem"), s.status
@@ -84,6 +85,8 @@ def test_the_bracket_of_a_campaign_ring_ends_on_the_static_theorem():
     x.array[an.solver.n_u:] = lam.ravel()
     ok, text = cap.admissible(step, dataclasses.replace(s.last, x=x))
     assert not ok, text
+    ok, text = cap.admissible(dataclasses.replace(step, counts={**step.counts, "frozen": 1}), s.last)
+    assert not ok and "waived (frozen or bonded) at 1 of the pairs" in text  # a waived law's residual is no static admissibility
 
 
 @pytest.mark.slow
