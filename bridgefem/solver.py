@@ -230,7 +230,7 @@ no damping chain counted). Such a set is nearly a mechanism below the divergence
 classification of its solution proposes changes with violations thousands of times the load: campaign seed 1 #224
 (elliptical, 219 voussoirs, E = 1.2e8 Pa) moved 31 m against 0.2-0.4 m at the other sets of its step, proposed 36
 open / closed toggles with violations of 3.7e8 N under a 60 kN load, and came back to a near copy of that set every
-four iterations, for up to 22 iterations a trial (five failed trials between 60 and 65 kN); now the trials there
+four iterations, for up to 22 iterations a trial (five failed trials between 60 and 65 kN); damped, the trials there
 converge in 3 to 6.
 A converged set proposes no change, so it is never rejected: only the path changes, never what counts as converged.
 Measured (solves per limit load, classes and limits unchanged): seed 1, the twelve bare rings above 150 solves
