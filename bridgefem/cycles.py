@@ -188,14 +188,15 @@ class CycleCondenser:
             C[:, j] = np.concatenate(comm.allgather(d[pairs])).ravel()
             if k >= len(ids):
                 continue
-            holds = opens_when_pulled(_pairs_block(C, order[:k + 1]))
+            solved = order[:k + 1]
+            holds = opens_when_pulled(_pairs_block(C, solved))
             if holds and comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX) > AMPLIFIED * abs(C[j, j]):
                 e = self.system.unit_force_error()  # the module's *Rounding*
                 if e is None:
                     return None
                 error[:, j] = np.concatenate(comm.allgather(e[pairs])).ravel()
-                holds = pulled_margin(_pairs_block(C, order[:k + 1])) > ROUNDING_MARGIN * np.linalg.norm(
-                    _pairs_block(error, order[:k + 1])[0::2, 0::2])
+                holds = pulled_margin(_pairs_block(C, solved)) > ROUNDING_MARGIN * np.linalg.norm(
+                    _pairs_block(error, solved)[0::2, 0::2])
             if not holds:
                 self._declining.add(int(ids[j // 2]))
                 declined = True

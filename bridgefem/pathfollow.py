@@ -200,7 +200,7 @@ class SolveBudgetSpent(Exception):
 
     def __init__(self, budget: int, steps: list[LoadStep]):
         super().__init__(f"not settled within its budget of {budget} linear solves")
-        self.budget, self.steps = budget, steps
+        self.steps = steps
 
 
 @dataclass

@@ -878,7 +878,7 @@ class ContactSolver:
     def _cycle(self, pending: np.ndarray, churn: np.ndarray) -> np.ndarray:
         """The pairs of a cycle to condense (the module's *Churning pairs*): those the returning proposal changes,
         with those that changed in two or more of the step's proposals (``churn``: counts per local pair) when they
-        are at most ``ENUMERATED_PAIRS`` in all, else the first alone. Collective."""
+        are at most ``ENUMERATED_PAIRS`` in all, else the returning proposal's alone. Collective."""
         cycle = pending | (churn >= 2)
         return cycle if self._count(cycle) <= ENUMERATED_PAIRS else pending
 
