@@ -9,8 +9,8 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state; each N
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
    failure, never a mechanism): :meth:`ContactSolver._solve_set`.
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
-   wrong active set is solved again with a proximal term (*Proximal solves*, :meth:`ContactSolver._record`), else
-   damped (the half of the proposed changes farthest from the joint law they leave:
+   wrong active set is solved again with a proximal term (*Proximal solves*, :meth:`ContactSolver._note_failure`),
+   else damped (the half of the proposed changes farthest from the joint law they leave:
    :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired (:meth:`ContactSolver._recover`); an admissible
    mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below):
@@ -757,7 +757,7 @@ class ContactSolver:
         if failure is not None and failure.proof:
             return self._ended(step, failure.message, mechanism=True, proved=True)
         if failure is not None:
-            failure = self._record(step, failure)
+            failure = self._note_failure(step, failure)
         if failure is not None:
             return self._recover(step, failure)
         accepted = self._accept(step)
@@ -782,7 +782,7 @@ class ContactSolver:
         return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
                                   step.near if step.key in step.proximal else None)
 
-    def _record(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
+    def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
         repair of an inadmissible mode); a set whose first failure diverges along a mode that slips pairs against
         their friction force is solved again with the proximal term (the module's *Proximal solves*). Returns
@@ -855,8 +855,9 @@ class ContactSolver:
         return proposal, changed
 
     def _balance(self, step: _NewtonStep, accepted: "FillResponse | None") -> StepOutcome | None:
-        """The scaled out-of-balance force at x (with a plastic fill, the fill linearised there for the next solve);
-        the step ends as diverged beyond ``DIVERGED_OUT_OF_BALANCE`` (the module's *Line search*). Collective."""
+        """Step 6's equilibrium: the scaled out-of-balance force at x (with a plastic fill, the fill linearised there
+        for the next solve); the step ends as diverged beyond ``DIVERGED_OUT_OF_BALANCE`` (the module's *Line
+        search*). Collective."""
         if self.material is None:
             step.residual = self._equilibrium_residual(step.x, step.f_scale)
             return None
