@@ -753,24 +753,24 @@ class ContactSolver:
 
     def _iteration(self, step: _NewtonStep) -> StepOutcome | None:
         """One Newton iteration, the module's steps 2-6: the outcome when it ends the step, else None (go to 2)."""
-        failure = self._solve_set(step)
-        if failure is not None and failure.proof:
+        failure = self._solve_set(step)  # 2
+        if failure is not None and failure.proof:  # 3: a proved mechanism ends the step
             return self._ended(step, failure.message, mechanism=True, proved=True)
         if failure is not None:
-            failure = self._note_failure(step, failure)
+            failure = self._note_failure(step, failure)  # 3: a proximal solve may still solve it
         if failure is not None:
-            return self._recover(step, failure)
-        accepted = self._accept(step)
-        classified = self._classify(step)
+            return self._recover(step, failure)  # 3: damping, repair
+        accepted = self._accept(step)  # 4
+        classified = self._classify(step)  # 5
         if classified is None:  # a leap: the proposal that led to it is damped
             return None
         proposal, changed = classified
-        outcome = self._balance(step, accepted)
+        outcome = self._balance(step, accepted)  # 6
         if outcome is not None:
             return outcome
         if not changed:
-            return self._test(step)
-        return self._advance(step, proposal, changed)
+            return self._test(step)  # 6
+        return self._advance(step, proposal, changed)  # 6, with step 5's cycles
 
     def _solve_set(self, step: _NewtonStep) -> _Failure | None:
         """Step 2: solve the active set's system into x (a set with a proximal failure: its proximal system,
