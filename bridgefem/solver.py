@@ -1,23 +1,28 @@
 """Semismooth Newton (primal-dual active set) for elasticity with joint contact and friction.
 
-One load step (:meth:`ContactSolver.solve_step`), from a converged state:
+One load step (:meth:`ContactSolver.solve_step`), from a converged state; each Newton iteration
+(:meth:`ContactSolver._iteration`) is steps 2-6:
 
 1. Take the start's active set (or the one a predicted state proposes; every joint closed and sticking with the
-   retry setting ``fresh``).
+   retry setting ``fresh``): :meth:`ContactSolver._begin`.
 2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
    and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
-   failure, never a mechanism).
+   failure, never a mechanism): :meth:`ContactSolver._solve_set`.
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
-   wrong active set is solved again with a proximal term (*Proximal solves*), else damped (the half of the proposed
-   changes farthest from the joint law they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired;
-   an admissible mode is a mechanism without proof.
-4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below).
+   wrong active set is solved again with a proximal term (*Proximal solves*, :meth:`ContactSolver._note_failure`),
+   else damped (the half of the proposed changes farthest from the joint law they leave:
+   :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired (:meth:`ContactSolver._recover`); an admissible
+   mode is a mechanism without proof.
+4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below):
+   :meth:`ContactSolver._accept`.
 5. Classify the solution with the joint law (a reversed slip is proposed as stick: *Reversed slips*; a solution
-   that leaps far beyond the last one damps the proposal that led to it instead: *Leaps*); a cycle of a
-   few pairs, with the pairs that keep changing (*Churning pairs*), is solved exactly on their condensed
-   compliance (:mod:`bridgefem.cycles`); in other cycles closed pairs that cycle between friction states are frozen
-   to stick, pairs that cycle between open and closed are bonded.
-6. Stop when the active set is unchanged and equilibrium and the joint law hold; else go to 2.
+   that leaps far beyond the last one damps the proposal that led to it instead: *Leaps*):
+   :meth:`ContactSolver._classify`. A cycle (:meth:`ContactSolver._break_cycle`) of a few pairs, with the pairs
+   that keep changing (*Churning pairs*), is solved exactly on their condensed compliance (:mod:`bridgefem.cycles`);
+   in other cycles closed pairs that cycle between friction states are frozen to stick, pairs that cycle between
+   open and closed are bonded (:meth:`ContactSolver._freeze`).
+6. Stop when the active set is unchanged and equilibrium (:meth:`ContactSolver._balance`) and the joint law hold
+   (:meth:`ContactSolver._test`); else go to 2 with the proposed set (:meth:`ContactSolver._advance`).
 7. A step that failed without proof where its failure would end the search is solved again with other settings
    (:func:`retried`, *Retries* below).
 
@@ -171,7 +176,7 @@ than 150 solves per limit, and every tenth scene, 50 in all; seed 2: the first 3
 839 -> 395, #193 813 -> 610, #267 214 -> 106, #119 189 -> 52; #270 166 -> 405 and #297 379 -> 492, whose
 proximal step at the limit leads to another path). #235 still stops 10 % below the LP.
 
-**Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver.solve_step`),
+**Damping chains.** A singular or diverging proposal starts a damping chain (:meth:`ContactSolver._recover`),
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
 proposal that fails again after ``DAMPING_CHAINS`` such recoveries (or a cycle) ends the step as
 non-convergence: repeated wandering into mechanisms is the Newton method failing on a large step, and the load
@@ -345,6 +350,43 @@ class _Failure(NamedTuple):
     proof: bool = False
     unbounded: bool = False  # the solve diverged (along any mode) or was singular
     slides: bool = False  # the solve diverged along a mode that slips pairs against their friction force
+
+
+@dataclass
+class _NewtonStep:
+    """The state of one load step's Newton iteration (:meth:`ContactSolver._newton`)."""
+
+    level: float  # live-load level (N per unit load factor)
+    start: Iterate  # the converged start
+    x: PETSc.Vec  # the current iterate [u; lam]
+    active: ContactState  # the active set solved next
+    f_scale: float  # the largest applied nodal force (N)
+    budget: int  # Newton iterations
+    chains: float  # recovered damping chains after which a failure ends the step
+    searching: bool  # every Newton step is line searched (the module's *Line search*)
+    first_factorisation: int  # the solver's factorisations before the step
+    frozen: np.ndarray  # local pairs whose friction state cycled: kept sticking while closed
+    bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and sticking
+    churn: np.ndarray  # the proposals of this step that changed each local pair
+    near: PETSc.Vec  # the last solved iterate: the proximal term's anchor
+    anchor: PETSc.Vec | None  # the line search's linearisation point
+    plastic: np.ndarray | None  # the fill's trial plastic strain at x
+    it: int = 0  # the current iteration
+    key: int = 0  # the global key of the set solved in this iteration
+    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
+    base: _Proposal | None = None  # the last good active set and what it proposed
+    predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
+    singular: _Failure | None = None  # the last singular proposal
+    fix: ContactState | None = None  # the repair of the set whose solve failed last
+    repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
+    proximal: dict = field(default_factory=dict)  # sets solved with the proximal term: key -> their plain failure
+    proximal_sets: int = 0
+    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+    damping: bool = False  # in a damping chain
+    recovered: int = 0  # damping chains that ended with a solved active set
+    mechanisms: int = 0  # failed solves that were singular or diverged along an admissible mode
+    merit: float = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
+    residual: float = np.inf  # the scaled out-of-balance force of the last solved iterate
 
 
 class ContactSolver:
@@ -662,184 +704,274 @@ class ContactSolver:
 
     def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | None,
                 give_up: bool, iterations: int | None) -> StepOutcome:
-        """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``.
+        """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``: the module's
+        steps 1-6, one Newton iteration (:meth:`_iteration`) at a time within the step's budget.
 
-        Damping: when the system of a proposed active set is singular or diverges, the iteration returns to
-        the last good iterate and applies only the half of the proposed changes with the largest violations,
-        down to a single change; then the repair of an inadmissible diverging mode is tried, and only then is
-        the failure reported. A diverging mode that proves collapse ends the step at once (the module's
-        *Mechanism verdicts*). With ``give_up`` (the caller can retry a
-        smaller step), a failure after ``DAMPING_CHAINS`` recovered chains ends the step at once, as
-        non-convergence, and so does a cycle. ``iterations``: this step's Newton iteration budget (default
-        ``max_iterations``).
-
-        ``predictor``: an estimate of the solution at ``level`` (combined vector); the first active set solved
-        is its classification against ``start`` (the module's *Predictor*).
+        With ``give_up`` (the caller can retry a smaller step), a failure after ``DAMPING_CHAINS`` recovered chains
+        ends the step at once, as non-convergence, and so does a cycle. ``iterations``: this step's Newton iteration
+        budget (default ``max_iterations``). ``predictor``: an estimate of the solution at ``level`` (combined
+        vector); the first active set solved is its classification against ``start`` (the module's *Predictor*).
         """
-        active, slip_ref = start.active.copy(), start.slip_ref
+        step = self._begin(level, start, predictor, give_up, iterations)
+        for it in range(1, step.budget + 1):
+            step.it = it
+            outcome = self._iteration(step)
+            if outcome is not None:
+                return outcome
+        if self.material is not None and step.residual > 1.0:
+            return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
+                                     f"nodal force after {step.budget} iterations")
+        return self._ended(step, f"max iterations ({step.budget}) reached with the active set still changing")
+
+    def _begin(self, level: float, start: Iterate, predictor: PETSc.Vec | None, give_up: bool,
+               iterations: int | None) -> _NewtonStep:
+        """Step 1: the step's state at its start, with the start's active set (every joint closed and sticking with
+        the setting ``fresh``) or the one ``predictor`` proposes (the module's *Predictor*). Collective."""
+        active = start.active.copy()
         if self.setting.fresh:
             active = ContactState.all_stick(len(self.pairs))
             predictor = None
-        give_up = give_up and not self.setting.patient
+        searching = self.material is not None or self.setting.line_search  # the module's *Line search*
         x = self.A.createVecRight()
         start.x.copy(x)
-        frozen = np.zeros(len(self.pairs), dtype=bool)
-        bonded = np.zeros(len(self.pairs), dtype=bool)  # pairs whose open / closed state cycled: kept closed
-        f_scale = max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300)
-        residual, first_factorisation = np.inf, self.stats["factorisations"]
-
-        def factorisations() -> int:
-            return self.stats["factorisations"] - first_factorisation
-
-        base: _Proposal | None = None  # the last good active set and what it proposed
-        singular = None  # the last singular proposal of this step
-        repairs = {}  # global key of an active set whose diverging mode was inadmissible -> its repair
-        damping, recovered = False, 0  # in a damping chain; chains that ended with a solved active set
-        mechanisms = 0  # failed solves of the step that were singular or diverged along an admissible mode
-        chains = DAMPING_CHAINS if give_up else np.inf  # recovered chains after which a failure ends the step
-        plastic = start.plastic_strain
-        searching = self.material is not None or self.setting.line_search  # the module's *Line search*
-        anchor = start.x.copy() if searching else None  # the linearisation point
-        merit = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
+        step = _NewtonStep(
+            level, start, x, active,
+            f_scale=max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300),
+            budget=self.max_iterations if iterations is None else min(iterations, self.max_iterations),
+            chains=DAMPING_CHAINS if give_up and not self.setting.patient else np.inf, searching=searching,
+            first_factorisation=self.stats["factorisations"], frozen=np.zeros(len(self.pairs), dtype=bool),
+            bonded=np.zeros(len(self.pairs), dtype=bool), churn=np.zeros(len(self.pairs), dtype=np.int64),
+            near=start.x.copy(), anchor=start.x.copy() if searching else None, plastic=start.plastic_strain)
         if self.material is not None:
             self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
-        predicted = self._predict(predictor, active, slip_ref, frozen) if predictor is not None else None
-        if predicted is not None:  # no solved active set yet: a failure proves nothing
-            base, active = predicted, predicted.proposal
-        seen = {self._global_key(active)}  # the active sets visited at this level (the start's only if solved here)
-        budget = self.max_iterations if iterations is None else min(iterations, self.max_iterations)
-        proximal, proximal_sets = {}, 0  # sets solved with the proximal term: key -> their plain solve's failure
-        drift = None  # the failure of a proximal set that drifts along its mode (*Proximal solves*)
-        churn = np.zeros(len(self.pairs), dtype=np.int64)  # the proposals of this step that changed each pair
-        near = start.x.copy()  # the last solved iterate: the proximal term's anchor
-        for it in range(1, budget + 1):
-            key = self._global_key(active)
-            failure = drift or self._solve_active(level, active, slip_ref, x, start.x,
-                                                  near if key in proximal else None)
-            if failure is not None and drift is not None:  # a proximal set that drifts: its plain failure, no solve
-                fix, drift, self._unbounded = repairs.get(key), None, True
-            elif failure is not None:
-                if failure.proof:
-                    return StepOutcome(False, failure.message, it, residual, factorisations(), mechanism=True,
-                                       proved=True)
-                singular = failure if failure.mechanism else singular
-                self._unbounded = failure.mechanism or failure.unbounded
-                self._diverged |= self._unbounded
-                mechanisms += failure.mechanism
-                fix = self._repaired(active, failure.repair, frozen)
-                if fix is not None:
-                    repairs[key] = fix
-                if not damping and failure.slides and proximal_sets < PROXIMAL_SETS and (
-                        base is None or self._count(_changes(active, base.good)) <= PROXIMAL_CHANGES):
-                    proximal[key], proximal_sets = failure, proximal_sets + 1  # the module's *Proximal solves*
-                    failure = self._solve_active(level, active, slip_ref, x, start.x, near)
-            if failure is not None:
-                if recovered >= chains and not damping:
-                    return StepOutcome(False, f"no convergence: a proposed active set failed again after "
-                                              f"{recovered} damping chain(s): {failure.message}", it, residual,
-                                       factorisations(), mechanism=failure.mechanism and mechanisms > 1)
-                damping = True
-                damped = self._damp(base) if base is not None else None
-                if damped is None and fix is not None and self._global_key(fix) not in seen:
-                    active = fix  # nothing left to damp: close what the inadmissible mode pushes into each other
-                    seen.add(self._global_key(active))
-                    continue
-                if damped is None:
-                    return StepOutcome(False, failure.message, it, residual, factorisations(),
-                                       mechanism=failure.mechanism and predicted is None)
-                active, base = damped
-                continue
-            recovered, damping, predicted = recovered + damping, False, None
-            self._unbounded = False
-            if searching:  # the module's *Line search*
-                merit, accepted = self._line_search(level, x, anchor, merit, start.plastic_strain, slip_ref, frozen,
-                                                    f_scale)
-                x.copy(anchor)
-            _, lam, d = self.split(x)
-            proposal = self._propose(active, lam, d, slip_ref, frozen, bonded)
-            new, pending = proposal.proposal, proposal.pending
-            changed = self._count(pending)
-            if changed and not searching and base is not None and self._leaps(x, near, start.x):  # *Leaps*
-                damped = self._damp(base)
-                if damped is not None:
-                    active, base = damped
-                    continue
-            x.copy(near)
-            churn += pending
-            if self.material is not None:
-                f_int, plastic = self._linearise(x, start.plastic_strain, response=accepted)
-                residual = self._material_residual(x, f_int, level, f_scale)
-                if residual > DIVERGED_OUT_OF_BALANCE:  # the module's *Line search*: no recovery from here
-                    return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied "
-                                              f"nodal force after {it} iterations", it, residual, factorisations())
+        if predictor is not None:
+            step.predicted = self._predict(predictor, active, start.slip_ref, step.frozen)
+        if step.predicted is not None:  # no solved active set yet: a failure proves nothing
+            step.base, step.active = step.predicted, step.predicted.proposal
+        step.seen = {self._global_key(step.active)}  # the start's set is visited only once solved at this level
+        return step
+
+    def _iteration(self, step: _NewtonStep) -> StepOutcome | None:
+        """One Newton iteration, the module's steps 2-6: the outcome when it ends the step, else None (go to 2)."""
+        failure = self._solve_set(step)  # 2
+        if failure is not None and failure.proof:  # 3: a proved mechanism ends the step
+            return self._ended(step, failure.message, mechanism=True, proved=True)
+        if failure is not None:
+            failure = self._note_failure(step, failure)  # 3: a proximal solve may still solve it
+        if failure is not None:
+            return self._recover(step, failure)  # 3: damping, repair
+        accepted = self._accept(step)  # 4
+        classified = self._classify(step)  # 5
+        if classified is None:  # a leap: the proposal that led to it is damped
+            return None
+        proposal, changed = classified
+        outcome = self._balance(step, accepted)  # 6
+        if outcome is not None:
+            return outcome
+        if not changed:
+            return self._test(step)  # 6
+        return self._advance(step, proposal, changed)  # 6, with step 5's cycles
+
+    def _solve_set(self, step: _NewtonStep) -> _Failure | None:
+        """Step 2: solve the active set's system into x (a set with a proximal failure: its proximal system,
+        anchored at the last solved iterate), checked; a proximal set that drifts keeps its plain failure without a
+        solve (the module's *Proximal solves*). Returns None or the failure. Collective."""
+        step.key = self._global_key(step.active)
+        if step.drift is not None:
+            return step.drift
+        return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
+                                  step.near if step.key in step.proximal else None)
+
+    def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
+        """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
+        repair of an inadmissible mode); a set whose first failure diverges along a mode that slips pairs against
+        their friction force is solved again with the proximal term (the module's *Proximal solves*). Returns
+        the failure that stands, or None. Collective."""
+        if step.drift is not None:  # a proximal set that drifts: its plain failure, no solve
+            step.fix, step.drift, self._unbounded = step.repairs.get(step.key), None, True
+            return failure
+        step.singular = failure if failure.mechanism else step.singular
+        self._unbounded = failure.mechanism or failure.unbounded
+        self._diverged |= self._unbounded
+        step.mechanisms += failure.mechanism
+        step.fix = self._repaired(step.active, failure.repair, step.frozen)
+        if step.fix is not None:
+            step.repairs[step.key] = step.fix
+        if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
+                step.base is None or self._count(_changes(step.active, step.base.good)) <= PROXIMAL_CHANGES):
+            step.proximal[step.key], step.proximal_sets = failure, step.proximal_sets + 1
+            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near)
+        return failure
+
+    def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
+        """Step 3: recover from a failed solve (the module's *Damping chains*): from the last good active set, apply
+        the half of its proposed changes with the largest violations (:meth:`_damp`); with nothing left to halve,
+        the failed set's repair (the pairs an inadmissible diverging mode pushes into each other, closed and
+        sticking); else the failure ends the step (a mechanism without proof, unless the set was predicted), as it
+        does once ``chains`` damping chains have recovered. Collective."""
+        if step.recovered >= step.chains and not step.damping:
+            return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
+                                     f"damping chain(s): {failure.message}",
+                               mechanism=failure.mechanism and step.mechanisms > 1)
+        step.damping = True
+        damped = self._damp(step.base) if step.base is not None else None
+        if damped is None and step.fix is not None and self._global_key(step.fix) not in step.seen:
+            step.active = step.fix
+            step.seen.add(self._global_key(step.active))
+            return None
+        if damped is None:
+            return self._ended(step, failure.message, mechanism=failure.mechanism and step.predicted is None)
+        step.active, step.base = damped
+        return None
+
+    def _accept(self, step: _NewtonStep) -> "FillResponse | None":
+        """Step 4: a solved set ends the damping chain; with a line search (the module's *Line search*) the step is
+        backtracked from the linearisation point, which moves to the accepted iterate. Returns the fill's response
+        there (None without a plastic fill). Collective."""
+        step.recovered, step.damping, step.predicted = step.recovered + step.damping, False, None
+        self._unbounded = False
+        if not step.searching:
+            return None
+        step.merit, accepted = self._line_search(step.level, step.x, step.anchor, step.merit,
+                                                 step.start.plastic_strain, step.start.slip_ref, step.frozen,
+                                                 step.f_scale)
+        step.x.copy(step.anchor)
+        return accepted
+
+    def _classify(self, step: _NewtonStep) -> tuple[_Proposal, int] | None:
+        """Step 5: the active set the joint law proposes from the solution (:meth:`_propose`) and the number of
+        pairs it changes; None when the solution leaps (:meth:`_leaps`, the module's *Leaps*) and the proposal
+        that led to it was damped instead. Collective."""
+        _, lam, d = self.split(step.x)
+        proposal = self._propose(step.active, lam, d, step.start.slip_ref, step.frozen, step.bonded)
+        changed = self._count(proposal.pending)
+        if changed and not step.searching and step.base is not None and self._leaps(step.x, step.near, step.start.x):
+            damped = self._damp(step.base)
+            if damped is not None:
+                step.active, step.base = damped
+                return None
+        step.x.copy(step.near)
+        step.churn += proposal.pending
+        return proposal, changed
+
+    def _balance(self, step: _NewtonStep, accepted: "FillResponse | None") -> StepOutcome | None:
+        """Step 6's equilibrium: the scaled out-of-balance force at x (with a plastic fill, the fill linearised there
+        for the next solve); the step ends as diverged beyond ``DIVERGED_OUT_OF_BALANCE`` (the module's *Line
+        search*). Collective."""
+        if self.material is None:
+            step.residual = self._equilibrium_residual(step.x, step.f_scale)
+            return None
+        f_int, step.plastic = self._linearise(step.x, step.start.plastic_strain, response=accepted)
+        step.residual = self._material_residual(step.x, f_int, step.level, step.f_scale)
+        if step.residual > DIVERGED_OUT_OF_BALANCE:  # no recovery from here
+            return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
+                                     f"nodal force after {step.it} iterations")
+        return None
+
+    def _test(self, step: _NewtonStep) -> StepOutcome | None:
+        """Step 6, the active set unchanged: converged when equilibrium and the joint law hold (the law waived at
+        frozen pairs' friction and at bonded pairs, by at most ``BOND_RTOL`` of the largest applied nodal force);
+        a proximal set's plain failure when it drifts; with a line search the next iteration; else the set is
+        singular (a mechanism without proof). Collective."""
+        _, lam, d = self.split(step.x)
+        ncp = self.law.residual(lam, d, step.start.slip_ref)
+        waived = max(self._norm_inf(ncp[step.bonded].ravel()), self._norm_inf(ncp[step.frozen, 1]))
+        ncp[step.frozen, 1] = 0.0  # the normal law is still checked there
+        ncp[step.bonded] = 0.0
+        comp = self._norm_inf(ncp.ravel())
+        if waived > BOND_RTOL * step.f_scale:
+            return self._ended(step, f"active set cycling: the joint law is violated by {waived:.3g} N at the "
+                                     "bonded or frozen pairs")
+        if step.residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
+            counts = {**self._counts(step.active), "frozen": self._count(step.frozen),
+                      "bonded": self._count(step.bonded)}
+            return StepOutcome(True, "", step.it, step.residual, self._factorisations(step),
+                               Iterate(step.x, step.active, step.start.slip_ref, step.plastic), counts)
+        if step.key in step.proximal:  # a drift along the mode that changes no pair
+            step.drift = step.proximal.pop(step.key)
+            return None
+        if step.searching:
+            return None  # same active set, damped step or fill not in equilibrium
+        return self._ended(step, f"inaccurate linear solve: scaled equilibrium residual {step.residual:.2e}, "
+                                 f"complementarity residual {comp:.2e} N (singular system)", mechanism=True)
+
+    def _advance(self, step: _NewtonStep, proposal: _Proposal, changed: int) -> StepOutcome | None:
+        """Step 6, the active set changed: go to 2 with the proposed set; a proposal that returns to a set visited at
+        this level is a cycle (:meth:`_break_cycle`), except with a line search (the iterate moves between visits:
+        no cycle; the budget bounds it). Collective."""
+        key = self._global_key(proposal.proposal)
+        if key in step.seen and not step.searching:
+            return self._break_cycle(step, proposal, changed, key)
+        if key in step.seen:
+            step.seen.clear()
+        self._take(step, proposal, key)
+        return None
+
+    def _break_cycle(self, step: _NewtonStep, proposal: _Proposal, changed: int, key: int) -> StepOutcome | None:
+        """Step 5's cycles, the proposal returning to a visited set (global key ``key``), in this order: a return to
+        a set whose diverging mode was inadmissible goes to its repair; a cycle after a singular proposal is a
+        mechanism without proof; the cycle's pairs are solved exactly on their condensed compliance (:meth:`_cycle`,
+        the module's *Churning pairs*); else :meth:`_freeze`. Collective."""
+        fix = step.repairs.pop(key, None)
+        if fix is not None and self._visit(step, fix, proposal.violation):
+            return None
+        if step.singular is not None:
+            return self._ended(step, f"{step.singular.message}; confirmed: damped iterations return to it",
+                               mechanism=True)
+        solved = self.cycles.condensed(step.level, step.active, self._cycle(proposal.pending, step.churn),
+                                       step.start.slip_ref, step.start.active)
+        if solved is not None and self._visit(step, solved, proposal.violation):
+            step.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
+            return None
+        return self._freeze(step, proposal, changed)
+
+    def _freeze(self, step: _NewtonStep, proposal: _Proposal, changed: int) -> StepOutcome | None:
+        """A cycle that is not only friction flips (stick / slip, slip sign) of closed pairs is damped
+        (:meth:`_damp`) while damping chains may recover; undamped, its open / closed toggles are bonded if they
+        and the flips are all its changes, else it ends the step as active-set cycling. The flips are frozen to
+        stick and the proposal, frozen and bonded, is taken. Collective."""
+        new, pending = proposal.proposal, proposal.pending
+        flips = pending & ~step.frozen & (new.state != OPEN) & (step.active.state != OPEN)
+        if self._count(flips) != changed:
+            damped = self._damp(proposal) if step.recovered < step.chains else None
+            toggles = pending & ~step.bonded & ((new.state == OPEN) != (step.active.state == OPEN))
+            if damped is None and self._count(toggles | flips) == changed:
+                step.bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
+            elif damped is None:
+                return self._ended(step, f"active set cycling ({changed} pairs changing)")
             else:
-                residual = self._equilibrium_residual(x, f_scale)
-            if changed == 0:
-                ncp = self.law.residual(lam, d, slip_ref)
-                waived = max(self._norm_inf(ncp[bonded].ravel()), self._norm_inf(ncp[frozen, 1]))
-                ncp[frozen, 1] = 0.0  # friction waived there (bounded above); the normal law is still checked
-                ncp[bonded] = 0.0
-                comp = self._norm_inf(ncp.ravel())
-                counts = {**self._counts(active), "frozen": self._count(frozen),
-                          "bonded": self._count(bonded)}
-                if waived > BOND_RTOL * f_scale:
-                    return StepOutcome(False, f"active set cycling: the joint law is violated by {waived:.3g} N at "
-                                              "the bonded or frozen pairs", it, residual, factorisations())
-                if residual < EQUILIBRIUM_RTOL and comp <= 10 * self.law.force_tol:
-                    return StepOutcome(True, "", it, residual, factorisations(),
-                                       Iterate(x, active, slip_ref, plastic), counts)
-                if key in proximal:  # a drift along the mode that changes no pair: its plain solve's failure
-                    drift = proximal.pop(key)
-                    continue
-                if searching:
-                    continue  # same active set, damped step or fill not in equilibrium: next Newton iteration
-                return StepOutcome(False, f"inaccurate linear solve: scaled equilibrium residual {residual:.2e}, "
-                                          f"complementarity residual {comp:.2e} N (singular system)",
-                                   it, residual, factorisations(), mechanism=True)
-            gkey = self._global_key(new)
-            if gkey in seen and searching:
-                seen.clear()  # the iterate moves between visits: a revisit is no cycle (max_iterations bounds it)
-            elif gkey in seen:
-                fix = repairs.pop(gkey, None)
-                if fix is not None and self._global_key(fix) not in seen:
-                    # back to a set whose diverging mode was inadmissible: its repair instead
-                    seen.add(self._global_key(fix))
-                    base = _Proposal(active, fix, _changes(fix, active), proposal.violation)
-                    active = fix
-                    continue
-                if singular is not None:
-                    return StepOutcome(False, f"{singular.message}; confirmed: damped iterations return to it", it,
-                                       residual, factorisations(), mechanism=True)
-                solved = self.cycles.condensed(level, active, self._cycle(pending, churn), slip_ref, start.active)
-                if solved is not None and self._global_key(solved) not in seen:
-                    frozen &= ~_changes(solved, active)  # the condensed pairs' friction state is now exact
-                    seen.add(self._global_key(solved))
-                    base, active = _Proposal(active, solved, _changes(solved, active), proposal.violation), solved
-                    continue
-                flips = pending & ~frozen & (new.state != OPEN) & (active.state != OPEN)  # stick/slip, slip sign
-                if self._count(flips) != changed:
-                    damped = self._damp(proposal) if recovered < chains else None
-                    toggles = pending & ~bonded & ((new.state == OPEN) != (active.state == OPEN))
-                    if damped is None and self._count(toggles | flips) == changed:
-                        bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
-                    elif damped is None:
-                        return StepOutcome(False, f"active set cycling ({changed} pairs changing)", it, residual,
-                                           factorisations())
-                    else:
-                        damping = True
-                        active, base = damped
-                        continue
-                frozen |= flips
-                _stick(new, frozen)
-                _bond(new, bonded)
-                gkey = self._global_key(new)
-            seen.add(gkey)
-            base, active = proposal, new
-        if self.material is not None and residual > 1.0:
-            return StepOutcome(False, f"diverged: out-of-balance force {residual:.3g} x the largest applied nodal "
-                                      f"force after {budget} iterations", budget, residual, factorisations())
-        return StepOutcome(False, f"max iterations ({budget}) reached with the active set still changing", budget,
-                           residual, factorisations())
+                step.damping = True
+                step.active, step.base = damped
+                return None
+        step.frozen |= flips
+        _stick(new, step.frozen)
+        _bond(new, step.bonded)
+        self._take(step, proposal, self._global_key(new))
+        return None
+
+    def _take(self, step: _NewtonStep, proposal: _Proposal, key: int) -> None:
+        """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""
+        step.seen.add(key)
+        step.base, step.active = proposal, proposal.proposal
+
+    def _visit(self, step: _NewtonStep, target: ContactState, violation: np.ndarray) -> bool:
+        """Whether ``target`` is new at this level; if so it is solved next, as the proposal of the current set
+        with ``violation``. Collective."""
+        key = self._global_key(target)
+        if key in step.seen:
+            return False
+        step.seen.add(key)
+        step.base, step.active = _Proposal(step.active, target, _changes(target, step.active), violation), target
+        return True
+
+    def _ended(self, step: _NewtonStep, reason: str, mechanism: bool = False, proved: bool = False) -> StepOutcome:
+        """The failed outcome of the step at its current iteration."""
+        return StepOutcome(False, reason, step.it, step.residual, self._factorisations(step), mechanism=mechanism,
+                           proved=proved)
+
+    def _factorisations(self, step: _NewtonStep) -> int:
+        """The factorisations made since the step began."""
+        return self.stats["factorisations"] - step.first_factorisation
 
     def active_set_displacements(self, level: float, active: ContactState, slip_ref: np.ndarray
                                  ) -> np.ndarray | None:
