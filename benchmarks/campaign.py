@@ -116,13 +116,20 @@ def draw_option(seed: int, index: int) -> dict:
     return {"name": name, **values}
 
 
-def with_option(d: dict, option: dict, span: float) -> dict:
-    """The scene dictionary ``d`` with a scene ``option`` of :func:`draw_option` (``span`` in m): a second point load
-    (its share of the load pattern ``factor``), elastic abutments of a ``height`` in m, a support movement of
-    ``horizontal`` / ``vertical`` x the span (m/m), a speed-accuracy preset, quadratic elements, plane stress."""
+def with_option(d: dict, choice: dict) -> dict:
+    """The scene dictionary ``d`` of a draw ``choice`` with its ``option`` (:func:`draw_option`): a second load (its
+    share of the load pattern ``factor``; a point, or on a Mohr-Coulomb fill a patch as long as the first, on the
+    span apart from it), elastic abutments of a ``height`` in m, a support movement of ``horizontal`` / ``vertical`` x the span
+    (m/m), a speed-accuracy preset, quadratic elements, plane stress."""
+    option, span = choice["option"], choice["span"]
     name = option["name"]
     if name == "second load":
-        d["load"].append({"kind": "point", "position": option["position"], "factor": option["factor"]})
+        load = {"kind": "point", "position": option["position"], "factor": option["factor"]}
+        if choice["fill"] == "mohr-coulomb":  # a point force on a plastic fill has no finite collapse load
+            edge, first = choice["patch"] / 2 / span, choice["position"]  # in the other half, apart from the first
+            low, high = (first + 2 * edge + 0.01, 1 - edge) if first < 0.5 else (edge, first - 2 * edge - 0.01)
+            load.update(kind="patch", length=choice["patch"], position=round(low + (high - low) * load["position"], 4))
+        d["load"].append(load)
     elif name == "elastic abutments":
         d["abutments"] = {"model": "elastic", "height": option["height"]}
     elif name == "support movement":
@@ -155,7 +162,7 @@ def scene_dict(choice: dict, thickness: float) -> dict:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
                      "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
                      **({"cohesion": 5e3} if choice["fill"] == "mohr-coulomb" else {})}
-    return with_option(d, choice["option"], choice["span"]) if choice.get("option") else d
+    return with_option(d, choice) if choice.get("option") else d
 
 
 def reference_length(choice: dict, thickness: float) -> float:
