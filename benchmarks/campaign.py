@@ -11,6 +11,14 @@ Each scene is drawn from the seed and its index alone (so one scene can be re-ru
 - ``FILL_SHARE`` of the scenes with a shallow fill (elastic, or Mohr-Coulomb: always under a patch, since a point
   force on a plastic continuum has no finite collapse load and the scene refuses it).
 
+With ``--options`` every scene also gets one of the other things a scene file can ask for (:data:`OPTIONS`, drawn
+from its own stream, :func:`draw_option`; without it the scene is the base campaign's): a second point load anywhere
+on the span with a factor 0.2-1; elastic abutments 0.5-3 m high; a support movement at the left, right or both
+springings, horizontal (spreading or closing) and, for half of them, a settlement, each 1e-5 to 1e-3 of the span
+(log-uniform), imposed after the self-weight; the "fast" or "accurate" preset; quadratic elements; plane stress. The
+rigid-block LP of results.json models the same loads and the abutments as rigid blocks, and ignores the movement
+(a limit load of rigid blocks does not depend on a small support movement).
+
 Every scene is run by the command line (``bridgefem run``) in a subprocess with a timeout, and judged against the
 rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
 
@@ -35,6 +43,7 @@ summed over all its runs, the coarser meshes an automatic refinement replaced in
 ``campaign.json`` beside the scenes. Run::
 
     ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
+    ./run nice python benchmarks/campaign.py --count 150 --seed 1 --jobs 2 --options --out /tmp/campaign-options
 """
 from __future__ import annotations
 
@@ -55,6 +64,8 @@ from bridgefem.output import failed_target
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
+OPTIONS = ("second load", "elastic abutments", "support movement", "preset", "quadratic elements", "plane stress")
+# the scene options of an --options campaign: the other sections and keys a user writes (docs/user-guide.md)
 FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
 NO_SLIP_TOL = AGREEMENT  # FE within this fraction of the LP where no joint slides (issue 12)
 BOUND_TOL = 0.005  # the FE bracket's upper end at most this fraction above the conic upper bound of a fill scene
@@ -86,6 +97,54 @@ def draw(seed: int, index: int) -> dict:
     return choice
 
 
+def draw_option(seed: int, index: int) -> dict:
+    """Scene ``index``'s option in an ``--options`` campaign: one of :data:`OPTIONS` with its values, drawn from its
+    own stream (the base draw of the scene is :func:`draw`'s, unchanged)."""
+    rng = np.random.default_rng([seed, index, 1])
+    name = OPTIONS[rng.integers(len(OPTIONS))]
+    values = {
+        "second load": lambda: {"position": round(float(rng.random()), 4), "factor": round(float(rng.uniform(0.2, 1.0)), 3)},
+        "elastic abutments": lambda: {"height": round(float(rng.uniform(0.5, 3.0)), 3)},
+        "support movement": lambda: {
+            "springing": ("left", "right", "both")[rng.integers(3)],
+            "horizontal": float(f"{rng.choice((-1, 1)) * math.exp(rng.uniform(math.log(1e-5), math.log(1e-3))):.3g}"),
+            "vertical": float(f"{-math.exp(rng.uniform(math.log(1e-5), math.log(1e-3))) * rng.integers(2):.3g}")},
+        "preset": lambda: {"preset": ("fast", "accurate")[rng.integers(2)]},
+        "quadratic elements": dict,
+        "plane stress": dict,
+    }[name]()
+    return {"name": name, **values}
+
+
+def with_option(d: dict, choice: dict) -> dict:
+    """The scene dictionary ``d`` of a draw ``choice`` with its ``option`` (:func:`draw_option`): a second load (its
+    share of the load pattern ``factor``; a point, or on a Mohr-Coulomb fill a patch as long as the first, on the
+    span apart from it), elastic abutments of a ``height`` in m, a support movement of ``horizontal`` / ``vertical`` x the span
+    (m/m), a speed-accuracy preset, quadratic elements, plane stress."""
+    option, span = choice["option"], choice["span"]
+    name = option["name"]
+    if name == "second load":
+        load = {"kind": "point", "position": option["position"], "factor": option["factor"]}
+        if choice["fill"] == "mohr-coulomb":  # a point force on a plastic fill has no finite collapse load
+            edge, first = choice["patch"] / 2 / span, choice["position"]  # in the other half, apart from the first
+            low, high = (first + 2 * edge + 0.01, 1 - edge) if first < 0.5 else (edge, first - 2 * edge - 0.01)
+            load.update(kind="patch", length=choice["patch"], position=round(low + (high - low) * load["position"], 4))
+        d["load"].append(load)
+    elif name == "elastic abutments":
+        d["abutments"] = {"model": "elastic", "height": option["height"]}
+    elif name == "support movement":
+        d["abutments"] = {"movement_springing": option["springing"],
+                          "movement_horizontal": round(option["horizontal"] * span, 6),
+                          "movement_vertical": round(option["vertical"] * span, 6)}
+    elif name == "preset":
+        d["solver"] = {"preset": option["preset"]}
+    elif name == "quadratic elements":
+        d["mesh"] = {"degree": 2}
+    else:
+        d["model"] = {"plane": "stress"}
+    return d
+
+
 def scene_dict(choice: dict, thickness: float) -> dict:
     """The scene file (as a dictionary) of a draw at a thickness (m)."""
     load = {"kind": "patch" if choice["patch"] else "point", "position": choice["position"]}
@@ -103,7 +162,7 @@ def scene_dict(choice: dict, thickness: float) -> dict:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
                      "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
                      **({"cohesion": 5e3} if choice["fill"] == "mohr-coulomb" else {})}
-    return d
+    return with_option(d, choice) if choice.get("option") else d
 
 
 def reference_length(choice: dict, thickness: float) -> float:
@@ -120,7 +179,7 @@ def thickness_of(choice: dict) -> tuple[float, float | None]:
     from bridgefem.scene import scene_from_dict
 
     try:
-        bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None}  # loads do not change it
+        bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None, "option": None}  # nor do loads
         least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
     except (RuntimeError, ValueError):  # no thickness stands at this mu
         least = None
@@ -251,7 +310,7 @@ def report(rows: list[dict]) -> str:
                      f"{r['voussoirs']:4d} {r['friction']:6.3f} {r['young']:8.2g} {load:>12} "
                      f"{'T' if r['joint_at_loads'] else 'F':>3} {str(r['fill'] or '-')[:5]:>5} "
                      f"{r['status'][:28]:28} {ratio:>7} {str(r.get('solves') or '-'):>6} {r['seconds']:6.1f}  "
-                     f"{r['class']}")
+                     f"{r['class']}{'  (' + r['option']['name'] + ')' if r.get('option') else ''}")
     n = len(rows)
     classes = {c: sum(r["class"] == c for r in rows)
                for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash")}
@@ -264,6 +323,10 @@ def report(rows: list[dict]) -> str:
         mine = [r for r in rows if r["shape"] == shape and r["class"] != "rejected"]
         if mine:
             lines.append(f"  {shape:12}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    for name in OPTIONS:
+        mine = [r for r in rows if (r.get("option") or {}).get("name") == name and r["class"] != "rejected"]
+        if mine:
+            lines.append(f"  {name:18}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
         if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)"):
@@ -296,6 +359,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=Path("results/campaign"))
     p.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per scene (default %(default)g)")
     p.add_argument("--only", type=int, nargs="*", help="run only these scene indices")
+    p.add_argument("--options", action="store_true",
+                   help="each scene with one scene option drawn from OPTIONS (a second load, elastic abutments, a "
+                        "support movement, a preset, quadratic elements, plane stress)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     args = p.parse_args(argv)
     if args.report:
@@ -310,7 +376,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
 
     def one(i):
-        row = run_scene(draw(args.seed, i), args.out, args.timeout)
+        choice = draw(args.seed, i)
+        row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
+                        args.timeout)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)
         return row
 

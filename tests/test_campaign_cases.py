@@ -159,6 +159,27 @@ def test_campaign_loads_a_mohr_coulomb_fill_by_a_patch_on_the_span():
     assert 0.02 < sum(d["fill"] is not None for d in draws) / len(draws) < 0.06
 
 
+def test_campaign_options_are_valid_scenes_that_add_only_their_option():
+    """An --options campaign scene is its base scene with one option: every option is drawn, each scene passes the
+    scene's own validation, and taking the option away gives the base campaign's scene back."""
+    campaign = campaign_module()
+    seen, plastic_second_loads = set(), 0
+    for i in range(600):
+        base = campaign.draw(3, i)
+        option = campaign.draw_option(3, i)
+        seen.add(option["name"])
+        with_option = campaign.scene_dict({**base, "option": option}, 0.5)
+        scene_from_dict(with_option)
+        plain = campaign.scene_dict(base, 0.5)
+        extra = {k: v for k, v in with_option.items() if k not in plain}
+        assert len(extra) == (0 if option["name"] == "second load" else 1)
+        assert len(with_option["load"]) == len(plain["load"]) + (option["name"] == "second load")
+        plastic_second_loads += option["name"] == "second load" and base["fill"] == "mohr-coulomb"
+        assert {k: v for k, v in with_option.items() if k in plain and k != "load"} == \
+            {k: v for k, v in plain.items() if k != "load"}
+    assert seen == set(campaign.OPTIONS) and plastic_second_loads
+
+
 def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
     """With a Mohr-Coulomb fill the dead-load LP is no floor (the fill can fail under the load first): the FE bracket
     is judged against the conic bounds of the bridge with its fill (results.json fill_bounds, N)."""
