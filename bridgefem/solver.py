@@ -143,6 +143,22 @@ backwards). Other admissible diverging modes (with slip, or positive work too sm
 without proof: the damping chain or the cycle that returns to them decides, and the verdict needs other evidence
 (:mod:`bridgefem.evidence`).
 
+**First contact.** A repair closes the open pairs that close first when the structure moves from the step's start
+along the diverging mode (:meth:`ContactSolver._first_contact`): each open pair closes at the mode's amplitude gap /
+closing rate, the least sets the first contact, and every open pair closing within ``FIRST_CONTACT`` of it is
+closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
+open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first
+contact stops it; closing a hinge that it would reach later imposes a rotation the blocks can only take by
+straining, and the set's next solve puts other joints in tension. It changes the Newton iteration's path, never
+what counts as converged. Campaign #147 with a
+support movement (semicircle, 39 voussoirs; the right springing 8.06 mm inwards, 9.43 mm down) is at its maximum
+thrust after the movement: hinges at both springings and at joints 10 and 29, the thrust line through all four.
+A live load of 0.13 N opens the pair beside joint 29's hinge pair (it carried 0.7 N); the four-hinge mode then
+closes joint 0 at an amplitude of 1.7e-5 and joint 10 at 2.3e-5 (their rates within ``mechanism.REPAIR`` of each
+other), and the repair of both failed at every level down to 0.13 N, a solver failure; closing joint 0 alone, the
+ring reaches the LP's limit (78.96 kN, 155 solves; 0.6 to 1.5 times the movement, or in 1 or 16 increments:
+107 to 182).
+
 **Proximal solves.** The system of a wrong active set can be exactly singular along a strain-free rigid slide:
 campaign seed 1 #299 (semicircle, 90 voussoirs, mu = 0.338) stopped at 30.74 kN, 4.3 % below the LP, where a load
 increment of 1e-5 proposed one more pair of joint 56 sliding: with every closed pair of joints 0, 56 and 57 sliding,
@@ -257,7 +273,7 @@ from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, Joi
 from .cycles import CycleCondenser
 from .joint_condensation import ENUMERATED_PAIRS
 from .linsolve import CheckedSolve
-from .mechanism import Mode, Verdict, judge
+from .mechanism import ADMISSIBLE_TOL, Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
@@ -274,6 +290,8 @@ BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of
 PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
 PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
 PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
+FIRST_CONTACT = 0.1  # a repair closes the open pairs that its mode closes within this fraction of the mode's
+# amplitude at the first contact (the module's *First contact*)
 LEAP = 10.0  # a solution moving the structure beyond this multiple of the last solved iterate and the step's start
 # is not classified: the proposal that led to it is damped (module's *Leaps*)
 
@@ -794,7 +812,8 @@ class ContactSolver:
         self._unbounded = failure.mechanism or failure.unbounded
         self._diverged |= self._unbounded
         step.mechanisms += failure.mechanism
-        step.fix = self._repaired(step.active, failure.repair, step.frozen)
+        step.fix = self._repaired(step.active, self._first_contact(step.active, failure.repair, step.start.x),
+                                  step.frozen)
         if step.fix is not None:
             step.repairs[step.key] = step.fix
         if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
@@ -1013,6 +1032,29 @@ class ContactSolver:
         are at most ``ENUMERATED_PAIRS`` in all, else the returning proposal's alone. Collective."""
         cycle = pending | (churn >= 2)
         return cycle if self._count(cycle) <= ENUMERATED_PAIRS else pending
+
+    def _first_contact(self, active: ContactState, repair: np.ndarray | None, origin: PETSc.Vec
+                       ) -> np.ndarray | None:
+        """The pairs that close first when the structure moves from ``origin`` (the step's converged start) along
+        the diverging mode whose ``repair`` the verdict gave, in the sense in which the repair closes: the open pairs
+        of ``active`` that the mode closes (faster than ``ADMISSIBLE_TOL`` of its largest joint displacement) at an
+        amplitude (gap at ``origin`` over closing rate, m per unit of the mode) within ``FIRST_CONTACT`` of the least
+        such amplitude, and the repair's closed pairs; the module's *First contact*. Call it right after the solve
+        that diverged (the mode is ``self._mode``). Collective."""
+        if not self._any(repair is not None and bool(repair.any())):
+            return repair
+        repair = repair if repair is not None else np.zeros(len(self.pairs), dtype=bool)  # none on this rank
+        gap = np.maximum(self.split(origin)[2][:, 0], 0.0)
+        rate = self._ground[:, 0] - self.split(self._mode)[2][:, 0]  # the mode's closing, m per unit of the mode
+        sense = np.sign(self.comm.allreduce(float(rate[repair].sum())))  # the sense in which the repair closes
+        rate = sense * rate
+        span = self.comm.allreduce(float(np.abs(rate).max(initial=0.0)), op=MPI.MAX)
+        closes = (active.state == OPEN) & (rate > ADMISSIBLE_TOL * span)
+        amplitude = np.where(closes, gap / np.where(closes, rate, 1.0), np.inf)
+        first = self.comm.allreduce(float(amplitude.min(initial=np.inf)), op=MPI.MIN)
+        if not self._any(bool((repair & closes).any())):  # the repair closes no open pair (it sticks pairs that
+            return repair  # slip backwards)
+        return (repair & (active.state != OPEN)) | (closes & (amplitude <= (1.0 + FIRST_CONTACT) * first))
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
