@@ -131,19 +131,22 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
 
 
 @pytest.mark.slow
-def test_readme_campaign_command_runs_and_judges(tmp_path):
-    """The README's campaign command on two scenes: each is run by bridgefem, judged against its own LP and listed
-    with its class; the bare ring scene 0 of seed 1 is confirmed."""
+@pytest.mark.parametrize("options", [[], ["--options"]])
+def test_readme_campaign_command_runs_and_judges(tmp_path, options):
+    """The README's campaign commands on two scenes: each is run by bridgefem, judged against its own LP and listed
+    with its class; the bare ring scene 0 of seed 1 is confirmed (with --options, with the option drawn for it)."""
     import json
     import subprocess
     import sys
     out = tmp_path / "campaign"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "campaign.py"), "--count", "2", "--seed", "1",
-                           "--jobs", "1", "--out", str(out)], capture_output=True, text=True, timeout=600)
+                           "--jobs", "1", "--out", str(out), *options], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     rows = json.loads((out / "campaign.json").read_text())["rows"]
     assert [r["index"] for r in rows] == [0, 1] and rows[0]["class"] == "confirmed"
     assert "scenes 2" in proc.stdout
+    names = [(r.get("option") or {}).get("name") for r in rows]
+    assert all(n in campaign_module().OPTIONS for n in names) if options else names == [None, None]
 
 
 def test_campaign_loads_a_mohr_coulomb_fill_by_a_patch_on_the_span():
