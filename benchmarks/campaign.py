@@ -202,18 +202,21 @@ def to_toml(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_scene(choice: dict, out: Path, timeout: float) -> dict:
-    """Write the scene, run ``bridgefem run`` on it in a subprocess, and judge the outcome."""
+def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
+    """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
+    and judge the outcome."""
     thickness, least = thickness_of(choice)
     scene = scene_dict(choice, thickness)
     folder = out.resolve() / f"scene_{choice['index']:04d}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
     row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+    command = [sys.executable, "-m", "bridgefem.cli", "run", str(folder / "scene.toml"), "--out",
+               str(folder / "results"), "--quiet"]
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(folder / "scene.toml"), "--out",
-                               str(folder / "results"), "--quiet"], capture_output=True, text=True, timeout=timeout,
+        proc = subprocess.run(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command, capture_output=True,
+                              text=True, timeout=timeout,
                               cwd=folder)  # not the source tree: PYTHONPATH may point at another copy
         code, stderr = proc.returncode, proc.stderr
     except subprocess.TimeoutExpired:
@@ -362,6 +365,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--options", action="store_true",
                    help="each scene with one scene option drawn from OPTIONS (a second load, elastic abutments, a "
                         "support movement, a preset, quadratic elements, plane stress)")
+    p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     args = p.parse_args(argv)
     if args.report:
@@ -378,7 +382,7 @@ def main(argv: list[str] | None = None) -> int:
     def one(i):
         choice = draw(args.seed, i)
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
-                        args.timeout)
+                        args.timeout, args.ranks)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)
         return row
 

@@ -47,8 +47,8 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
     if comm.rank == 0:
         try:
             deficit = standing_deficit(blocks)  # the dead loads alone
-            lp = solve_blocks(blocks) if deficit <= margin else LPResult(None, None, Status.UNSTABLE)
-            out = StaticBound(lp.level, lp.status, float(deficit), float(margin))
+            fe_lp = solve_blocks(blocks) if deficit <= margin else LPResult(None, None, Status.UNSTABLE)
+            out = StaticBound(fe_lp.level, fe_lp.status, float(deficit), float(margin))
         except (RuntimeError, ValueError):  # no LP answer: no bound
             out = None
     static = comm.bcast(out, root=0)
