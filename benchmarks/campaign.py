@@ -17,7 +17,8 @@ on the span with a factor 0.2-1; elastic abutments 0.5-3 m high; a support movem
 springings, horizontal (spreading or closing) and, for half of them, a settlement, each 1e-5 to 1e-3 of the span
 (log-uniform), imposed after the self-weight; the "fast" or "accurate" preset; quadratic elements; plane stress. The
 rigid-block LP of results.json models the same loads and the abutments as rigid blocks, and ignores the movement
-(a limit load of rigid blocks does not depend on a small support movement).
+(a limit load of rigid blocks does not depend on a small support movement). With ``--ranks N`` every scene runs
+under ``mpirun -n N`` (the same verdict and limit as the serial run is the brief's requirement).
 
 Every scene is run by the command line (``bridgefem run``) in a subprocess with a timeout, and judged against the
 rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
