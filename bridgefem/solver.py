@@ -150,7 +150,7 @@ closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 1
 open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first
 contact stops it; closing a hinge that it would reach later imposes a rotation the blocks can only take by
 straining, and the set's next solve puts other joints in tension. It changes the Newton iteration's path, never
-what counts as converged. Campaign #147 with a
+what counts as converged. Campaign seed 1 #147 with its ``--options``
 support movement (semicircle, 39 voussoirs; the right springing 8.06 mm inwards, 9.43 mm down) is at its maximum
 thrust after the movement: hinges at both springings and at joints 10 and 29, the thrust line through all four.
 A live load of 0.13 N opens the pair beside joint 29's hinge pair (it carried 0.7 N); the four-hinge mode then
