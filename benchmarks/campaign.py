@@ -104,7 +104,8 @@ def draw_option(seed: int, index: int) -> dict:
     rng = np.random.default_rng([seed, index, 1])
     name = OPTIONS[rng.integers(len(OPTIONS))]
     values = {
-        "second load": lambda: {"position": round(float(rng.random()), 4), "factor": round(float(rng.uniform(0.2, 1.0)), 3)},
+        "second load": lambda: {"position": round(float(rng.random()), 4),
+                                "factor": round(float(rng.uniform(0.2, 1.0)), 3)},
         "elastic abutments": lambda: {"height": round(float(rng.uniform(0.5, 3.0)), 3)},
         "support movement": lambda: {
             "springing": ("left", "right", "both")[rng.integers(3)],
@@ -120,8 +121,8 @@ def draw_option(seed: int, index: int) -> dict:
 def with_option(d: dict, choice: dict) -> dict:
     """The scene dictionary ``d`` of a draw ``choice`` with its ``option`` (:func:`draw_option`): a second load (its
     share of the load pattern ``factor``; a point, or on a Mohr-Coulomb fill a patch as long as the first, on the
-    span apart from it), elastic abutments of a ``height`` in m, a support movement of ``horizontal`` / ``vertical`` x the span
-    (m/m), a speed-accuracy preset, quadratic elements, plane stress."""
+    span apart from it), elastic abutments of a ``height`` in m, a support movement of ``horizontal`` /
+    ``vertical`` x the span (m/m), a speed-accuracy preset, quadratic elements, plane stress."""
     option, span = choice["option"], choice["span"]
     name = option["name"]
     if name == "second load":

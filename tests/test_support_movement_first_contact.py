@@ -52,13 +52,13 @@ def test_the_repair_keeps_the_pairs_that_close_first_along_the_mode():
 @pytest.mark.slow
 def test_a_ring_pushed_to_its_maximum_thrust_by_a_closing_support_reaches_the_lp(tmp_path):
     """Campaign seed 1 #147 with its --options support movement (semicircle, span 11.274 m, t = 0.9166 m, 39
-    voussoirs, mu = 0.525): the right springing moves 8.06 mm inwards and settles 9.43 mm. From 0.6 of that movement on, the ring is at its
-    maximum thrust: hinges at both springings' extrados and at joints 10 and 29's intrados, the thrust line through
-    all four (equal forces at joints 10 and 29 though the movement is not symmetric). A live load of 0.13 N opened
-    the last pair next to joint 29's hinge, and the repair of the four-hinge mode closed joints 0 and 10 together,
-    which the mode closes at amplitudes 28 % apart: every trial failed down to 0.13 N, a solver failure. The
-    rigid-block collapse load does not depend on a support movement (small displacements; the LP does not model
-    it): the ring reaches the LP's limit (within 0.5 %, the evidence rule's agreement)."""
+    voussoirs, mu = 0.525): the right springing moves 8.06 mm inwards and settles 9.43 mm. From 0.6 of that movement
+    on, the ring is at its maximum thrust: hinges at both springings' extrados and at joints 10 and 29's intrados,
+    the thrust line through all four (equal forces at joints 10 and 29 though the movement is not symmetric). A live
+    load of 0.13 N opened the last pair next to joint 29's hinge, and the repair of the four-hinge mode closed
+    joints 0 and 10 together, which the mode closes at amplitudes 28 % apart: every trial failed down to 0.13 N, a
+    solver failure. The rigid-block collapse load does not depend on a support movement (small displacements; the LP
+    does not model it): the ring reaches the LP's limit (within 0.5 %, the evidence rule's agreement)."""
     scene = {"scene": {"name": "moved"},
              "arch": {"shape": "semicircular", "span": 11.274, "thickness": 0.9166, "width": 1.0, "voussoirs": 39,
                       "joint_at_loads": True},
