@@ -397,7 +397,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
         states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
                                      it.active.state.copy()))
 
-    bound = static_cap(scene, model, bm, pairs, solver, lp) if fill is None else None
+    bound = static_cap(scene, model, bm, pairs, solver) if fill is None else None
     lap("static bound")
     try:
         search = find_limit_load(solver, under_load, tolerance=s.tolerance,

@@ -46,12 +46,15 @@ evidence of collapse only when
    at some pairs (bonded or frozen: an Alart-Curnier residual up to :data:`bridgefem.solver.BOND_RTOL` x eps each)
    is refused: a joint tension of eps per waived pair raises the LP's level by 5 to 22 N per N on campaign seed 1
    (#193, #299, #48, #230), up to 5e-4 of #193's limit, more than the bracket's tolerance. A refused state, like one
-   outside the tolerances, voids the rule for the search (which goes on without the bound). The bound caps the search only where LP_fe lies within ``AGREEMENT`` of the LP with the exact
-   voussoirs' weights (both are known before the search), and the verdict asks for the bracket within ``AGREEMENT``
-   of that LP too (as evidence 3 does: the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a
-   limit that is small against the self-weight by far more); elsewhere the search runs without the cap and the
-   other rules decide (a finer mesh among them). The bound is the FE's up to those tolerances (k delta per joint
-   moves the LP's level by far less than the bracket's width).
+   outside the tolerances, voids the rule for the search (which goes on without the bound). The bound caps every
+   search (no FE equilibrium exists above it, whatever the mesh), but the verdict asks for the bracket within
+   ``AGREEMENT`` of the LP with the exact voussoirs' weights too (as evidence 3 does: the mesh's straight-edged
+   voussoirs weigh O(h^2) differently, which moves a limit that is small against the self-weight by far more);
+   elsewhere the other rules decide (a finer mesh among them). Without the cap where LP_fe and that LP differ by
+   more than ``AGREEMENT``, the searches ended at the same levels by failing trials above LP_fe instead, dearer
+   (campaign seed 1: #193 533 -> 907 linear solves, #297 220 -> 554, #45 40 -> 71; classes and limits unchanged).
+   The bound is the FE's up to those tolerances (k delta per joint moves the LP's level by far less than the
+   bracket's width).
    Under self-weight the same theorem reads: a converged FE state, with every pair of a joint waived at worst
    (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and |s| <= mu
    n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed

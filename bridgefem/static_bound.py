@@ -9,7 +9,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .contact import JointPairs
-from .evidence import AGREEMENT, StaticBound, admissible
+from .evidence import StaticBound, admissible
 from .mesh import BlockMesh
 from .model import ElasticModel, node_blocks
 from .pathfollow import LoadStep, StaticCap
@@ -20,16 +20,15 @@ from .solver import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
 from .status import Status
 
 
-def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver,
-               lp: LPResult) -> tuple[StaticBound, StaticCap] | None:
+def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
+               ) -> tuple[StaticBound, StaticCap] | None:
     """The static theorem's bound on a bare ring's FE (:mod:`bridgefem.evidence`, evidence 4): the rigid-block LP
     on the same joints under the FE's own block loads (:func:`block_loads`), its dead-load deficit against the
     largest one a converged FE state's tolerances can hide, and the check of a converged state's joint resultants
     against the LP's rows (:func:`bridgefem.evidence.admissible`) that the search runs before it ends on the bound.
-    The bound caps the search only where its level is within ``AGREEMENT`` of ``lp``'s, the LP with the exact
-    voussoirs' weights (elsewhere the mesh's voussoirs weigh the limit away from it: the search runs without the cap,
-    and its failing step, the evidence rule and a finer mesh decide). The LPs on rank 0, broadcast; None when an LP
-    fails (no bound). Collective."""
+    The bound caps every search (no FE equilibrium exists above it); whether the bracket it closes is also the
+    limit of the exact voussoirs' weights is the evidence rule's question (:mod:`bridgefem.evidence`, evidence 4).
+    The LP on rank 0, broadcast; None when it fails (no bound). Collective."""
     comm = solver.comm
     blocks = fe_blocks(scene, model, bm)
     pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=blocks.n_joints))
@@ -68,8 +67,7 @@ def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPai
 
     if static is None:
         return None
-    capped = static.level is not None and lp.level is not None and abs(static.level - lp.level) <= AGREEMENT * lp.level
-    return static, StaticCap(static.level if capped else None, static.falls, check)
+    return static, StaticCap(static.level, static.falls, check)
 
 
 def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
