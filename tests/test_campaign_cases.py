@@ -131,10 +131,11 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options", [[], ["--options"]])
+@pytest.mark.parametrize("options", [[], ["--options"], ["--ranks", "2"]])
 def test_readme_campaign_command_runs_and_judges(tmp_path, options):
-    """The README's campaign commands on two scenes: each is run by bridgefem, judged against its own LP and listed
-    with its class; the bare ring scene 0 of seed 1 is confirmed (with --options, with the option drawn for it)."""
+    """The README's campaign commands on two scenes: each is run by bridgefem (with --ranks 2 under mpirun), judged
+    against its own LP and listed with its class; the bare ring scene 0 of seed 1 is confirmed (with --options, with
+    the option drawn for it)."""
     import json
     import subprocess
     import sys
@@ -146,7 +147,7 @@ def test_readme_campaign_command_runs_and_judges(tmp_path, options):
     assert [r["index"] for r in rows] == [0, 1] and rows[0]["class"] == "confirmed"
     assert "scenes 2" in proc.stdout
     names = [(r.get("option") or {}).get("name") for r in rows]
-    assert all(n in campaign_module().OPTIONS for n in names) if options else names == [None, None]
+    assert all(n in campaign_module().OPTIONS for n in names) if "--options" in options else names == [None, None]
 
 
 def test_campaign_loads_a_mohr_coulomb_fill_by_a_patch_on_the_span():
