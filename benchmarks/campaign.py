@@ -51,6 +51,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
 import subprocess
 import sys
@@ -70,6 +71,9 @@ OPTIONS = ("second load", "elastic abutments", "support movement", "preset", "qu
 FILL_SHARE = 0.04  # scenes with a fill: a few (each costs about ten bare runs)
 NO_SLIP_TOL = AGREEMENT  # FE within this fraction of the LP where no joint slides (issue 12)
 BOUND_TOL = 0.005  # the FE bracket's upper end at most this fraction above the conic upper bound of a fill scene
+MPIRUN_ENV = {"OMPI_MCA_rmaps_base_oversubscribe": "1"}  # --ranks: Open MPI may count fewer slots than ranks (a
+# container's CPU limit), and then refuses to start; the rest of mpirun's environment is Python's copy of this
+# process's, without the job variables (PMIX_*, OMPI_MCA_ess, ...) an MPI singleton sets in the C environment
 TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
 
 
@@ -218,7 +222,7 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command, capture_output=True,
-                              text=True, timeout=timeout,
+                              text=True, timeout=timeout, env={**os.environ, **MPIRUN_ENV},
                               cwd=folder)  # not the source tree: PYTHONPATH may point at another copy
         code, stderr = proc.returncode, proc.stderr
     except subprocess.TimeoutExpired:

@@ -137,11 +137,15 @@ def test_readme_campaign_command_runs_and_judges(tmp_path, options):
     against its own LP and listed with its class; the bare ring scene 0 of seed 1 is confirmed (with --options, with
     the option drawn for it)."""
     import json
+    import os
     import subprocess
     import sys
     out = tmp_path / "campaign"
+    # os.environ, not this process's C environment: where an earlier test initialised MPI, that holds the singleton's
+    # job variables (PMIX_*, OMPI_MCA_ess=singleton), and an mpirun started under them fails at once
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "campaign.py"), "--count", "2", "--seed", "1",
-                           "--jobs", "1", "--out", str(out), *options], capture_output=True, text=True, timeout=600)
+                           "--jobs", "1", "--out", str(out), *options], capture_output=True, text=True, timeout=600,
+                          env=dict(os.environ))
     assert proc.returncode == 0, proc.stderr
     rows = json.loads((out / "campaign.json").read_text())["rows"]
     assert [r["index"] for r in rows] == [0, 1] and rows[0]["class"] == "confirmed"
