@@ -849,10 +849,12 @@ class ContactSolver:
                                mechanism=failure.mechanism and step.mechanisms > 1)
         step.damping = True
         damped = self._damp(step.base) if step.base is not None else None
-        if damped is None and step.fix is not None and self._global_key(step.fix) not in step.seen:
-            step.active = step.fix
-            step.seen.add(self._global_key(step.active))
-            return None
+        if damped is None and step.fix is not None:
+            fix = self._global_key(step.fix)
+            if fix not in step.seen:
+                step.seen.add(fix)
+                step.active = step.fix
+                return None
         if damped is None:
             return self._ended(step, failure.message, mechanism=failure.mechanism and step.predicted is None)
         step.active, step.base = damped
@@ -1021,8 +1023,7 @@ class ContactSolver:
         key = self._global_key(target)
         if key in step.seen:
             return False
-        step.seen.add(key)
-        step.base, step.active = _Proposal(step.active, target, _changes(target, step.active), violation), target
+        self._take(step, _Proposal(step.active, target, _changes(target, step.active), violation), key)
         return True
 
     def _ended(self, step: _NewtonStep, reason: str, mechanism: bool = False, proved: bool = False) -> StepOutcome:
