@@ -643,11 +643,11 @@ class ContactSolver:
         return self.comm.allreduce(int(np.count_nonzero(mask)))
 
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
-                      origin: PETSc.Vec, near: PETSc.Vec | None = None):
+                      origin: PETSc.Vec, near: PETSc.Vec | None = None, forces: PETSc.Vec | None = None):
         """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
         :meth:`_proximal_rows`); returns None or the :class:`_Failure`. A displacement beyond the cap is a mechanism
         only when the diverging direction from ``origin`` (the step's converged start) is admissible
-        (:meth:`_verdict`)."""
+        (:meth:`_verdict`, with the normal forces of ``forces``, the last solved iterate; by default ``origin``)."""
         self._rhs(level, active, slip_ref, near)
         failure = self._solve(active, x, near is not None)
         if failure is not None:
@@ -657,7 +657,7 @@ class ContactSolver:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
             text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
-            verdict = self._verdict(level, active, x, origin)
+            verdict = self._verdict(level, active, x, origin, origin if forces is None else forces)
             if verdict.flaw is not None:
                 return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
                                 "mechanism)", False, verdict.repair, unbounded=True, slides=verdict.slides)
@@ -667,9 +667,12 @@ class ContactSolver:
             return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
 
-    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> Verdict:
-        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`).
-        Collective."""
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec, forces: PETSc.Vec
+                 ) -> Verdict:
+        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`), with the
+        power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
+        those of ``forces`` (the last solved iterate, N). Collective."""
+        lam_n = self.split(forces)[1][:, 0]
         mode = self._mode
         x.copy(mode)
         mode.axpy(-1.0, origin)
@@ -678,11 +681,14 @@ class ContactSolver:
         d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
         drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
         total = self.f_dead.array + level * self.f_live.array
-        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
-                                              np.abs(total).sum()]))
-        scales = works[2:] * self._norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
-                          name), provable=self.material is None, comm=self.comm)
+        friction = np.where(active.state == SLIP, active.sign * self.law.mu * lam_n, 0.0)  # lam_t of the slip law
+        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
+                                              np.abs(drive.array).sum(), np.abs(total).sum(),
+                                              np.abs(total).sum() + np.abs(friction).sum()]))
+        scales = works[3:] * self._norm_inf(u)
+        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]),
+                          tuple(scales[:2]), name, (works[2], scales[2])), provable=self.material is None,
+                     comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec, proximal: bool = False):
         """Solve the system of an active set (``proximal``: with the proximal term) with the right-hand side in
@@ -813,7 +819,7 @@ class ContactSolver:
         if step.drift is not None:
             return step.drift
         return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
-                                  step.near if step.key in step.proximal else None)
+                                  step.near if step.key in step.proximal else None, step.near)
 
     def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
@@ -834,7 +840,8 @@ class ContactSolver:
         if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
                 step.base is None or self._count(_changes(step.active, step.base.good)) <= PROXIMAL_CHANGES):
             step.proximal[step.key], step.proximal_sets = failure, step.proximal_sets + 1
-            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near)
+            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near,
+                                      step.near)
         return failure
 
     def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
