@@ -244,6 +244,19 @@ first such trial converges (193 -> 52 solves). Up to ``CONDENSED_PAIRS`` churnin
 scene seed 1 #181 (247 voussoirs, mu = 1.529; a solver failure either way) condensed cycles of up to 24 pairs again and
 again: 3613 -> 6838 solves (4009 of them condensing) until its step budget ran out; with at most four, 2295.
 
+**Pairs on the cone.** A damping chain whose last change left is a friction flip of a closed pair (stick to slip,
+or a slip sign) within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal force),
+and whose set still fails, freezes that pair to stick and solves the set that proposed the flip again
+(:meth:`ContactSolver._freeze_at_cone`); the step converges only if the waived residual stays within that bound, as
+for any frozen pair. Such a pair is on its friction cone: campaign seed 1 #297 (elliptical, 47 voussoirs,
+mu = 0.376) stands under self-weight with both springings sliding outwards (thrust mu W / 2 at each); its
+continuation step reached every pair of both springings sliding but one, whose stick force exceeded the cone by
+0.09 N, and sliding it too let the ring translate freely (singular). The repair of that divergence stuck the whole
+springing, whose pairs then slid again one at a time until a cycle froze one 5.3 kN over its cone, and the step
+failed; the one step from the bonded start spent its 60 iterations the same way. Frozen on its cone, the one step
+converges in 20 iterations (the coarse run 134 -> 35 solves). A flip beyond that bound goes to the repair as
+before (seed 1 #193's first live step: 443 N against 0.45 N).
+
 **Leaps.** Without a line search, a solved active set that still proposes changes and whose solution moves the
 structure more than ``LEAP`` times as far as the last solved iterate and the step's start (largest displacement) is
 not classified: the proposal that led to it is damped as if its solve had diverged (:meth:`ContactSolver._damp`,
@@ -856,6 +869,8 @@ class ContactSolver:
                                mechanism=failure.mechanism and step.mechanisms > 1)
         step.damping = True
         damped = self._damp(step.base) if step.base is not None else None
+        if damped is None and self._freeze_at_cone(step):
+            return None
         if damped is None and step.fix is not None:
             fix = self._global_key(step.fix)
             if fix not in step.seen:
@@ -1018,6 +1033,24 @@ class ContactSolver:
         _bond(new, step.bonded)
         self._take(step, proposal, self._global_key(new))
         return None
+
+    def _freeze_at_cone(self, step: _NewtonStep) -> bool:
+        """Whether the last change left of a proposal whose set failed is a friction flip (stick / slip, slip sign)
+        of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal
+        force); if so it is frozen to stick and the set that proposed it is solved next (the module's *Pairs on the
+        cone*). Collective."""
+        base = step.base
+        if base is None:
+            return False
+        flips = base.pending & ~step.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
+        if not self._any(flips.any()) or self._count(flips) != self._count(base.pending):
+            return False
+        if self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX) > BOND_RTOL * step.f_scale:
+            return False
+        step.frozen |= flips
+        step.active = base.good.copy()
+        _stick(step.active, step.frozen)
+        return True
 
     def _take(self, step: _NewtonStep, proposal: _Proposal, key: int) -> None:
         """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""
