@@ -246,9 +246,11 @@ again: 3613 -> 6838 solves (4009 of them condensing) until its step budget ran o
 
 **Pairs on the cone.** A damping chain whose last change left is a friction flip of a closed pair (stick to slip,
 or a slip sign) within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal force),
-and whose set still fails, freezes that pair to stick and solves the set that proposed the flip again
-(:meth:`ContactSolver._freeze_at_cone`); the step converges only if the waived residual stays within that bound, as
-for any frozen pair. Such a pair is on its friction cone: campaign seed 1 #297 (elliptical, 47 voussoirs,
+and whose set still fails along a wrong active set's mode (no mechanism), freezes that pair to stick and solves the
+set that proposed the flip again (:meth:`ContactSolver._freeze_at_cone`); the step converges only if the waived
+residual stays within that bound, as for any frozen pair. A flip whose set runs along an admissible mode is the
+collapse and is never frozen: a block pushed just past mu W, its last sticking pair 1.4 N over its cone, would
+otherwise have converged above the sliding load (``tests/test_block.py`` brackets mu W exactly). Such a pair is on its friction cone: campaign seed 1 #297 (elliptical, 47 voussoirs,
 mu = 0.376) stands under self-weight with both springings sliding outwards (thrust mu W / 2 at each); its
 continuation step reached every pair of both springings sliding but one, whose stick force exceeded the cone by
 0.09 N, and sliding it too let the ring translate freely (singular). The repair of that divergence stuck the whole
@@ -869,7 +871,7 @@ class ContactSolver:
                                mechanism=failure.mechanism and step.mechanisms > 1)
         step.damping = True
         damped = self._damp(step.base) if step.base is not None else None
-        if damped is None and self._freeze_at_cone(step):
+        if damped is None and not failure.mechanism and self._freeze_at_cone(step):
             return None
         if damped is None and step.fix is not None:
             fix = self._global_key(step.fix)
@@ -1035,10 +1037,10 @@ class ContactSolver:
         return None
 
     def _freeze_at_cone(self, step: _NewtonStep) -> bool:
-        """Whether the last change left of a proposal whose set failed is a friction flip (stick / slip, slip sign)
-        of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal
-        force); if so it is frozen to stick and the set that proposed it is solved next (the module's *Pairs on the
-        cone*). Collective."""
+        """Whether the last change left of a proposal whose set failed without showing a mechanism is a friction flip
+        (stick / slip, slip sign) of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of
+        the largest applied nodal force); if so it is frozen to stick and the set that proposed it is solved next
+        (the module's *Pairs on the cone*). Collective."""
         base = step.base
         if base is None:
             return False
