@@ -73,6 +73,17 @@ def test_a_mode_flawed_both_ways_runs_the_way_its_forces_push():
         assert v.slides and v.repair.tolist() == repaired
 
 
+def test_a_tie_without_power_is_broken_the_same_way_whichever_sign_the_solve_gave():
+    """A rigid translation of two springings (joints 0 and 5, two pairs each, sliding outwards: s = -1 and +1), no
+    power to speak of: in either sense one springing slips backwards by the same amount. The diverging solve's sign
+    is rounding, so the verdict must not depend on it: both signs repair the springing at the lower joint."""
+    state, sign, joint = [SLIP] * 4, [-1, -1, 1, 1], [0, 0, 5, 5]
+    for d_t in (1.0, -1.0):
+        v = judge(Mode(np.column_stack([np.zeros(4), np.full(4, d_t)]), np.asarray(state, dtype=np.int8),
+                       np.asarray(sign, dtype=np.int8), np.full(4, 0.5), np.asarray(joint), (1.0, 1.0), (1.0, 1.0)))
+        assert v.slides and v.repair.tolist() == [True, True, False, False]
+
+
 @pytest.mark.parametrize("push", [0.2, 0.05])
 def test_a_free_slide_sticks_the_pairs_whose_friction_drives_it(push):
     """The elastic block on the ground (tests/test_block.py), mu = 0.4, four elements along its base (pairs 0-4 from
