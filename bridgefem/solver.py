@@ -248,16 +248,16 @@ again: 3613 -> 6838 solves (4009 of them condensing) until its step budget ran o
 or a slip sign) within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal force),
 and whose set still fails along a wrong active set's mode (no mechanism), freezes that pair to stick and solves the
 set that proposed the flip again (:meth:`ContactSolver._freeze_at_cone`); the step converges only if the waived
-residual stays within that bound, as for any frozen pair. A flip whose set runs along an admissible mode is the
-collapse and is never frozen: a block pushed just past mu W, its last sticking pair 1.4 N over its cone, would
-otherwise have converged above the sliding load (``tests/test_block.py`` brackets mu W exactly). Such a pair is on its friction cone: campaign seed 1 #297 (elliptical, 47 voussoirs,
-mu = 0.376) stands under self-weight with both springings sliding outwards (thrust mu W / 2 at each); its
-continuation step reached every pair of both springings sliding but one, whose stick force exceeded the cone by
-0.09 N, and sliding it too let the ring translate freely (singular). The repair of that divergence stuck the whole
-springing, whose pairs then slid again one at a time until a cycle froze one 5.3 kN over its cone, and the step
-failed; the one step from the bonded start spent its 60 iterations the same way. Frozen on its cone, the one step
-converges in 20 iterations (the coarse run 134 -> 35 solves). A flip beyond that bound goes to the repair as
-before (seed 1 #193's first live step: 443 N against 0.45 N).
+residual stays within that bound, as for any frozen pair. Such a pair is on its friction cone: campaign seed 1 #297
+(elliptical, 47 voussoirs, mu = 0.376) stands under self-weight with both springings sliding outwards (thrust
+mu W / 2 at each); its continuation step reached every pair of both springings sliding but one, whose stick force
+exceeded the cone by 0.09 N, and sliding it too let the ring translate freely (singular). The repair of that
+divergence stuck the whole springing, whose pairs then slid again one at a time until a cycle froze one 5.3 kN over
+its cone, and the step failed; the one step from the bonded start spent its 60 iterations the same way. Frozen on
+its cone, the one step converges in 20 iterations (the coarse run 134 -> 35 solves). A flip beyond that bound goes
+to the repair as before (seed 1 #193's first live step: 443 N against 0.45 N), and a flip whose set runs along an
+admissible mode is the collapse, never frozen: a block pushed just past mu W, its last sticking pair 1.4 N over its
+cone, would otherwise converge above the sliding load (``tests/test_block.py`` brackets mu W exactly).
 
 **Leaps.** Without a line search, a solved active set that still proposes changes and whose solution moves the
 structure more than ``LEAP`` times as far as the last solved iterate and the step's start (largest displacement) is
@@ -868,8 +868,8 @@ class ContactSolver:
     def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
         """Step 3: recover from a failed solve (the module's *Damping chains*): from the last good active set, apply
         the half of its proposed changes with the largest violations (:meth:`_damp`); with nothing left to halve,
-        the failed set's repair (the pairs an inadmissible diverging mode pushes into each other, closed and
-        sticking); else the failure ends the step (a mechanism without proof, unless the set was predicted), as it
+        a friction flip on its cone frozen (:meth:`_freeze_at_cone`), else the failed set's repair (the pairs an
+        inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step (a mechanism without proof, unless the set was predicted), as it
         does once ``chains`` damping chains have recovered. Collective."""
         if step.recovered >= step.chains and not step.damping:
             return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
