@@ -869,8 +869,9 @@ class ContactSolver:
         """Step 3: recover from a failed solve (the module's *Damping chains*): from the last good active set, apply
         the half of its proposed changes with the largest violations (:meth:`_damp`); with nothing left to halve,
         a friction flip on its cone frozen (:meth:`_freeze_at_cone`), else the failed set's repair (the pairs an
-        inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step (a mechanism without proof, unless the set was predicted), as it
-        does once ``chains`` damping chains have recovered. Collective."""
+        inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step
+        (a mechanism without proof, unless the set was predicted), as it does once ``chains`` damping chains have
+        recovered. Collective."""
         if step.recovered >= step.chains and not step.damping:
             return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
                                      f"damping chain(s): {failure.message}",
