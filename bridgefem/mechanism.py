@@ -7,7 +7,16 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
 1. Its *sense*. A hinge mode (friction slip at most ``ADMISSIBLE_TOL`` of its largest joint displacement) is taken
    in the sense in which the driving load (the live load; the self-weight at live load 0) does positive work, or the
    whole load when the driving load does none. A mode with slip (the slip law makes the system unsymmetric, so the
-   loads' sense means nothing) is taken in the sense that violates the joint laws least.
+   loads' sense means nothing) is taken in the sense that violates the joint laws least; when it violates them in
+   both senses, in the sense in which the whole load and the sliding pairs' friction forces (s mu lam_n, lam_n of the
+   last solved iterate) do positive work, the sense in which that free mode runs, when their power is significant;
+   a tie (``TIE_TOL``) without significant power is broken by the lower joint of the two senses' worst pairs, so that
+   the choice does not depend on the rounding that sets the diverging solve's sign (the same under MPI).
+   E.g. both springings sliding outwards let the ring translate freely: in either sense one springing slips against
+   its friction force, and the ring runs towards the springing with the smaller friction force, so the other one is
+   the one whose slip is wrong (campaign seed 1 #193, elliptical, mu = 0.489: its self-weight state slides at both
+   springings; the live load's first step let the less loaded one slide wholly, and the repair that stuck that one
+   cycled until the friction law, held at its pairs, failed by a force proportional to the load).
 2. Its *violation* in that sense, per pair: an open pair that the mode closes (interpenetration, -d_n), a sliding
    pair that it slips against the pair's friction force (the slip law lam_t = s mu lam_n assumes slip d_t of sign
    -s: s d_t > 0 is backwards), measured by mu s d_t, the friction's work on it per unit normal force (mu = 0
@@ -39,6 +48,8 @@ ADMISSIBLE_TOL = 1e-3  # violation (friction slip) of a mode, of its largest joi
 WORK_TOL = 1e-6  # load work on a mode, of |f|_1 |u|_inf, below which the load does none
 PROOF_TOL = 1e-6  # violation and friction slip of a proving mode, of its largest joint displacement
 REPAIR = 0.5  # the repair closes the pairs whose violation is at least this fraction of the worst
+TIE_TOL = 1e-6  # a slip mode violating the laws alike in both senses, within this of its largest joint displacement,
+# is a tie (step 1)
 
 
 @dataclass(frozen=True)
@@ -46,7 +57,9 @@ class Mode:
     """A diverging direction at this rank's pairs. ``d`` (m, 2): relative displacements [d_n, d_t]; ``state``,
     ``sign``: the active set that diverged (contact.OPEN/STICK/SLIP and the slip sign); ``mu``: Coulomb
     coefficients; ``joint``: joint ids (for messages). ``works``: (driving load, whole load) work on the mode and
-    ``scales`` their |f|_1 |u|_inf (global values, N m); ``driver``: the driving load's name."""
+    ``scales`` their |f|_1 |u|_inf (global values, N m); ``driver``: the driving load's name; ``power``: the power of
+    the whole load and the sliding pairs' friction forces on the mode and its scale (|f|_1 + sum mu lam_n) |u|_inf
+    (N m; step 1)."""
 
     d: np.ndarray
     state: np.ndarray
@@ -56,6 +69,7 @@ class Mode:
     works: tuple[float, float]
     scales: tuple[float, float]
     driver: str = "live load"
+    power: tuple[float, float] = (0.0, 0.0)
 
 
 class Verdict(NamedTuple):
@@ -92,7 +106,12 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
             i = int(np.nanargmax(violation))
             local = (float(violation[i]), int(mode.joint[i]), int(mode.state[i] == SLIP))
         worst.append(max(comm.allgather(local)))
-    k = int(np.argmin([w[0] for w in worst]))
+    values = [w[0] for w in worst]
+    k = int(np.argmin(values))
+    if slipping and min(values) > ADMISSIBLE_TOL * span and abs(mode.power[0]) > WORK_TOL * mode.power[1]:
+        k = senses.index(np.sign(mode.power[0]))  # flawed in both senses: the sense in which the free mode runs
+    elif slipping and abs(values[0] - values[1]) <= TIE_TOL * span:
+        k = int(np.argmin([w[1] for w in worst]))  # a tie: the sense whose worst pair is at the lower joint
     orient, (value, joint, backward) = senses[k], worst[k]
     flaw, slides = None, False
     if not significant[0] and not slipping:

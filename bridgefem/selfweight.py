@@ -2,7 +2,13 @@
 
 1. The whole self-weight in one step from the unloaded state (every joint closed and sticking), with the whole
    iteration budget: on campaign seeds 1 and 2 converged one steps took up to 29 Newton iterations and failed ones
-   showed the mechanism of an arch unstable under self-weight after up to 49.
+   showed the mechanism of an arch unstable under self-weight after up to 49. A ring whose springings both slide
+   (its thrust mu W / 2 at each: seed 1 #76, #193, #297) translates freely once every pair of both springings
+   slides; the repair stuck a whole springing, chosen by rounding, whose pairs then slid again one at a time, and the
+   one step spent its budget or ended cycling, as did a continuation step. Stuck where the translation's forces
+   say (:mod:`bridgefem.mechanism`, step 1), or with the last pair on its cone frozen (:mod:`bridgefem.solver`,
+   *Pairs on the cone*), the one step converges: #76 in 21 iterations, #297 in 20 (their coarse runs 183 -> 38 and
+   134 -> 35 solves).
 2. When that step fails without proof of a mechanism, a *continuation* reaches the same self-weight through a
    strengthened structure whose strength is then lowered back to the scene's, every step solved from the last
    converged state (incremental friction: a converged state of the path is an equilibrium of the scene's laws):

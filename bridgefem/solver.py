@@ -244,6 +244,21 @@ first such trial converges (193 -> 52 solves). Up to ``CONDENSED_PAIRS`` churnin
 scene seed 1 #181 (247 voussoirs, mu = 1.529; a solver failure either way) condensed cycles of up to 24 pairs again and
 again: 3613 -> 6838 solves (4009 of them condensing) until its step budget ran out; with at most four, 2295.
 
+**Pairs on the cone.** A damping chain whose last change left is a friction flip of a closed pair (stick to slip,
+or a slip sign) within the law residual waived at frozen pairs (``BOND_RTOL`` of the largest applied nodal force),
+and whose set still fails along a wrong active set's mode (no mechanism), freezes that pair to stick and solves the
+set that proposed the flip again (:meth:`ContactSolver._freeze_at_cone`); the step converges only if the waived
+residual stays within that bound, as for any frozen pair. Such a pair is on its friction cone: campaign seed 1 #297
+(elliptical, 47 voussoirs, mu = 0.376) stands under self-weight with both springings sliding outwards (thrust
+mu W / 2 at each); its continuation step reached every pair of both springings sliding but one, whose stick force
+exceeded the cone by 0.09 N, and sliding it too let the ring translate freely (singular). The repair of that
+divergence stuck the whole springing, whose pairs then slid again one at a time until a cycle froze one 5.3 kN over
+its cone, and the step failed; the one step from the bonded start spent its 60 iterations the same way. Frozen on
+its cone, the one step converges in 20 iterations (the coarse run 134 -> 35 solves). A flip beyond that bound goes
+to the repair as before (seed 1 #193's first live step: 443 N against 0.45 N), and a flip whose set runs along an
+admissible mode is the collapse, never frozen: a block pushed just past mu W, its last sticking pair 1.4 N over its
+cone, would otherwise converge above the sliding load (``tests/test_block.py`` brackets mu W exactly).
+
 **Leaps.** Without a line search, a solved active set that still proposes changes and whose solution moves the
 structure more than ``LEAP`` times as far as the last solved iterate and the step's start (largest displacement) is
 not classified: the proposal that led to it is damped as if its solve had diverged (:meth:`ContactSolver._damp`,
@@ -253,6 +268,11 @@ classification of its solution proposes changes with violations thousands of tim
 open / closed toggles with violations of 3.7e8 N under a 60 kN load, and came back to a near copy of that set every
 four iterations, for up to 22 iterations a trial (five failed trials between 60 and 65 kN); damped, the trials there
 converge in 3 to 6.
+A set that a cycle's condensation proposed (:mod:`bridgefem.cycles`: consistent at the cycle's pairs) is classified
+even when it leaps: campaign seed 2 #41 (elliptical, 76 voussoirs, mu = 8.25, E = 2.6e9 Pa) cycled at 188 kN on four
+crack-tip pairs whose condensed state opened one of them by 0.38 m with the other pairs held; damped, the iteration
+came back to the cycle, bonded its pairs in tension (the law violated by 8.8 kN) and three trials failed. Classified,
+the next trials reach the state where that pair opens by 0.4 mm (170 -> 105 solves; seed 1 #224 194 -> 185).
 A converged set proposes no change, so it is never rejected: only the path changes, never what counts as converged.
 Measured (solves per limit load, classes and limits unchanged): seed 1, the twelve bare rings above 150 solves
 2955 -> 2644 (#104 184 -> 79, #144 152 -> 84, #230 244 -> 162; #290 203 -> 312) and every fifteenth scene
@@ -411,6 +431,7 @@ class _NewtonStep:
     predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
     singular: _Failure | None = None  # the last singular proposal
     fix: ContactState | None = None  # the repair of the set whose solve failed last
+    condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
     repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
     proximal: dict = field(default_factory=dict)  # sets solved with the proximal term: key -> their plain failure
     proximal_sets: int = 0
@@ -643,11 +664,11 @@ class ContactSolver:
         return self.comm.allreduce(int(np.count_nonzero(mask)))
 
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
-                      origin: PETSc.Vec, near: PETSc.Vec | None = None):
+                      origin: PETSc.Vec, near: PETSc.Vec | None = None, forces: PETSc.Vec | None = None):
         """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
         :meth:`_proximal_rows`); returns None or the :class:`_Failure`. A displacement beyond the cap is a mechanism
         only when the diverging direction from ``origin`` (the step's converged start) is admissible
-        (:meth:`_verdict`)."""
+        (:meth:`_verdict`, with the normal forces of ``forces``, the last solved iterate; by default ``origin``)."""
         self._rhs(level, active, slip_ref, near)
         failure = self._solve(active, x, near is not None)
         if failure is not None:
@@ -657,7 +678,7 @@ class ContactSolver:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
             text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
-            verdict = self._verdict(level, active, x, origin)
+            verdict = self._verdict(level, active, x, origin, origin if forces is None else forces)
             if verdict.flaw is not None:
                 return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
                                 "mechanism)", False, verdict.repair, unbounded=True, slides=verdict.slides)
@@ -667,9 +688,12 @@ class ContactSolver:
             return _Failure(f"{text} (no equilibrium: mechanism)", True)
         return None
 
-    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec) -> Verdict:
-        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`).
-        Collective."""
+    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec, forces: PETSc.Vec
+                 ) -> Verdict:
+        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`), with the
+        power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
+        those of ``forces`` (the last solved iterate, N). Collective."""
+        lam_n = self.split(forces)[1][:, 0]
         mode = self._mode
         x.copy(mode)
         mode.axpy(-1.0, origin)
@@ -678,11 +702,14 @@ class ContactSolver:
         d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
         drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
         total = self.f_dead.array + level * self.f_live.array
-        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, np.abs(drive.array).sum(),
-                                              np.abs(total).sum()]))
-        scales = works[2:] * self._norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]), tuple(scales),
-                          name), provable=self.material is None, comm=self.comm)
+        friction = np.where(active.state == SLIP, active.sign * self.law.mu * lam_n, 0.0)  # lam_t of the slip law
+        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
+                                              np.abs(drive.array).sum(), np.abs(total).sum(),
+                                              np.abs(total).sum() + np.abs(friction).sum()]))
+        scales = works[3:] * self._norm_inf(u)
+        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]),
+                          tuple(scales[:2]), name, (works[2], scales[2])), provable=self.material is None,
+                     comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec, proximal: bool = False):
         """Solve the system of an active set (``proximal``: with the proximal term) with the right-hand side in
@@ -813,7 +840,7 @@ class ContactSolver:
         if step.drift is not None:
             return step.drift
         return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
-                                  step.near if step.key in step.proximal else None)
+                                  step.near if step.key in step.proximal else None, step.near)
 
     def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
@@ -834,21 +861,25 @@ class ContactSolver:
         if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
                 step.base is None or self._count(_changes(step.active, step.base.good)) <= PROXIMAL_CHANGES):
             step.proximal[step.key], step.proximal_sets = failure, step.proximal_sets + 1
-            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near)
+            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near,
+                                      step.near)
         return failure
 
     def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
         """Step 3: recover from a failed solve (the module's *Damping chains*): from the last good active set, apply
         the half of its proposed changes with the largest violations (:meth:`_damp`); with nothing left to halve,
-        the failed set's repair (the pairs an inadmissible diverging mode pushes into each other, closed and
-        sticking); else the failure ends the step (a mechanism without proof, unless the set was predicted), as it
-        does once ``chains`` damping chains have recovered. Collective."""
+        a friction flip on its cone frozen (:meth:`_freeze_at_cone`), else the failed set's repair (the pairs an
+        inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step
+        (a mechanism without proof, unless the set was predicted), as it does once ``chains`` damping chains have
+        recovered. Collective."""
         if step.recovered >= step.chains and not step.damping:
             return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
                                      f"damping chain(s): {failure.message}",
                                mechanism=failure.mechanism and step.mechanisms > 1)
         step.damping = True
         damped = self._damp(step.base) if step.base is not None else None
+        if damped is None and not failure.mechanism and self._freeze_at_cone(step):
+            return None
         if damped is None and step.fix is not None:
             fix = self._global_key(step.fix)
             if fix not in step.seen:
@@ -881,7 +912,8 @@ class ContactSolver:
         _, lam, d = self.split(step.x)
         proposal = self._propose(step.active, lam, d, step.start.slip_ref, step.frozen, step.bonded)
         changed = self._count(proposal.pending)
-        if changed and not step.searching and step.base is not None and self._leaps(step.x, step.near, step.start.x):
+        if changed and not step.searching and step.base is not None and step.key != step.condensed and \
+                self._leaps(step.x, step.near, step.start.x):
             damped = self._damp(step.base)
             if damped is not None:
                 step.active, step.base = damped
@@ -985,6 +1017,7 @@ class ContactSolver:
                                        step.start.slip_ref, step.start.active)
         if solved is not None and self._visit(step, solved, proposal.violation):
             step.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
+            step.condensed = self._global_key(solved)
             return None
         return self._freeze(step, proposal, changed)
 
@@ -1011,6 +1044,24 @@ class ContactSolver:
         _bond(new, step.bonded)
         self._take(step, proposal, self._global_key(new))
         return None
+
+    def _freeze_at_cone(self, step: _NewtonStep) -> bool:
+        """Whether the last change left of a proposal whose set failed without showing a mechanism is a friction flip
+        (stick / slip, slip sign) of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of
+        the largest applied nodal force); if so it is frozen to stick and the set that proposed it is solved next
+        (the module's *Pairs on the cone*). Collective."""
+        base = step.base
+        if base is None:
+            return False
+        flips = base.pending & ~step.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
+        if not self._any(flips.any()) or self._count(flips) != self._count(base.pending):
+            return False
+        if self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX) > BOND_RTOL * step.f_scale:
+            return False
+        step.frozen |= flips
+        step.active = base.good.copy()
+        _stick(step.active, step.frozen)
+        return True
 
     def _take(self, step: _NewtonStep, proposal: _Proposal, key: int) -> None:
         """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""

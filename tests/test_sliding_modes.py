@@ -62,6 +62,48 @@ def test_a_free_slide_moves_the_block_by_its_unbalanced_force_over_the_springs()
     assert sorted(slides) == pytest.approx([0.2, 0.6], rel=1e-3)
 
 
+def test_a_mode_flawed_both_ways_runs_the_way_its_forces_push():
+    """Made-up modes (mu = 0.5): pair 0 slides with s = +1, pair 1 with s = -1, and the mode translates both (d_t = 1):
+    in either sense one of them slips against its friction force. The free mode runs the way the load and the
+    friction forces push it (their power, here given): positive, pair 0 slips backwards and is the one to stick."""
+    d, state, sign = [[0.0, 1.0], [0.0, 1.0]], [SLIP, SLIP], [1, -1]
+    for power, repaired in ((1.0, [True, False]), (-1.0, [False, True])):
+        v = judge(Mode(np.asarray(d), np.asarray(state, dtype=np.int8), np.asarray(sign, dtype=np.int8),
+                       np.full(2, 0.5), np.arange(2), (1.0, 1.0), (1.0, 1.0), power=(power, 1.0)))
+        assert v.slides and v.repair.tolist() == repaired
+
+
+def test_a_tie_without_power_is_broken_the_same_way_whichever_sign_the_solve_gave():
+    """A rigid translation of two springings (joints 0 and 5, two pairs each, sliding outwards: s = -1 and +1), no
+    power to speak of: in either sense one springing slips backwards by the same amount. The diverging solve's sign
+    is rounding, so the verdict must not depend on it: both signs repair the springing at the lower joint."""
+    state, sign, joint = [SLIP] * 4, [-1, -1, 1, 1], [0, 0, 5, 5]
+    for d_t in (1.0, -1.0):
+        v = judge(Mode(np.column_stack([np.zeros(4), np.full(4, d_t)]), np.asarray(state, dtype=np.int8),
+                       np.asarray(sign, dtype=np.int8), np.full(4, 0.5), np.asarray(joint), (1.0, 1.0), (1.0, 1.0)))
+        assert v.slides and v.repair.tolist() == [True, True, False, False]
+
+
+@pytest.mark.parametrize("push", [0.2, 0.05])
+def test_a_free_slide_sticks_the_pairs_whose_friction_drives_it(push):
+    """The elastic block on the ground (tests/test_block.py), mu = 0.4, four elements along its base (pairs 0-4 from
+    x = +b/2 to -b/2), pushed in +x by P, pairs 0-2 sliding with s = +1 (friction on the block mu lam_n in -x, the
+    tangent being -x) and pairs 3-4 with s = -1 (in +x): the block slides freely, in either sense one group slips
+    against its friction force. By Newton's law it runs along the net force P - mu (N_+ - N_-) (the normal forces
+    of the self-weight state, which carry W): in +x at P = 0.2 W, so pairs 3-4 slip backwards (d_t = -u_x < 0 with
+    s = -1) and the repair sticks them; in -x at P = 0.05 W, pairs 0-2."""
+    mu = 0.4
+    solver, start = _self_weight(mu, 0.5)
+    normal = solver.split(start.x)[1][:, 0]
+    assert normal.sum() == pytest.approx(W, rel=1e-6)
+    plus = np.arange(len(solver.pairs)) < 3
+    active = ContactState(np.full(len(solver.pairs), SLIP, dtype=np.int8), np.where(plus, 1, -1).astype(np.int8))
+    net = push * W - mu * (normal[plus].sum() - normal[~plus].sum())
+    failure = solver._solve_active(push * W, active, start.slip_ref, start.x.copy(), start.x)
+    assert failure is not None and failure.slides
+    assert failure.repair.tolist() == (~plus if net > 0 else plus).tolist()
+
+
 def test_the_proximal_term_vanishes_at_a_converged_state():
     """The block at mu = 2 pushed at h = 1.5 m by 0.6 of its tipping load W b / (2 h): the resultant's eccentricity
     0.3 b is beyond the middle third, so the heel's pairs are open. The proximal system of that active set anchored
