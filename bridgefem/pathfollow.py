@@ -87,8 +87,16 @@ trial converges in 17 and its flat secant closes the bracket.
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
-solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load
-trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
+solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. On a
+bare ring a closing failure is first checked against the converged state it started from (``collapsed``,
+:meth:`bridgefem.evidence.SlipCheck.settles`): when that state is already a collapse state of its rigid blocks
+(evidence 3) whose frozen friction capacities carry no more than the width above ``lower``, the failure is the
+mechanism without retries. The verdict confirms the bracket [lower, trial] from that very state, and the state is at
+its collapse to within the bracket's width, so a retry could only reach another equilibrium at ``trial`` by raising
+the normal forces of the sliding joints along a flat curve: a different non-associative collapse state, which the
+search is not after (campaign seed 1, #124, #184, #220 and seed 2, #12, #55, whose closing failures start from such
+states: each of their five retries failed again, 30 to 77 linear solves per scene, and the brackets stay the
+same without them). Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
 mechanisms stops early, as such a failure, instead of spending its iterations.
 A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
 step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
@@ -115,7 +123,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -219,6 +227,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
                     coarser: float | None = None, solve_budget: int | None = None,
+                    collapsed: Callable[[float, float, Iterate], tuple[bool, str]] | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -235,6 +244,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
     spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
     and raises at the same step).
+    ``collapsed(lower, trial, state)``: whether the converged ``state`` at ``lower`` is a collapse state that settles
+    the bracket [lower, trial] of a closing trial that failed without proof, with the check in words (module
+    docstring, *Failures without proof*; None: no such check). Collective.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
@@ -337,7 +349,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
             and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
         if not out.converged and final and not out.proved and (suspect or not out.mechanism):
-            out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
+            out = _settled(collapsed, lower, trial, state, out) or retried(
+                solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
         jump, linear = linear and trial == _below(soft, tolerance), False
         if out.converged:
             linear = out.iterations == 1 and not jump
@@ -381,6 +394,18 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _settled(collapsed: Callable[[float, float, Iterate], tuple[bool, str]] | None, lower: float, trial: float,
+             state: Iterate, failed: StepOutcome) -> StepOutcome | None:
+    """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower``, as a
+    mechanism when ``collapsed`` finds that state a collapse state settling the bracket [lower, trial] (module
+    docstring, *Failures without proof*), else None (the failure is retried). Collective."""
+    if collapsed is None:
+        return None
+    settles, check = collapsed(lower, trial, state)
+    return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
+                                                  f"state: {check}") if settles else None
 
 
 def _below(level: float, tolerance: float) -> float:

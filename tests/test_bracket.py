@@ -11,7 +11,7 @@ from petsc4py import PETSc
 from bridgefem.contact import ContactState
 from bridgefem.pathfollow import StaticCap, find_limit_load
 from bridgefem.selfweight import SELF_WEIGHT_RETRIES
-from bridgefem.solver import Iterate, StepOutcome
+from bridgefem.solver import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
 LIMIT = 1234.5  # N per unit load factor
@@ -165,3 +165,49 @@ def test_a_self_weight_that_cannot_stand_is_not_retried():
     assert s.status == Status.UNSTABLE and s.static and ruled_out.solves == 1
     s = search(plain)
     assert Status.of(s.status) is Status.FAILURE and plain.solves == 1 + len(SELF_WEIGHT_RETRIES)
+
+
+class Unprovable(OneDof):
+    """No equilibrium above ``limit``, where its Newton method fails without showing a mechanism; counts the steps
+    it solves again with other settings (bridgefem.solver.retried)."""
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.retries = 0
+
+    def use(self, setting):
+        self.retries += setting != DEFAULT_SETTING
+
+    def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
+        out = super().solve_step(level, start, predictor, give_up, iterations)
+        return out if out.converged else StepOutcome(False, "no convergence", 9, 0.0, 1)
+
+
+def collapse_state(settles):
+    """A collapse check (bridgefem.analysis.collapse_check) that answers ``settles``; records (lower, trial)."""
+    asked = []
+
+    def collapsed(lower, trial, state):
+        asked.append((lower, trial))
+        return settles, "made up"
+
+    return collapsed, asked
+
+
+def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
+    """A closing trial that fails without proof is solved again with every other setting, and still unproven it
+    is a solver failure; when the converged state below it is a collapse state that settles the bracket, the
+    failure is the mechanism at once: the bracket holds the exact limit, no retries."""
+    for settles in (False, True):
+        collapsed, asked = collapse_state(settles)
+        solver = Unprovable()
+        s = find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=1e-4, initial_step=WEIGHT / 4,
+                            max_load=100 * WEIGHT, max_steps=200, guess=LIMIT, collapsed=collapsed)
+        (lower, trial), = asked
+        assert lower <= LIMIT < trial and trial - lower <= 1e-4 * lower
+        if settles:
+            assert_bracket(s)
+            assert s.upper == trial and not s.proved and solver.retries == 0 and "collapse state" in s.failure
+        else:
+            assert Status.of(s.status) is Status.FAILURE and s.lower == lower
+            assert solver.retries == len(RETRIES)
