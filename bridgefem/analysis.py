@@ -40,7 +40,8 @@ from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
-from .pathfollow import LimitSearch, LoadStep, SolveBudgetSpent, find_limit_load, monitor_deflection
+from .pathfollow import (CollapseCheck, LimitSearch, LoadStep, SolveBudgetSpent, find_limit_load,
+                         monitor_deflection)
 from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse,
                           ring_under_forces, solve_blocks)
 from .scene import Scene, SceneError
@@ -409,8 +410,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                  stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                                  movement_steps=scene.abutments.movement_steps if motion else 0,
                                  bound=bound[1] if bound else None, coarser=coarser, solve_budget=budget,
-                                 collapsed=collapse_check(scene, comm, lp, model, bm, solver, pairs, ring, s.tolerance,
-                                                          total),
+                                 collapse=collapse_check(scene, comm, lp, model, bm, solver, pairs, ring, s.tolerance,
+                                                         total),
                                  report=report, converged=keep)
     except SolveBudgetSpent as spent:
         search = LimitSearch(Status.failure(str(spent)), 0.0, None, s.tolerance, spent.steps, failure=str(spent))
@@ -474,23 +475,16 @@ def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointSta
     """The non-associative rigid-block check of a converged state's ``joints`` (evidence 3 of
     :mod:`bridgefem.evidence`): the rigid ``blocks`` loaded as the FE loads its voussoirs
     (:func:`bridgefem.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x normal
-    force (:func:`bridgefem.rigid_block.frozen_capacity_collapse`) and the Tresca fixed point from them, and the
-    frozen LP under the scene's own block loads (:func:`bridgefem.rigid_block.collapse_state_from`).
+    force (:func:`frozen_collapse`) and the Tresca fixed point from them, and the frozen LP under the scene's own
+    block loads (:func:`bridgefem.rigid_block.collapse_state_from`).
     The LPs on rank 0, broadcast (collective)."""
     sliding = tuple(j.id for j in joints if j.sliding)
     out = None
     if comm.rank == 0:
-        normal = np.zeros(blocks.n_joints)
-        normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
-            frozen = frozen_capacity_collapse(blocks, normal)
+            normal, frozen, limited = frozen_collapse(joints, blocks)
             fixed = solve_blocks(blocks, "non-associative", seed=normal)
             exact = collapse_state_from(scene, normal, lp.load_sides, max_iterations=1)
-            limited = ()
-            if frozen.level is not None:
-                shear = np.zeros_like(normal)
-                shear[[j.id for j in joints]] = [j.shear_force for j in joints]
-                limited = coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip, frozen.sliding)
             out = SlipCheck(sliding, frozen.level, tuple(frozen.sliding), tuple(frozen.hinges), limited,
                             exact.level, fixed.converged, fixed.level, tuple(fixed.sliding), tuple(fixed.hinges),
                             fixed.iterations)
@@ -499,22 +493,48 @@ def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointSta
     return comm.bcast(out, root=0)
 
 
+def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.ndarray, LPResult, tuple[int, ...]]:
+    """The ``blocks`` with each joint's shear capacity frozen at mu x its normal force in ``joints``
+    (:func:`bridgefem.rigid_block.frozen_capacity_collapse`): the normal forces (N per joint), the LP's result and
+    those of its sliding joints where the joints' forces are at their Coulomb limit against the slip
+    (:func:`bridgefem.evidence.coulomb_limited`). Raises RuntimeError or ValueError when the LP fails."""
+    normal, shear = np.zeros(blocks.n_joints), np.zeros(blocks.n_joints)
+    ids = [j.id for j in joints]
+    normal[ids], shear[ids] = [j.normal_force for j in joints], [j.shear_force for j in joints]
+    frozen = frozen_capacity_collapse(blocks, normal)
+    limited = () if frozen.level is None else coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip,
+                                                               frozen.sliding)
+    return normal, frozen, limited
+
+
 def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, model: ElasticModel, bm: BlockMesh,
                    solver: ContactSolver, pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float
-                   ) -> Callable[[float, float, Iterate], tuple[bool, str]] | None:
-    """The search's test of a closing trial that failed without proof (:mod:`bridgefem.pathfollow`, *Failures
-    without proof*): ``collapsed(lower, trial, state)`` says whether the converged ``state`` at ``lower`` is already
-    a collapse state of its rigid blocks that settles the bracket [``lower``, ``trial``] of relative width
-    ``tolerance`` (:meth:`bridgefem.evidence.SlipCheck.settles`), and gives the check in words (``unit``: N of live
-    load per unit level). None with a fill or without an LP limit (evidence 3 does not apply). Collective."""
+                   ) -> CollapseCheck | None:
+    """Evidence 3 at the search's converged states (:class:`bridgefem.pathfollow.CollapseCheck`): the frozen LP's
+    level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
+    (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
+    bracket [``lower``, ``trial``] of relative width ``tolerance`` (:meth:`bridgefem.evidence.SlipCheck.settles`),
+    with the check in words (``unit``: N of live load per unit level). None with a fill or without an LP limit
+    (evidence 3 does not apply). Collective."""
     if scene.fill is not None or lp.status != Status.LIMIT or lp.level is None:
         return None
+    blocks = fe_blocks(scene, model, bm)
 
-    def collapsed(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
-        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), fe_blocks(scene, model, bm))
+    def level(state: Iterate) -> float | None:
+        joints, out = joint_states(solver, pairs, ring, state), None
+        if comm.rank == 0:
+            try:
+                _, frozen, limited = frozen_collapse(joints, blocks)
+                out = frozen.level if frozen.sliding and set(frozen.sliding) == set(limited) else None
+            except (RuntimeError, ValueError):  # no estimate
+                out = None
+        return comm.bcast(out, root=0)
+
+    def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks)
         return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
 
-    return collapsed
+    return CollapseCheck(level, settles)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:

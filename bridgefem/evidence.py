@@ -147,8 +147,8 @@ class SlipCheck:
         ``trial`` means the state is at its collapse to within the bracket's width: the blocks move on the
         mechanism with the FE's forces unchanged at the level where the curve is flat. A retry that converged at
         ``trial`` would have to raise the normal forces of the sliding joints beyond the state's along that flat
-        curve (another non-associative collapse state, which no path of the search is obliged to reach: module
-        docstring, *Non-associative collapse states are not unique*)."""
+        curve: another non-associative collapse state (they are not unique, module docstring), which the search's
+        path does not reach."""
         return self.agrees(lower, trial, lp_level) and self.frozen_level <= (1 + tolerance) * lower
 
     def back_at(self, lower: float, upper: float, lp_level: float) -> bool:

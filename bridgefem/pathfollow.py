@@ -87,16 +87,8 @@ trial converges in 17 and its flat secant closes the bracket.
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
-solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. On a
-bare ring a closing failure is first checked against the converged state it started from (``collapsed``,
-:meth:`bridgefem.evidence.SlipCheck.settles`): when that state is already a collapse state of its rigid blocks
-(evidence 3) whose frozen friction capacities carry no more than the width above ``lower``, the failure is the
-mechanism without retries. The verdict confirms the bracket [lower, trial] from that very state, and the state is at
-its collapse to within the bracket's width, so a retry could only reach another equilibrium at ``trial`` by raising
-the normal forces of the sliding joints along a flat curve: a different non-associative collapse state, which the
-search is not after (campaign seed 1, #124, #184, #220 and seed 2, #12, #55, whose closing failures start from such
-states: each of their five retries failed again, 30 to 77 linear solves per scene, and the brackets stay the
-same without them). Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
+solver's other settings (:func:`bridgefem.solver.retried`), unless the state it started from settles it (*Collapse
+state*); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
 mechanisms stops early, as such a failure, instead of spending its iterations.
 A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
 step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
@@ -106,6 +98,27 @@ used 40-60 without recovering; on the campaigns' bare rings and elastic fills (s
 steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while
 failed trials spent up to 60 (seed 1, #48: 39, 37 and 60 iterations at 306.7 kN from states 28, 14 and 7 kN below,
 before that level converged in 2 from 1.7 kN below).
+
+**Collapse state.** On a bare ring ``collapse`` reads each converged state as rigid blocks (evidence 3 of
+:mod:`bridgefem.evidence`): ``collapse.level(state)`` is the level F at which the state's blocks with its friction
+capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
+at their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks), and once the
+FE slides on that mechanism it is the limit the path is heading for (campaign seed 1, 4 elements through the
+thickness: #220 F = 7943.26 kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184
+10766.57 kN from 9883 kN, 8 % below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its
+limit 7630.2 kN). Such an estimate sets the target T = F / (1 + ``STRADDLE`` tolerance), never above the target of
+the guess, the static bound or a coarser run: the search lands just below F, and its closing trial, a width above
+T, goes half a width beyond F (a trial at F itself, where the curve is flat, fails without showing a mechanism,
+and then only halves the step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T
+are plausible (*Guess*). #220: 133 linear solves -> 73, #184 122 -> 81 (their brackets within their old ones' width).
+A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
+:meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
+the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
+trial] from that very state, and the state is at its collapse to within the bracket's width, so a retry could only
+reach another equilibrium at ``trial`` by raising the normal forces of the sliding joints along a flat curve: a
+different non-associative collapse state, which the search is not after (campaign seed 1, #124, #184, #220 and seed
+2, #12, #55, whose closing failures start from such states: each of their five retries failed again, 30 to 77 linear
+solves per scene, and the brackets are the same without them).
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -153,6 +166,8 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # recover)
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
+STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the target it sets (module docstring,
+# *Collapse state*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -223,11 +238,23 @@ class StaticCap:
     admissible: Callable[[LoadStep, Iterate], tuple[bool, str]]
 
 
+@dataclass
+class CollapseCheck:
+    """Evidence 3 (:mod:`bridgefem.evidence`) at a converged state of a bare ring (module docstring, *Collapse
+    state*): ``level(state)`` the level (N per unit load factor) at which the state's rigid blocks with its friction
+    capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
+    at their Coulomb limit (None: no such mechanism); ``settles(lower, trial, state)`` whether the state at ``lower``
+    is the collapse state that settles the bracket [lower, trial], with the check in words. Both collective."""
+
+    level: Callable[[Iterate], float | None]
+    settles: Callable[[float, float, Iterate], tuple[bool, str]]
+
+
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
                     coarser: float | None = None, solve_budget: int | None = None,
-                    collapsed: Callable[[float, float, Iterate], tuple[bool, str]] | None = None,
+                    collapse: CollapseCheck | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -244,9 +271,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
     spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
     and raises at the same step).
-    ``collapsed(lower, trial, state)``: whether the converged ``state`` at ``lower`` is a collapse state that settles
-    the bracket [lower, trial] of a closing trial that failed without proof, with the check in words (module
-    docstring, *Failures without proof*; None: no such check). Collective.
+    ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*; None:
+    none), the same on every rank.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
@@ -308,6 +334,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
     target = min(target, (1.0 - tolerance) * coarser) if coarser else target
+    aim = target  # the target before any collapse state's estimate
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
@@ -349,7 +376,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
             and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
         if not out.converged and final and not out.proved and (suspect or not out.mechanism):
-            out = _settled(collapsed, lower, trial, state, out) or retried(
+            out = _settled(collapse, lower, trial, state, out) or retried(
                 solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
         jump, linear = linear and trial == _below(soft, tolerance), False
         if out.converged:
@@ -370,6 +397,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                        "the rigid-block LP under the FE's own loads (the converged state's joint "
                                        f"resultants are admissible for it; {check})", guess, settled, static=True)
                 cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
+            estimate = collapse.level(state) if collapse is not None else None
+            target = min(aim, estimate / (1.0 + STRADDLE * tolerance)) if estimate is not None else target
             cleared = lower >= soft and solver.material is None
             if lower >= soft:
                 soft = math.inf
@@ -396,14 +425,14 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
 
 
-def _settled(collapsed: Callable[[float, float, Iterate], tuple[bool, str]] | None, lower: float, trial: float,
-             state: Iterate, failed: StepOutcome) -> StepOutcome | None:
+def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
+             ) -> StepOutcome | None:
     """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower``, as a
-    mechanism when ``collapsed`` finds that state a collapse state settling the bracket [lower, trial] (module
-    docstring, *Failures without proof*), else None (the failure is retried). Collective."""
-    if collapsed is None:
+    mechanism when ``collapse`` finds that state a collapse state settling the bracket [lower, trial] (module
+    docstring, *Collapse state*), else None (the failure is retried). Collective."""
+    if collapse is None:
         return None
-    settles, check = collapsed(lower, trial, state)
+    settles, check = collapse.settles(lower, trial, state)
     return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
                                                   f"state: {check}") if settles else None
 

@@ -174,11 +174,12 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
 
 @pytest.mark.slow
 def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypatch):
-    """Campaign seed 2, scene 12 (pointed, 29 voussoirs, mu 0.801, 4 elements through the thickness): the closing
-    trial fails without proof (a suspect failure 4 % below the static bound) from a state whose rigid blocks, with
-    its frozen friction capacities, collapse within the bracket's width of it (computed here independently). The
-    search takes that failure as the mechanism at once; with the check switched off every retry of it fails
-    again and the search ends on the same bracket, which the verdict confirms by the same evidence either way."""
+    """Campaign seed 2, scene 12 (pointed, 29 voussoirs, mu 0.801, 4 elements through the thickness): without the
+    collapse-state check the closing trial fails without proof (a suspect failure 4 % below the static bound) and
+    every retry of it fails again. With the check the search aims at the level where its states' rigid blocks with
+    their frozen friction capacities collapse, and its closing failure starts from a state whose blocks collapse
+    within the bracket's width of it (computed here independently): no retries, fewer solves, and a bracket that
+    overlaps the other; the verdict confirms both by the same evidence."""
     from mpi4py import MPI
 
     from bridgefem import analysis
@@ -193,11 +194,11 @@ def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypat
     retried = analysis._analyse(scene, MPI.COMM_WORLD, None, lambda s: None, lambda p: None)
     for an in (checked, retried):
         assert an.search.status == Status.LIMIT and an.verdict.evidence.startswith("agreement: the non-associative")
-    assert (checked.search.lower, checked.search.upper) == (retried.search.lower, retried.search.upper)
+    a, b = checked.search, retried.search
+    assert a.lower <= b.upper and b.lower <= a.upper
     assert checked.solver.stats["retry_solves"] == 0 < retried.solver.stats["retry_solves"]
     assert checked.solver.stats["solves"] < retried.solver.stats["solves"]
-    s = checked.search
     normal = np.zeros(len(checked.ring.joints))
     normal[[j.id for j in checked.joints]] = [j.normal_force for j in checked.joints]
     frozen = frozen_capacity_collapse(fe_blocks(scene, checked.model, checked.block_mesh), normal)
-    assert s.lower * (1 - 1e-9) <= frozen.level <= s.lower * (1 + s.tolerance) and frozen.sliding
+    assert a.lower * (1 - 1e-9) <= frozen.level <= a.lower * (1 + a.tolerance) and frozen.sliding
