@@ -102,15 +102,19 @@ before that level converged in 2 from 1.7 kN below).
 **Collapse state.** On a bare ring ``collapse`` reads each converged state as rigid blocks (evidence 3 of
 :mod:`bridgefem.evidence`): ``collapse.level(state)`` is the level F at which the state's blocks with its friction
 capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
-at their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks), and once the
-FE slides on that mechanism it is the limit the path is heading for (campaign seed 1, 4 elements through the
-thickness: #220 F = 7943.26 kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184
-10766.57 kN from 9883 kN, 8 % below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its
-limit 7630.2 kN). Such an estimate sets the target T = F / (1 + ``STRADDLE`` tolerance), never above the target of
-the guess, the static bound or a coarser run: the search lands just below F, and its closing trial, a width above
-T, goes half a width beyond F (a trial at F itself, where the curve is flat, fails without showing a mechanism,
-and then only halves the step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T
-are plausible (*Guess*). #220: 133 linear solves -> 73, #184 122 -> 81 (their brackets within their old ones' width).
+at their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks). Once the FE
+slides on that mechanism F often stops rising: campaign seed 1, 4 elements through the thickness, #220: F =
+7943.26 kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184: 10766.57 kN from
+9883 kN, 8 % below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its limit 7630.2 kN. But
+where the normal forces of the sliding joints grow with the load it rises nearly as fast as the load (#290: 0.9 x
+the step; #2: 0.4), and a search that aimed at it would creep up in ever shorter steps (#290: no bracket within 200
+steps). So F counts as *settled* only when it rose by at most ``RISE`` x the step that reached its state, and only
+while a failure lies above the state (where the search bisects near the top): it then sets the target T = F / (1 +
+``STRADDLE`` tolerance) (never above the target of the guess, the static bound or a coarser run), and a state within
+the width of its settled F tries the width above it next, the closing trial, half a width beyond F when the search
+landed on T (a trial at F itself, where the curve is flat, fails without showing a mechanism and only halves the
+step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*).
+#220: 133 linear solves -> 80, #184: 122 -> 107, #124: 72 -> 67; their brackets within their old ones' width.
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
@@ -166,6 +170,7 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # recover)
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
+RISE = 0.5  # a collapse state's estimate is settled when it rose by at most this fraction of the step to its state
 STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the target it sets (module docstring,
 # *Collapse state*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
@@ -335,6 +340,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
     target = min(target, (1.0 - tolerance) * coarser) if coarser else target
     aim = target  # the target before any collapse state's estimate
+    reading = None  # the last converged state's collapse level (*Collapse state*; None: none)
+    foreseen = None  # ... when it is a settled estimate of the limit
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
@@ -357,6 +364,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         width = tolerance * max(lower, 1e-9 * initial_step)
         if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
             trial = soft
+        elif foreseen is not None and abs(foreseen - lower) <= width < soft - lower:
+            trial = lower + CLOSE * width  # the state is within the width of its collapse (*Collapse state*)
         elif lower < target < soft:
             trial = min(target - APPROACH * (target - lower), lower + step)
             trial = target if target - trial <= LANDING * target and (visit, target) not in failed_from else trial
@@ -397,11 +406,13 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                        "the rigid-block LP under the FE's own loads (the converged state's joint "
                                        f"resultants are admissible for it; {check})", guess, settled, static=True)
                 cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
-            estimate = collapse.level(state) if collapse is not None else None
-            target = min(aim, estimate / (1.0 + STRADDLE * tolerance)) if estimate is not None else target
+            reading, before = collapse.level(state) if collapse is not None else None, reading
+            foreseen = reading if reading is not None and before is not None and reading - before <= RISE * taken \
+                else None
             cleared = lower >= soft and solver.material is None
             if lower >= soft:
                 soft = math.inf
+            target = _aimed(aim, foreseen, soft, tolerance)
             retry = soft - lower > tolerance * lower and not plausible(soft)
             if arrived:
                 step = CLOSE * tolerance * lower
@@ -413,7 +424,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if backtrack:
             step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
             lower, state, taken, visit = history.pop()
-            soft, retry = math.inf, False
+            soft, retry, reading, foreseen, target = math.inf, False, None, None, aim
         elif final:
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
             return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
@@ -421,8 +432,18 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             failed_step = trial - lower if trial < soft else failed_step
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
+            target = _aimed(aim, foreseen, soft, tolerance)
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _aimed(aim: float, foreseen: float | None, soft: float, tolerance: float) -> float:
+    """The search's target (N per unit load factor): ``aim`` (of the guess, the static bound, a coarser run), or
+    while a failure ``soft`` lies above the converged state, the level ``STRADDLE`` widths below that state's settled
+    collapse level ``foreseen`` when that is lower (module docstring, *Collapse state*; None: none)."""
+    if foreseen is None or soft == math.inf:
+        return aim
+    return min(aim, foreseen / (1.0 + STRADDLE * tolerance))
 
 
 def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
