@@ -340,8 +340,21 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
     target = min(target, (1.0 - tolerance) * coarser) if coarser else target
     aim = target  # the target before any collapse state's estimate
-    reading = None  # the last converged state's collapse level (*Collapse state*; None: none)
-    foreseen = None  # ... when it is a settled estimate of the limit
+    foreseen = None  # the converged state's settled collapse level (*Collapse state*; None: none)
+    readings: dict[int, float | None] = {}  # the collapse level of each converged state read, by its number
+
+    def reading(at: Iterate, number: int) -> float | None:
+        if number not in readings:
+            readings[number] = collapse.level(at)
+        return readings[number]
+
+    def settled_collapse() -> float | None:
+        """The converged state's collapse level when it is settled and a failure lies above (module docstring,
+        *Collapse state*), else None; read only then, once per state. Collective."""
+        if collapse is None or soft == math.inf or not history:
+            return None
+        now, before = reading(state, visit), reading(history[-1][1], history[-1][3])
+        return now if now is not None and before is not None and now - before <= RISE * taken else None
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
@@ -406,12 +419,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
                                        "the rigid-block LP under the FE's own loads (the converged state's joint "
                                        f"resultants are admissible for it; {check})", guess, settled, static=True)
                 cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
-            reading, before = collapse.level(state) if collapse is not None else None, reading
-            foreseen = reading if reading is not None and before is not None and reading - before <= RISE * taken \
-                else None
             cleared = lower >= soft and solver.material is None
             if lower >= soft:
                 soft = math.inf
+            foreseen = settled_collapse()
             target = _aimed(aim, foreseen, soft, tolerance)
             retry = soft - lower > tolerance * lower and not plausible(soft)
             if arrived:
@@ -424,7 +435,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         if backtrack:
             step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
             lower, state, taken, visit = history.pop()
-            soft, retry, reading, foreseen, target = math.inf, False, None, None, aim
+            soft, retry = math.inf, False
         elif final:
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
             return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
@@ -432,7 +443,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             failed_step = trial - lower if trial < soft else failed_step
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
-            target = _aimed(aim, foreseen, soft, tolerance)
+        foreseen = settled_collapse()
+        target = _aimed(aim, foreseen, soft, tolerance)
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
 
