@@ -65,10 +65,10 @@ REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (
 # within 0.65 % of the LP; docs/joints-and-lp.md)
 REFINEMENT_BUDGET = 2  # a re-run of a confirmed run may spend this many times the linear solves of that run, ...
 REFINEMENT_FLOOR = 80  # ... and at least this many. The re-runs of confirmed runs that settled on the campaigns
-# (seeds 1 and 2, 12 re-runs) spent 0.26-1.46 times the solves of the run they re-ran (seed 1: #2 1.46, #297 0.31
-# and 1.05, #76 0.43, #124 0.53, #220 0.35, #184 0.30, #193 0.26; seed 2: #55 1.07 and 1.35, #73 0.91, #12 0.48)
-# and 32-78 solves in all (#76 78); the one that did not settle (#193 with 16 elements, failing in its self-weight)
-# spent the 327 of its old budget, twice its costliest run before it, for nothing
+# (seeds 1 and 2, 12 re-runs) spent 0.19-1.46 times the solves of the run they re-ran (seed 1: #2 38/26, #297 42/134
+# and 44/42, #76 78/183, #124 38/67, #220 45/80, #184 36/107, #193 43/163; seed 2: #55 51/40 and 63/51, #73 59/65,
+# #12 32/32) and 32-78 solves in all; the one that did not settle (#193 with 16 elements, failing in its
+# self-weight) spent the 327 of a budget of twice its costliest run before it for nothing (now 132)
 
 
 @dataclass

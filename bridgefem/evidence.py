@@ -143,12 +143,12 @@ class SlipCheck:
 
         Why that is the verdict's own proof: the bracket the search closes on the failure is the one evidence 3
         confirms from this state, whatever the failure's retries would have found; and the frozen LP's level is
-        at least ``lower`` (the FE's forces are admissible for it, the bound theorem of its normality), so at most
-        ``trial`` means the state is at its collapse to within the bracket's width: the blocks move on the
-        mechanism with the FE's forces unchanged at the level where the curve is flat. A retry that converged at
-        ``trial`` would have to raise the normal forces of the sliding joints beyond the state's along that flat
-        curve: another non-associative collapse state (they are not unique, module docstring), which the search's
-        path does not reach."""
+        at least ``lower`` (the FE's forces are admissible for it, the bound theorem of its normality), so within
+        the width of ``lower`` it says the state is at its collapse to within the bracket's tolerance: the blocks
+        move on the mechanism with the FE's forces unchanged at the level where the curve is flat. A retry that
+        converged at ``trial`` would have to raise the normal forces of the sliding joints beyond the state's along
+        that flat curve: another non-associative collapse state (they are not unique, module docstring), which the
+        search's path does not reach."""
         return self.agrees(lower, trial, lp_level) and self.frozen_level <= (1 + tolerance) * lower
 
     def back_at(self, lower: float, upper: float, lp_level: float) -> bool:

@@ -88,8 +88,9 @@ trial converges in 17 and its flat secant closes the bracket.
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
 solver's other settings (:func:`bridgefem.solver.retried`), unless the state it started from settles it (*Collapse
-state*); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
-mechanisms stops early, as such a failure, instead of spending its iterations.
+state*); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's
+*Damping chains*): a Newton iteration that keeps wandering into mechanisms stops early, as such a failure, instead
+of spending its iterations.
 A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
 step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
 failure only halves the step, so the budget bounds what a hopeless trial costs and never decides a verdict. Steps
@@ -114,7 +115,8 @@ while a failure lies above the state (where the search bisects near the top): it
 the width of its settled F tries the width above it next, the closing trial, half a width beyond F when the search
 landed on T (a trial at F itself, where the curve is flat, fails without showing a mechanism and only halves the
 step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*).
-#220: 133 linear solves -> 80, #184: 122 -> 107, #124: 72 -> 67; their brackets within their old ones' width.
+With 4 elements: #220 133 linear solves -> 80, #184 122 -> 107, #124 72 -> 67, #299 (its whole run) 288 -> 217;
+each bracket overlaps the one before (lower ends moved by at most 5e-5), and #290 and #2 keep their paths.
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
