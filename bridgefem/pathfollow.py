@@ -116,7 +116,10 @@ the width of its settled F tries the width above it next, the closing trial, hal
 landed on T (a trial at F itself, where the curve is flat, fails without showing a mechanism and only halves the
 step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*).
 With 4 elements: #220 133 linear solves -> 80, #184 122 -> 107, #124 72 -> 67, #299 (its whole run) 288 -> 217;
-each bracket overlaps the one before (lower ends moved by at most 5e-5), and #290 and #2 keep their paths.
+each bracket overlaps the one before (lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A
+settled F can still lie below the limit and lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 ->
+59); with ``RISE`` 0.25 instead, #175 keeps its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of
+both seeds: 768 solves with 0.5, 817 with 0.25).
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
