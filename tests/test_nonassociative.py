@@ -202,3 +202,26 @@ def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypat
     normal[[j.id for j in checked.joints]] = [j.normal_force for j in checked.joints]
     frozen = frozen_capacity_collapse(fe_blocks(scene, checked.model, checked.block_mesh), normal)
     assert a.lower * (1 - 1e-9) <= frozen.level <= a.lower * (1 + a.tolerance) and frozen.sliding
+
+
+@pytest.mark.mpi
+def test_the_collapse_state_check_is_collective(tmp_path):
+    """Campaign seed 2, scene 12, whose searches read their states' collapse levels and settle their closing
+    failure with them (rank 0's LPs, broadcast): under mpirun -n 2 the same bracket, the same linear solves and the
+    same re-run as in serial."""
+    import json
+
+    from conftest import bridgefem, campaign_scene, write_toml
+
+    scene = write_toml(tmp_path / "s12.toml", campaign_scene(12, 0.8584, seed=2))
+    runs = []
+    for ranks in (1, 2):
+        proc = bridgefem("run", scene, "--out", tmp_path / f"r{ranks}", "--quiet", ranks=ranks)
+        assert proc.returncode == 0, proc.stderr
+        runs.append(json.loads((tmp_path / f"r{ranks}" / "results.json").read_text()))
+    serial, parallel = runs
+    assert parallel["mpi_ranks"] == 2 and serial["status"] == parallel["status"] == "limit load found"
+    for end in ("lower", "upper"):
+        assert parallel["limit_load"][end] == pytest.approx(serial["limit_load"][end], rel=1e-9)
+    assert parallel["solver"]["solves"] == serial["solver"]["solves"]
+    assert [r["solves"] for r in parallel["mesh_refinements"]] == [r["solves"] for r in serial["mesh_refinements"]]
