@@ -278,9 +278,10 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
     *Guess*), None on a first run.
-    ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
-    spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
-    and raises at the same step).
+    ``solve_budget``: the linear solves the search may spend (None: no limit); a step gets at most as many Newton
+    iterations as solves are left, and the first step attempted after they are spent raises
+    :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves and raises at the
+    same step).
     ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*; None:
     none), the same on every rank.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
@@ -293,8 +294,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
                 give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                 ) -> StepOutcome:
-        if solve_budget is not None and solver.stats["solves"] - spent >= solve_budget:
-            raise SolveBudgetSpent(solve_budget, steps)
+        if solve_budget is not None:
+            left = math.ceil(solve_budget - (solver.stats["solves"] - spent))
+            if left <= 0:
+                raise SolveBudgetSpent(solve_budget, steps)
+            iterations = min(iterations or left, left)  # a step's Newton iterations within what is left
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
