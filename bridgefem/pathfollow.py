@@ -110,16 +110,19 @@ slides on that mechanism F often stops rising: campaign seed 1, 4 elements throu
 where the normal forces of the sliding joints grow with the load it rises nearly as fast as the load (#290: 0.9 x
 the step; #2: 0.4), and a search that aimed at it would creep up in ever shorter steps (#290: no bracket within 200
 steps). So F counts as *settled* only when it rose by at most ``RISE`` x the step that reached its state, and only
-while a failure lies above the state (where the search bisects near the top): it then sets the target T = F / (1 +
-``STRADDLE`` tolerance) (never above the target of the guess, the static bound or a coarser run), and a state within
-the width of its settled F tries the width above it next, the closing trial, half a width beyond F when the search
-landed on T (a trial at F itself, where the curve is flat, fails without showing a mechanism and only halves the
-step). A target sets the path, never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*).
-With 4 elements: #220 133 linear solves -> 80, #184 122 -> 107, #124 72 -> 67, #299 (its whole run) 288 -> 217;
-each bracket overlaps the one before (lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A
-settled F can still lie below the limit and lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 ->
-59); with ``RISE`` 0.25 instead, #175 keeps its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of
-both seeds: 768 solves with 0.5, 817 with 0.25).
+while a failure lies above the state (where the search bisects near the top). Where F falls (it approaches the
+limit from above, #124), the reserve F - L of the last two states is extrapolated to zero along the secant, L + (F -
+L) / (1 - dF/dL), a level below F; where it rises, F itself (extrapolating its rise overshoots where F jumps and then
+stays, #220). That estimate sets the target T = estimate / (1 + ``STRADDLE`` tolerance), never above the target of
+the guess, the static bound or a coarser run, and a state within the width of its estimate tries the width above
+it next, the closing trial, half a width beyond the estimate when the search landed on T (a trial at F itself,
+where the curve is flat, fails without showing a mechanism and only halves the step). A target sets the path,
+never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). With 4 elements: #220 133 linear
+solves -> 80, #184 122 -> 107, #124 72 -> 47, #299 (its whole run) 288 -> 217; each bracket overlaps the one before
+(lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A settled F can still lie below the limit and
+lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 -> 59); with ``RISE`` 0.25 instead, #175 keeps
+its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of both seeds: 768 solves with 0.5, 817 with
+0.25, before the extrapolation of a falling F: 743 with it, none more).
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
@@ -358,12 +361,14 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         return readings[number]
 
     def settled_collapse() -> float | None:
-        """The converged state's collapse level when it is settled and a failure lies above (module docstring,
-        *Collapse state*), else None; read only then, once per state. Collective."""
+        """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
+        (module docstring, *Collapse state*), else None; read only then, once per state. Collective."""
         if collapse is None or soft == math.inf or not history:
             return None
         now, before = reading(state, visit), reading(history[-1][1], history[-1][3])
-        return now if now is not None and before is not None and now - before <= RISE * taken else None
+        if now is None or before is None or now - before > RISE * taken:
+            return None
+        return min(now, lower + (now - lower) / (1.0 - (now - before) / taken))
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target

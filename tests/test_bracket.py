@@ -214,20 +214,23 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
             assert solver.retries == len(RETRIES)
 
 
-@pytest.mark.parametrize("estimate", [LIMIT, 0.9 * LIMIT, 0.999 * LIMIT, "rising"])
+@pytest.mark.parametrize("estimate", [LIMIT, 0.9 * LIMIT, 0.999 * LIMIT, "rising", "falling"])
 def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
     """Unproven failures 30 % below the static bound (suspect): with the exact limit as every converged state's
     estimate the search lands half a width below it and closes on the next trial, far cheaper than without; a
     wrong estimate (10 % or 0.1 % low) still leaves the bracket on the exact limit, and one that keeps rising with
-    the load (0.2 % above every state, never settled) leaves the search as it is without an estimate."""
+    the load (0.2 % above every state, never settled) leaves the search as it is without an estimate. One that falls
+    towards the limit as the load rises (LIMIT + (LIMIT - level) / 2) is extrapolated to where it meets the load:
+    the limit, as cheap as the exact one."""
     plain, estimated = OneDof(proves=False), OneDof(proves=False)
     bound = static_cap(1.3 * LIMIT)[0]
     assert_bracket(search(plain, guess=1.3 * LIMIT, bound=bound))
-    level = (lambda it: 1.002 * it.x.array[0]) if estimate == "rising" else (lambda it: estimate)
+    level = {"rising": lambda it: 1.002 * it.x.array[0],
+             "falling": lambda it: LIMIT + 0.5 * (LIMIT - it.x.array[0])}.get(estimate, lambda it: estimate)
     s = search(estimated, guess=1.3 * LIMIT, bound=bound,
                collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
     assert_bracket(s)
-    if estimate == LIMIT:
+    if estimate in (LIMIT, "falling"):
         assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12) and estimated.solves <= plain.solves / 2, (
             estimated.solves, plain.solves)
     if estimate == "rising":
