@@ -470,20 +470,22 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     return slip_state(scene, comm, lp, joints, fe_blocks(scene, model, bm))
 
 
-def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel
-               ) -> SlipCheck:
+def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
+               fixed_point: bool = True) -> SlipCheck:
     """The non-associative rigid-block check of a converged state's ``joints`` (evidence 3 of
     :mod:`bridgefem.evidence`): the rigid ``blocks`` loaded as the FE loads its voussoirs
     (:func:`bridgefem.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x normal
-    force (:func:`frozen_collapse`) and the Tresca fixed point from them, and the frozen LP under the scene's own
-    block loads (:func:`bridgefem.rigid_block.collapse_state_from`).
+    force (:func:`frozen_collapse`) and, with ``fixed_point``, the Tresca fixed point from them (its LPs are the
+    check's dearest; none of evidence 3's rules asks for it), and the frozen LP under the scene's own block loads
+    (:func:`bridgefem.rigid_block.collapse_state_from`).
     The LPs on rank 0, broadcast (collective)."""
     sliding = tuple(j.id for j in joints if j.sliding)
     out = None
     if comm.rank == 0:
         try:
             normal, frozen, limited = frozen_collapse(joints, blocks)
-            fixed = solve_blocks(blocks, "non-associative", seed=normal)
+            fixed = (solve_blocks(blocks, "non-associative", seed=normal) if fixed_point
+                     else LPResult(None, None, "not computed", converged=False, iterations=0))
             exact = collapse_state_from(scene, normal, lp.load_sides, max_iterations=1)
             out = SlipCheck(sliding, frozen.level, tuple(frozen.sliding), tuple(frozen.hinges), limited,
                             exact.level, fixed.converged, fixed.level, tuple(fixed.sliding), tuple(fixed.hinges),
@@ -531,7 +533,7 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, model: ElasticMod
         return comm.bcast(out, root=0)
 
     def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
-        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks)
+        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
         return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
 
     return CollapseCheck(level, settles)

@@ -122,7 +122,9 @@ solves -> 80, #184 122 -> 107, #124 72 -> 47, #299 (its whole run) 288 -> 217; e
 (lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A settled F can still lie below the limit and
 lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 -> 59); with ``RISE`` 0.25 instead, #175 keeps
 its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of both seeds: 768 solves with 0.5, 817 with
-0.25, before the extrapolation of a falling F: 743 with it, none more).
+0.25, before the extrapolation of a falling F: 743 with it, none more). A reading costs the frozen LP and the
+joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton iteration), so a search stops reading after
+``RISINGS`` states whose F rose too fast (#290: its search 1.0 s -> 1.4 s, 1.9 s without that stop).
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
@@ -179,6 +181,8 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
 RISE = 0.5  # a collapse state's estimate is settled when it rose by at most this fraction of the step to its state
+RISINGS = 3  # ... and the search stops reading them after this many states whose level rose faster (#290: 16
+# readings of 20 to 30 ms each, a third of its search's time, none settled)
 STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the target it sets (module docstring,
 # *Collapse state*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
@@ -354,6 +358,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     aim = target  # the target before any collapse state's estimate
     foreseen = None  # the converged state's settled collapse level (*Collapse state*; None: none)
     readings: dict[int, float | None] = {}  # the collapse level of each converged state read, by its number
+    risen: set[int] = set()  # the numbers of the states whose collapse level rose too fast to be settled
 
     def reading(at: Iterate, number: int) -> float | None:
         if number not in readings:
@@ -362,11 +367,14 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
 
     def settled_collapse() -> float | None:
         """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
-        (module docstring, *Collapse state*), else None; read only then, once per state. Collective."""
-        if collapse is None or soft == math.inf or not history:
+        (module docstring, *Collapse state*), else None; read only then, once per state, and no longer after
+        ``RISINGS`` states whose level rose too fast. Collective."""
+        if collapse is None or soft == math.inf or not history or len(risen) >= RISINGS:
             return None
         now, before = reading(state, visit), reading(history[-1][1], history[-1][3])
-        if now is None or before is None or now - before > RISE * taken:
+        if now is not None and before is not None and now - before > RISE * taken:
+            risen.add(visit)
+        if now is None or before is None or visit in risen:
             return None
         return min(now, lower + (now - lower) / (1.0 - (now - before) / taken))
 
