@@ -40,9 +40,10 @@ from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
-from .pathfollow import LimitSearch, LoadStep, SolveBudgetSpent, find_limit_load, monitor_deflection
-from .rigid_block import (LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse, ring_under_forces,
-                          solve_blocks)
+from .pathfollow import (CollapseCheck, LimitSearch, LoadStep, SolveBudgetSpent, find_limit_load,
+                         monitor_deflection)
+from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse,
+                          ring_under_forces, solve_blocks)
 from .scene import Scene, SceneError
 from .sizing import MAX_DOFS, check_size
 from .status import Status
@@ -62,11 +63,12 @@ SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void t
 MAX_REFINEMENTS = 2  # re-runs of a limit that depends on the mesh, each with twice the elements through the thickness
 REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (campaign scenes 2, 193, 297 at 16:
 # within 0.65 % of the LP; docs/joints-and-lp.md)
-REFINEMENT_BUDGET = 2  # a re-run of a confirmed run may spend this many times the linear solves of the costliest run
-# before it: the re-runs that settled on the campaigns (seeds 1 and 2) spent 0.2-1.7 times that; #193's 16-element
-# run, which failed in its self-weight, 409 against the 164 of its 4-element run. The costliest run, not the
-# confirmed one: a re-run starts its live load near the coarser limit (first_step), so the confirmed run can be
-# cheap where its mesh's self-weight is not (#297 after the live load's start of its self-weight: 155, 44, then 158)
+REFINEMENT_BUDGET = 2  # a re-run of a confirmed run may spend this many times the linear solves of that run, ...
+REFINEMENT_FLOOR = 80  # ... and at least this many. The re-runs of confirmed runs that settled on the campaigns
+# (seeds 1 and 2, 12 re-runs) spent 0.19-1.46 times the solves of the run they re-ran (seed 1: #2 38/26, #297 42/134
+# and 44/42, #76 78/183, #124 38/67, #220 45/80, #184 36/107, #193 43/163; seed 2: #55 51/40 and 63/51, #73 59/65,
+# #12 32/32) and 32-78 solves in all; the one that did not settle (#193 with 16 elements, failing in its
+# self-weight) spent the 327 of a budget of twice its costliest run before it for nothing (now 132)
 
 
 @dataclass
@@ -251,13 +253,14 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     confirmed run that is re-run (a collapse state of evidence 3 below the associative LP) is kept when the finer
     run fails: a solver failure on the finer mesh does not undo a confirmed answer on the coarser one (the failed
     run is listed in ``Analysis.refinements``). Such a re-run can only refine the answer, so its search gets a
-    budget of ``REFINEMENT_BUDGET`` times the linear solves of the costliest run before it; one that spends it
-    unsettled is a failure "not settled within its budget".
+    budget of ``REFINEMENT_BUDGET`` times the linear solves of the confirmed run, at least ``REFINEMENT_FLOOR``;
+    one that spends it unsettled is a failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
     refinements, previous, confirmed = [], None, None
     with quiet_compiler():
         while True:
-            budget = REFINEMENT_BUDGET * max(r.solves for r in refinements) if confirmed is not None else None
+            budget = max(REFINEMENT_FLOOR, REFINEMENT_BUDGET * refinements[-1].solves) if confirmed is not None \
+                else None
             an = _analyse(scene, comm, petsc_options, report, phase, previous, budget)
             ett, carried = scene.mesh.elements_through_thickness, an.search.lower
             failed = Status.of(an.search.status) is Status.FAILURE
@@ -407,6 +410,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                  stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                                  movement_steps=scene.abutments.movement_steps if motion else 0,
                                  bound=bound[1] if bound else None, coarser=coarser, solve_budget=budget,
+                                 collapse=collapse_check(scene, comm, lp, model, bm, solver, pairs, ring, s.tolerance,
+                                                         total),
                                  report=report, converged=keep)
     except SolveBudgetSpent as spent:
         search = LimitSearch(Status.failure(str(spent)), 0.0, None, s.tolerance, spent.steps, failure=str(spent))
@@ -456,37 +461,82 @@ def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
 
 def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, joints: list[JointState],
                model: ElasticModel, bm: BlockMesh) -> SlipCheck | None:
-    """The non-associative rigid-block check of an unproven limit with sliding joints that the associative LP does
-    not confirm (:func:`bridgefem.evidence.needs_slip_check`), from the joint normal forces of the last converged
-    step: the rigid blocks loaded as the FE loads its voussoirs (:func:`bridgefem.static_bound.fe_blocks`) with
-    their shear capacities frozen there (:func:`bridgefem.rigid_block.frozen_capacity_collapse`) and the Tresca fixed
-    point from them, and the frozen LP under the scene's own block loads
-    (:func:`bridgefem.rigid_block.collapse_state_from`).
-    Collective (the block loads); the LPs on rank 0, broadcast; None when no check is needed."""
-    sliding = tuple(j.id for j in joints if j.sliding)
+    """The non-associative rigid-block check (:func:`slip_state`) of an unproven limit with sliding joints that the
+    associative LP does not confirm (:func:`bridgefem.evidence.needs_slip_check`), from the joint forces of the last
+    converged step. Collective; None when no check is needed."""
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
-                            scene.fill is not None, bool(sliding)):
+                            scene.fill is not None, any(j.sliding for j in joints)):
         return None
-    blocks = fe_blocks(scene, model, bm)
+    return slip_state(scene, comm, lp, joints, fe_blocks(scene, model, bm))
+
+
+def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
+               fixed_point: bool = True) -> SlipCheck:
+    """The non-associative rigid-block check of a converged state's ``joints`` (evidence 3 of
+    :mod:`bridgefem.evidence`): the rigid ``blocks`` loaded as the FE loads its voussoirs
+    (:func:`bridgefem.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x normal
+    force (:func:`frozen_collapse`) and, with ``fixed_point``, the Tresca fixed point from them (its LPs are the
+    check's dearest; none of evidence 3's rules asks for it), and the frozen LP under the scene's own block loads
+    (:func:`bridgefem.rigid_block.collapse_state_from`).
+    The LPs on rank 0, broadcast (collective)."""
+    sliding = tuple(j.id for j in joints if j.sliding)
     out = None
     if comm.rank == 0:
-        normal = np.zeros(blocks.n_joints)
-        normal[[j.id for j in joints]] = [j.normal_force for j in joints]
         try:
-            frozen = frozen_capacity_collapse(blocks, normal)
-            fixed = solve_blocks(blocks, "non-associative", seed=normal)
+            normal, frozen, limited = frozen_collapse(joints, blocks)
+            fixed = (solve_blocks(blocks, "non-associative", seed=normal) if fixed_point
+                     else LPResult(None, None, "not computed", converged=False, iterations=0))
             exact = collapse_state_from(scene, normal, lp.load_sides, max_iterations=1)
-            limited = ()
-            if frozen.level is not None:
-                shear = np.zeros_like(normal)
-                shear[[j.id for j in joints]] = [j.shear_force for j in joints]
-                limited = coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip, frozen.sliding)
             out = SlipCheck(sliding, frozen.level, tuple(frozen.sliding), tuple(frozen.hinges), limited,
                             exact.level, fixed.converged, fixed.level, tuple(fixed.sliding), tuple(fixed.hinges),
                             fixed.iterations)
         except (RuntimeError, ValueError):  # a check that fails confirms nothing
             out = SlipCheck(sliding, None, (), (), (), None, False, None, (), (), 0)
     return comm.bcast(out, root=0)
+
+
+def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.ndarray, LPResult, tuple[int, ...]]:
+    """The ``blocks`` with each joint's shear capacity frozen at mu x its normal force in ``joints``
+    (:func:`bridgefem.rigid_block.frozen_capacity_collapse`): the normal forces (N per joint), the LP's result and
+    those of its sliding joints where the joints' forces are at their Coulomb limit against the slip
+    (:func:`bridgefem.evidence.coulomb_limited`). Raises RuntimeError or ValueError when the LP fails."""
+    normal, shear = np.zeros(blocks.n_joints), np.zeros(blocks.n_joints)
+    ids = [j.id for j in joints]
+    normal[ids], shear[ids] = [j.normal_force for j in joints], [j.shear_force for j in joints]
+    frozen = frozen_capacity_collapse(blocks, normal)
+    limited = () if frozen.level is None else coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip,
+                                                               frozen.sliding)
+    return normal, frozen, limited
+
+
+def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, model: ElasticModel, bm: BlockMesh,
+                   solver: ContactSolver, pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float
+                   ) -> CollapseCheck | None:
+    """Evidence 3 at the search's converged states (:class:`bridgefem.pathfollow.CollapseCheck`): the frozen LP's
+    level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
+    (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
+    bracket [``lower``, ``trial``] of relative width ``tolerance`` (:meth:`bridgefem.evidence.SlipCheck.settles`),
+    with the check in words (``unit``: N of live load per unit level). None with a fill or without an LP limit
+    (evidence 3 does not apply). Collective."""
+    if scene.fill is not None or lp.status != Status.LIMIT or lp.level is None:
+        return None
+    blocks = fe_blocks(scene, model, bm)
+
+    def level(state: Iterate) -> float | None:
+        joints, out = joint_states(solver, pairs, ring, state), None
+        if comm.rank == 0:
+            try:
+                _, frozen, limited = frozen_collapse(joints, blocks)
+                out = frozen.level if frozen.sliding and set(frozen.sliding) == set(limited) else None
+            except (RuntimeError, ValueError):  # no estimate
+                out = None
+        return comm.bcast(out, root=0)
+
+    def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
+        return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
+
+    return CollapseCheck(level, settles)
 
 
 def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:

@@ -135,6 +135,22 @@ class SlipCheck:
         return (self.collapse_state(lower, upper) and self.exact_level is not None
                 and reaches(lower, upper, self.exact_level) and lower <= (1 + AGREEMENT) * lp_level)
 
+    def settles(self, lower: float, trial: float, lp_level: float, tolerance: float) -> bool:
+        """A closing trial at ``trial`` that failed without proof from the FE's converged state at ``lower`` (this
+        check's state) is decisive: the state is the collapse state that confirms the bracket [``lower``,
+        ``trial``] (:meth:`agrees`, evidence 3), and its rigid blocks with the FE's friction capacities collapse
+        within the bracket's width of ``lower`` (``frozen_level`` at most ``(1 + tolerance) lower``).
+
+        Why that is the verdict's own proof: the bracket the search closes on the failure is the one evidence 3
+        confirms from this state, whatever the failure's retries would have found; and the frozen LP's level is
+        at least ``lower`` (the FE's forces are admissible for it, the bound theorem of its normality), so within
+        the width of ``lower`` it says the state is at its collapse to within the bracket's tolerance: the blocks
+        move on the mechanism with the FE's forces unchanged at the level where the curve is flat. A retry that
+        converged at ``trial`` would have to raise the normal forces of the sliding joints beyond the state's along
+        that flat curve: another non-associative collapse state (they are not unique, module docstring), which the
+        search's path does not reach."""
+        return self.agrees(lower, trial, lp_level) and self.frozen_level <= (1 + tolerance) * lower
+
     def back_at(self, lower: float, upper: float, lp_level: float) -> bool:
         """A limit that depends on the mesh: a fixed point that slides at the FE's sliding joints at the associative
         LP's level (within ``AGREEMENT``: the FE found the associative mechanism at a load its mesh moves), or a

@@ -87,9 +87,10 @@ trial converges in 17 and its flat secant closes the bracket.
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
 failure. A failure that would end the search without proof (or a suspect one) is first solved again with the
-solver's other settings (:func:`bridgefem.solver.retried`); a retry that converges continues the search. Live-load
-trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps wandering into
-mechanisms stops early, as such a failure, instead of spending its iterations.
+solver's other settings (:func:`bridgefem.solver.retried`), unless the state it started from settles it (*Collapse
+state*); a retry that converges continues the search. Live-load trials are solved with ``give_up`` (the solver's
+*Damping chains*): a Newton iteration that keeps wandering into mechanisms stops early, as such a failure, instead
+of spending its iterations.
 A trial more than the width above ``lower`` gets ``BUDGET`` times the Newton iterations of the hardest converged
 step, and at least ``BUDGET_FLOOR``; trials that can close the bracket keep ``max_iterations``. Such a trial's
 failure only halves the step, so the budget bounds what a hopeless trial costs and never decides a verdict. Steps
@@ -98,6 +99,40 @@ used 40-60 without recovering; on the campaigns' bare rings and elastic fills (s
 steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while
 failed trials spent up to 60 (seed 1, #48: 39, 37 and 60 iterations at 306.7 kN from states 28, 14 and 7 kN below,
 before that level converged in 2 from 1.7 kN below).
+
+**Collapse state.** On a bare ring ``collapse`` reads each converged state as rigid blocks (evidence 3 of
+:mod:`bridgefem.evidence`): ``collapse.level(state)`` is the level F at which the state's blocks with its friction
+capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
+at their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks). Once the FE
+slides on that mechanism F often stops rising: campaign seed 1, 4 elements through the thickness, #220: F =
+7943.26 kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184: 10766.57 kN from
+9883 kN, 8 % below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its limit 7630.2 kN. But
+where the normal forces of the sliding joints grow with the load it rises nearly as fast as the load (#290: 0.9 x
+the step; #2: 0.4), and a search that aimed at it would creep up in ever shorter steps (#290: no bracket within 200
+steps). So F counts as *settled* only when it rose by at most ``RISE`` x the step that reached its state, and only
+while a failure lies above the state (where the search bisects near the top). Where F falls (it approaches the
+limit from above, #124), the reserve F - L of the last two states is extrapolated to zero along the secant, L + (F -
+L) / (1 - dF/dL), a level below F; where it rises, F itself (extrapolating its rise overshoots where F jumps and then
+stays, #220). That estimate sets the target T = estimate / (1 + ``STRADDLE`` tolerance), never above the target of
+the guess, the static bound or a coarser run, and a state within the width of its estimate tries the width above
+it next, the closing trial, half a width beyond the estimate when the search landed on T (a trial at F itself,
+where the curve is flat, fails without showing a mechanism and only halves the step). A target sets the path,
+never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). With 4 elements: #220 133 linear
+solves -> 80, #184 122 -> 107, #124 72 -> 47, #299 (its whole run) 288 -> 217; each bracket overlaps the one before
+(lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A settled F can still lie below the limit and
+lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 -> 59); with ``RISE`` 0.25 instead, #175 keeps
+its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of both seeds: 768 solves with 0.5, 817 with
+0.25, before the extrapolation of a falling F: 743 with it, none more). A reading costs the frozen LP and the
+joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton iteration), so a search stops reading after
+``RISINGS`` states whose F rose too fast (#290: its search 1.0 s -> 1.4 s, 1.9 s without that stop).
+A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
+:meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
+the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
+trial] from that very state, and the state is at its collapse to within the bracket's width, so a retry could only
+reach another equilibrium at ``trial`` by raising the normal forces of the sliding joints along a flat curve: a
+different non-associative collapse state, which the search is not after (campaign seed 1, #124, #184, #220 and seed
+2, #12, #55, whose closing failures start from such states: each of their five retries failed again, 30 to 77 linear
+solves per scene, and the brackets are the same without them).
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -115,7 +150,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -145,6 +180,11 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # recover)
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
+RISE = 0.5  # a collapse state's estimate is settled when it rose by at most this fraction of the step to its state
+RISINGS = 3  # ... and the search stops reading them after this many states whose level rose faster (#290: 16
+# readings of 20 to 30 ms each, a third of its search's time, none settled)
+STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the target it sets (module docstring,
+# *Collapse state*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -215,10 +255,23 @@ class StaticCap:
     admissible: Callable[[LoadStep, Iterate], tuple[bool, str]]
 
 
+@dataclass
+class CollapseCheck:
+    """Evidence 3 (:mod:`bridgefem.evidence`) at a converged state of a bare ring (module docstring, *Collapse
+    state*): ``level(state)`` the level (N per unit load factor) at which the state's rigid blocks with its friction
+    capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
+    at their Coulomb limit (None: no such mechanism); ``settles(lower, trial, state)`` whether the state at ``lower``
+    is the collapse state that settles the bracket [lower, trial], with the check in words. Both collective."""
+
+    level: Callable[[Iterate], float | None]
+    settles: Callable[[float, float, Iterate], tuple[bool, str]]
+
+
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
                     coarser: float | None = None, solve_budget: int | None = None,
+                    collapse: CollapseCheck | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -232,9 +285,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
     *Guess*), None on a first run.
-    ``solve_budget``: the linear solves the search may spend (None: no limit); the first step attempted after it has
-    spent them raises :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves
-    and raises at the same step).
+    ``solve_budget``: the linear solves the search may spend (None: no limit); a step gets at most as many Newton
+    iterations as solves are left, and the first step attempted after they are spent raises
+    :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves and raises at the
+    same step).
+    ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*; None:
+    none), the same on every rank.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
@@ -245,8 +301,11 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
                 give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                 ) -> StepOutcome:
-        if solve_budget is not None and solver.stats["solves"] - spent >= solve_budget:
-            raise SolveBudgetSpent(solve_budget, steps)
+        if solve_budget is not None:
+            left = math.ceil(solve_budget - (solver.stats["solves"] - spent))
+            if left <= 0:
+                raise SolveBudgetSpent(solve_budget, steps)
+            iterations = min(iterations or left, left)  # a step's Newton iterations within what is left
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
@@ -296,6 +355,28 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
     target = min(target, (1.0 - tolerance) * coarser) if coarser else target
+    aim = target  # the target before any collapse state's estimate
+    foreseen = None  # the converged state's settled collapse level (*Collapse state*; None: none)
+    readings: dict[int, float | None] = {}  # the collapse level of each converged state read, by its number
+    risen: set[int] = set()  # the numbers of the states whose collapse level rose too fast to be settled
+
+    def reading(at: Iterate, number: int) -> float | None:
+        if number not in readings:
+            readings[number] = collapse.level(at)
+        return readings[number]
+
+    def settled_collapse() -> float | None:
+        """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
+        (module docstring, *Collapse state*), else None; read only then, once per state, and no longer after
+        ``RISINGS`` states whose level rose too fast. Collective."""
+        if collapse is None or soft == math.inf or not history or len(risen) >= RISINGS:
+            return None
+        now, before = reading(state, visit), reading(history[-1][1], history[-1][3])
+        if now is not None and before is not None and now - before > RISE * taken:
+            risen.add(visit)
+        if now is None or before is None or visit in risen:
+            return None
+        return min(now, lower + (now - lower) / (1.0 - (now - before) / taken))
 
     def plausible(level: float) -> bool:
         return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
@@ -318,6 +399,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         width = tolerance * max(lower, 1e-9 * initial_step)
         if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
             trial = soft
+        elif foreseen is not None and abs(foreseen - lower) <= width < soft - lower:
+            trial = lower + CLOSE * width  # the state is within the width of its collapse (*Collapse state*)
         elif lower < target < soft:
             trial = min(target - APPROACH * (target - lower), lower + step)
             trial = target if target - trial <= LANDING * target and (visit, target) not in failed_from else trial
@@ -337,7 +420,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
             and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
         if not out.converged and final and not out.proved and (suspect or not out.mechanism):
-            out = retried(solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
+            out = _settled(collapse, lower, trial, state, out) or retried(
+                solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
         jump, linear = linear and trial == _below(soft, tolerance), False
         if out.converged:
             linear = out.iterations == 1 and not jump
@@ -360,6 +444,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             cleared = lower >= soft and solver.material is None
             if lower >= soft:
                 soft = math.inf
+            foreseen = settled_collapse()
+            target = _aimed(aim, foreseen, soft, tolerance)
             retry = soft - lower > tolerance * lower and not plausible(soft)
             if arrived:
                 step = CLOSE * tolerance * lower
@@ -379,8 +465,31 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         else:
             failed_step = trial - lower if trial < soft else failed_step
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
+        foreseen = settled_collapse()
+        target = _aimed(aim, foreseen, soft, tolerance)
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _aimed(aim: float, foreseen: float | None, soft: float, tolerance: float) -> float:
+    """The search's target (N per unit load factor): ``aim`` (of the guess, the static bound, a coarser run), or
+    while a failure ``soft`` lies above the converged state, the level ``STRADDLE`` widths below that state's settled
+    collapse level ``foreseen`` when that is lower (module docstring, *Collapse state*; None: none)."""
+    if foreseen is None or soft == math.inf:
+        return aim
+    return min(aim, foreseen / (1.0 + STRADDLE * tolerance))
+
+
+def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
+             ) -> StepOutcome | None:
+    """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower``, as a
+    mechanism when ``collapse`` finds that state a collapse state settling the bracket [lower, trial] (module
+    docstring, *Collapse state*), else None (the failure is retried). Collective."""
+    if collapse is None:
+        return None
+    settles, check = collapse.settles(lower, trial, state)
+    return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
+                                                  f"state: {check}") if settles else None
 
 
 def _below(level: float, tolerance: float) -> float:

@@ -9,9 +9,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.contact import ContactState
-from bridgefem.pathfollow import StaticCap, find_limit_load
+from bridgefem.pathfollow import CollapseCheck, StaticCap, find_limit_load
 from bridgefem.selfweight import SELF_WEIGHT_RETRIES
-from bridgefem.solver import Iterate, StepOutcome
+from bridgefem.solver import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
 LIMIT = 1234.5  # N per unit load factor
@@ -54,9 +54,9 @@ class OneDof:
         return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
 
 
-def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None):
+def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None, collapse=None):
     return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=tolerance, initial_step=WEIGHT / 4,
-                           max_load=max_load, max_steps=200, guess=guess, bound=bound)
+                           max_load=max_load, max_steps=200, guess=guess, bound=bound, collapse=collapse)
 
 
 def static_cap(level, admissible=True, falls=False):
@@ -165,3 +165,73 @@ def test_a_self_weight_that_cannot_stand_is_not_retried():
     assert s.status == Status.UNSTABLE and s.static and ruled_out.solves == 1
     s = search(plain)
     assert Status.of(s.status) is Status.FAILURE and plain.solves == 1 + len(SELF_WEIGHT_RETRIES)
+
+
+class Unprovable(OneDof):
+    """No equilibrium above ``limit``, where its Newton method fails without showing a mechanism; counts the steps
+    it solves again with other settings (bridgefem.solver.retried)."""
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.retries = 0
+
+    def use(self, setting):
+        self.retries += setting != DEFAULT_SETTING
+
+    def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
+        out = super().solve_step(level, start, predictor, give_up, iterations)
+        return out if out.converged else StepOutcome(False, "no convergence", 9, 0.0, 1)
+
+
+def collapse_state(settles):
+    """A collapse check (bridgefem.analysis.collapse_check) that answers ``settles``; records (lower, trial)."""
+    asked = []
+
+    def collapsed(lower, trial, state):
+        asked.append((lower, trial))
+        return settles, "made up"
+
+    return collapsed, asked
+
+
+def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
+    """A closing trial that fails without proof is solved again with every other setting, and still unproven it
+    is a solver failure; when the converged state below it is a collapse state that settles the bracket, the
+    failure is the mechanism at once: the bracket holds the exact limit, no retries."""
+    for settles in (False, True):
+        collapsed, asked = collapse_state(settles)
+        solver = Unprovable()
+        s = find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=1e-4, initial_step=WEIGHT / 4,
+                            max_load=100 * WEIGHT, max_steps=200, guess=LIMIT,
+                            collapse=CollapseCheck(lambda it: None, collapsed))
+        (lower, trial), = asked
+        assert lower <= LIMIT < trial and trial - lower <= 1e-4 * lower
+        if settles:
+            assert_bracket(s)
+            assert s.upper == trial and not s.proved and solver.retries == 0 and "collapse state" in s.failure
+        else:
+            assert Status.of(s.status) is Status.FAILURE and s.lower == lower
+            assert solver.retries == len(RETRIES)
+
+
+@pytest.mark.parametrize("estimate", [LIMIT, 0.9 * LIMIT, 0.999 * LIMIT, "rising", "falling"])
+def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
+    """Unproven failures 30 % below the static bound (suspect): with the exact limit as every converged state's
+    estimate the search lands half a width below it and closes on the next trial, far cheaper than without; a
+    wrong estimate (10 % or 0.1 % low) still leaves the bracket on the exact limit, and one that keeps rising with
+    the load (0.2 % above every state, never settled) leaves the search as it is without an estimate. One that falls
+    towards the limit as the load rises (LIMIT + (LIMIT - level) / 2) is extrapolated to where it meets the load:
+    the limit, as cheap as the exact one."""
+    plain, estimated = OneDof(proves=False), OneDof(proves=False)
+    bound = static_cap(1.3 * LIMIT)[0]
+    assert_bracket(search(plain, guess=1.3 * LIMIT, bound=bound))
+    level = {"rising": lambda it: 1.002 * it.x.array[0],
+             "falling": lambda it: LIMIT + 0.5 * (LIMIT - it.x.array[0])}.get(estimate, lambda it: estimate)
+    s = search(estimated, guess=1.3 * LIMIT, bound=bound,
+               collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
+    assert_bracket(s)
+    if estimate in (LIMIT, "falling"):
+        assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12) and estimated.solves <= plain.solves / 2, (
+            estimated.solves, plain.solves)
+    if estimate == "rising":
+        assert estimated.solves == plain.solves

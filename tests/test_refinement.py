@@ -6,8 +6,8 @@ from types import SimpleNamespace
 import pytest
 
 from bridgefem import analysis, sizing
-from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, first_step,
-                                refined_elements, run_analysis)
+from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, REFINEMENT_FLOOR,
+                                first_step, refined_elements, run_analysis)
 from bridgefem.pathfollow import SolveBudgetSpent, find_limit_load
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
@@ -102,18 +102,18 @@ def test_a_confirmed_collapse_state_below_the_lp_is_re_run_and_stands_if_the_fin
     assert len(lines) == (1 if kept == 8 else 2)
 
 
-@pytest.mark.parametrize("statuses, solves, budgets", [
-    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (30, 40, 50), [None, 30, 40]),
-    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (150, 40, 50), [None, 150, 150]),
-    (("solver failure: x", Status.LIMIT, Status.LIMIT), (30, 40, 50), [None, None, 40])])
-def test_only_a_re_run_of_a_confirmed_run_has_a_budget(monkeypatch, statuses, solves, budgets):
-    """A re-run of a confirmed run (which it cannot undo) may spend REFINEMENT_BUDGET times the solves of the
-    costliest run before it (a cheap confirmed run after a costly one does not shrink it); a first run and a re-run
-    of a failed run, the only chance of an answer, have none."""
+@pytest.mark.parametrize("statuses, solves, reran", [
+    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (30, 60, 50), [None, 30, 60]),
+    ((Status.LIMIT, Status.LIMIT, Status.LIMIT), (150, 40, 50), [None, 150, 40]),
+    (("solver failure: x", Status.LIMIT, Status.LIMIT), (30, 60, 50), [None, None, 60])])
+def test_only_a_re_run_of_a_confirmed_run_has_a_budget(monkeypatch, statuses, solves, reran):
+    """A re-run of a confirmed run (which it cannot undo) may spend REFINEMENT_BUDGET times the solves of the run it
+    re-runs (``reran``), at least REFINEMENT_FLOOR (a cheap confirmed run after a costly one sets its own); a first
+    run and a re-run of a failed run, the only chance of an answer, have none."""
     given = []
     fake_analyses(monkeypatch, (True, True, False), statuses=statuses, budgets=given, solves=solves)
     run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
-    assert given == [None if b is None else REFINEMENT_BUDGET * b for b in budgets]
+    assert given == [None if r is None else max(REFINEMENT_FLOOR, REFINEMENT_BUDGET * r) for r in reran]
 
 
 class CountedOneDof(OneDof):
@@ -212,11 +212,13 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
 @pytest.mark.slow
 def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monkeypatch):
     """Campaign seed 2, scene 55 (4 voussoirs): with 4 elements a confirmed non-associative collapse state below the
-    LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves the re-run stops unsettled, the
-    confirmed run is the answer (below the LP, computed here independently) and the stopped run is listed."""
+    LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves (no floor) the re-run stops
+    unsettled, the confirmed run is the answer (below the LP, computed here independently) and the stopped run is
+    listed."""
     from bridgefem.rigid_block import collapse_load
 
     monkeypatch.setattr(analysis, "REFINEMENT_BUDGET", 0.1)
+    monkeypatch.setattr(analysis, "REFINEMENT_FLOOR", 0)
     scene = scene_from_dict({**campaign_scene(55, 3.2951, seed=2), "mesh": {"elements_through_thickness": 4}})
     lines = []
     an = run_analysis(scene, notice=lines.append)

@@ -140,6 +140,19 @@ def test_a_collapse_state_above_the_associative_lp_is_no_evidence():
     assert not slip(frozen=101.0, exact=101.0).agrees(101.0, 101.05, 100.0)
 
 
+def test_a_closing_failure_is_settled_only_by_a_collapse_state_within_the_width():
+    """A closing trial at 90.009 N failed without proof from the FE's state at 90.0 N (tolerance 1e-4: width 0.009
+    N): decisive only when that state is the collapse state that confirms [90.0, 90.009] (evidence 3) with its frozen
+    LP at most one width above 90.0 N; a frozen level 0.5 % off still agrees with the bracket, but settles nothing."""
+    assert slip(frozen=90.005).settles(90.0, 90.009, 100.0, 1e-4)
+    assert slip(frozen=90.0).settles(90.0, 90.009, 100.0, 1e-4)
+    assert slip(frozen=90.4).agrees(90.0, 90.009, 100.0)
+    assert not slip(frozen=90.4).settles(90.0, 90.009, 100.0, 1e-4)  # a reserve beyond the width: retry
+    assert not slip(frozen=90.005, limited=()).settles(90.0, 90.009, 100.0, 1e-4)  # no collapse state
+    assert not slip(frozen=90.005, exact=95.0).settles(90.0, 90.009, 100.0, 1e-4)  # the mesh moves it
+    assert not slip(frozen=None).settles(90.0, 90.009, 100.0, 1e-4)
+
+
 def test_coulomb_limited_joints_resist_the_slip_at_mu_n():
     """Joints whose shear is at mu n against the slip (shear on the right block, slip of the right block relative
     to the left one: opposite signs), within 0.5 %; not a joint below its limit, nor one sheared the other way."""
