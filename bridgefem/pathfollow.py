@@ -98,6 +98,14 @@ used 40-60 without recovering; on the campaigns' bare rings and elastic fills (s
 steps) two converged steps took more than the budget (24 iterations after a hardest step of 9, 23 after 4), while
 failed trials spent up to 60 (seed 1, #48: 39, 37 and 60 iterations at 306.7 kN from states 28, 14 and 7 kN below,
 before that level converged in 2 from 1.7 kN below).
+Without a plastic fill, a trial at a level that has already failed (from a farther state: a soft bound retried after
+a converged step) gets at most ``BUDGET`` times the iterations of the step that reached ``lower``, at least
+``RETRY_FLOOR``: the retry usually spans no more than that step (the soft bound retried from the midpoint of the step
+that failed), and a retry that wanders does not recover. On the campaigns' final runs (seeds 1 and 2) 173 of the 177
+such retries that converged did so within that budget (the other four in 11 to 14 iterations against 10 to 12),
+and the doomed ones spent up to 20 (seed 1, #48: 306.7 kN failed three times, 20 iterations each from 28, 14 and
+7 kN below, with 12 to 43 pairs changing on every iteration); with the budget seed 1 #48 305 -> 283 linear solves,
+#75 220 -> 208, seed 2 #41 170 -> 158, the brackets unchanged.
 
 **Support movement.** With ``movement_steps`` > 0 the solver's support movement is imposed after the self-weight,
 at live load 0, in that many equal increments (friction is path dependent; a failed increment is halved), and
@@ -145,6 +153,8 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # recover)
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
+RETRY_FLOOR = 10  # without a plastic fill, a trial at a level that failed before gets at most BUDGET times the Newton
+# iterations of the step that reached lower, and at least this many (module docstring, *Failures without proof*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
 
 
@@ -329,7 +339,8 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         secant = _secant(history[-1], lower, state, trial) if history and history[-1][0] > 0 else None
         predictor = secant if trial - lower > width else None  # two live-load states, not closing
         estimate = secant if solver.material is not None else None
-        budget = max(BUDGET_FLOOR, BUDGET * hardest) if trial - lower > width else None
+        again = solver.material is None and any(level == trial for _, level in failed_from)
+        budget = _trial_budget(hardest, latest, again) if trial - lower > width else None
         out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
         suspect = not plausible(trial)
         backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
@@ -381,6 +392,15 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
             soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
     status = Status.failure(f"bracket not closed within {max_steps} load steps")
     return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+
+
+def _trial_budget(hardest: int, latest: int, again: bool) -> int:
+    """Newton iterations of a trial that cannot close the bracket (module docstring, *Failures without proof*):
+    ``BUDGET`` times those of the ``hardest`` converged step, at least ``BUDGET_FLOOR``; for a level that failed
+    before (``again``), at most ``BUDGET`` times those of the ``latest`` step (the one that reached lower), at least
+    ``RETRY_FLOOR``."""
+    budget = max(BUDGET_FLOOR, BUDGET * hardest)
+    return min(budget, max(RETRY_FLOOR, BUDGET * latest)) if again else budget
 
 
 def _below(level: float, tolerance: float) -> float:
