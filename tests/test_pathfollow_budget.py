@@ -4,7 +4,7 @@ from dataclasses import replace
 
 from test_bracket import LIMIT, OneDof, assert_bracket, search
 
-from bridgefem.pathfollow import BUDGET, BUDGET_FLOOR
+from bridgefem.pathfollow import BUDGET, BUDGET_FLOOR, RETRY_FLOOR
 from bridgefem.solver import StepOutcome
 
 MAX_ITERATIONS = 60  # the solver's own budget when a trial is given none (bridgefem.scene, solver.max_iterations)
@@ -51,3 +51,20 @@ def test_a_hopeless_trial_costs_the_budget_and_a_closing_trial_keeps_every_itera
     assert all(spent == max(BUDGET_FLOOR, BUDGET * hardest) for spent, hardest in wandering), wandering
     assert (BUDGET_FLOOR, EASY) in wandering
     assert any(ended and spent == 30 for _, spent, ended, _ in solver.trials)
+
+
+def test_a_level_that_failed_before_is_retried_with_the_smaller_budget():
+    """With the exact limit as the guess, the first failures (250 N from 0, beyond the 100 N reach) are suspect and
+    250 N is retried after the next converged step, 125 N below it: still beyond the reach, that retry stops after
+    RETRY_FLOOR iterations (twice the 2 of the step that reached its start is fewer), while every trial at a new
+    level that wanders spends the whole budget (the floor, 20); the bracket still holds the known limit."""
+    solver = Wandering(reach=100.0, band=0.0, slow=EASY)
+    s = search(solver, guess=LIMIT)
+    assert_bracket(s)
+    tried, again, first = set(), [], []
+    for step, (length, spent, ended, _) in zip(s.steps, solver.trials):
+        if not ended and length > 100.0:
+            (again if step.level in tried else first).append(spent)
+        tried.add(step.level)
+    assert again and all(spent == max(RETRY_FLOOR, BUDGET * EASY) for spent in again), again
+    assert first and all(spent == BUDGET_FLOOR for spent in first), first
