@@ -2,6 +2,11 @@
 
 Levels are live-load levels in N per unit load factor. Every trial is solved from the last converged state
 ``lower``; a failed trial is discarded (incremental friction makes the response path dependent).
+The search (:class:`_Search`) repeats four stages until a rule below ends it: ``next_trial`` chooses the level
+(*Bracket rule*, *Guess*, *Steps*, *Collapse state*), ``solve`` solves it (*Predictor*, *Failures without proof*),
+``take_converged`` moves ``lower`` up (*Static bound*, *Steps*) and ``take_failed`` backtracks, ends the search or
+halves the step; both then read the collapse state (*Collapse state*). ``_StepRecorder`` solves and records one
+step (*Flat curve*).
 
 **Bracket rule.** The limit load is [lower, upper] once a trial ``upper`` started from ``lower`` fails with
 ``upper - lower <= tolerance * lower`` (the *width*). A failure reached by a larger step proves nothing (the
@@ -308,44 +313,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
-    steps: list[LoadStep] = []
-    k_initial = math.inf  # tangent stiffness after self-weight (N/m); inf: no flatness check
     spent = solver.stats["solves"] if solve_budget is not None else 0  # the solves before the search
-
-    def attempt(level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
-                give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
-                ) -> StepOutcome:
-        if solve_budget is not None:
-            left = math.ceil(solve_budget - (solver.stats["solves"] - spent))
-            if left <= 0:
-                raise SolveBudgetSpent(solve_budget, steps)
-            iterations = min(iterations or left, left)  # a step's Newton iterations within what is left
-        t0 = time.perf_counter()
-        begin = _displaced(start, estimate) if estimate is not None else start
-        out = solver.solve_step(level, begin, predictor, give_up, iterations)
-        reached = deflection(out.iterate) if out.converged else None
-        if reached is not None and k_initial < math.inf:
-            rise = reached - deflection(start)
-            secant = (level - start_level) / rise if rise > 0 else math.inf
-            flat = stiffness_drop * k_initial
-            # the tangent (one solve) only where the secant has not already shown the curve flat
-            tangent = _tangent_stiffness(solver, deflection, out.iterate) if secant >= flat else None
-            if min(secant, tangent or math.inf) < flat:
-                at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "tangent not needed"
-                out, reached = StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m "
-                                                  f"over the step, {at_end}: the lesser is below {stiffness_drop:g} "
-                                                  f"x the initial {k_initial:.3g} N/m (collapse)", out.iterations,
-                                           out.residual, out.factorisations, mechanism=True), None
-        step = LoadStep(len(steps), level, out.converged, out.reason, out.iterations, out.factorisations,
-                        out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
-                        _raised_cohesion(solver), out.mechanism,
-                        solver.friction_factor if solver.friction_factor != 1.0 else None)
-        steps.append(step)
-        report(step)
-        if step.converged:
-            converged(step, out.iterate)
-        return out
-
+    attempt = _StepRecorder(solver, deflection, stiffness_drop, solve_budget, report, converged, spent)
+    steps = attempt.steps
     falls = bound is not None and bound.falls
     first = carry_self_weight(solver, attempt, falls)
     if not first.converged:
@@ -364,126 +334,290 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     if max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if stiffness_drop > 0:
-        k_initial = _tangent_stiffness(solver, deflection, state) or math.inf
+        attempt.k_initial = _tangent_stiffness(solver, deflection, state) or math.inf
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
+    aim = _first_target(cap, guess, coarser, tolerance)
+    search = _Search(solver, attempt, tolerance, initial_step, max_load, bound, collapse, first.iterations,
+                     guess, settled, state, cap, aim, target=aim, step=initial_step, hardest=first.iterations,
+                     latest=first.iterations)
+    while len(steps) < max_steps:
+        if search.lower >= max_load:
+            return search.result(LOCKED)
+        trial = search.next_trial()
+        out = search.solve(trial)
+        found = search.take_converged(trial, out) if out.converged else search.take_failed(trial, out)
+        if found is not None:
+            return found
+    return search.result(Status.failure(f"bracket not closed within {max_steps} load steps"))
+
+
+@dataclass
+class _StepRecorder:
+    """Solves and records one load step (``LoadStep``), as ``attempt(level, start, ...)`` for the self-weight, the
+    support movement and the live-load search; collective. ``k_initial``: the tangent stiffness after self-weight
+    (N/m; inf: no flatness check, module docstring, *Flat curve*); ``spent``: the linear solves before the search."""
+
+    solver: ContactSolver
+    deflection: Callable[[Iterate], float]
+    stiffness_drop: float
+    solve_budget: int | None
+    report: Callable[[LoadStep], None]
+    converged: Callable[[LoadStep, Iterate], None]
+    spent: int
+    steps: list[LoadStep] = field(default_factory=list)
+    k_initial: float = math.inf
+
+    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
+                 give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
+                 ) -> StepOutcome:
+        """Solve ``level`` from the converged ``start`` at ``start_level`` (N per unit load factor), starting from
+        the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step."""
+        iterations = self._within_budget(iterations)
+        t0 = time.perf_counter()
+        begin = _displaced(start, estimate) if estimate is not None else start
+        solver = self.solver
+        out = solver.solve_step(level, begin, predictor, give_up, iterations)
+        reached = self.deflection(out.iterate) if out.converged else None
+        if reached is not None and self.k_initial < math.inf:
+            flat = self._flat(level - start_level, reached - self.deflection(start), out)
+            out, reached = (flat, None) if flat is not None else (out, reached)
+        step = LoadStep(len(self.steps), level, out.converged, out.reason, out.iterations, out.factorisations,
+                        out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
+                        _raised_cohesion(solver), out.mechanism,
+                        solver.friction_factor if solver.friction_factor != 1.0 else None)
+        self.steps.append(step)
+        self.report(step)
+        if step.converged:
+            self.converged(step, out.iterate)
+        return out
+
+    def _within_budget(self, iterations: int | None) -> int | None:
+        """A step's Newton iterations within the linear solves left of ``solve_budget``; raises
+        :class:`SolveBudgetSpent` when none are left."""
+        if self.solve_budget is None:
+            return iterations
+        left = math.ceil(self.solve_budget - (self.solver.stats["solves"] - self.spent))
+        if left <= 0:
+            raise SolveBudgetSpent(self.solve_budget, self.steps)
+        return min(iterations or left, left)
+
+    def _flat(self, load: float, rise: float, out: StepOutcome) -> StepOutcome | None:
+        """The converged ``out`` as a failed step with a mechanism when the load-deflection curve is flat there
+        (module docstring, *Flat curve*): its secant stiffness over the step (``load`` in N per unit load factor
+        over the deflection ``rise`` in m) or its tangent stiffness below ``stiffness_drop`` x ``k_initial``; else
+        None."""
+        secant = load / rise if rise > 0 else math.inf
+        flat = self.stiffness_drop * self.k_initial
+        # the tangent (one solve) only where the secant has not already shown the curve flat
+        tangent = _tangent_stiffness(self.solver, self.deflection, out.iterate) if secant >= flat else None
+        if min(secant, tangent or math.inf) >= flat:
+            return None
+        at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "tangent not needed"
+        return StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m over the step, "
+                                  f"{at_end}: the lesser is below {self.stiffness_drop:g} x the initial "
+                                  f"{self.k_initial:.3g} N/m (collapse)", out.iterations, out.residual,
+                           out.factorisations, mechanism=True)
+
+
+def _first_target(cap: float, guess: float | None, coarser: float | None, tolerance: float) -> float:
+    """The search's target T before any collapse state's estimate (N per unit load factor; inf: none): the level
+    whose width reaches just to the static bound ``cap``, else (1 - tolerance) x the ``guess``, at most (1 -
+    tolerance) x the ``coarser`` run's lower end (module docstring, *Static bound*, *Guess*)."""
     target = _below(cap, tolerance) if cap < math.inf else math.inf if guess is None else (1.0 - tolerance) * guess
-    target = min(target, (1.0 - tolerance) * coarser) if coarser else target
-    aim = target  # the target before any collapse state's estimate
-    foreseen = None  # the converged state's settled collapse level (*Collapse state*; None: none)
-    readings: dict[int, float | None] = {}  # the collapse level of each converged state read, by its number
-    risen: set[int] = set()  # the numbers of the states whose collapse level rose too fast to be settled
+    return min(target, (1.0 - tolerance) * coarser) if coarser else target
 
-    def reading(at: Iterate, number: int) -> float | None:
-        if number not in readings:
-            readings[number] = collapse.level(at)
-        return readings[number]
 
-    def settled_collapse() -> float | None:
+@dataclass
+class _Search:
+    """The live-load search of :func:`find_limit_load` from the settled state (module docstring): its inputs, then
+    its state. Levels in N per unit load factor. Every method is collective."""
+
+    solver: ContactSolver
+    attempt: _StepRecorder  # solves and records one step
+    tolerance: float
+    initial_step: float
+    max_load: float
+    bound: StaticCap | None
+    collapse: CollapseCheck | None
+    self_weight_iterations: int  # Newton iterations of the self-weight step (*Steps*)
+    guess: float | None
+    settled: Iterate  # the converged state at live load 0
+    state: Iterate  # the converged state at ``lower``
+    cap: float  # the static bound (inf: none, or voided by a state outside its premises)
+    aim: float  # the target before any collapse state's estimate
+    target: float  # T (*Guess*, *Collapse state*)
+    step: float  # the next step (*Steps*)
+    hardest: int  # Newton iterations of the hardest converged step
+    latest: int  # Newton iterations of the step that reached lower
+    lower: float = 0.0  # the last converged level
+    taken: float = 0.0  # the step that reached lower
+    history: deque[tuple[float, Iterate, float, int]] = field(default_factory=lambda: deque(maxlen=BACKTRACK))
+    # earlier (level, state, taken, visit)
+    visit: int = 0  # the converged state's number: the count of steps attempted when it was reached (0: the settled)
+    failed_from: set[tuple[int, float]] = field(default_factory=set)  # (visit, level) of the trials that failed
+    soft: float = math.inf  # lowest failed level above lower
+    retry: bool = False  # the next trial retries the soft bound
+    stalled: bool = False  # the soft bound failed from lower without proof of collapse: approach it by halving
+    backtracks: int = 0
+    linear: bool = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
+    failed_step: float = 0.0  # the step whose failure set the soft bound
+    foreseen: float | None = None  # the converged state's settled collapse level (*Collapse state*; None: none)
+    readings: dict[int, float | None] = field(default_factory=dict)  # each read state's collapse level, by visit
+    risen: set[int] = field(default_factory=set)  # the states whose collapse level rose too fast to be settled
+
+    @property
+    def steps(self) -> list[LoadStep]:
+        """The steps attempted."""
+        return self.attempt.steps
+
+    @property
+    def width(self) -> float:
+        """The bracket's width at ``lower`` (*Bracket rule*)."""
+        return self.tolerance * max(self.lower, 1e-9 * self.initial_step)
+
+    def plausible(self, level: float) -> bool:
+        """A failure at ``level`` does not contradict the target (*Guess*)."""
+        return self.target == math.inf or level >= (1.0 - PLAUSIBLE) * self.target
+
+    def result(self, status: str, upper: float | None = None, failure: str = "", proved: bool = False,
+               static: bool = False) -> LimitSearch:
+        """The search's outcome with ``status`` and the bracket [lower, ``upper``]."""
+        return LimitSearch(status, self.lower, upper, self.tolerance, self.steps, self.state, failure, self.guess,
+                           self.settled, proved, static)
+
+    def next_trial(self) -> float:
+        """The next trial level: the soft bound when due (*Bracket rule*, *Guess*), the closing trial above a state
+        within the width of its collapse (*Collapse state*), an approach step to T (*Guess*), a bisection towards the
+        soft bound (*Bracket rule*), else the step (*Steps*); never above the maximum load or the static bound."""
+        lower, soft, width = self.lower, self.soft, self.width
+        if not self.stalled and (self.retry or soft - lower <= (width if self.plausible(soft) else SUSPECT * width)):
+            trial = soft
+        elif self.foreseen is not None and abs(self.foreseen - lower) <= width < soft - lower:
+            trial = lower + CLOSE * width
+        elif lower < self.target < soft:
+            trial = min(self.target - APPROACH * (self.target - lower), lower + self.step)
+            landing = self.target - trial <= LANDING * self.target and (self.visit, self.target) not in self.failed_from
+            trial = self.target if landing else trial
+        elif soft < math.inf:
+            trial = max(0.5 * (lower + soft), _below(soft, self.tolerance)) if self.linear else 0.5 * (lower + soft)
+        else:
+            trial = lower + self.step
+        return min(trial, self.max_load, self.cap)
+
+    def solve(self, trial: float) -> StepOutcome:
+        """Solve ``trial`` from ``lower``: with the secant's predictor and start (*Predictor*) and the budget of a
+        trial that cannot close the bracket; a failure that would end the search without proof, or a suspect one, is
+        settled by the collapse state or retried (*Failures without proof*)."""
+        lower, state, width = self.lower, self.state, self.width
+        secant = _secant(self.history[-1], lower, state, trial) if self.history and self.history[-1][0] > 0 else None
+        predictor = secant if trial - lower > width else None  # two live-load states, not closing
+        estimate = secant if self.solver.material is not None else None
+        again = self.solver.material is None and any(level == trial for _, level in self.failed_from)
+        budget = _trial_budget(self.hardest, self.latest, again) if trial - lower > width else None
+        out = self.attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
+        if not out.converged and self._final(trial, out) and not out.proved and (
+                not self.plausible(trial) or not out.mechanism):
+            out = _settled(self.collapse, lower, trial, state, out) or retried(
+                self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
+        return out
+
+    def _backtrack(self, trial: float) -> bool:
+        """A suspect failure at ``trial`` from a state reached by a step of more than ``SETTLED`` widths backtracks
+        (*Guess*)."""
+        return (not self.plausible(trial) and trial - self.lower <= self.width
+                and self.taken > SETTLED * self.width and bool(self.history) and self.backtracks < BACKTRACKS)
+
+    def _final(self, trial: float, out: StepOutcome) -> bool:
+        """The failure ``out`` at ``trial`` ends the search (*Bracket rule*, *Guess*, *Failures without proof*); the
+        same before and after its retries, which run only when it holds without a mechanism or with a suspect
+        trial."""
+        suspect, rise, width = not self.plausible(trial), trial - self.lower, self.width
+        return (out.mechanism or suspect or rise <= SUBSTEP * width) \
+            and rise <= (SUSPECT * width if suspect else width) and not self._backtrack(trial)
+
+    def take_converged(self, trial: float, out: StepOutcome) -> LimitSearch | None:
+        """Move ``lower`` to the converged ``trial``: the static bound's end (*Static bound*), the soft bound cleared
+        at or below it, the collapse-state reading and the next step (*Steps*). The outcome when the search ends."""
+        jump = self.linear and trial == _below(self.soft, self.tolerance)
+        self.linear = out.iterations == 1 and not jump
+        self.hardest = max(self.hardest, out.iterations)
+        easy = out.iterations <= max(EASY_ITERATIONS, self.self_weight_iterations) or (
+            self.solver.material is not None and out.iterations <= self.latest)
+        self.latest = out.iterations
+        self.history.append((self.lower, self.state, self.taken, self.visit))
+        self.visit = len(self.steps)
+        self.taken, arrived = trial - self.lower, self.lower < self.target <= trial
+        self.lower, self.state, self.stalled = trial, self.solver.converged_slip_reference(out.iterate), False
+        if self.cap - self.lower <= self.tolerance * self.lower:
+            ended = self._static_end(out.iterate)
+            if ended is not None:
+                return ended
+        cleared = self.lower >= self.soft and self.solver.material is None
+        if self.lower >= self.soft:
+            self.soft = math.inf
+        self._read_collapse()
+        self.retry = self.soft - self.lower > self.tolerance * self.lower and not self.plausible(self.soft)
+        if arrived:
+            self.step = CLOSE * self.tolerance * self.lower
+        else:
+            self.step = 2.0 * self.taken if easy else self.taken
+            self.step = max(self.step, 0.5 * self.failed_step) if cleared else self.step
+        return None
+
+    def _static_end(self, iterate: Iterate) -> LimitSearch | None:
+        """The bracket [lower, the static bound] when the converged ``iterate`` within its width is admissible for
+        it; else the bound is voided and None (*Static bound*)."""
+        admissible, check = self.bound.admissible(self.steps[-1], iterate)
+        if admissible:
+            return self.result(LIMIT_FOUND, self.cap, "no trial above the bracket: its upper end is the static "
+                               "theorem's bound, the rigid-block LP under the FE's own loads (the converged state's "
+                               f"joint resultants are admissible for it; {check})", static=True)
+        self.cap = math.inf
+        return None
+
+    def take_failed(self, trial: float, out: StepOutcome) -> LimitSearch | None:
+        """The failed ``trial``: a backtrack (*Guess*), the end of the search (*Bracket rule*), else a soft bound and
+        a halved step. The outcome when the search ends."""
+        self.linear = False
+        self.failed_from.add((self.visit, trial))
+        if self._backtrack(trial):
+            self.step, self.backtracks = BACKTRACK_STEP * self.taken, self.backtracks + 1
+            self.lower, self.state, self.taken, self.visit = self.history.pop()
+            self.soft, self.retry = math.inf, False
+        elif self._final(trial, out):
+            status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
+            return self.result(status, trial if out.mechanism else None, out.reason, out.proved)
+        else:
+            self.failed_step = trial - self.lower if trial < self.soft else self.failed_step
+            self.soft, self.step, self.retry = trial, 0.5 * (trial - self.lower), False
+            self.stalled = trial - self.lower <= self.width
+        self._read_collapse()
+        return None
+
+    def _read_collapse(self) -> None:
+        """The converged state's settled collapse level and the target it sets (*Collapse state*)."""
+        self.foreseen = self._settled_collapse()
+        self.target = _aimed(self.aim, self.foreseen, self.soft, self.tolerance)
+
+    def _reading(self, at: Iterate, number: int) -> float | None:
+        if number not in self.readings:
+            self.readings[number] = self.collapse.level(at)
+        return self.readings[number]
+
+    def _settled_collapse(self) -> float | None:
         """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
         (module docstring, *Collapse state*), else None; read only then, once per state, and no longer after
-        ``RISINGS`` states whose level rose too fast. Collective."""
-        if collapse is None or soft == math.inf or not history or len(risen) >= RISINGS:
+        ``RISINGS`` states whose level rose too fast."""
+        if self.collapse is None or self.soft == math.inf or not self.history or len(self.risen) >= RISINGS:
             return None
-        now, before = reading(state, visit), reading(history[-1][1], history[-1][3])
-        if now is not None and before is not None and now - before > RISE * taken:
-            risen.add(visit)
-        if now is None or before is None or visit in risen:
+        now = self._reading(self.state, self.visit)
+        before = self._reading(self.history[-1][1], self.history[-1][3])
+        if now is not None and before is not None and now - before > RISE * self.taken:
+            self.risen.add(self.visit)
+        if now is None or before is None or self.visit in self.risen:
             return None
-        return min(now, lower + (now - lower) / (1.0 - (now - before) / taken))
-
-    def plausible(level: float) -> bool:
-        return target == math.inf or level >= (1.0 - PLAUSIBLE) * target
-
-    lower, taken, step = 0.0, 0.0, initial_step  # taken: the step that reached lower
-    history: deque[tuple[float, Iterate, float, int]] = deque(maxlen=BACKTRACK)  # earlier (level, state, taken, visit)
-    visit = 0  # the converged state's number: the count of steps attempted when it was reached (0: the settled one)
-    failed_from: set[tuple[int, float]] = set()  # (visit, level) of the trials that failed
-    soft = math.inf  # lowest failed level above lower
-    retry = False  # the next trial retries the soft bound
-    stalled = False  # the soft bound failed from lower without proof of collapse: approach it by halving
-    hardest = first.iterations  # Newton iterations of the hardest converged step
-    latest = first.iterations  # Newton iterations of the step that reached lower
-    backtracks = 0
-    linear = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
-    failed_step = 0.0  # the step whose failure set the soft bound
-    while len(steps) < max_steps:
-        if lower >= max_load:
-            return LimitSearch(LOCKED, lower, None, tolerance, steps, state, guess=guess, settled=settled)
-        width = tolerance * max(lower, 1e-9 * initial_step)
-        if not stalled and (retry or soft - lower <= (width if plausible(soft) else SUSPECT * width)):
-            trial = soft
-        elif foreseen is not None and abs(foreseen - lower) <= width < soft - lower:
-            trial = lower + CLOSE * width  # the state is within the width of its collapse (*Collapse state*)
-        elif lower < target < soft:
-            trial = min(target - APPROACH * (target - lower), lower + step)
-            trial = target if target - trial <= LANDING * target and (visit, target) not in failed_from else trial
-        elif soft < math.inf:
-            trial = max(0.5 * (lower + soft), _below(soft, tolerance)) if linear else 0.5 * (lower + soft)
-        else:
-            trial = lower + step
-        trial = min(trial, max_load, cap)
-        secant = _secant(history[-1], lower, state, trial) if history and history[-1][0] > 0 else None
-        predictor = secant if trial - lower > width else None  # two live-load states, not closing
-        estimate = secant if solver.material is not None else None
-        again = solver.material is None and any(level == trial for _, level in failed_from)
-        budget = _trial_budget(hardest, latest, again) if trial - lower > width else None
-        out = attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
-        suspect = not plausible(trial)
-        backtrack = suspect and trial - lower <= width and taken > SETTLED * width and history \
-            and backtracks < BACKTRACKS
-        final = (out.mechanism or suspect or trial - lower <= SUBSTEP * width) \
-            and trial - lower <= (SUSPECT * width if suspect else width) and not backtrack
-        if not out.converged and final and not out.proved and (suspect or not out.mechanism):
-            out = _settled(collapse, lower, trial, state, out) or retried(
-                solver, lambda: attempt(trial, state, lower, give_up=True, iterations=budget), out)
-        jump, linear = linear and trial == _below(soft, tolerance), False
-        if out.converged:
-            linear = out.iterations == 1 and not jump
-            hardest = max(hardest, out.iterations)
-            easy = out.iterations <= max(EASY_ITERATIONS, first.iterations) or (
-                solver.material is not None and out.iterations <= latest)
-            latest = out.iterations
-            history.append((lower, state, taken, visit))
-            visit = len(steps)
-            taken, arrived = trial - lower, lower < target <= trial
-            lower, state, stalled = trial, solver.converged_slip_reference(out.iterate), False
-            if cap - lower <= tolerance * lower:
-                admissible, check = bound.admissible(steps[-1], out.iterate)
-                if admissible:
-                    return LimitSearch(LIMIT_FOUND, lower, cap, tolerance, steps, state,
-                                       "no trial above the bracket: its upper end is the static theorem's bound, "
-                                       "the rigid-block LP under the FE's own loads (the converged state's joint "
-                                       f"resultants are admissible for it; {check})", guess, settled, static=True)
-                cap = math.inf  # the state is outside the theorem's premises: the search goes on without the bound
-            cleared = lower >= soft and solver.material is None
-            if lower >= soft:
-                soft = math.inf
-            foreseen = settled_collapse()
-            target = _aimed(aim, foreseen, soft, tolerance)
-            retry = soft - lower > tolerance * lower and not plausible(soft)
-            if arrived:
-                step = CLOSE * tolerance * lower
-            else:
-                step = 2.0 * taken if easy else taken
-                step = max(step, 0.5 * failed_step) if cleared else step
-            continue
-        failed_from.add((visit, trial))
-        if backtrack:
-            step, backtracks = BACKTRACK_STEP * taken, backtracks + 1
-            lower, state, taken, visit = history.pop()
-            soft, retry = math.inf, False
-        elif final:
-            status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
-            return LimitSearch(status, lower, trial if out.mechanism else None, tolerance, steps, state, out.reason,
-                               guess, settled, out.proved)
-        else:
-            failed_step = trial - lower if trial < soft else failed_step
-            soft, step, retry, stalled = trial, 0.5 * (trial - lower), False, trial - lower <= width
-        foreseen = settled_collapse()
-        target = _aimed(aim, foreseen, soft, tolerance)
-    status = Status.failure(f"bracket not closed within {max_steps} load steps")
-    return LimitSearch(status, lower, None, tolerance, steps, state, guess=guess, settled=settled)
+        return min(now, self.lower + (now - self.lower) / (1.0 - (now - before) / self.taken))
 
 
 def _aimed(aim: float, foreseen: float | None, soft: float, tolerance: float) -> float:
