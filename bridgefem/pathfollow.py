@@ -601,6 +601,7 @@ class _Search:
         self.target = _aimed(self.aim, self.foreseen, self.soft, self.tolerance)
 
     def _reading(self, at: Iterate, number: int) -> float | None:
+        """The collapse level of the converged state ``at`` (visit ``number``), read once (*Collapse state*)."""
         if number not in self.readings:
             self.readings[number] = self.collapse.level(at)
         return self.readings[number]
