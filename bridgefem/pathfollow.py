@@ -134,14 +134,14 @@ stays, #220). That estimate sets the target T = estimate / (1 + ``STRADDLE`` tol
 the guess, the static bound or a coarser run, and a state within the width of its estimate tries the width above
 it next, the closing trial, half a width beyond the estimate when the search landed on T (a trial at F itself,
 where the curve is flat, fails without showing a mechanism and only halves the step). A target sets the path,
-never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). With 4 elements: #220 133 linear
-solves -> 80, #184 122 -> 107, #124 72 -> 47, #299 (its whole run) 288 -> 217; each bracket overlaps the one before
-(lower ends moved by at most 5e-5), and #290 and #2 keep their paths. A settled F can still lie below the limit and
-lengthen the path (#175: F rose by 0.29 of a step, then faster; 34 -> 59); with ``RISE`` 0.25 instead, #175 keeps
-its 34 but #299 keeps its 288 and #220 takes 92 (11 sliding scenes of both seeds: 768 solves with 0.5, 817 with
-0.25, before the extrapolation of a falling F: 743 with it, none more). A reading costs the frozen LP and the
-joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton iteration), so a search stops reading after
-``RISINGS`` states whose F rose too fast (#290: its search 1.0 s -> 1.4 s, 1.9 s without that stop).
+never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). Campaign seed 1, with the
+retries below: #220 254 linear solves -> 127, #184 236 -> 102, #124 187 -> 85, each bracket within 5e-5 of the
+one before; #290 and #2 keep their paths. A settled F can still lie below the limit and lengthen the path (#175: F
+rose by 0.29 of a step, then faster). ``RISE`` 0.25 instead of 0.5 cost more (11 sliding scenes of both seeds, 4
+elements: 817 solves against 768), and the extrapolation of a falling F saved more (743, no scene dearer). A
+reading costs the frozen LP and the joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton
+iteration), so a search stops reading after ``RISINGS`` states whose F rose too fast (#290: its search 1.0 s -> 1.4
+s, 1.9 s without that stop).
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
