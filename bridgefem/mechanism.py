@@ -24,7 +24,8 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
 3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a
    part of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
    displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes and sticks the pairs whose
-   violation is within ``REPAIR`` of the worst. A flaw that is a slip against the friction force marks a *sliding*
+   violation is within ``REPAIR`` of the worst, narrowed to its *first contact* when the mode carries the gaps of
+   the step's start (:func:`first_contact`). A flaw that is a slip against the friction force marks a *sliding*
    mode (``Verdict.slides``: the solver solves its set again with a proximal term).
 4. A *proof*: an admissible rigid-block hinge mode, with violation and friction slip below ``PROOF_TOL`` (mu = 0
    pairs may slip) on which the whole load and the driving load do positive work. By virtual work any equilibrium
@@ -48,6 +49,8 @@ ADMISSIBLE_TOL = 1e-3  # violation (friction slip) of a mode, of its largest joi
 WORK_TOL = 1e-6  # load work on a mode, of |f|_1 |u|_inf, below which the load does none
 PROOF_TOL = 1e-6  # violation and friction slip of a proving mode, of its largest joint displacement
 REPAIR = 0.5  # the repair closes the pairs whose violation is at least this fraction of the worst
+FIRST_CONTACT = 0.1  # ... and of those open, the ones its mode closes within this fraction of the mode's amplitude
+# at the first contact (:func:`first_contact`)
 TIE_TOL = 1e-6  # a slip mode violating the laws alike in both senses, within this of its largest joint displacement,
 # is a tie (step 1)
 
@@ -59,7 +62,8 @@ class Mode:
     coefficients; ``joint``: joint ids (for messages). ``works``: (driving load, whole load) work on the mode and
     ``scales`` their |f|_1 |u|_inf (global values, N m); ``driver``: the driving load's name; ``power``: the power of
     the whole load and the sliding pairs' friction forces on the mode and its scale (|f|_1 + sum mu lam_n) |u|_inf
-    (N m; step 1)."""
+    (N m; step 1); ``gap``: the pairs' normal gaps d_n at the step's start (m; None: the repair is not narrowed to
+    the first contact, step 3)."""
 
     d: np.ndarray
     state: np.ndarray
@@ -70,6 +74,7 @@ class Mode:
     scales: tuple[float, float]
     driver: str = "live load"
     power: tuple[float, float] = (0.0, 0.0)
+    gap: np.ndarray | None = None
 
 
 class Verdict(NamedTuple):
@@ -121,7 +126,30 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
         flaw, slides = f"{what} {value / span:.2g} of its largest joint displacement at joint {joint}", bool(backward)
     if flaw is not None:
         violation = np.nan_to_num(np.fmax(orient * closing, orient * backwards), nan=-np.inf)
-        return Verdict(flaw, violation > max(ADMISSIBLE_TOL * span, REPAIR * value), False, slides)
+        repair = violation > max(ADMISSIBLE_TOL * span, REPAIR * value)
+        if mode.gap is not None:
+            repair = first_contact(repair, -orient * d[:, 0], mode.gap, mode.state, comm)
+        return Verdict(flaw, repair, False, slides)
     proof = (provable and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
              and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
     return Verdict(None, None, bool(proof))
+
+
+def first_contact(repair: np.ndarray, rate: np.ndarray, gap: np.ndarray, state: np.ndarray,
+                  comm: MPI.Comm = MPI.COMM_SELF) -> np.ndarray:
+    """A ``repair`` (per pair) narrowed to the open pairs that close first when the structure moves from the step's
+    start along the mode in the sense the repair closes, and its closed pairs (``state``: the mode's active set).
+    ``rate``: each pair's closing per unit of the mode (-d_n in that sense, m), ``gap``: its normal gap d_n at the
+    start (m; a negative one counts as closed). An open pair closing faster than ``ADMISSIBLE_TOL`` of the fastest
+    closes at the amplitude gap / rate; the least sets the first contact, and the open pairs closing within
+    ``FIRST_CONTACT`` of it are closed (a hinge's pairs close together, up to the blocks' elastic strain), the others
+    stay open: a free rigid-block motion moves the blocks until its first contact stops it, and closing a hinge it
+    would reach later imposes a rotation the blocks can only take by straining. A repair that closes no open pair
+    (it sticks pairs that slip backwards) is returned as it is. Collective over ``comm``."""
+    span = float(comm.allreduce(np.abs(rate).max(initial=0.0), op=MPI.MAX))
+    closes = (state == OPEN) & (rate > ADMISSIBLE_TOL * span)
+    if not comm.allreduce(bool((repair & closes).any()), op=MPI.LOR):
+        return repair
+    amplitude = np.where(closes, np.maximum(gap, 0.0) / np.where(closes, rate, 1.0), np.inf)
+    first = comm.allreduce(float(amplitude.min(initial=np.inf)), op=MPI.MIN)
+    return (repair & (state != OPEN)) | (closes & (amplitude <= (1.0 + FIRST_CONTACT) * first))

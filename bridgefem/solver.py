@@ -144,9 +144,9 @@ without proof: the damping chain or the cycle that returns to them decides, and 
 (:mod:`bridgefem.evidence`).
 
 **First contact.** A repair closes the open pairs that close first when the structure moves from the step's start
-along the diverging mode (:meth:`ContactSolver._first_contact`): each open pair closes at the mode's amplitude gap /
-closing rate, the least sets the first contact, and every open pair closing within ``FIRST_CONTACT`` of it is
-closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
+along the diverging mode (:func:`bridgefem.mechanism.first_contact`, given the start's gaps by :meth:`_verdict`):
+each open pair closes at the mode's amplitude gap / closing rate, the least sets the first contact, and every open
+pair closing within ``mechanism.FIRST_CONTACT`` of it is closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
 open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first
 contact stops it; closing a hinge that it would reach later imposes a rotation the blocks can only take by
 straining, and the set's next solve puts other joints in tension. It changes the Newton iteration's path, never
@@ -306,7 +306,7 @@ from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, Joi
 from .cycles import CycleCondenser
 from .joint_condensation import ENUMERATED_PAIRS
 from .linsolve import CheckedSolve
-from .mechanism import ADMISSIBLE_TOL, Mode, Verdict, judge
+from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
@@ -323,8 +323,6 @@ BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of
 PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
 PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
 PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
-FIRST_CONTACT = 0.1  # a repair closes the open pairs that its mode closes within this fraction of the mode's
-# amplitude at the first contact (the module's *First contact*)
 REFINED_RTOL = 1e-6  # an iterative refinement's correction below this fraction of the iterate (largest entries):
 # the solve is exact to working precision (module's *Refinement*)
 LEAP = 10.0  # a solution moving the structure beyond this multiple of the last solved iterate and the step's start
@@ -692,8 +690,10 @@ class ContactSolver:
                  ) -> Verdict:
         """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`), with the
         power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
-        those of ``forces`` (the last solved iterate, N). Collective."""
+        those of ``forces`` (the last solved iterate, N), and the gaps at ``origin`` for its repair's first contact.
+        Collective."""
         lam_n = self.split(forces)[1][:, 0]
+        gap = self.split(origin)[2][:, 0]
         mode = self._mode
         x.copy(mode)
         mode.axpy(-1.0, origin)
@@ -708,7 +708,7 @@ class ContactSolver:
                                               np.abs(total).sum() + np.abs(friction).sum()]))
         scales = works[3:] * self._norm_inf(u)
         return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]),
-                          tuple(scales[:2]), name, (works[2], scales[2])), provable=self.material is None,
+                          tuple(scales[:2]), name, (works[2], scales[2]), gap), provable=self.material is None,
                      comm=self.comm)
 
     def _solve(self, active: ContactState, x: PETSc.Vec, proximal: bool = False):
@@ -854,8 +854,7 @@ class ContactSolver:
         self._unbounded = failure.mechanism or failure.unbounded
         self._diverged |= self._unbounded
         step.mechanisms += failure.mechanism
-        step.fix = self._repaired(step.active, self._first_contact(step.active, failure.repair, step.start.x),
-                                  step.frozen)
+        step.fix = self._repaired(step.active, failure.repair, step.frozen)
         if step.fix is not None:
             step.repairs[step.key] = step.fix
         if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
@@ -1126,29 +1125,6 @@ class ContactSolver:
         are at most ``ENUMERATED_PAIRS`` in all, else the returning proposal's alone. Collective."""
         cycle = pending | (churn >= 2)
         return cycle if self._count(cycle) <= ENUMERATED_PAIRS else pending
-
-    def _first_contact(self, active: ContactState, repair: np.ndarray | None, origin: PETSc.Vec
-                       ) -> np.ndarray | None:
-        """The pairs that close first when the structure moves from ``origin`` (the step's converged start) along
-        the diverging mode whose ``repair`` the verdict gave, in the sense in which the repair closes: the open pairs
-        of ``active`` that the mode closes (faster than ``ADMISSIBLE_TOL`` of its largest joint displacement) at an
-        amplitude (gap at ``origin`` over closing rate, m per unit of the mode) within ``FIRST_CONTACT`` of the least
-        such amplitude, and the repair's closed pairs; the module's *First contact*. Call it right after the solve
-        that diverged (the mode is ``self._mode``). Collective."""
-        if not self._any(repair is not None and bool(repair.any())):
-            return repair
-        repair = repair if repair is not None else np.zeros(len(self.pairs), dtype=bool)  # none on this rank
-        gap = np.maximum(self.split(origin)[2][:, 0], 0.0)
-        rate = self._ground[:, 0] - self.split(self._mode)[2][:, 0]  # the mode's closing, m per unit of the mode
-        sense = np.sign(self.comm.allreduce(float(rate[repair].sum())))  # the sense in which the repair closes
-        rate = sense * rate
-        span = self.comm.allreduce(float(np.abs(rate).max(initial=0.0)), op=MPI.MAX)
-        closes = (active.state == OPEN) & (rate > ADMISSIBLE_TOL * span)
-        amplitude = np.where(closes, gap / np.where(closes, rate, 1.0), np.inf)
-        first = self.comm.allreduce(float(amplitude.min(initial=np.inf)), op=MPI.MIN)
-        if not self._any(bool((repair & closes).any())):  # the repair closes no open pair (it sticks pairs that
-            return repair  # slip backwards)
-        return (repair & (active.state != OPEN)) | (closes & (amplitude <= (1.0 + FIRST_CONTACT) * first))
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:

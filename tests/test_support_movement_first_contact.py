@@ -1,5 +1,5 @@
-"""The repair of an inadmissible diverging mode closes the pairs that close first along it (bridgefem/solver.py,
-*First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
+"""The repair of an inadmissible diverging mode closes the pairs that close first along it
+(bridgefem.mechanism.first_contact; bridgefem/solver.py, *First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
 the thrust line through all four, and the first live-load increment must close one hinge, not two."""
 import json
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import GROUND, OPEN, STICK, ContactState
-from bridgefem.solver import FIRST_CONTACT
+from bridgefem.mechanism import FIRST_CONTACT, first_contact
 
 from conftest import bridgefem, write_toml
 from test_block import block_solver
@@ -38,14 +38,16 @@ def test_the_repair_keeps_the_pairs_that_close_first_along_the_mode():
     solver, origin, active = _lifted_block(lift, tilt)
     gap = solver.split(origin)[2][:, 0]
     assert gap == pytest.approx(lift + tilt * solver.pairs.position, rel=1e-9)  # the made-up state's gaps
+    rate = -(solver.split(solver._mode)[2][:, 0] - solver._ground[:, 0])  # the mode's closing, 1 at every pair
+    assert rate == pytest.approx(np.ones(len(solver.pairs)), rel=1e-12)
     everything = np.ones(len(solver.pairs), dtype=bool)
-    first = solver._first_contact(active, everything, origin)
+    first = first_contact(everything, rate, gap, active.state)
     assert np.flatnonzero(first).tolist() == np.flatnonzero(tilt * solver.pairs.position
                                                             <= FIRST_CONTACT * lift).tolist() == [0, 1, 2]
     last = np.arange(len(solver.pairs)) == len(solver.pairs) - 1
-    assert np.flatnonzero(solver._first_contact(active, last, origin)).tolist() == [0, 1, 2]
+    assert np.flatnonzero(first_contact(last, rate, gap, active.state)).tolist() == [0, 1, 2]
     active.state[4] = STICK
-    kept = solver._first_contact(active, np.arange(len(solver.pairs)) == 4, origin)
+    kept = first_contact(np.arange(len(solver.pairs)) == 4, rate, gap, active.state)
     assert np.flatnonzero(kept).tolist() == [4]
 
 
