@@ -400,7 +400,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
         states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
                                      it.active.state.copy()))
 
-    bound = static_cap(scene, model, bm, pairs, solver) if fill is None else None
+    blocks = fe_blocks(scene, model, bm) if fill is None else None  # the rigid blocks loaded as the FE loads them
+    bound = static_cap(blocks, model, bm, pairs, solver) if fill is None else None
     lap("static bound")
     try:
         search = find_limit_load(solver, under_load, tolerance=s.tolerance,
@@ -410,7 +411,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                  stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
                                  movement_steps=scene.abutments.movement_steps if motion else 0,
                                  bound=bound[1] if bound else None, coarser=coarser, solve_budget=budget,
-                                 collapse=collapse_check(scene, comm, lp, model, bm, solver, pairs, ring, s.tolerance,
+                                 collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring, s.tolerance,
                                                          total),
                                  report=report, converged=keep)
     except SolveBudgetSpent as spent:
@@ -418,7 +419,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     lap("limit search")
     joints = joint_states(solver, pairs, ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
-                      fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints, model, bm),
+                      fill=fill is not None, slip=slip_check(scene, comm, search, lp, joints, blocks),
                       static=bound[0] if bound else None, closed=search.static)
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict,
@@ -460,14 +461,15 @@ def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
 
 
 def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, joints: list[JointState],
-               model: ElasticModel, bm: BlockMesh) -> SlipCheck | None:
+               blocks: BlockModel | None) -> SlipCheck | None:
     """The non-associative rigid-block check (:func:`slip_state`) of an unproven limit with sliding joints that the
     associative LP does not confirm (:func:`bridgefem.evidence.needs_slip_check`), from the joint forces of the last
-    converged step. Collective; None when no check is needed."""
+    converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check). Collective; None
+    when no check is needed."""
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, any(j.sliding for j in joints)):
         return None
-    return slip_state(scene, comm, lp, joints, fe_blocks(scene, model, bm))
+    return slip_state(scene, comm, lp, joints, blocks)
 
 
 def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
@@ -509,18 +511,16 @@ def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.nd
     return normal, frozen, limited
 
 
-def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, model: ElasticModel, bm: BlockMesh,
-                   solver: ContactSolver, pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float
-                   ) -> CollapseCheck | None:
+def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel | None, solver: ContactSolver,
+                   pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float) -> CollapseCheck | None:
     """Evidence 3 at the search's converged states (:class:`bridgefem.pathfollow.CollapseCheck`): the frozen LP's
     level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
     (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
     bracket [``lower``, ``trial``] of relative width ``tolerance`` (:meth:`bridgefem.evidence.SlipCheck.settles`),
-    with the check in words (``unit``: N of live load per unit level). None with a fill or without an LP limit
-    (evidence 3 does not apply). Collective."""
-    if scene.fill is not None or lp.status != Status.LIMIT or lp.level is None:
+    with the check in words (``unit``: N of live load per unit level), on the rigid ``blocks`` loaded as the FE loads
+    them. None with a fill (``blocks`` None) or without an LP limit (evidence 3 does not apply). Collective."""
+    if blocks is None or lp.status != Status.LIMIT or lp.level is None:
         return None
-    blocks = fe_blocks(scene, model, bm)
 
     def level(state: Iterate) -> float | None:
         joints, out = joint_states(solver, pairs, ring, state), None

@@ -20,17 +20,16 @@ from .solver import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
 from .status import Status
 
 
-def static_cap(scene: Scene, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
+def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
                ) -> tuple[StaticBound, StaticCap] | None:
     """The static theorem's bound on a bare ring's FE (:mod:`bridgefem.evidence`, evidence 4): the rigid-block LP
-    on the same joints under the FE's own block loads (:func:`block_loads`), its dead-load deficit against the
+    on the same joints under the FE's own block loads, ``blocks`` (:func:`fe_blocks`), its dead-load deficit against the
     largest one a converged FE state's tolerances can hide, and the check of a converged state's joint resultants
     against the LP's rows (:func:`bridgefem.evidence.admissible`) that the search runs before it ends on the bound.
     The bound caps every search (no FE equilibrium exists above it); whether the bracket it closes is also the
     limit of the exact voussoirs' weights is the evidence rule's question (:mod:`bridgefem.evidence`, evidence 4).
     The LP on rank 0, broadcast; None when it fails (no bound). Collective."""
     comm = solver.comm
-    blocks = fe_blocks(scene, model, bm)
     pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=blocks.n_joints))
     nodes, radius = block_extents(model, bm, blocks.ref)
     delta = 10 * solver.law.force_tol  # the complementarity residual of a converged pair (N)

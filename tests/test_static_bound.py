@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bridgefem.analysis import run_analysis
-from bridgefem.static_bound import static_cap
+from bridgefem.static_bound import fe_blocks, static_cap
 from bridgefem.evidence import AGREEMENT, admissible
 from bridgefem.rigid_block import BlockModel, Statics, standing_deficit
 from bridgefem.scene import scene_from_dict
@@ -74,7 +74,7 @@ def test_the_bracket_of_a_campaign_ring_ends_on_the_static_theorem():
     assert s.upper == an.static.level and s.upper - s.lower <= s.tolerance * s.lower
     assert max(st.level for st in s.steps) <= s.upper
     assert abs(s.lower / an.lp.level - 1) <= AGREEMENT and abs(s.upper / an.lp.level - 1) <= AGREEMENT
-    _, cap = static_cap(an.scene, an.model, an.block_mesh, an.pairs, an.solver)
+    _, cap = static_cap(fe_blocks(an.scene, an.model, an.block_mesh), an.model, an.block_mesh, an.pairs, an.solver)
     assert cap.level == an.static.level
     step = next(st for st in reversed(s.steps) if st.converged)
     assert step.level == s.lower and cap.admissible(step, s.last)[0]
