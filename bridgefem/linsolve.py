@@ -8,11 +8,17 @@ the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``. T
 new KSP: after a PETSc error inside KSPSolve, PCPreSolve's nesting count stays raised (two such errors and every
 later solve fails with PETSc error 56); after a singular factorisation, MUMPS refused the next solve of the same KSP
 with INFOG(1) = -3 (campaign scene 161, seed 1).
+
+A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis`): the
+solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a Newton
+iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
 """
 from __future__ import annotations
 
+import math
 import time
-from typing import NamedTuple
+from contextlib import contextmanager
+from typing import Iterator, NamedTuple
 
 import numpy as np
 from mpi4py import MPI
@@ -37,6 +43,15 @@ class SolveFailure(NamedTuple):
     singular: bool
 
 
+class SolveBudgetSpent(Exception):
+    """A solve asked for beyond the bound of :meth:`CheckedSolve.limited` (``budget``: that bound's solves); nothing
+    was solved."""
+
+    def __init__(self, budget: float):
+        super().__init__(f"its budget of {budget:g} linear solves is spent")
+        self.budget = budget
+
+
 class CheckedSolve:
     """The KSP of a matrix ``A`` (options: the defaults overridden by ``options``, given without the prefix) and
     counters ``stats`` (factorisations, solves, seconds factorising and solving)."""
@@ -50,6 +65,20 @@ class CheckedSolve:
         self._r = A.createVecLeft()
         self._residual, self._correction = A.createVecLeft(), A.createVecRight()
         self._broken = False
+        self._bound = (math.inf, math.inf)  # the count of solves the next may not pass, and the budget that set it
+
+    @contextmanager
+    def limited(self, budget: float | None) -> Iterator[None]:
+        """Within: at most ``budget`` more solves (None: no bound; an enclosing bound still holds); the next one
+        raises :class:`SolveBudgetSpent` before it solves. Every solve is collective, so every rank counts the same
+        solves and raises at the same one."""
+        outer = self._bound
+        if budget is not None and self.stats["solves"] + budget < outer[0]:
+            self._bound = (self.stats["solves"] + budget, budget)
+        try:
+            yield
+        finally:
+            self._bound = outer
 
     def _new_ksp(self) -> PETSc.KSP:
         """A KSP of ``A`` with ``options`` under the prefix, set up (the factorisation reads its options, e.g. MUMPS
@@ -75,7 +104,10 @@ class CheckedSolve:
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
         """Solve A x = b; None when the solve is good (module docstring). After a failure the caller must not reuse
-        the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective."""
+        the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective; raises
+        :class:`SolveBudgetSpent`, solving nothing, beyond the bound of :meth:`limited`."""
+        if self.stats["solves"] + 1 > self._bound[0]:
+            raise SolveBudgetSpent(self._bound[1])
         t0 = time.perf_counter()
         try:
             if self._broken:

@@ -19,9 +19,12 @@ lies just above the limit, that closes the bracket in two trials instead of a bi
 
 **Static bound.** On a bare ring the static theorem bounds every equilibrium of the FE from above
 (:mod:`bridgefem.evidence`, evidence 4): ``bound.level``, the rigid-block LP on the same joints under the FE's own
-loads. The search never tries a level above it, its target T is the level whose width reaches just to it, and a
-step that converges within the width of it (``bound.level - lower <= tolerance * lower``) ends the search with the
-bracket [lower, bound.level] once ``bound.admissible`` has checked that converged state against the theorem's
+loads. The search never tries a level above the one whose width reaches just to it, its target T: a state that
+converges at T already ends the search with a bracket within the tolerance, while a level nearer the bound is at the
+FE's limit or beyond it, where the curve is flat and the Newton method struggles (campaign seed 1, #193 with 16
+elements: a step cut at the bound itself cycled for 28 iterations, 53 linear solves, and failed; T then converged in
+one). A step that converges within the width of it (``bound.level - lower <= tolerance * lower``) ends the search
+with the bracket [lower, bound.level] once ``bound.admissible`` has checked that converged state against the theorem's
 premises (its joint resultants within the LP's rows); a state that fails the check voids the bound and the search
 goes on without it. A failure below the bound ends the search by the bracket rule (sliding collapses of
 elastic blocks stop below the LP): the bound removes trials above it and ends a bracket that it already proves,
@@ -253,15 +256,6 @@ class LimitSearch:
     static: bool = False
 
 
-class SolveBudgetSpent(Exception):
-    """A search stopped by its ``solve_budget`` of linear solves (:func:`find_limit_load`); ``steps``: the steps it
-    took."""
-
-    def __init__(self, budget: int, steps: list[LoadStep]):
-        super().__init__(f"not settled within its budget of {budget} linear solves")
-        self.steps = steps
-
-
 @dataclass
 class StaticCap:
     """The static theorem's bound on a search (module docstring, *Static bound*): ``level`` the largest level at
@@ -289,8 +283,7 @@ class CollapseCheck:
 def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
                     initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
                     stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
-                    coarser: float | None = None, solve_budget: int | None = None,
-                    collapse: CollapseCheck | None = None,
+                    coarser: float | None = None, collapse: CollapseCheck | None = None,
                     report: Callable[[LoadStep], None] = lambda s: None,
                     converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
     """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
@@ -304,17 +297,12 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
     *Guess*), None on a first run.
-    ``solve_budget``: the linear solves the search may spend (None: no limit); a step gets at most as many Newton
-    iterations as solves are left, and the first step attempted after they are spent raises
-    :class:`SolveBudgetSpent` (every linear solve is collective: every rank counts the same solves and raises at the
-    same step).
     ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*; None:
     none), the same on every rank.
     ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
     with its state. Collective.
     """
-    spent = solver.stats["solves"] if solve_budget is not None else 0  # the solves before the search
-    attempt = _StepRecorder(solver, deflection, stiffness_drop, solve_budget, report, converged, spent)
+    attempt = _StepRecorder(solver, deflection, stiffness_drop, report, converged)
     steps = attempt.steps
     falls = bound is not None and bound.falls
     first = carry_self_weight(solver, attempt, falls)
@@ -356,15 +344,13 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
 class _StepRecorder:
     """Solves and records one load step (``LoadStep``), as ``attempt(level, start, ...)`` for the self-weight, the
     support movement and the live-load search; collective. ``k_initial``: the tangent stiffness after self-weight
-    (N/m; inf: no flatness check, module docstring, *Flat curve*); ``spent``: the linear solves before the search."""
+    (N/m; inf: no flatness check, module docstring, *Flat curve*)."""
 
     solver: ContactSolver
     deflection: Callable[[Iterate], float]
     stiffness_drop: float
-    solve_budget: int | None
     report: Callable[[LoadStep], None]
     converged: Callable[[LoadStep, Iterate], None]
-    spent: int
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
 
@@ -373,7 +359,6 @@ class _StepRecorder:
                  ) -> StepOutcome:
         """Solve ``level`` from the converged ``start`` at ``start_level`` (N per unit load factor), starting from
         the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step."""
-        iterations = self._within_budget(iterations)
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         solver = self.solver
@@ -391,16 +376,6 @@ class _StepRecorder:
         if step.converged:
             self.converged(step, out.iterate)
         return out
-
-    def _within_budget(self, iterations: int | None) -> int | None:
-        """A step's Newton iterations within the linear solves left of ``solve_budget``; raises
-        :class:`SolveBudgetSpent` when none are left."""
-        if self.solve_budget is None:
-            return iterations
-        left = math.ceil(self.solve_budget - (self.solver.stats["solves"] - self.spent))
-        if left <= 0:
-            raise SolveBudgetSpent(self.solve_budget, self.steps)
-        return min(iterations or left, left)
 
     def _flat(self, load: float, rise: float, out: StepOutcome) -> StepOutcome | None:
         """The converged ``out`` as a failed step with a mechanism when the load-deflection curve is flat there
@@ -489,7 +464,8 @@ class _Search:
     def next_trial(self) -> float:
         """The next trial level: the soft bound when due (*Bracket rule*, *Guess*), the closing trial above a state
         within the width of its collapse (*Collapse state*), an approach step to T (*Guess*), a bisection towards the
-        soft bound (*Bracket rule*), else the step (*Steps*); never above the maximum load or the static bound."""
+        soft bound (*Bracket rule*), else the step (*Steps*); never above the maximum load or the level whose width
+        reaches the static bound (*Static bound*)."""
         lower, soft, width = self.lower, self.soft, self.width
         if not self.stalled and (self.retry or soft - lower <= (width if self.plausible(soft) else SUSPECT * width)):
             trial = soft
@@ -503,7 +479,7 @@ class _Search:
             trial = max(0.5 * (lower + soft), _below(soft, self.tolerance)) if self.linear else 0.5 * (lower + soft)
         else:
             trial = lower + self.step
-        return min(trial, self.max_load, self.cap)
+        return min(trial, self.max_load, _below(self.cap, self.tolerance))
 
     def solve(self, trial: float) -> StepOutcome:
         """Solve ``trial`` from ``lower``: with the secant's predictor and start (*Predictor*) and the budget of a
