@@ -4,6 +4,7 @@ the target and the collapse-state readings (*Guess*, *Collapse state*). Every ex
 from the rule's words; states are stand-ins (the pieces only store them and hand them to the collapse check)."""
 import math
 
+import numpy as np
 import pytest
 
 from bridgefem.pathfollow import (APPROACH, BACKTRACK_STEP, BACKTRACKS, BUDGET, BUDGET_FLOOR, EASY_ITERATIONS,
@@ -74,15 +75,15 @@ def test_a_failure_becomes_the_soft_bound_and_later_trials_bisect_towards_it():
 
 def test_the_soft_bound_is_due_within_the_width_or_within_suspect_widths_when_suspect():
     b = climbed(1000.0, soft=1000.9)  # width 1.0
-    assert b.soft_due(suspect=False)
+    assert b.soft_due(suspect=False) and not b.soft_due(suspect=True)
+    b.soft = 1000.0 + 0.9 * SUSPECT
+    assert b.soft_due(suspect=True)
     b.soft = 1000.0 + 2.0
     assert not b.soft_due(suspect=False) and not b.soft_due(suspect=True)
     b.mark_retry(suspect=True)  # beyond the width and suspect: retried after a converged step
     assert b.retry and b.soft_due(suspect=True)
     b.mark_retry(suspect=False)
     assert not b.retry
-    b.soft = 1000.0 + 0.5 * SUSPECT
-    assert b.soft_due(suspect=True)
 
 
 def test_after_a_linear_step_the_bisection_tries_the_width_below_the_soft_bound_but_not_twice_in_a_row():
@@ -230,3 +231,16 @@ def test_no_collapse_reading_without_a_failure_above():
     t = _Target(5000.0, readings.check())
     t.read(climbed(900.0, 1000.0))
     assert t.foreseen is None and t.level == 5000.0 and not readings.read
+
+
+def test_the_closing_trial_above_a_state_at_its_collapse_closes_the_bracket_whatever_the_rounding():
+    """A state within the width of its collapse level, with a failure beyond the width, tries the width above it;
+    rounding never puts that trial outside the width, so its failure is decisive (seeded levels)."""
+    rng = np.random.default_rng(3)
+    for lower in rng.uniform(1e2, 1e7, 200):
+        b = climbed(0.5 * lower, lower, soft=1.1 * lower)
+        assert b.closes_at(lower + 0.5 * b.width) and b.closes_at(lower - 0.99 * b.width)
+        assert not b.closes_at(lower + 1.5 * b.width)
+        assert b.closing() > lower and b.ends(b.closing(), suspect=False, mechanism=True)
+    b.soft = lower + 0.5 * b.width  # the failure already lies within the width: nothing to close
+    assert not b.closes_at(lower)
