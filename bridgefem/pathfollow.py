@@ -347,11 +347,12 @@ class _StepRecorder:
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
 
-    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
+    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *, predictor: PETSc.Vec | None = None,
                  give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                  ) -> StepOutcome:
         """Solve ``level`` from the converged ``start`` at ``start_level`` (N per unit load factor), starting from
-        the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step."""
+        the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step;
+        ``predictor``, ``give_up`` and ``iterations`` go to :meth:`bridgefem.solver.ContactSolver.solve_step`."""
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         solver = self.solver
@@ -700,7 +701,7 @@ class _Search:
         predictor = secant if far else None  # two live-load states, not closing
         estimate = secant if self.plastic else None
         budget = self.schedule.budget(not self.plastic and b.failed_before(trial)) if far else None
-        out = self.attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
+        out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
         if not out.converged and self._final(trial, out) and not out.proved and (
                 not self.target.plausible(trial) or not out.mechanism):
             out = _settled(self.target.collapse, lower, trial, state, out) or retried(
