@@ -5,8 +5,10 @@ Levels are live-load levels in N per unit load factor. Every trial is solved fro
 The search (:class:`_Search`) repeats four stages until a rule below ends it: ``next_trial`` chooses the level
 (*Bracket rule*, *Guess*, *Steps*, *Collapse state*), ``solve`` solves it (*Predictor*, *Failures without proof*),
 ``take_converged`` moves ``lower`` up (*Static bound*, *Steps*) and ``take_failed`` backtracks, ends the search or
-halves the step; both then read the collapse state (*Collapse state*). ``_StepRecorder`` solves and records one
-step (*Flat curve*).
+halves the step; both then read the collapse state (*Collapse state*). The stages compose three pieces of state, one
+per job: the bracket and its backtracking (``_Bracket``: *Bracket rule*, *Guess*), the step schedule with the trial
+budget (``_Schedule``: *Steps*, *Failures without proof*) and the target with the collapse-state readings
+(``_Target``: *Guess*, *Collapse state*). ``_StepRecorder`` solves and records one step (*Flat curve*).
 
 **Bracket rule.** The limit load is [lower, upper] once a trial ``upper`` started from ``lower`` fails with
 ``upper - lower <= tolerance * lower`` (the *width*). A failure reached by a larger step proves nothing (the
@@ -171,7 +173,7 @@ import math
 import time
 from collections import deque
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 from petsc4py import PETSc
@@ -326,18 +328,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
     aim = _first_target(cap, guess, coarser, tolerance)
-    search = _Search(solver, attempt, tolerance, initial_step, max_load, bound, collapse, first.iterations,
-                     guess, settled, state, cap, aim, target=aim, step=initial_step, hardest=first.iterations,
-                     latest=first.iterations)
-    while len(steps) < max_steps:
-        if search.lower >= max_load:
-            return search.result(LOCKED)
-        trial = search.next_trial()
-        out = search.solve(trial)
-        found = search.take_converged(trial, out) if out.converged else search.take_failed(trial, out)
-        if found is not None:
-            return found
-    return search.result(Status.failure(f"bracket not closed within {max_steps} load steps"))
+    search = _Search(solver, attempt, max_load, bound, guess, settled, cap, _Bracket(tolerance, initial_step, state),
+                     _Schedule(initial_step, first.iterations, solver.material is not None), _Target(aim, collapse))
+    return search.run(max_steps)
 
 
 @dataclass
@@ -354,11 +347,12 @@ class _StepRecorder:
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
 
-    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, predictor: PETSc.Vec | None = None,
+    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *, predictor: PETSc.Vec | None = None,
                  give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                  ) -> StepOutcome:
         """Solve ``level`` from the converged ``start`` at ``start_level`` (N per unit load factor), starting from
-        the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step."""
+        the ``estimate``'s displacements and joint forces when given (:func:`_displaced`), and record the step;
+        ``predictor``, ``give_up`` and ``iterations`` go to :meth:`bridgefem.solver.ContactSolver.solve_step`."""
         t0 = time.perf_counter()
         begin = _displaced(start, estimate) if estimate is not None else start
         solver = self.solver
@@ -403,33 +397,30 @@ def _first_target(cap: float, guess: float | None, coarser: float | None, tolera
     return min(target, (1.0 - tolerance) * coarser) if coarser else target
 
 
-@dataclass
-class _Search:
-    """The live-load search of :func:`find_limit_load` from the settled state (module docstring): its inputs, then
-    its state. Levels in N per unit load factor. Every method is collective."""
+class _Converged(NamedTuple):
+    """A converged state of the search: its ``level`` (N per unit load factor), the ``state``, the step ``taken``
+    that reached it (N per unit load factor) and its ``visit``: the count of steps attempted when it was reached
+    (0: the settled state)."""
 
-    solver: ContactSolver
-    attempt: _StepRecorder  # solves and records one step
+    level: float
+    state: Iterate
+    taken: float
+    visit: int
+
+
+@dataclass
+class _Bracket:
+    """The bracket [lower, soft] and its backtracking (module docstring, *Bracket rule*, *Guess*): the converged
+    state at ``lower``, the converged states before it and the failures above it. Levels in N per unit load
+    factor."""
+
     tolerance: float
-    initial_step: float
-    max_load: float
-    bound: StaticCap | None
-    collapse: CollapseCheck | None
-    self_weight_iterations: int  # Newton iterations of the self-weight step (*Steps*)
-    guess: float | None
-    settled: Iterate  # the converged state at live load 0
+    initial_step: float  # the width at lower = 0 is that of 1e-9 x this level
     state: Iterate  # the converged state at ``lower``
-    cap: float  # the static bound (inf: none, or voided by a state outside its premises)
-    aim: float  # the target before any collapse state's estimate
-    target: float  # T (*Guess*, *Collapse state*)
-    step: float  # the next step (*Steps*)
-    hardest: int  # Newton iterations of the hardest converged step
-    latest: int  # Newton iterations of the step that reached lower
     lower: float = 0.0  # the last converged level
     taken: float = 0.0  # the step that reached lower
-    history: deque[tuple[float, Iterate, float, int]] = field(default_factory=lambda: deque(maxlen=BACKTRACK))
-    # earlier (level, state, taken, visit)
     visit: int = 0  # the converged state's number: the count of steps attempted when it was reached (0: the settled)
+    history: deque[_Converged] = field(default_factory=lambda: deque(maxlen=BACKTRACK))  # the converged states before
     failed_from: set[tuple[int, float]] = field(default_factory=set)  # (visit, level) of the trials that failed
     soft: float = math.inf  # lowest failed level above lower
     retry: bool = False  # the next trial retries the soft bound
@@ -437,9 +428,219 @@ class _Search:
     backtracks: int = 0
     linear: bool = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
     failed_step: float = 0.0  # the step whose failure set the soft bound
-    foreseen: float | None = None  # the converged state's settled collapse level (*Collapse state*; None: none)
+
+    @property
+    def width(self) -> float:
+        """The bracket's width at ``lower`` (*Bracket rule*)."""
+        return self.tolerance * max(self.lower, 1e-9 * self.initial_step)
+
+    def soft_due(self, suspect: bool) -> bool:
+        """The next trial is the soft bound: it is to be retried, or it lies within the width of lower (``SUSPECT``
+        widths when a failure there is ``suspect``), unless it failed from lower without proof (*Bracket rule*,
+        *Guess*)."""
+        width = self.width
+        return not self.stalled and (self.retry or self.soft - self.lower <= (SUSPECT * width if suspect else width))
+
+    def closes_at(self, level: float) -> bool:
+        """``level`` lies within the width of lower while the soft bound lies beyond it: a trial the width above
+        lower can close the bracket there (*Collapse state*)."""
+        return abs(level - self.lower) <= self.width < self.soft - self.lower
+
+    def closing(self) -> float:
+        """The trial the width above lower (*Collapse state*)."""
+        return self.lower + CLOSE * self.width
+
+    def bisection(self) -> float:
+        """The trial between lower and the soft bound: the midpoint, after a linear step the width below the soft
+        bound when that is higher (*Bracket rule*)."""
+        middle = 0.5 * (self.lower + self.soft)
+        return max(middle, _below(self.soft, self.tolerance)) if self.linear else middle
+
+    def failed_here(self, level: float) -> bool:
+        """A trial at ``level`` already failed from the converged state at lower (*Guess*)."""
+        return (self.visit, level) in self.failed_from
+
+    def failed_before(self, level: float) -> bool:
+        """A trial at ``level`` already failed, from any state (*Failures without proof*)."""
+        return any(failed == level for _, failed in self.failed_from)
+
+    def advance(self, level: float, state: Iterate, visit: int, iterations: int) -> None:
+        """Move lower to ``level``, converged in ``iterations`` Newton iterations to ``state`` at ``visit``; the
+        state left joins the history (*Bracket rule*)."""
+        jump = self.linear and level == _below(self.soft, self.tolerance)
+        self.linear = iterations == 1 and not jump
+        self.history.append(_Converged(self.lower, self.state, self.taken, self.visit))
+        self.visit, self.taken = visit, level - self.lower
+        self.lower, self.state, self.stalled = level, state, False
+
+    def reach_soft(self) -> bool:
+        """Whether lower reached the soft bound, which it then discards (*Bracket rule*)."""
+        reached = self.lower >= self.soft
+        if reached:
+            self.soft = math.inf
+        return reached
+
+    def mark_retry(self, suspect: bool) -> None:
+        """After a converged step, retry a ``suspect`` soft bound while it lies beyond the width (*Guess*)."""
+        self.retry = self.soft - self.lower > self.tolerance * self.lower and suspect
+
+    def fail(self, level: float) -> None:
+        """Record the failure of the trial at ``level`` from lower."""
+        self.linear = False
+        self.failed_from.add((self.visit, level))
+
+    def backs_away(self, level: float, suspect: bool) -> bool:
+        """A ``suspect`` failure at ``level`` within the width of lower, a state reached by a step of more than
+        ``SETTLED`` widths, backtracks, at most ``BACKTRACKS`` times (*Guess*)."""
+        width = self.width
+        return (suspect and level - self.lower <= width and self.taken > SETTLED * width and bool(self.history)
+                and self.backtracks < BACKTRACKS)
+
+    def backtrack(self) -> float:
+        """Back to the converged state before lower, without a soft bound; returns the step that reached the
+        discarded state (*Guess*)."""
+        discarded = self.taken
+        self.backtracks += 1
+        self.lower, self.state, self.taken, self.visit = self.history.pop()
+        self.soft, self.retry = math.inf, False
+        return discarded
+
+    def ends(self, level: float, suspect: bool, mechanism: bool) -> bool:
+        """A failure at ``level`` ends the search: one with a ``mechanism``, a ``suspect`` one or one within
+        ``SUBSTEP`` widths of lower, from a step of at most the width (``SUSPECT`` widths when suspect), unless it
+        backtracks (*Bracket rule*, *Guess*, *Failures without proof*)."""
+        rise, width = level - self.lower, self.width
+        return (mechanism or suspect or rise <= SUBSTEP * width) \
+            and rise <= (SUSPECT * width if suspect else width) and not self.backs_away(level, suspect)
+
+    def soften(self, level: float) -> None:
+        """The failure at ``level`` becomes the soft bound, stalled when it failed within the width of lower
+        (*Bracket rule*)."""
+        self.failed_step = level - self.lower if level < self.soft else self.failed_step
+        self.soft, self.retry = level, False
+        self.stalled = level - self.lower <= self.width
+
+
+@dataclass
+class _Schedule:
+    """The step schedule and the Newton iteration budget of a trial (module docstring, *Steps*, *Failures without
+    proof*). Steps in N per unit load factor."""
+
+    step: float  # the next step (first: the initial step)
+    self_weight_iterations: int  # Newton iterations of the self-weight step
+    plastic: bool  # a plastic fill: a step of no more iterations than the one before it is easy too
+    hardest: int = field(init=False)  # Newton iterations of the hardest converged step
+    latest: int = field(init=False)  # Newton iterations of the step that reached lower
+
+    def __post_init__(self) -> None:
+        self.hardest = self.latest = self.self_weight_iterations
+
+    def budget(self, again: bool) -> int:
+        """Newton iterations of a trial that cannot close the bracket (*Failures without proof*): ``BUDGET`` times
+        those of the hardest converged step, at least ``BUDGET_FLOOR``; for a level that failed before (``again``),
+        at most ``BUDGET`` times those of the latest step (the one that reached lower), at least ``RETRY_FLOOR``."""
+        budget = max(BUDGET_FLOOR, BUDGET * self.hardest)
+        return min(budget, max(RETRY_FLOOR, BUDGET * self.latest)) if again else budget
+
+    def converged(self, iterations: int, taken: float, width: float | None = None, failed: float | None = None
+                  ) -> None:
+        """Count the ``iterations`` of the converged step ``taken`` and set the next step (*Steps*): the ``width``
+        when the step arrived at T, else twice the step taken when it was easy and the step taken when not, at
+        least half the ``failed`` step whose soft bound it cleared (None: none cleared)."""
+        easy = iterations <= max(EASY_ITERATIONS, self.self_weight_iterations) or (
+            self.plastic and iterations <= self.latest)
+        self.hardest = max(self.hardest, iterations)
+        self.latest = iterations
+        if width is not None:
+            self.step = width
+            return
+        self.step = 2.0 * taken if easy else taken
+        self.step = max(self.step, 0.5 * failed) if failed is not None else self.step
+
+    def halve(self, failed: float) -> None:
+        """After the ``failed`` step set a soft bound, the next step is half of it (*Steps*)."""
+        self.step = 0.5 * failed
+
+    def back_off(self, discarded: float) -> None:
+        """After a backtrack, the next step is ``BACKTRACK_STEP`` of the step that reached the ``discarded`` state
+        (*Guess*)."""
+        self.step = BACKTRACK_STEP * discarded
+
+
+@dataclass
+class _Target:
+    """The search's target T and the collapse-state readings that lower it (module docstring, *Guess*, *Collapse
+    state*). Levels in N per unit load factor; every reading is collective."""
+
+    aim: float  # T before any collapse state's estimate (of the guess, the static bound, a coarser run; inf: none)
+    collapse: CollapseCheck | None
+    level: float = field(init=False)  # T
+    foreseen: float | None = None  # the converged state's settled collapse level (None: none)
     readings: dict[int, float | None] = field(default_factory=dict)  # each read state's collapse level, by visit
     risen: set[int] = field(default_factory=set)  # the states whose collapse level rose too fast to be settled
+
+    def __post_init__(self) -> None:
+        self.level = self.aim
+
+    def plausible(self, level: float) -> bool:
+        """A failure at ``level`` does not contradict the target (*Guess*)."""
+        return self.level == math.inf or level >= (1.0 - PLAUSIBLE) * self.level
+
+    def approach(self, lower: float, step: float, failed_here: bool) -> float:
+        """The approach step from ``lower`` (*Guess*): ``APPROACH`` of the distance to T left, at most ``step``
+        long, to T itself when that leaves at most ``LANDING`` x T, unless T already ``failed_here``."""
+        trial = min(self.level - APPROACH * (self.level - lower), lower + step)
+        landing = self.level - trial <= LANDING * self.level and not failed_here
+        return self.level if landing else trial
+
+    def read(self, bracket: _Bracket) -> None:
+        """The converged state's settled collapse level and the target it sets: ``aim``, or while a failure lies
+        above the state, the level ``STRADDLE`` widths below that settled level when that is lower (*Collapse
+        state*)."""
+        self.foreseen = self._settled_collapse(bracket)
+        if self.foreseen is None or bracket.soft == math.inf:
+            self.level = self.aim
+        else:
+            self.level = min(self.aim, self.foreseen / (1.0 + STRADDLE * bracket.tolerance))
+
+    def _reading(self, at: Iterate, number: int) -> float | None:
+        """The collapse level of the converged state ``at`` (visit ``number``), read once."""
+        if number not in self.readings:
+            self.readings[number] = self.collapse.level(at)
+        return self.readings[number]
+
+    def _settled_collapse(self, bracket: _Bracket) -> float | None:
+        """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
+        (*Collapse state*), else None; read only then, once per state, and no longer after ``RISINGS`` states whose
+        level rose too fast."""
+        if self.collapse is None or bracket.soft == math.inf or not bracket.history or len(self.risen) >= RISINGS:
+            return None
+        previous = bracket.history[-1]
+        now = self._reading(bracket.state, bracket.visit)
+        before = self._reading(previous.state, previous.visit)
+        if now is not None and before is not None and now - before > RISE * bracket.taken:
+            self.risen.add(bracket.visit)
+        if now is None or before is None or bracket.visit in self.risen:
+            return None
+        return min(now, bracket.lower + (now - bracket.lower) / (1.0 - (now - before) / bracket.taken))
+
+
+@dataclass
+class _Search:
+    """The live-load search of :func:`find_limit_load` from the settled state (module docstring): its inputs, the
+    bracket (:class:`_Bracket`), the step schedule (:class:`_Schedule`) and the target (:class:`_Target`), and the
+    four stages that compose them. Levels in N per unit load factor. Every method is collective."""
+
+    solver: ContactSolver
+    attempt: _StepRecorder  # solves and records one step
+    max_load: float
+    bound: StaticCap | None
+    guess: float | None
+    settled: Iterate  # the converged state at live load 0
+    cap: float  # the static bound (inf: none, or voided by a state outside its premises)
+    bracket: _Bracket
+    schedule: _Schedule
+    target: _Target
 
     @property
     def steps(self) -> list[LoadStep]:
@@ -447,18 +648,28 @@ class _Search:
         return self.attempt.steps
 
     @property
-    def width(self) -> float:
-        """The bracket's width at ``lower`` (*Bracket rule*)."""
-        return self.tolerance * max(self.lower, 1e-9 * self.initial_step)
+    def plastic(self) -> bool:
+        """The structure has a plastic fill (*Steps*, *Predictor*)."""
+        return self.solver.material is not None
 
-    def plausible(self, level: float) -> bool:
-        """A failure at ``level`` does not contradict the target (*Guess*)."""
-        return self.target == math.inf or level >= (1.0 - PLAUSIBLE) * self.target
+    def run(self, max_steps: int) -> LimitSearch:
+        """The four stages until a rule ends the search, the maximum load is carried or ``max_steps`` steps were
+        attempted."""
+        while len(self.steps) < max_steps:
+            if self.bracket.lower >= self.max_load:
+                return self.result(LOCKED)
+            trial = self.next_trial()
+            out = self.solve(trial)
+            found = self.take_converged(trial, out) if out.converged else self.take_failed(trial, out)
+            if found is not None:
+                return found
+        return self.result(Status.failure(f"bracket not closed within {max_steps} load steps"))
 
     def result(self, status: str, upper: float | None = None, failure: str = "", proved: bool = False,
                static: bool = False) -> LimitSearch:
         """The search's outcome with ``status`` and the bracket [lower, ``upper``]."""
-        return LimitSearch(status, self.lower, upper, self.tolerance, self.steps, self.state, failure, self.guess,
+        b = self.bracket
+        return LimitSearch(status, b.lower, upper, b.tolerance, self.steps, b.state, failure, self.guess,
                            self.settled, proved, static)
 
     def next_trial(self) -> float:
@@ -466,79 +677,57 @@ class _Search:
         within the width of its collapse (*Collapse state*), an approach step to T (*Guess*), a bisection towards the
         soft bound (*Bracket rule*), else the step (*Steps*); never above the maximum load or the level whose width
         reaches the static bound (*Static bound*)."""
-        lower, soft, width = self.lower, self.soft, self.width
-        if not self.stalled and (self.retry or soft - lower <= (width if self.plausible(soft) else SUSPECT * width)):
-            trial = soft
-        elif self.foreseen is not None and abs(self.foreseen - lower) <= width < soft - lower:
-            trial = lower + CLOSE * width
-        elif lower < self.target < soft:
-            trial = min(self.target - APPROACH * (self.target - lower), lower + self.step)
-            landing = self.target - trial <= LANDING * self.target and (self.visit, self.target) not in self.failed_from
-            trial = self.target if landing else trial
-        elif soft < math.inf:
-            trial = max(0.5 * (lower + soft), _below(soft, self.tolerance)) if self.linear else 0.5 * (lower + soft)
+        b, target = self.bracket, self.target
+        if b.soft_due(not target.plausible(b.soft)):
+            trial = b.soft
+        elif target.foreseen is not None and b.closes_at(target.foreseen):
+            trial = b.closing()
+        elif b.lower < target.level < b.soft:
+            trial = target.approach(b.lower, self.schedule.step, b.failed_here(target.level))
+        elif b.soft < math.inf:
+            trial = b.bisection()
         else:
-            trial = lower + self.step
-        return min(trial, self.max_load, _below(self.cap, self.tolerance))
+            trial = b.lower + self.schedule.step
+        return min(trial, self.max_load, _below(self.cap, b.tolerance))
 
     def solve(self, trial: float) -> StepOutcome:
         """Solve ``trial`` from ``lower``: with the secant's predictor and start (*Predictor*) and the budget of a
         trial that cannot close the bracket; a failure that would end the search without proof, or a suspect one, is
         settled by the collapse state or retried (*Failures without proof*)."""
-        lower, state, width = self.lower, self.state, self.width
-        secant = _secant(self.history[-1], lower, state, trial) if self.history and self.history[-1][0] > 0 else None
-        predictor = secant if trial - lower > width else None  # two live-load states, not closing
-        estimate = secant if self.solver.material is not None else None
-        again = self.solver.material is None and any(level == trial for _, level in self.failed_from)
-        budget = _trial_budget(self.hardest, self.latest, again) if trial - lower > width else None
-        out = self.attempt(trial, state, lower, predictor, give_up=True, iterations=budget, estimate=estimate)
+        b = self.bracket
+        lower, state = b.lower, b.state
+        secant = _secant(b.history[-1], lower, state, trial) if b.history and b.history[-1].level > 0 else None
+        far = trial - lower > b.width  # cannot close the bracket
+        predictor = secant if far else None  # two live-load states, not closing
+        estimate = secant if self.plastic else None
+        budget = self.schedule.budget(not self.plastic and b.failed_before(trial)) if far else None
+        out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
         if not out.converged and self._final(trial, out) and not out.proved and (
-                not self.plausible(trial) or not out.mechanism):
-            out = _settled(self.collapse, lower, trial, state, out) or retried(
+                not self.target.plausible(trial) or not out.mechanism):
+            out = _settled(self.target.collapse, lower, trial, state, out) or retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
         return out
 
-    def _backtrack(self, trial: float) -> bool:
-        """A suspect failure at ``trial`` from a state reached by a step of more than ``SETTLED`` widths backtracks
-        (*Guess*)."""
-        return (not self.plausible(trial) and trial - self.lower <= self.width
-                and self.taken > SETTLED * self.width and bool(self.history) and self.backtracks < BACKTRACKS)
-
     def _final(self, trial: float, out: StepOutcome) -> bool:
-        """The failure ``out`` at ``trial`` ends the search (*Bracket rule*, *Guess*, *Failures without proof*); the
-        same before and after its retries, which run only when it holds without a mechanism or with a suspect
-        trial."""
-        suspect, rise, width = not self.plausible(trial), trial - self.lower, self.width
-        return (out.mechanism or suspect or rise <= SUBSTEP * width) \
-            and rise <= (SUSPECT * width if suspect else width) and not self._backtrack(trial)
+        """The failure ``out`` at ``trial`` ends the search (:meth:`_Bracket.ends`); the same before and after its
+        retries, which run only when it holds without a mechanism or with a suspect trial."""
+        return self.bracket.ends(trial, not self.target.plausible(trial), out.mechanism)
 
     def take_converged(self, trial: float, out: StepOutcome) -> LimitSearch | None:
         """Move ``lower`` to the converged ``trial``: the static bound's end (*Static bound*), the soft bound cleared
         at or below it, the collapse-state reading and the next step (*Steps*). The outcome when the search ends."""
-        jump = self.linear and trial == _below(self.soft, self.tolerance)
-        self.linear = out.iterations == 1 and not jump
-        self.hardest = max(self.hardest, out.iterations)
-        easy = out.iterations <= max(EASY_ITERATIONS, self.self_weight_iterations) or (
-            self.solver.material is not None and out.iterations <= self.latest)
-        self.latest = out.iterations
-        self.history.append((self.lower, self.state, self.taken, self.visit))
-        self.visit = len(self.steps)
-        self.taken, arrived = trial - self.lower, self.lower < self.target <= trial
-        self.lower, self.state, self.stalled = trial, self.solver.converged_slip_reference(out.iterate), False
-        if self.cap - self.lower <= self.tolerance * self.lower:
+        b, target = self.bracket, self.target
+        arrived = b.lower < target.level <= trial
+        b.advance(trial, self.solver.converged_slip_reference(out.iterate), len(self.steps), out.iterations)
+        if self.cap - b.lower <= b.tolerance * b.lower:
             ended = self._static_end(out.iterate)
             if ended is not None:
                 return ended
-        cleared = self.lower >= self.soft and self.solver.material is None
-        if self.lower >= self.soft:
-            self.soft = math.inf
-        self._read_collapse()
-        self.retry = self.soft - self.lower > self.tolerance * self.lower and not self.plausible(self.soft)
-        if arrived:
-            self.step = CLOSE * self.tolerance * self.lower
-        else:
-            self.step = 2.0 * self.taken if easy else self.taken
-            self.step = max(self.step, 0.5 * self.failed_step) if cleared else self.step
+        cleared = b.reach_soft() and not self.plastic
+        target.read(b)
+        b.mark_retry(not target.plausible(b.soft))
+        self.schedule.converged(out.iterations, b.taken, CLOSE * b.tolerance * b.lower if arrived else None,
+                                b.failed_step if cleared else None)
         return None
 
     def _static_end(self, iterate: Iterate) -> LimitSearch | None:
@@ -554,56 +743,19 @@ class _Search:
 
     def take_failed(self, trial: float, out: StepOutcome) -> LimitSearch | None:
         """The failed ``trial``: a backtrack (*Guess*), the end of the search (*Bracket rule*), else a soft bound and
-        a halved step. The outcome when the search ends."""
-        self.linear = False
-        self.failed_from.add((self.visit, trial))
-        if self._backtrack(trial):
-            self.step, self.backtracks = BACKTRACK_STEP * self.taken, self.backtracks + 1
-            self.lower, self.state, self.taken, self.visit = self.history.pop()
-            self.soft, self.retry = math.inf, False
+        a halved step (*Steps*); then the collapse-state reading. The outcome when the search ends."""
+        b = self.bracket
+        b.fail(trial)
+        if b.backs_away(trial, not self.target.plausible(trial)):
+            self.schedule.back_off(b.backtrack())
         elif self._final(trial, out):
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
             return self.result(status, trial if out.mechanism else None, out.reason, out.proved)
         else:
-            self.failed_step = trial - self.lower if trial < self.soft else self.failed_step
-            self.soft, self.step, self.retry = trial, 0.5 * (trial - self.lower), False
-            self.stalled = trial - self.lower <= self.width
-        self._read_collapse()
+            self.schedule.halve(trial - b.lower)
+            b.soften(trial)
+        self.target.read(b)
         return None
-
-    def _read_collapse(self) -> None:
-        """The converged state's settled collapse level and the target it sets (*Collapse state*)."""
-        self.foreseen = self._settled_collapse()
-        self.target = _aimed(self.aim, self.foreseen, self.soft, self.tolerance)
-
-    def _reading(self, at: Iterate, number: int) -> float | None:
-        """The collapse level of the converged state ``at`` (visit ``number``), read once (*Collapse state*)."""
-        if number not in self.readings:
-            self.readings[number] = self.collapse.level(at)
-        return self.readings[number]
-
-    def _settled_collapse(self) -> float | None:
-        """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
-        (module docstring, *Collapse state*), else None; read only then, once per state, and no longer after
-        ``RISINGS`` states whose level rose too fast."""
-        if self.collapse is None or self.soft == math.inf or not self.history or len(self.risen) >= RISINGS:
-            return None
-        now = self._reading(self.state, self.visit)
-        before = self._reading(self.history[-1][1], self.history[-1][3])
-        if now is not None and before is not None and now - before > RISE * self.taken:
-            self.risen.add(self.visit)
-        if now is None or before is None or self.visit in self.risen:
-            return None
-        return min(now, self.lower + (now - self.lower) / (1.0 - (now - before) / self.taken))
-
-
-def _aimed(aim: float, foreseen: float | None, soft: float, tolerance: float) -> float:
-    """The search's target (N per unit load factor): ``aim`` (of the guess, the static bound, a coarser run), or
-    while a failure ``soft`` lies above the converged state, the level ``STRADDLE`` widths below that state's settled
-    collapse level ``foreseen`` when that is lower (module docstring, *Collapse state*; None: none)."""
-    if foreseen is None or soft == math.inf:
-        return aim
-    return min(aim, foreseen / (1.0 + STRADDLE * tolerance))
 
 
 def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
@@ -618,25 +770,16 @@ def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: 
                                                   f"state: {check}") if settles else None
 
 
-def _trial_budget(hardest: int, latest: int, again: bool) -> int:
-    """Newton iterations of a trial that cannot close the bracket (module docstring, *Failures without proof*):
-    ``BUDGET`` times those of the ``hardest`` converged step, at least ``BUDGET_FLOOR``; for a level that failed
-    before (``again``), at most ``BUDGET`` times those of the ``latest`` step (the one that reached lower), at least
-    ``RETRY_FLOOR``."""
-    budget = max(BUDGET_FLOOR, BUDGET * hardest)
-    return min(budget, max(RETRY_FLOOR, BUDGET * latest)) if again else budget
-
-
 def _below(level: float, tolerance: float) -> float:
     """The level whose width reaches just to ``level`` (N per unit load factor): a failure at ``level`` from there
     closes the bracket."""
     return level / (1.0 + CLOSE * tolerance)
 
 
-def _secant(previous: tuple[float, Iterate, float, int], level: float, state: Iterate, trial: float) -> PETSc.Vec:
-    """The combined vector extrapolated to ``trial`` along the secant from the converged ``previous`` (level,
-    state, step, visit) to ``state`` at ``level`` (levels in N per unit load factor)."""
-    before, earlier = previous[:2]
+def _secant(previous: _Converged, level: float, state: Iterate, trial: float) -> PETSc.Vec:
+    """The combined vector extrapolated to ``trial`` along the secant from the converged ``previous`` to ``state``
+    at ``level`` (levels in N per unit load factor)."""
+    before, earlier = previous.level, previous.state
     x = state.x.copy()
     x.axpy((trial - level) / (level - before), state.x - earlier.x)
     return x
