@@ -391,42 +391,80 @@ class _Failure(NamedTuple):
     slides: bool = False  # the solve diverged along a mode that slips pairs against their friction force
 
 
-@dataclass
-class _NewtonStep:
-    """The state of one load step's Newton iteration (:meth:`ContactSolver._newton`)."""
+@dataclass(frozen=True)
+class _StepTask:
+    """What one load step solves, and its limits: fixed for the step."""
 
     level: float  # live-load level (N per unit load factor)
     start: Iterate  # the converged start
-    x: PETSc.Vec  # the current iterate [u; lam]
-    active: ContactState  # the active set solved next
     f_scale: float  # the largest applied nodal force (N)
     budget: int  # Newton iterations
     chains: float  # recovered damping chains after which a failure ends the step
     searching: bool  # every Newton step is line searched (the module's *Line search*)
     first_factorisation: int  # the solver's factorisations before the step
-    frozen: np.ndarray  # local pairs whose friction state cycled: kept sticking while closed
-    bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and sticking
-    churn: np.ndarray  # the proposals of this step that changed each local pair
-    near: PETSc.Vec  # the last solved iterate: the proximal term's anchor
-    anchor: PETSc.Vec | None  # the line search's linearisation point
-    plastic: np.ndarray | None  # the fill's trial plastic strain at x
-    it: int = 0  # the current iteration
-    key: int = 0  # the global key of the set solved in this iteration
-    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
-    base: _Proposal | None = None  # the last good active set and what it proposed
-    predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
-    singular: _Failure | None = None  # the last singular proposal
-    fix: ContactState | None = None  # the repair of the set whose solve failed last
-    condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
-    repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
-    proximal: dict = field(default_factory=dict)  # sets solved with the proximal term: key -> their plain failure
-    proximal_sets: int = 0
-    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+
+
+@dataclass
+class _Recovery:
+    """A step's failed solves and their recovery (the module's *Damping chains* and *Mechanism verdicts*)."""
+
     damping: bool = False  # in a damping chain
     recovered: int = 0  # damping chains that ended with a solved active set
     mechanisms: int = 0  # failed solves that were singular or diverged along an admissible mode
+    singular: _Failure | None = None  # the last singular proposal
+    fix: ContactState | None = None  # the repair of the set whose solve failed last
+    repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
+
+    def solved(self) -> None:
+        """A set solved: the damping chain, if one was open, ended and recovered."""
+        self.recovered, self.damping = self.recovered + self.damping, False
+
+
+@dataclass
+class _CycleMemory:
+    """The active sets a step visited and the pairs its cycles held (the module's step 5), per local pair."""
+
+    frozen: np.ndarray  # local pairs whose friction state cycled: kept sticking while closed
+    bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and sticking
+    churn: np.ndarray  # the proposals of this step that changed each local pair
+    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
+    condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
+
+    @classmethod
+    def empty(cls, pairs: int) -> "_CycleMemory":
+        """No pair held or changed yet, for ``pairs`` local pairs."""
+        return cls(np.zeros(pairs, dtype=bool), np.zeros(pairs, dtype=bool), np.zeros(pairs, dtype=np.int64))
+
+
+@dataclass
+class _ProximalSolves:
+    """The active sets a step solved with the proximal term (the module's *Proximal solves*)."""
+
+    sets: dict = field(default_factory=dict)  # global key -> the set's plain failure
+    count: int = 0  # sets solved with the proximal term in this step
+    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+
+
+@dataclass
+class _NewtonStep:
+    """The state of one load step's Newton iteration (:meth:`ContactSolver._newton`): its task, the iterate and
+    what the iteration remembers of its failed solves, its cycles and its proximal solves."""
+
+    task: _StepTask
+    x: PETSc.Vec  # the current iterate [u; lam]
+    active: ContactState  # the active set solved next
+    near: PETSc.Vec  # the last solved iterate: the proximal term's anchor
+    anchor: PETSc.Vec | None  # the line search's linearisation point
+    plastic: np.ndarray | None  # the fill's trial plastic strain at x
+    memory: _CycleMemory
+    it: int = 0  # the current iteration
+    key: int = 0  # the global key of the set solved in this iteration
+    base: _Proposal | None = None  # the last good active set and what it proposed
+    predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
     merit: float = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
     residual: float = np.inf  # the scaled out-of-balance force of the last solved iterate
+    recovery: _Recovery = field(default_factory=_Recovery)
+    proximal: _ProximalSolves = field(default_factory=_ProximalSolves)
 
 
 class ContactSolver:
@@ -587,15 +625,15 @@ class ContactSolver:
         vector); the first active set solved is its classification against ``start`` (the module's *Predictor*).
         """
         step = self._begin(level, start, predictor, give_up, iterations)
-        for it in range(1, step.budget + 1):
+        for it in range(1, step.task.budget + 1):
             step.it = it
             outcome = self._iteration(step)
             if outcome is not None:
                 return outcome
         if self.material is not None and step.residual > 1.0:
             return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
-                                     f"nodal force after {step.budget} iterations")
-        return self._ended(step, f"max iterations ({step.budget}) reached with the active set still changing")
+                                     f"nodal force after {step.task.budget} iterations")
+        return self._ended(step, f"max iterations ({step.task.budget}) reached with the active set still changing")
 
     def _begin(self, level: float, start: Iterate, predictor: PETSc.Vec | None, give_up: bool,
                iterations: int | None) -> _NewtonStep:
@@ -608,21 +646,21 @@ class ContactSolver:
         searching = self.material is not None or self.setting.line_search  # the module's *Line search*
         x = self.system.vector()
         start.x.copy(x)
-        step = _NewtonStep(
-            level, start, x, active,
-            f_scale=max(self.system.norm_inf(self.system.loads(level)), 1e-300),
+        task = _StepTask(
+            level, start, f_scale=max(self.system.norm_inf(self.system.loads(level)), 1e-300),
             budget=self.max_iterations if iterations is None else min(iterations, self.max_iterations),
             chains=DAMPING_CHAINS if give_up and not self.setting.patient else np.inf, searching=searching,
-            first_factorisation=self.stats["factorisations"], frozen=np.zeros(len(self.pairs), dtype=bool),
-            bonded=np.zeros(len(self.pairs), dtype=bool), churn=np.zeros(len(self.pairs), dtype=np.int64),
-            near=start.x.copy(), anchor=start.x.copy() if searching else None, plastic=start.plastic_strain)
+            first_factorisation=self.stats["factorisations"])
+        memory = _CycleMemory.empty(len(self.pairs))
+        step = _NewtonStep(task, x, active, near=start.x.copy(), anchor=start.x.copy() if searching else None,
+                           plastic=start.plastic_strain, memory=memory)
         if self.material is not None:  # the elastic predictor: robust at unloading points
             self.system.linearise(x, start.plastic_strain, elastic=True)
         if predictor is not None:
-            step.predicted = self._predict(predictor, active, start.slip_ref, step.frozen)
+            step.predicted = self._predict(predictor, active, start.slip_ref, step.memory.frozen)
         if step.predicted is not None:  # no solved active set yet: a failure proves nothing
             step.base, step.active = step.predicted, step.predicted.proposal
-        step.seen = {self._global_key(step.active)}  # the start's set is visited only once solved at this level
+        step.memory.seen = {self._global_key(step.active)}  # the start's set: visited only once solved at this level
         return step
 
     def _iteration(self, step: _NewtonStep) -> StepOutcome | None:
@@ -651,31 +689,37 @@ class ContactSolver:
         anchored at the last solved iterate), checked; a proximal set that drifts keeps its plain failure without a
         solve (the module's *Proximal solves*). Returns None or the failure. Collective."""
         step.key = self._global_key(step.active)
-        if step.drift is not None:
-            return step.drift
-        return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
-                                  step.near if step.key in step.proximal else None, step.near)
+        if step.proximal.drift is not None:
+            return step.proximal.drift
+        return self._solve_current(step, step.key in step.proximal.sets)
+
+    def _solve_current(self, step: _NewtonStep, proximal: bool) -> _Failure | None:
+        """Solve the active set's system at the step's level into x, checked against the step's start (with
+        ``proximal``: its proximal system anchored at the last solved iterate). Collective."""
+        task = step.task
+        return self._solve_active(task.level, step.active, task.start.slip_ref, step.x, task.start.x,
+                                  step.near if proximal else None, step.near)
 
     def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
         repair of an inadmissible mode); a set whose first failure diverges along a mode that slips pairs against
         their friction force is solved again with the proximal term (the module's *Proximal solves*). Returns
         the failure that stands, or None. Collective."""
-        if step.drift is not None:  # a proximal set that drifts: its plain failure, no solve
-            step.fix, step.drift, self._unbounded = step.repairs.get(step.key), None, True
+        recovery, proximal = step.recovery, step.proximal
+        if proximal.drift is not None:  # a proximal set that drifts: its plain failure, no solve
+            recovery.fix, proximal.drift, self._unbounded = recovery.repairs.get(step.key), None, True
             return failure
-        step.singular = failure if failure.mechanism else step.singular
+        recovery.singular = failure if failure.mechanism else recovery.singular
         self._unbounded = failure.mechanism or failure.unbounded
         self._diverged |= self._unbounded
-        step.mechanisms += failure.mechanism
-        step.fix = self._repaired(step.active, failure.repair, step.frozen)
-        if step.fix is not None:
-            step.repairs[step.key] = step.fix
-        if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
+        recovery.mechanisms += failure.mechanism
+        recovery.fix = self._repaired(step.active, failure.repair, step.memory.frozen)
+        if recovery.fix is not None:
+            recovery.repairs[step.key] = recovery.fix
+        if not recovery.damping and failure.slides and proximal.count < PROXIMAL_SETS and (
                 step.base is None or self._count(_changes(step.active, step.base.good)) <= PROXIMAL_CHANGES):
-            step.proximal[step.key], step.proximal_sets = failure, step.proximal_sets + 1
-            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near,
-                                      step.near)
+            proximal.sets[step.key], proximal.count = failure, proximal.count + 1
+            return self._solve_current(step, True)
         return failure
 
     def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
@@ -685,19 +729,20 @@ class ContactSolver:
         inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step
         (a mechanism without proof, unless the set was predicted), as it does once ``chains`` damping chains have
         recovered. Collective."""
-        if step.recovered >= step.chains and not step.damping:
-            return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
+        recovery = step.recovery
+        if recovery.recovered >= step.task.chains and not recovery.damping:
+            return self._ended(step, f"no convergence: a proposed active set failed again after {recovery.recovered} "
                                      f"damping chain(s): {failure.message}",
-                               mechanism=failure.mechanism and step.mechanisms > 1)
-        step.damping = True
+                               mechanism=failure.mechanism and recovery.mechanisms > 1)
+        recovery.damping = True
         damped = self._damp(step.base) if step.base is not None else None
         if damped is None and not failure.mechanism and self._freeze_at_cone(step):
             return None
-        if damped is None and step.fix is not None:
-            fix = self._global_key(step.fix)
-            if fix not in step.seen:
-                step.seen.add(fix)
-                step.active = step.fix
+        if damped is None and recovery.fix is not None:
+            fix = self._global_key(recovery.fix)
+            if fix not in step.memory.seen:
+                step.memory.seen.add(fix)
+                step.active = recovery.fix
                 return None
         if damped is None:
             return self._ended(step, failure.message, mechanism=failure.mechanism and step.predicted is None)
@@ -708,13 +753,12 @@ class ContactSolver:
         """Step 4: a solved set ends the damping chain; with a line search (the module's *Line search*) the step is
         backtracked from the linearisation point, which moves to the accepted iterate. Returns the fill's response
         there (None without a plastic fill). Collective."""
-        step.recovered, step.damping, step.predicted = step.recovered + step.damping, False, None
-        self._unbounded = False
-        if not step.searching:
+        step.recovery.solved()
+        step.predicted, self._unbounded, task = None, False, step.task
+        if not task.searching:
             return None
-        step.merit, accepted = self._line_search(step.level, step.x, step.anchor, step.merit,
-                                                 step.start.plastic_strain, step.start.slip_ref, step.frozen,
-                                                 step.f_scale)
+        step.merit, accepted = self._line_search(task.level, step.x, step.anchor, step.merit, task.start.plastic_strain,
+                                                 task.start.slip_ref, step.memory.frozen, task.f_scale)
         step.x.copy(step.anchor)
         return accepted
 
@@ -722,17 +766,18 @@ class ContactSolver:
         """Step 5: the active set the joint law proposes from the solution (:meth:`_propose`) and the number of
         pairs it changes; None when the solution leaps (:meth:`_leaps`, the module's *Leaps*) and the proposal
         that led to it was damped instead. Collective."""
+        task, memory = step.task, step.memory
         _, lam, d = self.system.split(step.x)
-        proposal = self._propose(step.active, lam, d, step.start.slip_ref, step.frozen, step.bonded)
+        proposal = self._propose(step.active, lam, d, task.start.slip_ref, memory.frozen, memory.bonded)
         changed = self._count(proposal.pending)
-        if changed and not step.searching and step.base is not None and step.key != step.condensed and \
-                self._leaps(step.x, step.near, step.start.x):
+        if changed and not task.searching and step.base is not None and step.key != memory.condensed and \
+                self._leaps(step.x, step.near, task.start.x):
             damped = self._damp(step.base)
             if damped is not None:
                 step.active, step.base = damped
                 return None
         step.x.copy(step.near)
-        step.churn += proposal.pending
+        memory.churn += proposal.pending
         return proposal, changed
 
     def _balance(self, step: _NewtonStep, accepted: "FillResponse | None") -> StepOutcome | None:
@@ -740,10 +785,10 @@ class ContactSolver:
         for the next solve); the step ends as diverged beyond ``DIVERGED_OUT_OF_BALANCE`` (the module's *Line
         search*). Collective."""
         if self.material is None:
-            step.residual = self.system.equilibrium_residual(step.x, step.f_scale)
+            step.residual = self.system.equilibrium_residual(step.x, step.task.f_scale)
             return None
-        f_int, step.plastic = self.system.linearise(step.x, step.start.plastic_strain, response=accepted)
-        step.residual = self.system.material_residual(step.x, f_int, step.level, step.f_scale)
+        f_int, step.plastic = self.system.linearise(step.x, step.task.start.plastic_strain, response=accepted)
+        step.residual = self.system.material_residual(step.x, f_int, step.task.level, step.task.f_scale)
         if step.residual > DIVERGED_OUT_OF_BALANCE:  # no recovery from here
             return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
                                      f"nodal force after {step.it} iterations")
@@ -756,18 +801,18 @@ class ContactSolver:
         else the set is singular (a mechanism without proof). Collective."""
         balanced = self._in_equilibrium(step)
         waived, comp = self._law_residuals(step)
-        if waived > BOND_RTOL * step.f_scale:
+        if waived > BOND_RTOL * step.task.f_scale:
             return self._ended(step, f"active set cycling: the joint law is violated by {waived:.3g} N at the "
                                      "bonded or frozen pairs")
         if balanced and comp <= 10 * self.law.force_tol:
-            counts = {**self._counts(step.active), "frozen": self._count(step.frozen),
-                      "bonded": self._count(step.bonded)}
+            counts = {**self._counts(step.active), "frozen": self._count(step.memory.frozen),
+                      "bonded": self._count(step.memory.bonded)}
             return StepOutcome(True, "", step.it, step.residual, self._factorisations(step),
-                               Iterate(step.x, step.active, step.start.slip_ref, step.plastic), counts)
-        if step.key in step.proximal:  # a drift along the mode that changes no pair
-            step.drift = step.proximal.pop(step.key)
+                               Iterate(step.x, step.active, step.task.start.slip_ref, step.plastic), counts)
+        if step.key in step.proximal.sets:  # a drift along the mode that changes no pair
+            step.proximal.drift = step.proximal.sets.pop(step.key)
             return None
-        if step.searching:
+        if step.task.searching:
             return None  # same active set, damped step or fill not in equilibrium
         return self._ended(step, f"inaccurate linear solve: scaled equilibrium residual {step.residual:.2e}, "
                                  f"complementarity residual {comp:.2e} N (singular system)", mechanism=True)
@@ -775,12 +820,13 @@ class ContactSolver:
     def _law_residuals(self, step: _NewtonStep) -> tuple[float, float]:
         """The joint law's Alart-Curnier residual at the iterate (N): the largest where it is waived (frozen pairs'
         friction, bonded pairs), and the largest elsewhere. Collective."""
+        memory, norm_inf = step.memory, self.system.norm_inf
         _, lam, d = self.system.split(step.x)
-        ncp = self.law.residual(lam, d, step.start.slip_ref)
-        waived = max(self.system.norm_inf(ncp[step.bonded].ravel()), self.system.norm_inf(ncp[step.frozen, 1]))
-        ncp[step.frozen, 1] = 0.0  # the normal law is still checked there
-        ncp[step.bonded] = 0.0
-        return waived, self.system.norm_inf(ncp.ravel())
+        ncp = self.law.residual(lam, d, step.task.start.slip_ref)
+        waived = max(norm_inf(ncp[memory.bonded].ravel()), norm_inf(ncp[memory.frozen, 1]))
+        ncp[memory.frozen, 1] = 0.0  # the normal law is still checked there
+        ncp[memory.bonded] = 0.0
+        return waived, norm_inf(ncp.ravel())
 
     def _in_equilibrium(self, step: _NewtonStep) -> bool:
         """The iterate of an unchanged active set is in equilibrium: its scaled out-of-balance force is below
@@ -789,7 +835,7 @@ class ContactSolver:
         kept when its out-of-balance force is smaller. Collective."""
         if step.residual < EQUILIBRIUM_RTOL:
             return True
-        if step.searching or step.key in step.proximal:
+        if step.task.searching or step.key in step.proximal.sets:
             return False
         dx = self.system.refinement(step.x)
         if not isinstance(dx, PETSc.Vec):
@@ -797,7 +843,7 @@ class ContactSolver:
         exact = self.system.norm_inf(dx.array) <= REFINED_RTOL * self.system.norm_inf(step.x.array)
         refined = step.x.copy()
         refined.axpy(1.0, dx)
-        residual = self.system.equilibrium_residual(refined, step.f_scale)
+        residual = self.system.equilibrium_residual(refined, step.task.f_scale)
         if residual < step.residual:
             refined.copy(step.x)
             step.residual = residual
@@ -808,10 +854,10 @@ class ContactSolver:
         this level is a cycle (:meth:`_break_cycle`), except with a line search (the iterate moves between visits:
         no cycle; the budget bounds it). Collective."""
         key = self._global_key(proposal.proposal)
-        if key in step.seen and not step.searching:
+        if key in step.memory.seen and not step.task.searching:
             return self._break_cycle(step, proposal, changed, key)
-        if key in step.seen:
-            step.seen.clear()
+        if key in step.memory.seen:
+            step.memory.seen.clear()
         self._take(step, proposal, key)
         return None
 
@@ -820,17 +866,18 @@ class ContactSolver:
         a set whose diverging mode was inadmissible goes to its repair; a cycle after a singular proposal is a
         mechanism without proof; the cycle's pairs are solved exactly on their condensed compliance (:meth:`_cycle`,
         the module's *Churning pairs*); else :meth:`_freeze`. Collective."""
-        fix = step.repairs.pop(key, None)
+        task, memory, recovery = step.task, step.memory, step.recovery
+        fix = recovery.repairs.pop(key, None)
         if fix is not None and self._visit(step, fix, proposal.violation):
             return None
-        if step.singular is not None:
-            return self._ended(step, f"{step.singular.message}; confirmed: damped iterations return to it",
+        if recovery.singular is not None:
+            return self._ended(step, f"{recovery.singular.message}; confirmed: damped iterations return to it",
                                mechanism=True)
-        solved = self.cycles.condensed(step.level, step.active, self._cycle(proposal.pending, step.churn),
-                                       step.start.slip_ref, step.start.active)
+        solved = self.cycles.condensed(task.level, step.active, self._cycle(proposal.pending, memory.churn),
+                                       task.start.slip_ref, task.start.active)
         if solved is not None and self._visit(step, solved, proposal.violation):
-            step.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
-            step.condensed = self._global_key(solved)
+            memory.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
+            memory.condensed = self._global_key(solved)
             return None
         return self._freeze(step, proposal, changed)
 
@@ -839,22 +886,22 @@ class ContactSolver:
         (:meth:`_damp`) while damping chains may recover; undamped, its open / closed toggles are bonded if they
         and the flips are all its changes, else it ends the step as active-set cycling. The flips are frozen to
         stick and the proposal, frozen and bonded, is taken. Collective."""
-        new, pending = proposal.proposal, proposal.pending
-        flips = pending & ~step.frozen & (new.state != OPEN) & (step.active.state != OPEN)
+        new, pending, memory = proposal.proposal, proposal.pending, step.memory
+        flips = pending & ~memory.frozen & (new.state != OPEN) & (step.active.state != OPEN)
         if self._count(flips) != changed:
-            damped = self._damp(proposal) if step.recovered < step.chains else None
-            toggles = pending & ~step.bonded & ((new.state == OPEN) != (step.active.state == OPEN))
+            damped = self._damp(proposal) if step.recovery.recovered < step.task.chains else None
+            toggles = pending & ~memory.bonded & ((new.state == OPEN) != (step.active.state == OPEN))
             if damped is None and self._count(toggles | flips) == changed:
-                step.bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
+                memory.bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
             elif damped is None:
                 return self._ended(step, f"active set cycling ({changed} pairs changing)")
             else:
-                step.damping = True
+                step.recovery.damping = True
                 step.active, step.base = damped
                 return None
-        step.frozen |= flips
-        _stick(new, step.frozen)
-        _bond(new, step.bonded)
+        memory.frozen |= flips
+        _stick(new, memory.frozen)
+        _bond(new, memory.bonded)
         self._take(step, proposal, self._global_key(new))
         return None
 
@@ -863,29 +910,30 @@ class ContactSolver:
         (stick / slip, slip sign) of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of
         the largest applied nodal force); if so it is frozen to stick and the set that proposed it is solved next
         (the module's *Pairs on the cone*). Collective."""
-        base = step.base
+        base, memory = step.base, step.memory
         if base is None:
             return False
-        flips = base.pending & ~step.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
+        flips = base.pending & ~memory.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
         if not self._any(flips.any()) or self._count(flips) != self._count(base.pending):
             return False
-        if self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX) > BOND_RTOL * step.f_scale:
+        violation = self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX)
+        if violation > BOND_RTOL * step.task.f_scale:
             return False
-        step.frozen |= flips
+        memory.frozen |= flips
         step.active = base.good.copy()
-        _stick(step.active, step.frozen)
+        _stick(step.active, memory.frozen)
         return True
 
     def _take(self, step: _NewtonStep, proposal: _Proposal, key: int) -> None:
         """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""
-        step.seen.add(key)
+        step.memory.seen.add(key)
         step.base, step.active = proposal, proposal.proposal
 
     def _visit(self, step: _NewtonStep, target: ContactState, violation: np.ndarray) -> bool:
         """Whether ``target`` is new at this level; if so it is solved next, as the proposal of the current set
         with ``violation``. Collective."""
         key = self._global_key(target)
-        if key in step.seen:
+        if key in step.memory.seen:
             return False
         self._take(step, _Proposal(step.active, target, _changes(target, step.active), violation), key)
         return True
@@ -897,7 +945,7 @@ class ContactSolver:
 
     def _factorisations(self, step: _NewtonStep) -> int:
         """The factorisations made since the step began."""
-        return self.stats["factorisations"] - step.first_factorisation
+        return self.stats["factorisations"] - step.task.first_factorisation
 
     def _leaps(self, x: PETSc.Vec, near: PETSc.Vec, start: PETSc.Vec) -> bool:
         """Whether the solution ``x`` moves the structure more than ``LEAP`` times as far as the last solved iterate
