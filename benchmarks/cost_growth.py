@@ -64,7 +64,7 @@ def bonded_solve_times(solver, repeats: int = 7, budget: float = 2.0) -> dict:
     refactor = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     solver.max_iterations = keep
     counted = {k: solver.stats[k] - before[k] for k in ("factorisations", "solves")}
-    A = solver.A.copy()  # now the bonded matrix
+    A = solver.system.A.copy()  # now the bonded matrix
     b, x = A.createVecLeft(), A.createVecRight()
     b.set(1.0)  # the cost of a direct solve does not depend on the right-hand side
     best, best_cpu, spent, i = np.inf, np.inf, 0.0, 0

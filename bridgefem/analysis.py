@@ -133,7 +133,7 @@ class Analysis:
 
     @property
     def n_dofs(self) -> int:
-        return self.solver.N
+        return self.solver.system.N
 
     @property
     def fe_lp_ratio(self) -> float | None:
@@ -568,7 +568,7 @@ def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np
 
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
     """Per-joint resultants, hinges and sliding at a converged iterate (identical on every rank)."""
-    _, lam, d = solver.split(it.x)
+    _, lam, d = solver.system.split(it.x)
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign,
                              d[:, 0]])
     table = np.vstack(solver.comm.allgather(local))
@@ -618,7 +618,7 @@ def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
     table = np.vstack(comm.allgather(np.column_stack([imap.local_to_global(nodes.astype(np.int32)), coords[nodes],
                                                       node_block[nodes]])))
     table = table[np.argsort(table[:, 0])]
-    _, lam, _ = solver.split(it.x)
+    _, lam, _ = solver.system.split(it.x)
     on = pairs.joint == ARCH_FILL
     local = np.column_stack([pairs.left[on], pairs.normal[on], pairs.tangent[on], lam[on]])
     rows = np.vstack(comm.allgather(local))

@@ -43,8 +43,9 @@ counts as converged. Columns that are not amplified are not measured (their cost
 condensations of seed 1 #48, #299 and #193 (100 normal columns) the others moved no pair more than 28 times their
 own entry, and their refinement corrections were about 1e-13 of the solution; #193's three rounding columns, 2e14.
 
-The condensation uses the contact solver's linear system through :class:`PairSolves` (its factorisation is reused:
-the pairs' columns of C are solves with one matrix) and counts its solves as ``condensation_solves``.
+The condensation uses the contact system (:mod:`bridgefem.contact_system`) through :class:`PairSolves` (its
+factorisation is reused: the pairs' columns of C are solves with one matrix) and counts its solves as
+``condensation_solves``.
 """
 from __future__ import annotations
 
@@ -62,9 +63,9 @@ ROUNDING_MARGIN = 10.0  # a normal block's P-matrix margin must exceed this mult
 
 
 class PairSolves(Protocol):
-    """What a condensation needs of the contact solver (:class:`bridgefem.solver.ContactSolver`): the communicator,
-    the joint law and the pairs of this rank, the solve counters (``solves``, ``condensation_solves``) and two solves
-    of an active set's system, each with the factorisation of that set's matrix."""
+    """What a condensation needs of the contact system (:class:`bridgefem.contact_system.ContactSystem`): the
+    communicator, the joint law and the pairs of this rank, the solve counters (``solves``, ``condensation_solves``)
+    and two solves of an active set's system, each with the factorisation of that set's matrix."""
 
     comm: MPI.Comm
     law: CoulombJoints

@@ -105,7 +105,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "mesh_refinements": [asdict(r) for r in an.refinements],
         "solver": {**an.solver.stats, "load_steps": len(s.steps),
                    "newton_iterations": sum(st.iterations for st in s.steps),
-                   "petsc_options": an.solver.petsc_options},
+                   "petsc_options": an.solver.system.petsc_options},
         "timings": an.timings,
         "mpi_ranks": an.solver.comm.size,
         "versions": versions(),

@@ -6,8 +6,9 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state; each N
 1. Take the start's active set (or the one a predicted state proposes; every joint closed and sticking with the
    retry setting ``fresh``): :meth:`ContactSolver._begin`.
 2. Assemble the linear system of the active set (the joint law's rows, :class:`bridgefem.contact.CoulombJoints`)
-   and solve it with the reused factorisation, checked (:mod:`bridgefem.linsolve`: a solver that did not solve is a
-   failure, never a mechanism): :meth:`ContactSolver._solve_set`.
+   and solve it with the reused factorisation, checked (:class:`bridgefem.contact_system.ContactSystem`,
+   :mod:`bridgefem.linsolve`: a solver that did not solve is a failure, never a mechanism):
+   :meth:`ContactSolver._solve_set`.
 3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
    wrong active set is solved again with a proximal term (*Proximal solves*, :meth:`ContactSolver._note_failure`),
    else damped (the half of the proposed changes farthest from the joint law they leave:
@@ -34,25 +35,13 @@ failures*). Cycles of up to ``CONDENSED_PAIRS`` pairs are solved exactly on thei
 (:mod:`bridgefem.cycles`) rather than by a condensed (Schur complement) solver of the whole ring: the nonlinearity of
 a cycle lives at a few pairs, so the small problem costs at most 2p + 1 solves with one factorisation, once per cycle.
 
-Unknowns: displacements u (m) and joint forces lam (N). For a given active set the problem is linear:
-
-    K u - G^T lam = f                                   (equilibrium, N)
-    open pair:   lam_n = 0,             lam_t = 0
-    stick pair:  c G_n u = 0,           c G_t u = c d_t(ref)          (closed, no slip this step)
-    slip pair:   c G_n u = 0,           lam_t - s mu lam_n = 0         (closed, sliding in direction -s)
-
-with G the relative displacement operator of :mod:`bridgefem.contact`. An imposed support movement adds a known
-offset g to the relative displacements of the pairs on the moving ground, d = G u + g
-(:func:`bridgefem.contact.ground_offsets`, scaled by :meth:`ContactSolver.set_support_movement`): the closed and
-stick laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). Each Newton iteration solves this
-system, then re-derives the active set from the Alart-Curnier functions; a step has converged when the
-active set no longer changes and the scaled equilibrium residual is small. The system lives in one PETSc
-AIJ matrix whose sparsity pattern never changes (entries of inactive laws are explicit zeros), so the
-direct solver's symbolic factorisation is reused; the matrix is refactorised only when the active set
-changed. Every stop decision is collective over MPI.
+Each Newton iteration solves the linear system of an active set (:class:`bridgefem.contact_system.ContactSystem`:
+its unknowns, equations, units and signs), then re-derives the active set from the Alart-Curnier functions; a step
+has converged when the active set no longer changes and the scaled equilibrium residual is small. Every stop
+decision is collective over MPI.
 
 With a Mohr-Coulomb fill (:mod:`bridgefem.fill`) the stiffness block is the fill's consistent tangent at the
-current displacements and the right-hand side carries ``K_t u - f_int(u)``: each iteration is then a Newton
+current displacements (:meth:`bridgefem.contact_system.ContactSystem.linearise`): each iteration is then a Newton
 step for the fill and an active-set step for the joints at once, and a step has converged when the active
 set is unchanged and the out-of-balance force ``f + G^T lam - f_int(u)`` is below ``EQUILIBRIUM_RTOL`` of
 the largest applied nodal force. Newton iterations whose out-of-balance force ends larger than the largest applied
@@ -168,7 +157,8 @@ against 3e9; the loads' work on the mode 6 % of the friction dissipation): no me
 down to the bracket's width. So when the first proposal of a damping chain diverges along a mode that slips pairs
 against their friction force (:func:`bridgefem.mechanism.judge`), that set is solved again with a proximal term
 (Rockafellar 1976, *Monotone operators and the proximal point algorithm*) anchored at the last solved iterate x_k:
-a spring k = ``PROXIMAL`` c against each free direction's relative displacement from x_k,
+a spring k = ``PROXIMAL`` c (:data:`bridgefem.contact_system.PROXIMAL`) against each free direction's relative
+displacement from x_k,
 
     open pair:   lam + k (d - d_k) = 0                   (both directions)
     slip pair:   lam_t - s mu lam_n + k (d_t - d_t,k) = 0
@@ -298,14 +288,13 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .contact import GROUND, OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs, LawRows
+from .contact import OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
+from .contact_system import ContactSystem
 from .cycles import CycleCondenser
 from .joint_condensation import ENUMERATED_PAIRS
-from .linsolve import CheckedSolve
 from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
@@ -320,7 +309,6 @@ DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force 
 DAMPING_CHAINS = 1  # damping chains that may recover per step; a failure after that ends it (no proof)
 BOND_RTOL = 1e-4  # joint-law residual (N) waived at bonded and frozen pairs, of the largest applied nodal force
 # (the default bracket tolerance: a force below the load resolution the search is asked for)
-PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
 PROXIMAL_SETS = 1  # active sets per load step whose diverging solve is replaced by a proximal solve
 PROXIMAL_CHANGES = 24  # ... only when the set differs from the last solved one at no more than this many pairs
 REFINED_RTOL = 1e-6  # an iterative refinement's correction below this fraction of the iterate (largest entries):
@@ -403,173 +391,110 @@ class _Failure(NamedTuple):
     slides: bool = False  # the solve diverged along a mode that slips pairs against their friction force
 
 
-@dataclass
-class _NewtonStep:
-    """The state of one load step's Newton iteration (:meth:`ContactSolver._newton`)."""
+@dataclass(frozen=True)
+class _StepTask:
+    """What one load step solves, and its limits: fixed for the step."""
 
     level: float  # live-load level (N per unit load factor)
     start: Iterate  # the converged start
-    x: PETSc.Vec  # the current iterate [u; lam]
-    active: ContactState  # the active set solved next
     f_scale: float  # the largest applied nodal force (N)
     budget: int  # Newton iterations
     chains: float  # recovered damping chains after which a failure ends the step
     searching: bool  # every Newton step is line searched (the module's *Line search*)
     first_factorisation: int  # the solver's factorisations before the step
-    frozen: np.ndarray  # local pairs whose friction state cycled: kept sticking while closed
-    bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and sticking
-    churn: np.ndarray  # the proposals of this step that changed each local pair
-    near: PETSc.Vec  # the last solved iterate: the proximal term's anchor
-    anchor: PETSc.Vec | None  # the line search's linearisation point
-    plastic: np.ndarray | None  # the fill's trial plastic strain at x
-    it: int = 0  # the current iteration
-    key: int = 0  # the global key of the set solved in this iteration
-    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
-    base: _Proposal | None = None  # the last good active set and what it proposed
-    predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
-    singular: _Failure | None = None  # the last singular proposal
-    fix: ContactState | None = None  # the repair of the set whose solve failed last
-    condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
-    repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
-    proximal: dict = field(default_factory=dict)  # sets solved with the proximal term: key -> their plain failure
-    proximal_sets: int = 0
-    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+
+
+@dataclass
+class _Recovery:
+    """A step's failed solves and their recovery (the module's *Damping chains* and *Mechanism verdicts*)."""
+
     damping: bool = False  # in a damping chain
     recovered: int = 0  # damping chains that ended with a solved active set
     mechanisms: int = 0  # failed solves that were singular or diverged along an admissible mode
+    singular: _Failure | None = None  # the last singular proposal
+    fix: ContactState | None = None  # the repair of the set whose solve failed last
+    repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
+
+    def solved(self) -> None:
+        """A set solved: the damping chain, if one was open, ended and recovered."""
+        self.recovered, self.damping = self.recovered + self.damping, False
+
+
+@dataclass
+class _CycleMemory:
+    """The active sets a step visited and the pairs its cycles held (the module's step 5), per local pair."""
+
+    frozen: np.ndarray  # local pairs whose friction state cycled: kept sticking while closed
+    bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and sticking
+    churn: np.ndarray  # the proposals of this step that changed each local pair
+    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
+    condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
+
+    @classmethod
+    def empty(cls, pairs: int) -> "_CycleMemory":
+        """No pair held or changed yet, for ``pairs`` local pairs."""
+        return cls(np.zeros(pairs, dtype=bool), np.zeros(pairs, dtype=bool), np.zeros(pairs, dtype=np.int64))
+
+
+@dataclass
+class _ProximalSolves:
+    """The active sets a step solved with the proximal term (the module's *Proximal solves*)."""
+
+    sets: dict = field(default_factory=dict)  # global key -> the set's plain failure
+    count: int = 0  # sets solved with the proximal term in this step
+    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+
+
+@dataclass
+class _NewtonStep:
+    """The state of one load step's Newton iteration (:meth:`ContactSolver._newton`): its task, the iterate and
+    what the iteration remembers of its failed solves, its cycles and its proximal solves."""
+
+    task: _StepTask
+    x: PETSc.Vec  # the current iterate [u; lam]
+    active: ContactState  # the active set solved next
+    near: PETSc.Vec  # the last solved iterate: the proximal term's anchor
+    anchor: PETSc.Vec | None  # the line search's linearisation point
+    plastic: np.ndarray | None  # the fill's trial plastic strain at x
+    memory: _CycleMemory
+    it: int = 0  # the current iteration
+    key: int = 0  # the global key of the set solved in this iteration
+    base: _Proposal | None = None  # the last good active set and what it proposed
+    predicted: _Proposal | None = None  # the predictor's proposal, until an active set solves
     merit: float = np.inf  # the line search's merit at anchor: the first Newton step is taken in full
     residual: float = np.inf  # the scaled out-of-balance force of the last solved iterate
+    recovery: _Recovery = field(default_factory=_Recovery)
+    proximal: _ProximalSolves = field(default_factory=_ProximalSolves)
 
 
 class ContactSolver:
-    """Builds the combined system once and solves load steps with the active-set Newton method."""
+    """Solves load steps with the active-set Newton method on the linear systems of a
+    :class:`bridgefem.contact_system.ContactSystem` (built once) and the joint law
+    :class:`bridgefem.contact.CoulombJoints`."""
 
     def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs,
                  friction: float | np.ndarray, c: np.ndarray, force_tol: float, max_iterations: int,
                  petsc_options: dict, material: "PlasticFill | None" = None,
                  support_motion: np.ndarray | None = None):
-        self.comm = K.getComm().tompi4py()
         self.pairs = pairs
-        self.support_motion = np.zeros((len(pairs), 2)) if support_motion is None else support_motion
-        self.set_support_movement(0.0)
         self.friction = np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),))  # the scene's
-        self.law = CoulombJoints(self.friction.copy(), c, force_tol)
-        self.cycles = CycleCondenser(self, reuse=material is None)  # the module's step 5
-        self.set_friction(self.friction, 1.0)
+        self.law, self.friction_factor = CoulombJoints(self.friction.copy(), c, force_tol), 1.0
+        self.system = ContactSystem(K, f_dead, f_live, pairs, self.law, petsc_options, material, support_motion)
+        self.comm, self.n_u, self.material = self.system.comm, self.system.n_u, material
+        self.linear, self.stats = self.system.linear, self.system.stats
+        # of the solves: those that condensed cycles (:mod:`bridgefem.cycles`) and those of retries (:meth:`use`)
+        self.stats.update(condensation_solves=0, retry_solves=0)
+        self.cycles = CycleCondenser(self.system, reuse=material is None)  # the module's step 5
         self.max_iterations = max_iterations
-        self.f_dead, self.f_live = f_dead, f_live
-        self.material = material
-        self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
         self.u_cap = np.inf
         self.setting, self._setting_from = DEFAULT_SETTING, 0  # the setting, and the solves made before it was set
         self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
-        self._layout(K)
-        self._build(K)
-        self._ksp(petsc_options)
-
-    # ----------------------------------------------------------------- layout
-    def _layout(self, K: PETSc.Mat) -> None:
-        """Combined numbering: rank r owns [its u rows, its 2 m_r lam rows]."""
-        comm = self.comm
-        u0, u1 = K.getOwnershipRange()
-        self.n_u, self.n_lam = u1 - u0, 2 * len(self.pairs)
-        ranges = np.array(comm.allgather((u0, u1, self.n_lam)))
-        self.u_starts, self.u_ends = ranges[:, 0], ranges[:, 1]
-        counts = (ranges[:, 1] - ranges[:, 0]) + ranges[:, 2]
-        self.starts = np.concatenate([[0], np.cumsum(counts)])
-        self.lam_starts = np.concatenate([[0], np.cumsum(ranges[:, 2])])
-        self.n_u_all = ranges[:, 1] - ranges[:, 0]
-        self.N = int(self.starts[-1])
-        self.n_local = self.n_u + self.n_lam
-
-    def comb_u(self, g: np.ndarray) -> np.ndarray:
-        q = np.searchsorted(self.u_ends, g, side="right")
-        return self.starts[q] + g - self.u_starts[q]
-
-    def comb_lam(self, g: np.ndarray) -> np.ndarray:
-        q = np.searchsorted(self.lam_starts[1:], g, side="right")
-        return self.starts[q] + self.n_u_all[q] + g - self.lam_starts[q]
-
-    # ----------------------------------------------------------------- assembly
-    def _g_entries(self):
-        """Entries of G for the local pairs: (row in 0..2m-1, global u dof, value)."""
-        p = self.pairs
-        k = np.arange(len(p))
-        rows, cols, vals = [], [], []
-        for node, sign in ((p.right, 1.0), (p.left, -1.0)):
-            has = node != GROUND
-            for comp in (0, 1):
-                for kind, vec in ((0, p.normal), (1, p.tangent)):
-                    rows.append(2 * k[has] + kind)
-                    cols.append(2 * node[has] + comp)
-                    vals.append(sign * vec[has, comp])
-        return np.concatenate(rows), np.concatenate(cols).astype(np.int64), np.concatenate(vals)
-
-    def _build(self, K: PETSc.Mat) -> None:
-        comm, p = self.comm, self.pairs
-        g_rows, g_cols, g_vals = self._g_entries()
-        m2 = self.n_lam
-        n_u_global = K.getSize()[0]
-        g_local = sp.csr_matrix((g_vals, (g_rows, g_cols)), shape=(m2, n_u_global))
-        G = PETSc.Mat().createAIJ(size=((m2, 2 * p.total), (self.n_u, n_u_global)),
-                                  csr=(g_local.indptr.astype(PETSc.IntType),
-                                       g_local.indices.astype(PETSc.IntType), g_local.data), comm=comm)
-        G.assemble()
-        Gt = G.transpose()
-        ki, kj, kv = K.getValuesCSR()
-        ti, tj, tv = Gt.getValuesCSR()
-        k_rows = np.repeat(np.arange(self.n_u), np.diff(ki))
-        t_rows = np.repeat(np.arange(self.n_u), np.diff(ti))
-        lam_g = 2 * p.offset + np.arange(m2)
-        k = np.arange(len(p))
-        diag_rows = np.concatenate([2 * k, 2 * k + 1, 2 * k + 1])
-        diag_cols = np.concatenate([lam_g[2 * k], lam_g[2 * k + 1], lam_g[2 * k]])
-        rows = np.concatenate([k_rows, t_rows, self.n_u + g_rows, self.n_u + diag_rows])
-        cols = np.concatenate([self.comb_u(kj.astype(np.int64)), self.comb_lam(tj.astype(np.int64)),
-                               self.comb_u(g_cols), self.comb_lam(diag_cols)])
-        if self.material is not None and not _same_pattern(K, self.material.K):
-            raise RuntimeError("the fill's tangent matrix does not have the sparsity of the elastic K")
-        self._const = np.concatenate([kv, -tv])
-        self._n_k, self._k_elastic, self._K = len(kv), kv.copy(), K
-        self._u_work, self._ku = K.createVecRight(), K.createVecLeft()
-        self._g_rows, self._g_vals = g_rows, g_vals
-        slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(self.n_local, self.N))
-        slots.sort_indices()
-        self._perm = slots.data.astype(np.int64) - 1
-        self._indptr = slots.indptr.astype(PETSc.IntType)
-        self._indices = slots.indices.astype(PETSc.IntType)
-        values = self._values(ContactState.all_stick(len(p)))
-        self.A = PETSc.Mat().createAIJ(size=((self.n_local, self.N), (self.n_local, self.N)),
-                                       csr=(self._indptr, self._indices, values), comm=comm)
-        self.A.assemble()
-        self._G = PETSc.Mat().createAIJ(size=((m2, 2 * p.total), (self.n_local, self.N)),
-                                        csr=(g_local.indptr.astype(PETSc.IntType),
-                                             self.comb_u(g_local.indices.astype(np.int64)).astype(PETSc.IntType),
-                                             g_local.data), comm=comm)
-        self._G.assemble()
-        self.b = self.A.createVecLeft()
-        self.r = self.A.createVecLeft()
-        self.d = self._G.createVecLeft()
-        self._lam = self._G.createVecLeft()
-        self._mode = self.A.createVecRight()
-        self._full, self._step = self.A.createVecRight(), self.A.createVecRight()
-        G.destroy()
-        Gt.destroy()
-
-    def _values(self, active: ContactState, proximal: bool = False) -> np.ndarray:
-        """Matrix values (CSR order) of the linear system of an active set (with the proximal term:
-        :meth:`_proximal_rows`)."""
-        rows = self._proximal_rows(active) if proximal else self.law.rows(active)
-        pair = self._g_rows // 2
-        law_active = np.where(self._g_rows % 2 == 0, rows.a_n[pair], rows.a_t[pair])
-        g_part = self._g_vals * self.law.c[pair] * law_active
-        diag = np.concatenate([rows.b_n, rows.b_t, rows.e_t])
-        return np.concatenate([self._const, g_part, diag])[self._perm]
+        self._full, self._step = self.system.vector(), self.system.vector()  # the line search's full step
 
     def set_friction(self, mu: np.ndarray, factor: float) -> None:
         """Solve with the joints' Coulomb coefficients ``factor`` x ``mu`` (per local pair) from now on."""
         self.law.mu, self.friction_factor = factor * np.asarray(mu), factor
-        self._matrix_key = None  # the slip rows hold mu
+        self.system.law_changed()  # the slip rows hold mu
         self.cycles.forget()
 
     def use(self, setting: Setting) -> None:
@@ -579,75 +504,25 @@ class ContactSolver:
             self.stats["retry_solves"] += self.stats["solves"] - self._setting_from
         self._setting_from = self.stats["solves"]
         self.law.c = self.law.c * (setting.scale / self.setting.scale)
-        self.setting, self._matrix_key = setting, None  # the law's rows hold c
+        self.setting = setting
+        self.system.law_changed()  # the law's rows hold c
         self.cycles.forget()
+
+    @property
+    def movement(self) -> float:
+        """The fraction of the support movement imposed (:meth:`set_support_movement`)."""
+        return self.system.movement
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""
-        self.movement = fraction
-        self._ground = fraction * self.support_motion
-
-    def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray, near: PETSc.Vec | None = None) -> None:
-        """The right-hand side of an active set's system; with ``near``, the proximal term's anchor
-        (:meth:`_proximal_rows`)."""
-        b = self.b.array
-        b[:self.n_u] = self.f_dead.array + level * self.f_live.array + self._correction
-        lam_rhs = np.zeros(self.n_lam)
-        lam_rhs[0::2], lam_rhs[1::2] = self.law.rhs(active, slip_ref, self._ground)
-        if near is not None:
-            rows, plain = self._proximal_rows(active), self.law.rows(active)
-            _, _, d = self.split(near)
-            lam_rhs[0::2] += (rows.a_n - plain.a_n) * self.law.c * (d[:, 0] - self._ground[:, 0])
-            lam_rhs[1::2] += (rows.a_t - plain.a_t) * self.law.c * (d[:, 1] - self._ground[:, 1])
-        b[self.n_u:] = lam_rhs
-
-    def _proximal_rows(self, active: ContactState) -> LawRows:
-        """The joint law's rows of an active set with a proximal term (the module's *Proximal solves*): a spring of
-        ``PROXIMAL`` times the Alart-Curnier constant c against each free direction's relative displacement from
-        the anchor x_k (open pairs: lam + k (d - d_k) = 0 in both directions; sliding pairs:
-        lam_t - s mu lam_n + k (d_t - d_t,k) = 0), the rows of the law itself elsewhere."""
-        rows = self.law.rows(active)
-        return rows._replace(a_n=rows.a_n + PROXIMAL * (active.state == OPEN),
-                             a_t=rows.a_t + PROXIMAL * (active.state != STICK))
-
-    def _ksp(self, options: dict) -> None:
-        self.linear = CheckedSolve(self.A, options)
-        self.stats, self.petsc_options = self.linear.stats, self.linear.options
-        # of the solves: those that condensed cycles (:mod:`bridgefem.cycles`) and those of retries (:meth:`use`)
-        self.stats.update(condensation_solves=0, retry_solves=0)
-        self._matrix_key = ContactState.all_stick(len(self.pairs)).key() + bytes([False])
+        self.system.set_support_movement(fraction)
 
     # ----------------------------------------------------------------- Newton
     def initial_iterate(self) -> Iterate:
         """Every joint closed and sticking, zero state: the start of the self-weight step."""
         plastic = self.material.initial_plastic_strain() if self.material is not None else None
-        return Iterate(self.A.createVecRight(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)),
+        return Iterate(self.system.vector(), ContactState.all_stick(len(self.pairs)), np.zeros(len(self.pairs)),
                        plastic)
-
-    def _linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray, elastic: bool = False,
-                   response: "FillResponse | None" = None) -> tuple[np.ndarray, np.ndarray]:
-        """Evaluate the fill at the displacements of x (or take its ``response`` there, already evaluated): the
-        tangent (the elastic K if ``elastic``) goes into the system matrix and K_t u - f_int into the right-hand
-        side. Returns the internal force (owned, N) and the trial plastic strain."""
-        if response is None:
-            response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=not elastic)
-        elif not elastic:
-            response = self.material.linearise(response)
-        if elastic:
-            self._u_work.array[:] = x.array[:self.n_u]
-            self._K.mult(self._u_work, self._ku)
-            self._const[:self._n_k] = self._k_elastic
-            self._correction = self._ku.array - response.f_int
-        else:
-            self._const[:self._n_k] = response.tangent_values
-            self._correction = response.correction
-        self._matrix_key = None
-        return response.f_int, response.plastic_strain
-
-    def split(self, x: PETSc.Vec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Local owned u, lam (m, 2) and relative displacements d (m, 2) of an iterate vector."""
-        self._G.mult(x, self.d)
-        return x.array[:self.n_u], x.array[self.n_u:].reshape(-1, 2), self.d.array.reshape(-1, 2) + self._ground
 
     def _counts(self, active: ContactState) -> dict:
         local = np.bincount(active.state, minlength=3)
@@ -664,14 +539,14 @@ class ContactSolver:
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
                       origin: PETSc.Vec, near: PETSc.Vec | None = None, forces: PETSc.Vec | None = None):
         """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
-        :meth:`_proximal_rows`); returns None or the :class:`_Failure`. A displacement beyond the cap is a mechanism
-        only when the diverging direction from ``origin`` (the step's converged start) is admissible
-        (:meth:`_verdict`, with the normal forces of ``forces``, the last solved iterate; by default ``origin``)."""
-        self._rhs(level, active, slip_ref, near)
-        failure = self._solve(active, x, near is not None)
+        :meth:`bridgefem.contact_system.ContactSystem.solve_set`); returns None or the :class:`_Failure`. A
+        displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
+        converged start) is admissible (:meth:`_verdict`, with the normal forces of ``forces``, the last solved
+        iterate; by default ``origin``)."""
+        failure = self.system.solve_set(level, active, slip_ref, x, near)
         if failure is not None:
-            return failure
-        u_max = self._norm_inf(x.array[:self.n_u])
+            return _Failure(failure.message, failure.singular)
+        u_max = self.system.norm_inf(x.array[:self.n_u])
         if not np.isfinite(self.u_cap) and u_max > 0:
             self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
         if u_max > self.u_cap:
@@ -692,40 +567,20 @@ class ContactSolver:
         power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
         those of ``forces`` (the last solved iterate, N), and the gaps at ``origin`` for its repair's first contact.
         Collective."""
-        lam_n = self.split(forces)[1][:, 0]
-        gap = self.split(origin)[2][:, 0]
-        mode = self._mode
-        x.copy(mode)
-        mode.axpy(-1.0, origin)
-        u = mode.array[:self.n_u]
-        _, _, d = self.split(mode)
-        d = d - self._ground  # relative displacements of the mode (the ground movement is in both states)
-        drive, name = (self.f_live, "live load") if level > 0 else (self.f_dead, "self-weight")
-        total = self.f_dead.array + level * self.f_live.array
+        system = self.system
+        lam_n = system.split(forces)[1][:, 0]
+        gap = system.split(origin)[2][:, 0]
+        u, d = system.mode(x, origin)
+        drive, name = (system.f_live, "live load") if level > 0 else (system.f_dead, "self-weight")
+        total = system.loads(level)
         friction = np.where(active.state == SLIP, active.sign * self.law.mu * lam_n, 0.0)  # lam_t of the slip law
         works = self.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
                                               np.abs(drive.array).sum(), np.abs(total).sum(),
                                               np.abs(total).sum() + np.abs(friction).sum()]))
-        scales = works[3:] * self._norm_inf(u)
+        scales = works[3:] * system.norm_inf(u)
         return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]),
                           tuple(scales[:2]), name, (works[2], scales[2]), gap), provable=self.material is None,
                      comm=self.comm)
-
-    def _solve(self, active: ContactState, x: PETSc.Vec, proximal: bool = False):
-        """Solve the system of an active set (``proximal``: with the proximal term) with the right-hand side in
-        ``self.b`` (refactorising only when the system or the fill's tangent changed); returns None or the
-        :class:`_Failure`."""
-        key = active.key() + bytes([proximal])
-        if self._any(key != self._matrix_key):  # a new active set, or a new fill tangent (key None)
-            self.A.setValuesCSR(self._indptr, self._indices, self._values(active, proximal))
-            self.A.assemble()
-            self.linear.matrix_changed()
-            self._matrix_key = key
-        failure = self.linear.solve(self.b, x)
-        if failure is None:
-            return None
-        self._matrix_key = None  # a failed factorisation is never reused: the next solve refactorises
-        return _Failure(failure.message, failure.singular)
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
@@ -733,13 +588,10 @@ class ContactSolver:
         law) and, with a plastic fill, the fill's consistent tangent at the converged displacements (the return map
         from the step's start, as the convergence test evaluated it: call this right after the step that converged
         to ``it``): displacements in m per N of live load, the tangent of the load-deflection curve. One solve (with
-        a plastic fill after a factorisation of that tangent). None when that system cannot be solved."""
-        self.b.array[:self.n_u] = self.f_live.array
-        self.b.array[self.n_u:] = 0.0
-        dx = self.A.createVecRight()
-        if self._solve(it.active, dx) is not None:
-            return None
-        return Iterate(dx, it.active, it.slip_ref, it.plastic_strain)
+        a plastic fill after a factorisation of that tangent:
+        :meth:`bridgefem.contact_system.ContactSystem.live_load_tangent`). None when that system cannot be solved."""
+        dx = self.system.live_load_tangent(it.active)
+        return None if dx is None else Iterate(dx, it.active, it.slip_ref, it.plastic_strain)
 
     def _damp(self, base: "_Proposal") -> "tuple[ContactState, _Proposal] | None":
         """Keep the half of the pending changes with the largest violations (at least one): the damped active
@@ -773,15 +625,15 @@ class ContactSolver:
         vector); the first active set solved is its classification against ``start`` (the module's *Predictor*).
         """
         step = self._begin(level, start, predictor, give_up, iterations)
-        for it in range(1, step.budget + 1):
+        for it in range(1, step.task.budget + 1):
             step.it = it
             outcome = self._iteration(step)
             if outcome is not None:
                 return outcome
         if self.material is not None and step.residual > 1.0:
             return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
-                                     f"nodal force after {step.budget} iterations")
-        return self._ended(step, f"max iterations ({step.budget}) reached with the active set still changing")
+                                     f"nodal force after {step.task.budget} iterations")
+        return self._ended(step, f"max iterations ({step.task.budget}) reached with the active set still changing")
 
     def _begin(self, level: float, start: Iterate, predictor: PETSc.Vec | None, give_up: bool,
                iterations: int | None) -> _NewtonStep:
@@ -792,23 +644,23 @@ class ContactSolver:
             active = ContactState.all_stick(len(self.pairs))
             predictor = None
         searching = self.material is not None or self.setting.line_search  # the module's *Line search*
-        x = self.A.createVecRight()
+        x = self.system.vector()
         start.x.copy(x)
-        step = _NewtonStep(
-            level, start, x, active,
-            f_scale=max(self._norm_inf(self.f_dead.array + level * self.f_live.array), 1e-300),
+        task = _StepTask(
+            level, start, f_scale=max(self.system.norm_inf(self.system.loads(level)), 1e-300),
             budget=self.max_iterations if iterations is None else min(iterations, self.max_iterations),
             chains=DAMPING_CHAINS if give_up and not self.setting.patient else np.inf, searching=searching,
-            first_factorisation=self.stats["factorisations"], frozen=np.zeros(len(self.pairs), dtype=bool),
-            bonded=np.zeros(len(self.pairs), dtype=bool), churn=np.zeros(len(self.pairs), dtype=np.int64),
-            near=start.x.copy(), anchor=start.x.copy() if searching else None, plastic=start.plastic_strain)
-        if self.material is not None:
-            self._linearise(x, start.plastic_strain, elastic=True)  # elastic predictor: robust at unloading points
+            first_factorisation=self.stats["factorisations"])
+        memory = _CycleMemory.empty(len(self.pairs))
+        step = _NewtonStep(task, x, active, near=start.x.copy(), anchor=start.x.copy() if searching else None,
+                           plastic=start.plastic_strain, memory=memory)
+        if self.material is not None:  # the elastic predictor: robust at unloading points
+            self.system.linearise(x, start.plastic_strain, elastic=True)
         if predictor is not None:
-            step.predicted = self._predict(predictor, active, start.slip_ref, step.frozen)
+            step.predicted = self._predict(predictor, active, start.slip_ref, step.memory.frozen)
         if step.predicted is not None:  # no solved active set yet: a failure proves nothing
             step.base, step.active = step.predicted, step.predicted.proposal
-        step.seen = {self._global_key(step.active)}  # the start's set is visited only once solved at this level
+        step.memory.seen = {self._global_key(step.active)}  # the start's set: visited only once solved at this level
         return step
 
     def _iteration(self, step: _NewtonStep) -> StepOutcome | None:
@@ -837,31 +689,37 @@ class ContactSolver:
         anchored at the last solved iterate), checked; a proximal set that drifts keeps its plain failure without a
         solve (the module's *Proximal solves*). Returns None or the failure. Collective."""
         step.key = self._global_key(step.active)
-        if step.drift is not None:
-            return step.drift
-        return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x,
-                                  step.near if step.key in step.proximal else None, step.near)
+        if step.proximal.drift is not None:
+            return step.proximal.drift
+        return self._solve_current(step, step.key in step.proximal.sets)
+
+    def _solve_current(self, step: _NewtonStep, proximal: bool) -> _Failure | None:
+        """Solve the active set's system at the step's level into x, checked against the step's start (with
+        ``proximal``: its proximal system anchored at the last solved iterate). Collective."""
+        task = step.task
+        return self._solve_active(task.level, step.active, task.start.slip_ref, step.x, task.start.x,
+                                  step.near if proximal else None, step.near)
 
     def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
         repair of an inadmissible mode); a set whose first failure diverges along a mode that slips pairs against
         their friction force is solved again with the proximal term (the module's *Proximal solves*). Returns
         the failure that stands, or None. Collective."""
-        if step.drift is not None:  # a proximal set that drifts: its plain failure, no solve
-            step.fix, step.drift, self._unbounded = step.repairs.get(step.key), None, True
+        recovery, proximal = step.recovery, step.proximal
+        if proximal.drift is not None:  # a proximal set that drifts: its plain failure, no solve
+            recovery.fix, proximal.drift, self._unbounded = recovery.repairs.get(step.key), None, True
             return failure
-        step.singular = failure if failure.mechanism else step.singular
+        recovery.singular = failure if failure.mechanism else recovery.singular
         self._unbounded = failure.mechanism or failure.unbounded
         self._diverged |= self._unbounded
-        step.mechanisms += failure.mechanism
-        step.fix = self._repaired(step.active, failure.repair, step.frozen)
-        if step.fix is not None:
-            step.repairs[step.key] = step.fix
-        if not step.damping and failure.slides and step.proximal_sets < PROXIMAL_SETS and (
+        recovery.mechanisms += failure.mechanism
+        recovery.fix = self._repaired(step.active, failure.repair, step.memory.frozen)
+        if recovery.fix is not None:
+            recovery.repairs[step.key] = recovery.fix
+        if not recovery.damping and failure.slides and proximal.count < PROXIMAL_SETS and (
                 step.base is None or self._count(_changes(step.active, step.base.good)) <= PROXIMAL_CHANGES):
-            step.proximal[step.key], step.proximal_sets = failure, step.proximal_sets + 1
-            return self._solve_active(step.level, step.active, step.start.slip_ref, step.x, step.start.x, step.near,
-                                      step.near)
+            proximal.sets[step.key], proximal.count = failure, proximal.count + 1
+            return self._solve_current(step, True)
         return failure
 
     def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
@@ -871,19 +729,20 @@ class ContactSolver:
         inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step
         (a mechanism without proof, unless the set was predicted), as it does once ``chains`` damping chains have
         recovered. Collective."""
-        if step.recovered >= step.chains and not step.damping:
-            return self._ended(step, f"no convergence: a proposed active set failed again after {step.recovered} "
+        recovery = step.recovery
+        if recovery.recovered >= step.task.chains and not recovery.damping:
+            return self._ended(step, f"no convergence: a proposed active set failed again after {recovery.recovered} "
                                      f"damping chain(s): {failure.message}",
-                               mechanism=failure.mechanism and step.mechanisms > 1)
-        step.damping = True
+                               mechanism=failure.mechanism and recovery.mechanisms > 1)
+        recovery.damping = True
         damped = self._damp(step.base) if step.base is not None else None
         if damped is None and not failure.mechanism and self._freeze_at_cone(step):
             return None
-        if damped is None and step.fix is not None:
-            fix = self._global_key(step.fix)
-            if fix not in step.seen:
-                step.seen.add(fix)
-                step.active = step.fix
+        if damped is None and recovery.fix is not None:
+            fix = self._global_key(recovery.fix)
+            if fix not in step.memory.seen:
+                step.memory.seen.add(fix)
+                step.active = recovery.fix
                 return None
         if damped is None:
             return self._ended(step, failure.message, mechanism=failure.mechanism and step.predicted is None)
@@ -894,13 +753,12 @@ class ContactSolver:
         """Step 4: a solved set ends the damping chain; with a line search (the module's *Line search*) the step is
         backtracked from the linearisation point, which moves to the accepted iterate. Returns the fill's response
         there (None without a plastic fill). Collective."""
-        step.recovered, step.damping, step.predicted = step.recovered + step.damping, False, None
-        self._unbounded = False
-        if not step.searching:
+        step.recovery.solved()
+        step.predicted, self._unbounded, task = None, False, step.task
+        if not task.searching:
             return None
-        step.merit, accepted = self._line_search(step.level, step.x, step.anchor, step.merit,
-                                                 step.start.plastic_strain, step.start.slip_ref, step.frozen,
-                                                 step.f_scale)
+        step.merit, accepted = self._line_search(task.level, step.x, step.anchor, step.merit, task.start.plastic_strain,
+                                                 task.start.slip_ref, step.memory.frozen, task.f_scale)
         step.x.copy(step.anchor)
         return accepted
 
@@ -908,17 +766,18 @@ class ContactSolver:
         """Step 5: the active set the joint law proposes from the solution (:meth:`_propose`) and the number of
         pairs it changes; None when the solution leaps (:meth:`_leaps`, the module's *Leaps*) and the proposal
         that led to it was damped instead. Collective."""
-        _, lam, d = self.split(step.x)
-        proposal = self._propose(step.active, lam, d, step.start.slip_ref, step.frozen, step.bonded)
+        task, memory = step.task, step.memory
+        _, lam, d = self.system.split(step.x)
+        proposal = self._propose(step.active, lam, d, task.start.slip_ref, memory.frozen, memory.bonded)
         changed = self._count(proposal.pending)
-        if changed and not step.searching and step.base is not None and step.key != step.condensed and \
-                self._leaps(step.x, step.near, step.start.x):
+        if changed and not task.searching and step.base is not None and step.key != memory.condensed and \
+                self._leaps(step.x, step.near, task.start.x):
             damped = self._damp(step.base)
             if damped is not None:
                 step.active, step.base = damped
                 return None
         step.x.copy(step.near)
-        step.churn += proposal.pending
+        memory.churn += proposal.pending
         return proposal, changed
 
     def _balance(self, step: _NewtonStep, accepted: "FillResponse | None") -> StepOutcome | None:
@@ -926,10 +785,10 @@ class ContactSolver:
         for the next solve); the step ends as diverged beyond ``DIVERGED_OUT_OF_BALANCE`` (the module's *Line
         search*). Collective."""
         if self.material is None:
-            step.residual = self._equilibrium_residual(step.x, step.f_scale)
+            step.residual = self.system.equilibrium_residual(step.x, step.task.f_scale)
             return None
-        f_int, step.plastic = self._linearise(step.x, step.start.plastic_strain, response=accepted)
-        step.residual = self._material_residual(step.x, f_int, step.level, step.f_scale)
+        f_int, step.plastic = self.system.linearise(step.x, step.task.start.plastic_strain, response=accepted)
+        step.residual = self.system.material_residual(step.x, f_int, step.task.level, step.task.f_scale)
         if step.residual > DIVERGED_OUT_OF_BALANCE:  # no recovery from here
             return self._ended(step, f"diverged: out-of-balance force {step.residual:.3g} x the largest applied "
                                      f"nodal force after {step.it} iterations")
@@ -942,18 +801,18 @@ class ContactSolver:
         else the set is singular (a mechanism without proof). Collective."""
         balanced = self._in_equilibrium(step)
         waived, comp = self._law_residuals(step)
-        if waived > BOND_RTOL * step.f_scale:
+        if waived > BOND_RTOL * step.task.f_scale:
             return self._ended(step, f"active set cycling: the joint law is violated by {waived:.3g} N at the "
                                      "bonded or frozen pairs")
         if balanced and comp <= 10 * self.law.force_tol:
-            counts = {**self._counts(step.active), "frozen": self._count(step.frozen),
-                      "bonded": self._count(step.bonded)}
+            counts = {**self._counts(step.active), "frozen": self._count(step.memory.frozen),
+                      "bonded": self._count(step.memory.bonded)}
             return StepOutcome(True, "", step.it, step.residual, self._factorisations(step),
-                               Iterate(step.x, step.active, step.start.slip_ref, step.plastic), counts)
-        if step.key in step.proximal:  # a drift along the mode that changes no pair
-            step.drift = step.proximal.pop(step.key)
+                               Iterate(step.x, step.active, step.task.start.slip_ref, step.plastic), counts)
+        if step.key in step.proximal.sets:  # a drift along the mode that changes no pair
+            step.proximal.drift = step.proximal.sets.pop(step.key)
             return None
-        if step.searching:
+        if step.task.searching:
             return None  # same active set, damped step or fill not in equilibrium
         return self._ended(step, f"inaccurate linear solve: scaled equilibrium residual {step.residual:.2e}, "
                                  f"complementarity residual {comp:.2e} N (singular system)", mechanism=True)
@@ -961,12 +820,13 @@ class ContactSolver:
     def _law_residuals(self, step: _NewtonStep) -> tuple[float, float]:
         """The joint law's Alart-Curnier residual at the iterate (N): the largest where it is waived (frozen pairs'
         friction, bonded pairs), and the largest elsewhere. Collective."""
-        _, lam, d = self.split(step.x)
-        ncp = self.law.residual(lam, d, step.start.slip_ref)
-        waived = max(self._norm_inf(ncp[step.bonded].ravel()), self._norm_inf(ncp[step.frozen, 1]))
-        ncp[step.frozen, 1] = 0.0  # the normal law is still checked there
-        ncp[step.bonded] = 0.0
-        return waived, self._norm_inf(ncp.ravel())
+        memory, norm_inf = step.memory, self.system.norm_inf
+        _, lam, d = self.system.split(step.x)
+        ncp = self.law.residual(lam, d, step.task.start.slip_ref)
+        waived = max(norm_inf(ncp[memory.bonded].ravel()), norm_inf(ncp[memory.frozen, 1]))
+        ncp[memory.frozen, 1] = 0.0  # the normal law is still checked there
+        ncp[memory.bonded] = 0.0
+        return waived, norm_inf(ncp.ravel())
 
     def _in_equilibrium(self, step: _NewtonStep) -> bool:
         """The iterate of an unchanged active set is in equilibrium: its scaled out-of-balance force is below
@@ -975,15 +835,15 @@ class ContactSolver:
         kept when its out-of-balance force is smaller. Collective."""
         if step.residual < EQUILIBRIUM_RTOL:
             return True
-        if step.searching or step.key in step.proximal:
+        if step.task.searching or step.key in step.proximal.sets:
             return False
-        dx = self.linear.correction(self.b, step.x)
+        dx = self.system.refinement(step.x)
         if not isinstance(dx, PETSc.Vec):
             return False
-        exact = self._norm_inf(dx.array) <= REFINED_RTOL * self._norm_inf(step.x.array)
+        exact = self.system.norm_inf(dx.array) <= REFINED_RTOL * self.system.norm_inf(step.x.array)
         refined = step.x.copy()
         refined.axpy(1.0, dx)
-        residual = self._equilibrium_residual(refined, step.f_scale)
+        residual = self.system.equilibrium_residual(refined, step.task.f_scale)
         if residual < step.residual:
             refined.copy(step.x)
             step.residual = residual
@@ -994,10 +854,10 @@ class ContactSolver:
         this level is a cycle (:meth:`_break_cycle`), except with a line search (the iterate moves between visits:
         no cycle; the budget bounds it). Collective."""
         key = self._global_key(proposal.proposal)
-        if key in step.seen and not step.searching:
+        if key in step.memory.seen and not step.task.searching:
             return self._break_cycle(step, proposal, changed, key)
-        if key in step.seen:
-            step.seen.clear()
+        if key in step.memory.seen:
+            step.memory.seen.clear()
         self._take(step, proposal, key)
         return None
 
@@ -1006,17 +866,18 @@ class ContactSolver:
         a set whose diverging mode was inadmissible goes to its repair; a cycle after a singular proposal is a
         mechanism without proof; the cycle's pairs are solved exactly on their condensed compliance (:meth:`_cycle`,
         the module's *Churning pairs*); else :meth:`_freeze`. Collective."""
-        fix = step.repairs.pop(key, None)
+        task, memory, recovery = step.task, step.memory, step.recovery
+        fix = recovery.repairs.pop(key, None)
         if fix is not None and self._visit(step, fix, proposal.violation):
             return None
-        if step.singular is not None:
-            return self._ended(step, f"{step.singular.message}; confirmed: damped iterations return to it",
+        if recovery.singular is not None:
+            return self._ended(step, f"{recovery.singular.message}; confirmed: damped iterations return to it",
                                mechanism=True)
-        solved = self.cycles.condensed(step.level, step.active, self._cycle(proposal.pending, step.churn),
-                                       step.start.slip_ref, step.start.active)
+        solved = self.cycles.condensed(task.level, step.active, self._cycle(proposal.pending, memory.churn),
+                                       task.start.slip_ref, task.start.active)
         if solved is not None and self._visit(step, solved, proposal.violation):
-            step.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
-            step.condensed = self._global_key(solved)
+            memory.frozen &= ~step.base.pending  # the condensed pairs' friction state is now exact
+            memory.condensed = self._global_key(solved)
             return None
         return self._freeze(step, proposal, changed)
 
@@ -1025,22 +886,22 @@ class ContactSolver:
         (:meth:`_damp`) while damping chains may recover; undamped, its open / closed toggles are bonded if they
         and the flips are all its changes, else it ends the step as active-set cycling. The flips are frozen to
         stick and the proposal, frozen and bonded, is taken. Collective."""
-        new, pending = proposal.proposal, proposal.pending
-        flips = pending & ~step.frozen & (new.state != OPEN) & (step.active.state != OPEN)
+        new, pending, memory = proposal.proposal, proposal.pending, step.memory
+        flips = pending & ~memory.frozen & (new.state != OPEN) & (step.active.state != OPEN)
         if self._count(flips) != changed:
-            damped = self._damp(proposal) if step.recovered < step.chains else None
-            toggles = pending & ~step.bonded & ((new.state == OPEN) != (step.active.state == OPEN))
+            damped = self._damp(proposal) if step.recovery.recovered < step.task.chains else None
+            toggles = pending & ~memory.bonded & ((new.state == OPEN) != (step.active.state == OPEN))
             if damped is None and self._count(toggles | flips) == changed:
-                step.bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
+                memory.bonded |= toggles  # no consistent open / closed state: kept closed, its law waived
             elif damped is None:
                 return self._ended(step, f"active set cycling ({changed} pairs changing)")
             else:
-                step.damping = True
+                step.recovery.damping = True
                 step.active, step.base = damped
                 return None
-        step.frozen |= flips
-        _stick(new, step.frozen)
-        _bond(new, step.bonded)
+        memory.frozen |= flips
+        _stick(new, memory.frozen)
+        _bond(new, memory.bonded)
         self._take(step, proposal, self._global_key(new))
         return None
 
@@ -1049,29 +910,30 @@ class ContactSolver:
         (stick / slip, slip sign) of a closed pair within the law residual waived at frozen pairs (``BOND_RTOL`` of
         the largest applied nodal force); if so it is frozen to stick and the set that proposed it is solved next
         (the module's *Pairs on the cone*). Collective."""
-        base = step.base
+        base, memory = step.base, step.memory
         if base is None:
             return False
-        flips = base.pending & ~step.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
+        flips = base.pending & ~memory.frozen & (base.proposal.state != OPEN) & (base.good.state != OPEN)
         if not self._any(flips.any()) or self._count(flips) != self._count(base.pending):
             return False
-        if self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX) > BOND_RTOL * step.f_scale:
+        violation = self.comm.allreduce(float(base.violation[flips].max(initial=0.0)), op=MPI.MAX)
+        if violation > BOND_RTOL * step.task.f_scale:
             return False
-        step.frozen |= flips
+        memory.frozen |= flips
         step.active = base.good.copy()
-        _stick(step.active, step.frozen)
+        _stick(step.active, memory.frozen)
         return True
 
     def _take(self, step: _NewtonStep, proposal: _Proposal, key: int) -> None:
         """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""
-        step.seen.add(key)
+        step.memory.seen.add(key)
         step.base, step.active = proposal, proposal.proposal
 
     def _visit(self, step: _NewtonStep, target: ContactState, violation: np.ndarray) -> bool:
         """Whether ``target`` is new at this level; if so it is solved next, as the proposal of the current set
         with ``violation``. Collective."""
         key = self._global_key(target)
-        if key in step.seen:
+        if key in step.memory.seen:
             return False
         self._take(step, _Proposal(step.active, target, _changes(target, step.active), violation), key)
         return True
@@ -1083,41 +945,14 @@ class ContactSolver:
 
     def _factorisations(self, step: _NewtonStep) -> int:
         """The factorisations made since the step began."""
-        return self.stats["factorisations"] - step.first_factorisation
-
-    def active_set_displacements(self, level: float, active: ContactState, slip_ref: np.ndarray
-                                 ) -> np.ndarray | None:
-        """The relative displacements (m) of ``active``'s solution under the loads at ``level``, or None
-        (:class:`bridgefem.cycles.PairSolves`). Collective."""
-        self._rhs(level, active, slip_ref)
-        if self._solve(active, self._mode) is not None:
-            return None
-        return self.split(self._mode)[2]
-
-    def unit_force_displacements(self, active: ContactState, row: int | None) -> np.ndarray | None:
-        """The relative displacements (m per N) of ``active``'s solution under a unit force alone at local law row
-        ``row``, or None (:class:`bridgefem.cycles.PairSolves`). Collective."""
-        self.b.array[:] = 0.0
-        if row is not None:
-            self.b.array[self.n_u + row] = 1.0
-        if self._solve(active, self._mode) is not None:
-            return None
-        return self.split(self._mode)[2] - self._ground
-
-    def unit_force_error(self) -> np.ndarray | None:
-        """The estimated error (m per N) of the relative displacements of the last :meth:`unit_force_displacements`,
-        or None (:class:`bridgefem.cycles.PairSolves`). Collective."""
-        correction = self.linear.correction(self.b, self._mode)
-        if not isinstance(correction, PETSc.Vec):
-            self._matrix_key = None  # a failed factorisation is never reused
-            return None
-        return self.split(correction)[2] - self._ground
+        return self.stats["factorisations"] - step.task.first_factorisation
 
     def _leaps(self, x: PETSc.Vec, near: PETSc.Vec, start: PETSc.Vec) -> bool:
         """Whether the solution ``x`` moves the structure more than ``LEAP`` times as far as the last solved iterate
         ``near`` and the step's start (largest displacement, m): the module's *Leaps*. Collective."""
-        largest = self._norm_inf(x.array[:self.n_u])
-        return largest > LEAP * max(self._norm_inf(near.array[:self.n_u]), self._norm_inf(start.array[:self.n_u]))
+        norm_inf = self.system.norm_inf
+        largest = norm_inf(x.array[:self.n_u])
+        return largest > LEAP * max(norm_inf(near.array[:self.n_u]), norm_inf(start.array[:self.n_u]))
 
     def _cycle(self, pending: np.ndarray, churn: np.ndarray) -> np.ndarray:
         """The pairs of a cycle to condense (the module's *Churning pairs*): those the returning proposal changes,
@@ -1141,7 +976,7 @@ class ContactSolver:
                  frozen: np.ndarray) -> "_Proposal | None":
         """The active set an estimate of the solution proposes from the converged ``active``, as a proposal whose
         good set is ``active``; None when it proposes no change."""
-        _, lam, d = self.split(predictor)
+        _, lam, d = self.system.split(predictor)
         proposal = self._propose(active, lam, d, slip_ref, frozen)
         return proposal if self._any(proposal.pending.any()) else None
 
@@ -1160,24 +995,11 @@ class ContactSolver:
 
     def converged_slip_reference(self, it: Iterate) -> Iterate:
         """The converged state becomes the reference for the incremental slip of the next step."""
-        _, _, d = self.split(it.x)
+        _, _, d = self.system.split(it.x)
         return Iterate(it.x, it.active, d[:, 1].copy(), it.plastic_strain)
 
     def _global_key(self, active: ContactState) -> int:
         return hash(tuple(self.comm.allgather(active.key())))
-
-    def _norm_inf(self, a: np.ndarray) -> float:
-        return float(self.comm.allreduce(np.abs(a).max() if a.size else 0.0, op=MPI.MAX))
-
-    def _material_residual(self, x: PETSc.Vec, f_int: np.ndarray, level: float, f_scale: float) -> float:
-        """Scaled out-of-balance force |f + G^T lam - f_int(u)|_inf / f_scale with the fill's true stresses."""
-        return self._norm_inf(self._out_of_balance(x, f_int, level)) / f_scale
-
-    def _out_of_balance(self, x: PETSc.Vec, f_int: np.ndarray, level: float) -> np.ndarray:
-        """Out-of-balance force f + G^T lam - f_int(u) (owned, N) with the fill's internal force ``f_int``."""
-        self._lam.array[:] = x.array[self.n_u:]
-        self._G.multTranspose(self._lam, self.r)
-        return self.f_dead.array + level * self.f_live.array + self.r.array[:self.n_u] - f_int
 
     def _merit(self, level: float, x: PETSc.Vec, plastic_strain: np.ndarray, slip_ref: np.ndarray,
                frozen: np.ndarray, f_scale: float) -> "tuple[float, FillResponse | None]":
@@ -1186,14 +1008,14 @@ class ContactSolver:
         ``plastic_strain``; without a plastic fill f + G^T lam - K u) and the Alart-Curnier residual of the joints
         (friction law waived at ``frozen`` pairs), scaled by f_scale; and the fill's response at x (no tangent; None
         without a plastic fill). Collective."""
-        _, lam, d = self.split(x)
+        _, lam, d = self.system.split(x)
         ncp = self.law.residual(lam, d, slip_ref)
         ncp[frozen, 1] = 0.0
         if self.material is None:
-            out, response = self._elastic_out_of_balance(x), None
+            out, response = self.system.elastic_out_of_balance(x), None
         else:
             response = self.material.evaluate(x.array[:self.n_u], plastic_strain, tangent=False)
-            out = self._out_of_balance(x, response.f_int, level)
+            out = self.system.out_of_balance(x, response.f_int, level)
         squares = self.comm.allreduce(float(out @ out) + float(np.sum(ncp * ncp)))
         return np.sqrt(squares) / f_scale, response
 
@@ -1217,13 +1039,6 @@ class ContactSolver:
             return full
         return value, response
 
-    def _equilibrium_residual(self, x: PETSc.Vec, f_scale: float) -> float:
-        return self._norm_inf(self._elastic_out_of_balance(x)) / f_scale
-
-    def _elastic_out_of_balance(self, x: PETSc.Vec) -> np.ndarray:
-        """Out-of-balance force of the assembled linear system's equilibrium rows at x, b - A x (owned, N)."""
-        self.A.mult(x, self.r)
-        return self.b.array[:self.n_u] - self.r.array[:self.n_u]
 
 
 def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: StepOutcome,
@@ -1254,12 +1069,6 @@ def retried(solver: ContactSolver, solve: Callable[[], StepOutcome], failed: Ste
     if best is failed:
         return replace(failed, reason=f"{failed.reason} (and with each of {len(settings)} other solver settings)")
     return best
-
-
-def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
-    (ia, ja, _), (ib, jb, _) = a.getValuesCSR(), b.getValuesCSR()
-    return bool(a.getComm().tompi4py().allreduce(int(np.array_equal(ia, ib) and np.array_equal(ja, jb)),
-                                                  op=MPI.MIN))
 
 
 def _stick(active: ContactState, frozen: np.ndarray) -> None:

@@ -81,7 +81,7 @@ def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockMode
     n, s (N) along the joint's normal and tangent, the force on its right block, and m (N·m) = -(moment about the
     joint's centre), the LP's convention (:mod:`bridgefem.rigid_block`); joints without pairs carry none. Every pair
     acts at its place on the joint, ``position`` from the intrados. Identical on every rank (collective)."""
-    _, lam, _ = solver.split(it.x)
+    _, lam, _ = solver.system.split(it.x)
     ring = pairs.joint >= 0
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.normal, pairs.tangent])[ring]
     table = np.vstack(solver.comm.allgather(local))

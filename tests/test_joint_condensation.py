@@ -118,7 +118,7 @@ def test_condensed_compliance_reproduces_the_full_solve():
     start = solver.converged_slip_reference(solver.solve_step(0.0, solver.initial_iterate()).iterate)
     out = solver.solve_step(level, start)
     assert out.converged, out.reason
-    _, lam, d = solver.split(out.iterate.x)
+    _, lam, d = solver.system.split(out.iterate.x)
     closed = np.flatnonzero(out.iterate.active.state != OPEN)
     chosen = np.zeros(len(pairs), dtype=bool)
     chosen[closed[[0, len(closed) // 2]]] = True

@@ -27,7 +27,7 @@ def test_a_predicted_step_may_return_to_the_start_active_set():
     lam[:, 1] = 0.8 * lam[:, 0]  # twice the friction cone's edge: every base pair proposed to slide
     out = solver.solve_step(0.2 * W, start, predictor, give_up=True)
     assert out.converged and not out.mechanism, out.reason
-    _, lam, _ = solver.split(out.iterate.x)
+    _, lam, _ = solver.system.split(out.iterate.x)
     assert np.all(out.iterate.active.state == STICK)
     assert abs(lam[:, 1].sum()) == pytest.approx(0.2 * W, rel=1e-9)
     assert lam[:, 0].sum() == pytest.approx(W, rel=1e-9)

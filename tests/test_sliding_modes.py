@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState
+from bridgefem.contact_system import PROXIMAL
 from bridgefem.mechanism import Mode, judge
-from bridgefem.solver import PROXIMAL
 
 from conftest import bridgefem, campaign_scene, write_toml
 from test_block import W, block_solver
@@ -56,7 +56,7 @@ def test_a_free_slide_moves_the_block_by_its_unbalanced_force_over_the_springs()
         x = start.x.copy()
         assert solver._solve_active(0.2 * W, active, start.slip_ref, x, start.x) is not None
         assert solver._solve_active(0.2 * W, active, start.slip_ref, x, start.x, start.x) is None
-        _, lam, d = solver.split(x)
+        _, lam, d = solver.system.split(x)
         assert lam[:, 0].sum() == pytest.approx(W, rel=1e-6)
         slides.append(abs(np.mean(d[:, 1] - start.slip_ref)) * k / W)
     assert sorted(slides) == pytest.approx([0.2, 0.6], rel=1e-3)
@@ -94,7 +94,7 @@ def test_a_free_slide_sticks_the_pairs_whose_friction_drives_it(push):
     s = -1) and the repair sticks them; in -x at P = 0.05 W, pairs 0-2."""
     mu = 0.4
     solver, start = _self_weight(mu, 0.5)
-    normal = solver.split(start.x)[1][:, 0]
+    normal = solver.system.split(start.x)[1][:, 0]
     assert normal.sum() == pytest.approx(W, rel=1e-6)
     plus = np.arange(len(solver.pairs)) < 3
     active = ContactState(np.full(len(solver.pairs), SLIP, dtype=np.int8), np.where(plus, 1, -1).astype(np.int8))

@@ -63,8 +63,9 @@ def test_a_pair_that_declined_a_condensation_is_solved_first_the_next_time(monke
     solver, start, pairs, level = settled_block()
     a, b, _ = np.flatnonzero(pairs)
     unit_rows = []
-    solve = solver._solve
-    monkeypatch.setattr(solver, "_solve", lambda active, x: unit_rows.append(np.flatnonzero(solver.b.array)[0])
+    system = solver.system
+    solve = system._solve
+    monkeypatch.setattr(system, "_solve", lambda active, x: unit_rows.append(np.flatnonzero(system.b.array)[0])
                         or solve(active, x))
     assert solver.cycles.pair_response(level, start.active, pairs, start.slip_ref) is None
     assert unit_rows == [solver.n_u + 2 * a, solver.n_u + 2 * b]

@@ -80,7 +80,7 @@ def test_the_bracket_of_a_campaign_ring_ends_on_the_static_theorem():
     assert step.level == s.lower and cap.admissible(step, s.last)[0]
     x = s.last.x.copy()
     lam = x.array[an.solver.n_u:].reshape(-1, 2)
-    _, _, lam_now = an.solver.split(s.last.x)
+    _, _, lam_now = an.solver.system.split(s.last.x)
     loaded = an.pairs.joint == an.pairs.joint[np.argmax(lam_now[:, 0])]
     lam[loaded, 0] *= -1.0  # the most compressed joint pulled instead
     x.array[an.solver.n_u:] = lam.ravel()

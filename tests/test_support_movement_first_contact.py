@@ -23,8 +23,8 @@ def _lifted_block(lift: float, tilt: float):
     origin = solver.initial_iterate().x.copy()
     origin.set(0.0)
     origin.array[2 * node + 1] = lift + tilt * pairs.position
-    solver._mode.set(0.0)
-    solver._mode.array[2 * node + 1] = -1.0
+    solver.system._mode.set(0.0)
+    solver.system._mode.array[2 * node + 1] = -1.0
     active = ContactState(np.full(len(pairs), OPEN, dtype=np.int8), np.zeros(len(pairs), dtype=np.int8))
     return solver, origin, active
 
@@ -36,9 +36,10 @@ def test_the_repair_keeps_the_pairs_that_close_first_along_the_mode():
     pair or the last alone (gap 1.3 mm). A repair that only sticks a closed pair (one sliding backwards) stays."""
     lift, tilt = 1e-3, 3e-4
     solver, origin, active = _lifted_block(lift, tilt)
-    gap = solver.split(origin)[2][:, 0]
+    gap = solver.system.split(origin)[2][:, 0]
     assert gap == pytest.approx(lift + tilt * solver.pairs.position, rel=1e-9)  # the made-up state's gaps
-    rate = -(solver.split(solver._mode)[2][:, 0] - solver._ground[:, 0])  # the mode's closing, 1 at every pair
+    system = solver.system
+    rate = -(system.split(system._mode)[2][:, 0] - system._ground[:, 0])  # the mode's closing, 1 at every pair
     assert rate == pytest.approx(np.ones(len(solver.pairs)), rel=1e-12)
     everything = np.ones(len(solver.pairs), dtype=bool)
     first = first_contact(everything, rate, gap, active.state)
