@@ -49,6 +49,7 @@ from .sizing import MAX_DOFS, check_size
 from .status import Status
 from .solver import ContactSolver, Iterate
 from .static_bound import fe_blocks, static_cap
+from .tresca_predictor import TrescaPredictor
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
 HINGE_ECCENTRICITY = 0.49  # or its thrust is this close to a face (fraction of its length from the centre)
@@ -409,6 +410,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     blocks = fe_blocks(scene, model, bm) if fill is None else None  # the rigid blocks loaded as the FE loads them
     bound = static_cap(blocks, model, bm, pairs, solver) if fill is None else None
     lap("static bound")
+    # a failed trial's predicted state (bridgefem.tresca_predictor): bare rings whose LP mechanism does not slide
+    predictor = TrescaPredictor(solver) if fill is None and not lp.sliding else None
     try:
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.linsolve)
             search = find_limit_load(solver, under_load, tolerance=s.tolerance,
@@ -420,6 +423,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                      bound=bound[1] if bound else None, coarser=coarser,
                                      collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring,
                                                              s.tolerance, total),
+                                     predicted=predictor.predict if predictor is not None else None,
                                      report=note, converged=keep)
     except SolveBudgetSpent as spent:
         carried = max((c.load for c in states), default=0.0)

@@ -91,8 +91,9 @@ class ContactSystem:
         return self.starts[q] + self.n_u_all[q] + g - self.lam_starts[q]
 
     # ----------------------------------------------------------------- assembly
-    def _g_entries(self):
-        """Entries of G for the local pairs: (row in 0..2m-1, global u dof, value)."""
+    def g_entries(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Entries of the relative displacement operator G for the local pairs: (row in 0..2m-1: 2 k normal,
+        2 k + 1 tangential of local pair k; global u dof; value)."""
         p = self.pairs
         k = np.arange(len(p))
         rows, cols, vals = [], [], []
@@ -107,7 +108,7 @@ class ContactSystem:
 
     def _build(self, K: PETSc.Mat) -> None:
         comm, p = self.comm, self.pairs
-        g_rows, g_cols, g_vals = self._g_entries()
+        g_rows, g_cols, g_vals = self.g_entries()
         m2 = self.n_lam
         n_u_global = K.getSize()[0]
         g_local = sp.csr_matrix((g_vals, (g_rows, g_cols)), shape=(m2, n_u_global))
@@ -177,6 +178,17 @@ class ContactSystem:
     def law_changed(self) -> None:
         """The joint law's constants (mu, c) changed: the next solve assembles and factorises the matrix again."""
         self._matrix_key = None
+
+    @property
+    def stiffness(self) -> PETSc.Mat:
+        """The assembled elastic stiffness K (owned rows, N/m)."""
+        return self._K
+
+    @property
+    def ground(self) -> np.ndarray:
+        """The ground offsets of the local pairs' relative displacements (m, 2; m) at the imposed support
+        movement."""
+        return self._ground
 
     def set_support_movement(self, fraction: float) -> None:
         """Impose ``fraction`` of the support movement (offsets ``support_motion``, m per pair) from now on."""

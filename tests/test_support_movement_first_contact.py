@@ -39,7 +39,7 @@ def test_the_repair_keeps_the_pairs_that_close_first_along_the_mode():
     gap = solver.system.split(origin)[2][:, 0]
     assert gap == pytest.approx(lift + tilt * solver.pairs.position, rel=1e-9)  # the made-up state's gaps
     system = solver.system
-    rate = -(system.split(system._mode)[2][:, 0] - system._ground[:, 0])  # the mode's closing, 1 at every pair
+    rate = -(system.split(system._mode)[2][:, 0] - system.ground[:, 0])  # the mode's closing, 1 at every pair
     assert rate == pytest.approx(np.ones(len(solver.pairs)), rel=1e-12)
     everything = np.ones(len(solver.pairs), dtype=bool)
     first = first_contact(everything, rate, gap, active.state)

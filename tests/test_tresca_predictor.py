@@ -1,0 +1,48 @@
+"""The Tresca QP and its Coulomb fixed point (bridgefem.tresca_predictor) against a block on the ground, by hand.
+
+One node (u_x, u_y) held by springs k_x, k_y (N/m), on the ground through one pair whose normal is +y (d_n = u_y,
+opening) and tangent +x (d_t = u_x); loads H along x and -W along y (N), friction mu. By hand (Coulomb, no
+dilatancy): the pair stays closed (u_y = 0, lam_n = W); for H < mu W it sticks (u_x = 0, lam_t = -H: the friction
+force opposes the push); for H > mu W it slides, u_x = (H - mu W) / k_x and lam_t = -mu W. A load P lifting the node
+opens the pair: u_y = P / k_y, no joint force.
+"""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from bridgefem.tresca_predictor import TrescaProblem
+
+K_X, K_Y, MU, W = 2.0e8, 5.0e8, 0.6, 1.0e4
+K = sp.diags([K_X, K_Y]).tocsr()
+G = sp.csr_matrix(np.array([[0.0, 1.0], [1.0, 0.0]]))  # rows: normal, tangential of the one pair
+BLOCK = TrescaProblem(K, G)
+NO_OFFSET, NO_SLIP = np.zeros((1, 2)), np.zeros(1)
+
+
+def fixed_point(push: float, lift: float = -W):
+    """The Coulomb fixed point from a start without joint force (its first capacity is the floor)."""
+    return BLOCK.coulomb_fixed_point(np.array([push, lift]), NO_OFFSET, NO_SLIP, np.array([MU]), np.zeros(1))
+
+
+def test_block_sticks_below_its_sliding_load():
+    step = fixed_point(0.5 * MU * W)
+    assert step is not None
+    assert step.lam_n[0] == pytest.approx(W, rel=1e-6)
+    assert step.lam_t[0] == pytest.approx(-0.5 * MU * W, rel=1e-6)
+    assert abs(step.u[0]) < 1e-6 * MU * W / K_X and abs(step.u[1]) < 1e-6 * W / K_Y
+
+
+def test_block_slides_past_its_sliding_load_without_dilatancy():
+    step = fixed_point(2.0 * MU * W)
+    assert step is not None
+    assert step.u[0] == pytest.approx(MU * W / K_X, rel=1e-6)  # (H - mu W) / k_x
+    assert step.lam_t[0] == pytest.approx(-MU * W, rel=1e-6)
+    assert step.lam_n[0] == pytest.approx(W, rel=1e-6)
+    assert abs(step.u[1]) < 1e-6 * W / K_Y  # no opening while it slides
+
+
+def test_lifted_block_opens_with_no_joint_force():
+    step = BLOCK.step(np.array([0.0, 3.0e3]), NO_OFFSET, NO_SLIP, np.array([MU * W]))
+    assert step.solved
+    assert step.u[1] == pytest.approx(3.0e3 / K_Y, rel=1e-6)
+    assert abs(step.lam_n[0]) < 1e-6 * 3.0e3 and abs(step.lam_t[0]) < 1e-6 * 3.0e3
