@@ -44,7 +44,8 @@ CAPACITY_FLOOR = 1e-6  # least capacity per pair, of the largest applied nodal f
 
 
 class TrescaStep(NamedTuple):
-    """A Tresca QP's solution: displacements u (m), normal and tangential joint forces (N), Clarabel's status."""
+    """A Tresca QP's solution: displacements u (m), normal and tangential joint forces (N), and whether Clarabel
+    solved it."""
 
     u: np.ndarray
     lam_n: np.ndarray
