@@ -98,9 +98,11 @@ nodal force through their 60 iterations from the converged state, a solver failu
 trial converges in 17 and its flat secant closes the bracket.
 A failed trial more than the width above ``lower`` is solved once more from the state ``predicted`` proposes for it
 when one is given (:class:`bridgefem.tresca_predictor.TrescaPredictor`: the FE's own step with Tresca friction, its
-Coulomb fixed point; built for bare rings whose rigid-block mechanism does not slide), before the step is halved:
-the prediction changes only the path, its outcome is judged as any other. Campaign seed 1, #48: 284 -> 78 solves,
-#224: 185 -> 42, the same brackets (the predicted trials converge in 1 to 3 Newton iterations).
+Coulomb fixed point; built for bare rings whose rigid-block mechanism does not slide), before the step is halved: the
+prediction changes only the path, its outcome is judged as any other. Campaign seed 1, #48: 284 -> 78 solves, #224:
+185 -> 42, the same brackets (the predicted trials converge in 1 to 3 Newton iterations). After
+``FUTILE_PREDICTIONS`` predicted trials in a row that failed (or whose fixed point did not settle) the search stops
+predicting: each costs up to 8 QPs and a trial's Newton budget.
 
 **Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never
 decisive: the search halves the step towards it, down to ``SUBSTEP`` widths, and only then reports a solver
@@ -215,6 +217,8 @@ STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the ta
 RETRY_FLOOR = 14  # without a plastic fill, a trial at a level that failed before gets at most BUDGET times the Newton
 # iterations of the step that reached lower, and at least this many (module docstring, *Failures without proof*)
 CLOSE = 1.0 - 1e-9  # the step after T is this fraction of the width, so that rounding keeps it inside
+FUTILE_PREDICTIONS = 3  # the search stops predicting after this many predicted trials in a row that failed or found
+# no settled state (seed 1 --options #138, quadratic elements: 1 of 39 predicted trials converged, 65 -> 151 s)
 
 
 @dataclass
@@ -651,6 +655,7 @@ class _Search:
     schedule: _Schedule
     target: _Target
     predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None  # a predicted state at a level (*Predictor*)
+    futile: int = 0  # predicted trials in a row that failed or found no settled state (*Predictor*)
 
     @property
     def steps(self) -> list[LoadStep]:
@@ -717,13 +722,13 @@ class _Search:
                 not self.target.plausible(trial) or not out.mechanism):
             out = _settled(self.target.collapse, lower, trial, state, out) or retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
-        if out.converged or out.proved or not far or self.predicted is None:
+        if out.converged or out.proved or not far or self.predicted is None or self.futile >= FUTILE_PREDICTIONS:
             return out
         x = self.predicted(trial, state)  # *Predictor*: once more from the predicted state
-        if x is None:
-            return out
-        again = self.attempt(trial, state, lower, predictor=x, give_up=True, iterations=budget)
-        return again if again.converged or again.proved else out
+        again = self.attempt(trial, state, lower, predictor=x, give_up=True, iterations=budget) if x is not None else out
+        helped = again.converged or again.proved
+        self.futile = 0 if helped else self.futile + 1
+        return again if helped else out
 
     def _final(self, trial: float, out: StepOutcome) -> bool:
         """The failure ``out`` at ``trial`` ends the search (:meth:`_Bracket.ends`); the same before and after its

@@ -9,7 +9,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.contact import ContactState
-from bridgefem.pathfollow import CollapseCheck, StaticCap, find_limit_load
+from bridgefem.pathfollow import FUTILE_PREDICTIONS, CollapseCheck, StaticCap, find_limit_load
 from bridgefem.selfweight import SELF_WEIGHT_RETRIES
 from bridgefem.solver import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
@@ -54,9 +54,27 @@ class OneDof:
         return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
 
 
-def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None, collapse=None):
+def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None, collapse=None, predicted=None):
     return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=tolerance, initial_step=WEIGHT / 4,
-                           max_load=max_load, max_steps=200, guess=guess, bound=bound, collapse=collapse)
+                           max_load=max_load, max_steps=200, guess=guess, bound=bound, collapse=collapse,
+                           predicted=predicted)
+
+
+class Predicted(OneDof):
+    """The fake Newton method reaches any level below the limit from a predicted state when ``helps``."""
+
+    def __init__(self, helps, **kw):
+        super().__init__(**kw)
+        self.helps = helps
+
+    def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
+        if self.helps and predictor is PREDICTED and level <= self.limit:
+            self.solves += 1
+            return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
+        return super().solve_step(level, start, predictor, give_up, iterations)
+
+
+PREDICTED = PETSc.Vec().createSeq(1, comm=PETSc.COMM_SELF)  # the predicted state the fake recognises
 
 
 def static_cap(level, admissible=True, falls=False):
@@ -235,3 +253,25 @@ def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
             estimated.solves, plain.solves)
     if estimate == "rising":
         assert estimated.solves == plain.solves
+
+
+@pytest.mark.parametrize("helps", [True, False])
+def test_a_predicted_state_retries_a_failed_long_step_and_is_dropped_once_futile(helps):
+    """A trial that failed without proof on a long step is solved once more from the predicted state: where that
+    reaches it, the search needs fewer solves for the same bracket; where it never helps, the search stops asking after
+    FUTILE_PREDICTIONS predicted trials in a row."""
+    calls = []
+
+    def predicted(level, start):
+        calls.append(level)
+        return PREDICTED
+
+    plain = search(OneDof(reach=0.05 * LIMIT), guess=1.3 * LIMIT)
+    solver = Predicted(helps, reach=0.05 * LIMIT)
+    s = search(solver, guess=1.3 * LIMIT, predicted=predicted)
+    assert_bracket(s)
+    assert_bracket(plain)
+    if helps:
+        assert len(s.steps) < len(plain.steps)
+    else:
+        assert len(calls) == FUTILE_PREDICTIONS
