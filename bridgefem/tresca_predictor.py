@@ -101,22 +101,30 @@ class TrescaProblem:
 
 class TrescaPredictor:
     """Predicted states for the load steps of a ring's :class:`bridgefem.solver.ContactSolver` (no plastic fill):
-    K and G gathered on rank 0 once. Collective."""
+    K and G gathered on rank 0 once, at the first prediction (most searches ask for none). Collective."""
 
     def __init__(self, solver: ContactSolver):
-        system = solver.system
-        self.solver, self.system, self.comm = solver, system, solver.comm
-        ki, kj, kv = system.stiffness.getValuesCSR()
-        n_global = system.stiffness.getSize()[0]
-        rows, cols, vals = system.g_entries()
-        K = sp.csr_matrix((kv, kj, ki), shape=(system.n_u, n_global))
-        G = sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(solver.pairs), n_global))
-        blocks = self.comm.gather((K, G), root=0)
-        self.problem = None
-        if self.comm.rank == 0:
-            self.problem = TrescaProblem(sp.vstack([b[0] for b in blocks]).tocsr(),
-                                         sp.vstack([b[1] for b in blocks]).tocsr())
-        self.sizes = self.comm.allgather((system.n_u, len(solver.pairs)))
+        self.solver, self.system, self.comm = solver, solver.system, solver.comm
+        self.problem: TrescaProblem | None = None  # on rank 0, once gathered
+        self.gathered = False  # K and G gathered (the same on every rank)
+        self.sizes = self.comm.allgather((self.system.n_u, len(solver.pairs)))
+
+    def _problem(self) -> TrescaProblem | None:
+        """The Tresca QP of the assembled K and G on rank 0 (None elsewhere), gathered at the first call.
+        Collective."""
+        if not self.gathered:
+            self.gathered = True
+            system = self.system
+            ki, kj, kv = system.stiffness.getValuesCSR()
+            n_global = system.stiffness.getSize()[0]
+            rows, cols, vals = system.g_entries()
+            K = sp.csr_matrix((kv, kj, ki), shape=(system.n_u, n_global))
+            G = sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(self.solver.pairs), n_global))
+            blocks = self.comm.gather((K, G), root=0)
+            if self.comm.rank == 0:
+                self.problem = TrescaProblem(sp.vstack([b[0] for b in blocks]).tocsr(),
+                                             sp.vstack([b[1] for b in blocks]).tocsr())
+        return self.problem
 
     def _gathered(self, local: np.ndarray) -> np.ndarray | None:
         parts = self.comm.gather(local, root=0)
@@ -129,10 +137,10 @@ class TrescaPredictor:
         _, lam, _ = system.split(start.x)
         gathered = [self._gathered(a) for a in (system.loads(level), lam[:, 0], start.slip_ref, system.ground,
                                                  solver.law.mu)]
-        step = None
+        problem, step = self._problem(), None
         if self.comm.rank == 0:
             f, normal, slip_ref, offset, mu = gathered
-            step = self.problem.coulomb_fixed_point(f, offset, slip_ref, mu, normal)
+            step = problem.coulomb_fixed_point(f, offset, slip_ref, mu, normal)
         shares = None
         if self.comm.rank == 0 and step is not None:
             u_cuts = np.cumsum([s[0] for s in self.sizes])[:-1]
