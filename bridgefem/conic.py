@@ -42,6 +42,21 @@ class ConicSolution:
     sizes: dict
 
 
+def clarabel_solve(P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, b: np.ndarray, cones: list, settings):
+    """Clarabel's solution of ``min 1/2 x.P x + q.x  s.t.  A x + s = b, s in cones``, or None and why when it
+    raises instead: bad data raises an Exception, an internal error a Rust panic (pyo3's ``PanicException``, which
+    derives from BaseException, not Exception). Either is the solver's failure, never a crash; anything else
+    (e.g. KeyboardInterrupt) propagates."""
+    import clarabel
+
+    try:
+        return clarabel.DefaultSolver(P, q, A, b, cones, settings).solve(), ""
+    except BaseException as err:  # a panic is a BaseException; any other is re-raised
+        if not isinstance(err, Exception) and type(err).__name__ != "PanicException":
+            raise
+        return None, f"Clarabel raised {type(err).__name__}: {err}"
+
+
 class ConicProgramme:
     """Rows of a conic programme in ``n`` unknowns, collected per cone type (see the module docstring)."""
 
@@ -103,9 +118,11 @@ class ConicProgramme:
             settings.max_threads = 1
             if regularization is not None:
                 settings.static_regularization_constant = regularization
-            solver = clarabel.DefaultSolver(sp.csc_matrix((self.n, self.n)), cost * scale, a, np.concatenate(rhs),
-                                            cones, settings)
-            sol = solver.solve()
+            sol, raised = clarabel_solve(sp.csc_matrix((self.n, self.n)), cost * scale, a, np.concatenate(rhs),
+                                         cones, settings)
+            if sol is None:
+                return ConicSolution(f"solver failure: {raised}", None, {}, None, iterations,
+                                     time.perf_counter() - start, sizes)
             iterations += sol.iterations
             name = str(sol.status).split(".")[-1]
             if name not in ("NumericalError", "InsufficientProgress"):

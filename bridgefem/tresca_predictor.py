@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
+from .conic import clarabel_solve
 from .solver import ContactSolver, Iterate
 
 TRESCA_QPS = 8  # QPs of the fixed point per prediction
@@ -78,7 +79,9 @@ class TrescaProblem:
         b = np.concatenate([offset[:, 0] / unit, reference, -reference])
         settings = clarabel.DefaultSettings()
         settings.verbose = False
-        sol = clarabel.DefaultSolver(self.P, q, self.A, b, [clarabel.NonnegativeConeT(3 * m)], settings).solve()
+        sol, _ = clarabel_solve(self.P, q, self.A, b, [clarabel.NonnegativeConeT(3 * m)], settings)
+        if sol is None:  # Clarabel raised: no prediction
+            return TrescaStep(np.zeros(n), np.zeros(m), np.zeros(m), False)
         z = np.asarray(sol.z)
         return TrescaStep(np.asarray(sol.x)[:n] * unit, z[:m] * force, (z[2 * m:] - z[m:2 * m]) * force,
                           str(sol.status) == "Solved")

@@ -46,3 +46,37 @@ def test_lifted_block_opens_with_no_joint_force():
     assert step.solved
     assert step.u[1] == pytest.approx(3.0e3 / K_Y, rel=1e-6)
     assert abs(step.lam_n[0]) < 1e-6 * 3.0e3 and abs(step.lam_t[0]) < 1e-6 * 3.0e3
+
+
+class PanicException(BaseException):
+    """Named as pyo3 names a Rust panic, which derives from BaseException, not Exception."""
+
+
+class Raising:
+    """Stands in for clarabel.DefaultSolver: building it raises ``error``."""
+
+    error: BaseException = PanicException("index out of bounds")
+
+    def __init__(self, *args):
+        raise self.error
+
+
+def test_a_clarabel_panic_is_no_prediction_and_no_crash(monkeypatch):
+    import clarabel
+    monkeypatch.setattr(clarabel, "DefaultSolver", Raising)
+    assert not BLOCK.step(np.array([1.0, -W]), NO_OFFSET, NO_SLIP, np.array([MU * W])).solved
+    assert fixed_point(0.5 * MU * W) is None
+
+
+def test_a_clarabel_panic_is_a_conic_solver_failure_and_an_interrupt_is_not_caught(monkeypatch):
+    import clarabel
+    from bridgefem.conic import NONNEG, ConicProgramme
+    programme = ConicProgramme(1)
+    programme.add(NONNEG, [0], [0], [1.0], [1.0])  # x <= 1
+    monkeypatch.setattr(clarabel, "DefaultSolver", Raising)
+    solution = programme.solve(np.array([-1.0]), np.ones(1))
+    assert solution.status == "solver failure: Clarabel raised PanicException: index out of bounds"
+    assert solution.x is None
+    monkeypatch.setattr(Raising, "error", KeyboardInterrupt())
+    with pytest.raises(KeyboardInterrupt):
+        programme.solve(np.array([-1.0]), np.ones(1))
