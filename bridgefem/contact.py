@@ -27,6 +27,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
+from mpi4py import MPI
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
@@ -190,6 +191,20 @@ class ContactState:
 
     def key(self) -> bytes:
         return self.state.tobytes() + self.sign.tobytes()
+
+    def sliding_joints(self, joint: np.ndarray, held: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+        """Per local pair (ring joint ids ``joint``), the slip sign (+1/-1) of its joint when every closed pair of
+        that joint outside the mask ``held`` (at least one) slips that way, else 0; 0 on the arch-fill interface.
+        Collective: a joint's pairs may lie on several ranks."""
+        ring = joint >= 0
+        n = comm.allreduce(int(joint.max(initial=-1)) + 1, op=MPI.MAX)
+        closed = ring & (self.state != OPEN) & ~held
+        slips = closed & (self.state == SLIP)
+        counts = comm.allreduce(np.stack([np.bincount(joint[m], minlength=n) for m in
+                                          (closed, slips & (self.sign > 0), slips & (self.sign < 0))]))
+        sliding = counts[0] > 0
+        sign = np.where(sliding & (counts[1] == counts[0]), 1, np.where(sliding & (counts[2] == counts[0]), -1, 0))
+        return np.where(ring, sign[np.maximum(joint, 0)], 0).astype(np.int8)
 
 
 class LawRows(NamedTuple):

@@ -122,7 +122,7 @@ a step ends on an active set that does not change but cannot be solved accuratel
 :func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at the
 pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip against
 the friction force; a failure without proof, solved with a proximal term (below) or damped like any failed proposal,
-carrying a *repair* that closes and sticks the offending pairs), a mechanism, or a *proof* of collapse
+carrying a *repair* that closes the offending pairs: sticking, or sliding on a sliding joint, *First contact*), a mechanism, or a *proof* of collapse
 (``StepOutcome.proved``: an admissible rigid-block hinge mode on which the loads do positive work). A proof ends the
 step at once whatever its history (a predicted or damped active set). The repair is tried when damping has nothing
 left to halve, or when the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the
@@ -147,6 +147,21 @@ closes joint 0 at an amplitude of 1.7e-5 and joint 10 at 2.3e-5 (their rates wit
 other), and the repair of both failed at every level down to 0.13 N, a solver failure; closing joint 0 alone, the
 ring reaches the LP's limit (78.96 kN, 155 solves; 0.6 to 1.5 times the movement, or in 1 or 16 increments:
 107 to 182).
+An open pair that a repair closes on a *sliding joint* (every other closed pair of that joint slipping one way:
+:meth:`bridgefem.contact.ContactState.sliding_joints`) closes sliding that way, not sticking: a new contact on a
+joint that slides slides with it, so the joint's contact zone can widen while it slides. Sticking there ties the
+joint at one pair while its others slide, a set that the loads pull open again. The two-voussoir ring of
+``tests/test_extremes.py`` (a three-pin semicircle, mu = 0.6, its interior joint moved under the load) collapses
+with its right voussoir hinged and sliding at that joint and at the right springing. At 163.4 kN both those hinges,
+one pair each, reached the cone. The set with both sliding is a free slide and diverged; its repair closed the
+springing's next pair sticking, and that pair went into tension (-71 kN). The iteration cycled between the two until
+every trial failed: a solver failure at 0.65 of the LP. From that state, 729 active sets were solved at each of
+163.5, 170, 200 and 250 kN: at both of the right voussoir's joints one closed zone at an edge (1 to 5 pairs), all
+sticking or all sliding one way. Exactly one was consistent at each level; at 163.5 kN it is that pair closed and
+sliding with the hinge (1.5 kN on it). Closed sliding, the ring reaches [252.84, 252.86] kN in 19 linear solves,
+whose upper end is the static bound (the rigid-block LP under the FE's own loads; with the exact voussoirs' weights
+the LP gives 252.08 kN). On campaign seed 1 (300 scenes) only two paths changed: #290 157 -> 107 and #119 58 -> 23
+linear solves, with the same brackets.
 
 **Proximal solves.** The system of a wrong active set can be exactly singular along a strain-free rigid slide:
 campaign seed 1 #299 (semicircle, 90 voussoirs, mu = 0.338) stopped at 30.74 kN, 4.3 % below the LP, where a load
@@ -963,12 +978,17 @@ class ContactSolver:
 
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
-        """``active`` with the ``repair`` pairs closed and sticking (None without a repair anywhere). Collective."""
+        """``active`` with the ``repair`` pairs closed and sticking, except that an open one on a sliding joint
+        (:meth:`bridgefem.contact.ContactState.sliding_joints`) closes sliding with it (the module's *First contact*); None without a repair
+        anywhere. Collective."""
         if not self._any(repair is not None and bool(repair.any())):
             return None
+        repair = np.zeros(len(self.pairs), bool) if repair is None else repair
         fixed = active.copy()
-        if repair is not None:
-            fixed.state[repair], fixed.sign[repair] = STICK, 0
+        fixed.state[repair], fixed.sign[repair] = STICK, 0
+        slide = active.sliding_joints(self.pairs.joint, repair, self.comm)
+        closing = repair & (active.state == OPEN) & (slide != 0)
+        fixed.state[closing], fixed.sign[closing] = SLIP, slide[closing]
         _stick(fixed, frozen)
         return fixed
 

@@ -393,13 +393,7 @@ def assert_equilibrium(an: Analysis) -> None:
     assert abs(reactions[0]) <= 1e-6 * total
 
 
-SOLVER_GAPS = {"voussoirs=2": "solver gap: the three-pin ring collapses by sliding with the load on the right "
-               "voussoir; the FE stops at 0.65 of the LP's level (164.9 against 252.1 kN): every trial above ends as "
-               "a damping chain on a mode that interpenetrates the right springing (solver failure, no verdict)"}
-
-
-@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=SOLVER_GAPS[c]))
-                                  if c in SOLVER_GAPS else c for c in CASES])
+@pytest.mark.parametrize("case", CASES)
 def test_extreme_case(case):
     an, seconds = analyse(case)
     s = an.search

@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState
 from bridgefem.contact_system import PROXIMAL
@@ -130,3 +131,16 @@ def test_seed_1_scene_299_reaches_the_lp_limit(tmp_path):
     assert proc.returncode == 0 and data["status"] == "limit load found", data["status"]
     lower, upper, lp = data["limit_load"]["lower"], data["limit_load"]["upper"], data["lp"]["load"]
     assert lower <= 1.005 * lp and upper >= 0.995 * lp
+
+
+def test_a_joint_slides_when_every_closed_pair_outside_the_repair_slips_one_way():
+    """Made-up active set over four ring joints and the arch-fill interface (joint -2): joint 0 has its closed pairs
+    slipping + (one open), joint 1 slips - on one pair and sticks on another, joint 2 is all open, joint 3 slips -
+    once its sticking pair is held (e.g. stuck by the repair itself), and the arch-fill pair never counts."""
+    joint = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, -2])
+    active = ContactState(np.array([SLIP, SLIP, OPEN, SLIP, STICK, OPEN, OPEN, SLIP, STICK, SLIP], dtype=np.int8),
+                          np.array([1, 1, 0, -1, 0, 0, 0, -1, 0, 1], dtype=np.int8))
+    held = np.zeros(len(joint), bool)
+    assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0, 0]
+    held[8] = True
+    assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, -1, -1, 0]
