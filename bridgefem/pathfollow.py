@@ -2,6 +2,8 @@
 
 Levels are live-load levels in N per unit load factor. Every trial is solved from the last converged state
 ``lower``; a failed trial is discarded (incremental friction makes the response path dependent).
+A search takes its numbers (:class:`SearchSettings`), what steers it (:class:`SearchGuides`) and its watchers
+(:class:`SearchObservers`).
 The search (:class:`_Search`) repeats four stages until a rule below ends it: ``next_trial`` chooses the level
 (*Bracket rule*, *Guess*, *Steps*, *Collapse state*), ``solve`` solves it (*Predictor*, *Failures without proof*),
 ``take_converged`` moves ``lower`` up (*Static bound*, *Steps*) and ``take_failed`` backtracks, ends the search or
@@ -33,7 +35,7 @@ elastic blocks stop below the LP): the bound removes trials above it and ends a 
 nothing else. With ``bound.falls`` no equilibrium under self-weight exists: a failed self-weight step is the
 answer (:func:`bridgefem.selfweight.carry_self_weight`), without continuations or retries.
 
-**Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
+**Guess.** With an estimate g of the limit (``guides.guess``, e.g. the rigid-block LP level) the search
 approaches the target T = (1 - tolerance) g (with a static bound: T as above): each step leaves ``APPROACH`` of the
 distance to T, and a step that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the
 same converged state (after a backtrack: the solve is deterministic, so that landing would replay the failures the
