@@ -324,7 +324,7 @@ class SearchSettings:
 @dataclass(frozen=True)
 class SearchGuides:
     """What is known of the limit before the search: it steers the search's path, and the static bound and the
-    collapse state can also end it with their proof. Each None: not known. All the same on every rank.
+    collapse state can also end it with their proof. Each None: not known; each but the guess the same on every rank.
 
     ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
     0; module docstring, *Guess*).
