@@ -20,6 +20,7 @@ import sys
 import time
 import tomllib
 from contextlib import contextmanager, nullcontext
+from dataclasses import replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -78,8 +79,9 @@ def scaled_guess(factor: float | None):
     from bridgefem import analysis
     original = analysis.find_limit_load
 
-    def search(*args, guess=None, **kwargs):
-        return original(*args, guess=None if guess is None or factor is None else factor * guess, **kwargs)
+    def search(*args, guides, **kwargs):
+        guess = None if guides.guess is None or factor is None else factor * guides.guess
+        return original(*args, guides=replace(guides, guess=guess), **kwargs)
 
     analysis.find_limit_load = search
     try:

@@ -41,7 +41,8 @@ from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
 from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
 from .linsolve import SolveBudgetSpent
-from .pathfollow import CollapseCheck, LimitSearch, LoadStep, find_limit_load, monitor_deflection
+from .pathfollow import (CollapseCheck, LimitSearch, LoadStep, SearchGuides, SearchObservers, SearchSettings,
+                         find_limit_load, monitor_deflection)
 from .rigid_block import (BlockModel, LPResult, collapse_load, collapse_state_from, frozen_capacity_collapse,
                           ring_under_forces, solve_blocks)
 from .scene import Scene, SceneError
@@ -344,6 +345,18 @@ def first_step(dead_weight: float, coarser: float | None = None) -> float:
     return max(dead_weight / 4, coarser or 0.0)
 
 
+def search_settings(scene: Scene, dead_weight: float, coarser: float | None = None) -> SearchSettings:
+    """The limit search's settings from the scene's keys, their zeros resolved: the first step :func:`first_step`
+    of the ring's ``dead_weight`` (N) and the ``coarser`` run's last converged level (N per unit load factor; None on
+    a first run), the maximum load 100 x ``dead_weight`` (0 without live loads: self-weight only); the flat-curve
+    check only with a fill, the support movement's increments only where a support moves."""
+    s, abutments = scene.solver, scene.abutments
+    return SearchSettings(tolerance=s.tolerance, initial_step=s.initial_step or first_step(dead_weight, coarser),
+                          max_load=(s.max_load or 100 * dead_weight) if scene.loads else 0.0, max_steps=s.max_steps,
+                          stiffness_drop=s.stiffness_drop if scene.fill is not None else 0.0,
+                          movement_steps=abutments.movement_steps if abutments.moves else 0)
+
+
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
              coarser: float | None = None, budget: int | None = None) -> Analysis:
@@ -414,17 +427,13 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     predictor = TrescaPredictor(solver) if fill is None and not lp.sliding else None
     try:
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.linsolve)
-            search = find_limit_load(solver, under_load, tolerance=s.tolerance,
-                                     initial_step=s.initial_step or first_step(model.dead_weight, coarser),
-                                     max_load=(s.max_load or 100 * model.dead_weight) if scene.loads else 0.0,
-                                     max_steps=s.max_steps, guess=lp.level if lp.status == Status.LIMIT else None,
-                                     stiffness_drop=s.stiffness_drop if fill is not None else 0.0,
-                                     movement_steps=scene.abutments.movement_steps if motion else 0,
-                                     bound=bound[1] if bound else None, coarser=coarser,
-                                     collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring,
-                                                             s.tolerance, total),
-                                     predicted=predictor.predict if predictor is not None else None,
-                                     report=note, converged=keep)
+            guides = SearchGuides(guess=lp.level if lp.status == Status.LIMIT else None,
+                                  bound=bound[1] if bound else None, coarser=coarser,
+                                  collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring, s.tolerance,
+                                                          total),
+                                  predicted=predictor.predict if predictor is not None else None)
+            search = find_limit_load(solver, under_load, search_settings(scene, model.dead_weight, coarser),
+                                     guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
         carried = max((c.load for c in states), default=0.0)
         why = f"not settled within its budget of {spent.budget:g} linear solves (the most live load carried: " \

@@ -2,6 +2,8 @@
 
 Levels are live-load levels in N per unit load factor. Every trial is solved from the last converged state
 ``lower``; a failed trial is discarded (incremental friction makes the response path dependent).
+A search takes its numbers (:class:`SearchSettings`), what steers it (:class:`SearchGuides`) and its watchers
+(:class:`SearchObservers`).
 The search (:class:`_Search`) repeats four stages until a rule below ends it: ``next_trial`` chooses the level
 (*Bracket rule*, *Guess*, *Steps*, *Collapse state*), ``solve`` solves it (*Predictor*, *Failures without proof*),
 ``take_converged`` moves ``lower`` up (*Static bound*, *Steps*) and ``take_failed`` backtracks, ends the search or
@@ -33,7 +35,7 @@ elastic blocks stop below the LP): the bound removes trials above it and ends a 
 nothing else. With ``bound.falls`` no equilibrium under self-weight exists: a failed self-weight step is the
 answer (:func:`bridgefem.selfweight.carry_self_weight`), without continuations or retries.
 
-**Guess.** With an estimate g of the limit (by default the rigid-block LP level of ``guess_scene``) the search
+**Guess.** With an estimate g of the limit (``guides.guess``, e.g. the rigid-block LP level) the search
 approaches the target T = (1 - tolerance) g (with a static bound: T as above): each step leaves ``APPROACH`` of the
 distance to T, and a step that would stop within ``LANDING * T`` of T goes to T, unless T already failed from the
 same converged state (after a backtrack: the solve is deterministic, so that landing would replay the failures the
@@ -291,32 +293,74 @@ class CollapseCheck:
     settles: Callable[[float, float, Iterate], tuple[bool, str]]
 
 
-def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], *, tolerance: float,
-                    initial_step: float, max_load: float, max_steps: int, guess: float | None = None,
-                    stiffness_drop: float = 0.0, movement_steps: int = 0, bound: StaticCap | None = None,
-                    coarser: float | None = None, collapse: CollapseCheck | None = None,
-                    predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None,
-                    report: Callable[[LoadStep], None] = lambda s: None,
-                    converged: Callable[[LoadStep, Iterate], None] = lambda s, it: None) -> LimitSearch:
-    """Run self-weight then the live-load search (all arguments in N except the relative ``tolerance``).
+@dataclass(frozen=True)
+class SearchSettings:
+    """The numbers that set a limit search, chosen by the user or fixed by the scene
+    (:func:`bridgefem.analysis.search_settings` reads them from its keys).
 
-    ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
-    0), None for no estimate.
+    ``tolerance``: the bracket's relative width (module docstring, *Bracket rule*).
+    ``initial_step``: the first live-load step (N per unit load factor; module docstring, *Steps*).
+    ``max_load``: the level (N per unit load factor) at which the search stops as "locked"; 0 or less: self-weight
+    only ("stable under self-weight").
+    ``max_steps``: the load steps attempted in all (self-weight and support movement included) before the search is
+    a solver failure.
     ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m), or
     tangent stiffness at its converged state, is below this fraction of the tangent stiffness after self-weight
     counts as failed, like a step without equilibrium: the load-deflection curve is flat (collapse of a structure
-    restrained by a soft or yielding fill, which never becomes exactly singular; module docstring, *Flat curve*).
-    ``bound``: the static theorem's bound (module docstring, *Static bound*; None: none), the same on every rank.
-    ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
-    *Guess*), None on a first run.
-    ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*; None:
-    none), the same on every rank.
-    ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
-    (module docstring, *Predictor*; None: no prediction). Collective.
-    ``report(step)`` is called after every attempted step, ``converged(step, iterate)`` after every converged one
-    with its state. Collective.
+    restrained by a soft or yielding fill, which never becomes exactly singular; module docstring, *Flat curve*);
+    0: no such check.
+    ``movement_steps``: the increments of the solver's support movement (module docstring, *Support movement*);
+    0: no movement.
     """
-    attempt = _StepRecorder(solver, deflection, stiffness_drop, report, converged)
+
+    tolerance: float
+    initial_step: float
+    max_load: float
+    max_steps: int
+    stiffness_drop: float = 0.0
+    movement_steps: int = 0
+
+
+@dataclass(frozen=True)
+class SearchGuides:
+    """What is known of the limit before the search: it steers the search's path, and the static bound and the
+    collapse state can also end it with their proof. Each None: not known; each but the guess the same on every rank.
+
+    ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
+    0; module docstring, *Guess*).
+    ``bound``: the static theorem's bound (module docstring, *Static bound*).
+    ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor; module docstring,
+    *Guess*); None on a first run.
+    ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*).
+    ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
+    (module docstring, *Predictor*). Collective.
+    """
+
+    guess: float | None = None
+    bound: StaticCap | None = None
+    coarser: float | None = None
+    collapse: CollapseCheck | None = None
+    predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None
+
+
+@dataclass(frozen=True)
+class SearchObservers:
+    """Who watches the search: ``report(step)`` is called after every attempted step, ``converged(step, iterate)``
+    after every converged one with its state. Both collective; by default nobody."""
+
+    report: Callable[[LoadStep], None] = lambda step: None
+    converged: Callable[[LoadStep, Iterate], None] = lambda step, iterate: None
+
+
+def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float], settings: SearchSettings, *,
+                    guides: SearchGuides = SearchGuides(), observers: SearchObservers = SearchObservers()
+                    ) -> LimitSearch:
+    """Run self-weight then the live-load search (module docstring) with the ``settings``, steered by the
+    ``guides``, telling the ``observers`` of every step. ``deflection(state)``: the deflection (m, down positive)
+    whose stiffness the flat-curve check measures (module docstring, *Flat curve*). Collective.
+    """
+    tolerance, bound = settings.tolerance, guides.bound
+    attempt = _StepRecorder(solver, deflection, settings.stiffness_drop, observers)
     steps = attempt.steps
     falls = bound is not None and bound.falls
     first = carry_self_weight(solver, attempt, falls)
@@ -325,25 +369,27 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,
                            proved=first.proved, static=falls)
     state = solver.converged_slip_reference(first.iterate)
-    if movement_steps:
-        state, failed = _impose_support_movement(solver, attempt, state, movement_steps)
+    if settings.movement_steps:
+        state, failed = _impose_support_movement(solver, attempt, state, settings.movement_steps)
         if failed is not None:
             status = UNSTABLE if failed.mechanism else Status.failure(failed.reason)
             return LimitSearch(status, 0.0, 0.0 if failed.mechanism else None, tolerance, steps, state,
                                f"support movement {solver.movement:.4g} of the whole: {failed.reason}",
                                proved=failed.proved)
     settled = state
-    if max_load <= 0:
+    if settings.max_load <= 0:
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
-    if stiffness_drop > 0:
+    if settings.stiffness_drop > 0:
         attempt.k_initial = _tangent_stiffness(solver, deflection, state) or math.inf
-    guess = solver.comm.bcast(guess if guess is not None and math.isfinite(guess) and guess > 0 else None, root=0)
+    g = guides.guess
+    guess = solver.comm.bcast(g if g is not None and math.isfinite(g) and g > 0 else None, root=0)
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
-    aim = _first_target(cap, guess, coarser, tolerance)
-    search = _Search(solver, attempt, max_load, bound, guess, settled, cap, _Bracket(tolerance, initial_step, state),
-                     _Schedule(initial_step, first.iterations, solver.material is not None), _Target(aim, collapse),
-                     predicted)
-    return search.run(max_steps)
+    aim = _first_target(cap, guess, guides.coarser, tolerance)
+    search = _Search(solver, attempt, settings, replace(guides, guess=guess), settled, cap,
+                     _Bracket(tolerance, settings.initial_step, state),
+                     _Schedule(settings.initial_step, first.iterations, solver.material is not None),
+                     _Target(aim, guides.collapse))
+    return search.run()
 
 
 @dataclass
@@ -355,8 +401,7 @@ class _StepRecorder:
     solver: ContactSolver
     deflection: Callable[[Iterate], float]
     stiffness_drop: float
-    report: Callable[[LoadStep], None]
-    converged: Callable[[LoadStep, Iterate], None]
+    observers: SearchObservers
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
 
@@ -379,9 +424,9 @@ class _StepRecorder:
                         _raised_cohesion(solver), out.mechanism,
                         solver.friction_factor if solver.friction_factor != 1.0 else None)
         self.steps.append(step)
-        self.report(step)
+        self.observers.report(step)
         if step.converged:
-            self.converged(step, out.iterate)
+            self.observers.converged(step, out.iterate)
         return out
 
     def _flat(self, load: float, rise: float, out: StepOutcome) -> StepOutcome | None:
@@ -646,15 +691,13 @@ class _Search:
 
     solver: ContactSolver
     attempt: _StepRecorder  # solves and records one step
-    max_load: float
-    bound: StaticCap | None
-    guess: float | None
+    settings: SearchSettings
+    guides: SearchGuides  # its guess broadcast from rank 0 (None: none, or not a positive finite level)
     settled: Iterate  # the converged state at live load 0
     cap: float  # the static bound (inf: none, or voided by a state outside its premises)
     bracket: _Bracket
     schedule: _Schedule
     target: _Target
-    predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None  # a predicted state at a level (*Predictor*)
     futile: int = 0  # predicted trials in a row that failed or found no settled state (*Predictor*)
 
     @property
@@ -667,24 +710,24 @@ class _Search:
         """The structure has a plastic fill (*Steps*, *Predictor*)."""
         return self.solver.material is not None
 
-    def run(self, max_steps: int) -> LimitSearch:
-        """The four stages until a rule ends the search, the maximum load is carried or ``max_steps`` steps were
-        attempted."""
-        while len(self.steps) < max_steps:
-            if self.bracket.lower >= self.max_load:
+    def run(self) -> LimitSearch:
+        """The four stages until a rule ends the search, the maximum load is carried or the settings' ``max_steps``
+        steps were attempted."""
+        while len(self.steps) < self.settings.max_steps:
+            if self.bracket.lower >= self.settings.max_load:
                 return self.result(LOCKED)
             trial = self.next_trial()
             out = self.solve(trial)
             found = self.take_converged(trial, out) if out.converged else self.take_failed(trial, out)
             if found is not None:
                 return found
-        return self.result(Status.failure(f"bracket not closed within {max_steps} load steps"))
+        return self.result(Status.failure(f"bracket not closed within {self.settings.max_steps} load steps"))
 
     def result(self, status: str, upper: float | None = None, failure: str = "", proved: bool = False,
                static: bool = False) -> LimitSearch:
         """The search's outcome with ``status`` and the bracket [lower, ``upper``]."""
         b = self.bracket
-        return LimitSearch(status, b.lower, upper, b.tolerance, self.steps, b.state, failure, self.guess,
+        return LimitSearch(status, b.lower, upper, b.tolerance, self.steps, b.state, failure, self.guides.guess,
                            self.settled, proved, static)
 
     def next_trial(self) -> float:
@@ -703,7 +746,7 @@ class _Search:
             trial = b.bisection()
         else:
             trial = b.lower + self.schedule.step
-        return min(trial, self.max_load, _below(self.cap, b.tolerance))
+        return min(trial, self.settings.max_load, _below(self.cap, b.tolerance))
 
     def solve(self, trial: float) -> StepOutcome:
         """Solve ``trial`` from ``lower``: with the secant's predictor and start (*Predictor*) and the budget of a
@@ -722,9 +765,10 @@ class _Search:
                 not self.target.plausible(trial) or not out.mechanism):
             out = _settled(self.target.collapse, lower, trial, state, out) or retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
-        if out.converged or out.proved or not far or self.predicted is None or self.futile >= FUTILE_PREDICTIONS:
+        predicted = self.guides.predicted
+        if out.converged or out.proved or not far or predicted is None or self.futile >= FUTILE_PREDICTIONS:
             return out
-        x = self.predicted(trial, state)  # *Predictor*: once more from the predicted state
+        x = predicted(trial, state)  # *Predictor*: once more from the predicted state
         again = self.attempt(trial, state, lower, predictor=x, give_up=True, iterations=budget) if x is not None else out
         helped = again.converged or again.proved
         self.futile = 0 if helped else self.futile + 1
@@ -755,7 +799,7 @@ class _Search:
     def _static_end(self, iterate: Iterate) -> LimitSearch | None:
         """The bracket [lower, the static bound] when the converged ``iterate`` within its width is admissible for
         it; else the bound is voided and None (*Static bound*)."""
-        admissible, check = self.bound.admissible(self.steps[-1], iterate)
+        admissible, check = self.guides.bound.admissible(self.steps[-1], iterate)
         if admissible:
             return self.result(LIMIT_FOUND, self.cap, "no trial above the bracket: its upper end is the static "
                                "theorem's bound, the rigid-block LP under the FE's own loads (the converged state's "

@@ -12,12 +12,12 @@
 # +
 from mpi4py import MPI
 
-from bridgefem.analysis import joint_states
+from bridgefem.analysis import joint_states, search_settings
 from bridgefem.contact import build_pairs
 from bridgefem.geometry import build_ring
 from bridgefem.mesh import build_block_mesh
 from bridgefem.model import build_elastic_model
-from bridgefem.pathfollow import find_limit_load, monitor_deflection
+from bridgefem.pathfollow import SearchGuides, find_limit_load, monitor_deflection
 from bridgefem.rigid_block import collapse_load
 from bridgefem.scene import scene_from_dict
 from bridgefem.solver import ContactSolver
@@ -77,13 +77,13 @@ solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.
 # ## 6. The limit search
 #
 # Self-weight first, then the live load rises until a step finds no equilibrium. The last converged load and the
-# first failed one bracket the limit load, to the relative tolerance. The rigid-block LP of the scene is only the
-# search's first guess, never a bound.
+# first failed one bracket the limit load, to the relative tolerance. The scene's keys set the search
+# (`search_settings`: the tolerance, the first step, the maximum load, the step budget); the rigid-block LP of the
+# scene only guides it, as its first guess, never a bound.
 
 lp = collapse_load(scene)
-search = find_limit_load(solver, monitor_deflection(solver, model.monitor), tolerance=scene.solver.tolerance,
-                         initial_step=model.dead_weight / 4, max_load=100 * model.dead_weight,
-                         max_steps=scene.solver.max_steps, guess=lp.level)
+search = find_limit_load(solver, monitor_deflection(solver, model.monitor), search_settings(scene, model.dead_weight),
+                         guides=SearchGuides(guess=lp.level))
 
 # ## 7. The mechanism and the independent check
 #

@@ -11,7 +11,7 @@ from bridgefem.contact import build_pairs
 from bridgefem.geometry import ArchRing, Joint, Voussoir
 from bridgefem.mesh import build_block_mesh
 from bridgefem.model import build_elastic_model
-from bridgefem.pathfollow import LIMIT_FOUND, find_limit_load
+from bridgefem.pathfollow import LIMIT_FOUND, SearchSettings, find_limit_load
 from bridgefem.scene import scene_from_dict
 from bridgefem.solver import ContactSolver
 
@@ -53,8 +53,8 @@ def block_solver(mu: float, h: float, elements: int = 8) -> tuple[ContactSolver,
 
 def limit_push(mu: float, h: float, tolerance: float = 1e-3):
     solver, weight = block_solver(mu, h)
-    return find_limit_load(solver, lambda it: 0.0, tolerance=tolerance, initial_step=W / 8,
-                           max_load=10 * W, max_steps=200), weight
+    settings = SearchSettings(tolerance=tolerance, initial_step=W / 8, max_load=10 * W, max_steps=200)
+    return find_limit_load(solver, lambda it: 0.0, settings), weight
 
 
 @pytest.mark.parametrize("mu,h,expected,mode", [

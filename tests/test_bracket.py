@@ -2,6 +2,7 @@
 known exactly (milliseconds): equilibrium exists up to LIMIT and not above; the fake Newton method may also fail,
 without proof, on steps longer than ``reach`` (as the active-set method does on large steps)."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -9,13 +10,15 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.contact import ContactState
-from bridgefem.pathfollow import FUTILE_PREDICTIONS, CollapseCheck, StaticCap, find_limit_load
+from bridgefem.pathfollow import (FUTILE_PREDICTIONS, CollapseCheck, SearchGuides, SearchSettings, StaticCap,
+                                  find_limit_load)
 from bridgefem.selfweight import SELF_WEIGHT_RETRIES
 from bridgefem.solver import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
 LIMIT = 1234.5  # N per unit load factor
 WEIGHT = 1000.0  # N: the initial step is a quarter of it, as in bridgefem.analysis
+SETTINGS = SearchSettings(tolerance=1e-4, initial_step=WEIGHT / 4, max_load=100 * WEIGHT, max_steps=200)
 
 
 class OneDof:
@@ -54,10 +57,10 @@ class OneDof:
         return StepOutcome(True, "", 2, 0.0, 1, self._iterate(level), {})
 
 
-def search(solver, tolerance=1e-4, guess=None, max_load=100 * WEIGHT, bound=None, collapse=None, predicted=None):
-    return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=tolerance, initial_step=WEIGHT / 4,
-                           max_load=max_load, max_steps=200, guess=guess, bound=bound, collapse=collapse,
-                           predicted=predicted)
+def search(solver, settings=SETTINGS, **guides):
+    """The search on a one-degree-of-freedom ``solver`` (its deflection is its displacement), steered by the
+    ``guides`` (the fields of SearchGuides)."""
+    return find_limit_load(solver, lambda it: float(it.x.array[0]), settings, guides=SearchGuides(**guides))
 
 
 class Predicted(OneDof):
@@ -88,7 +91,7 @@ def static_cap(level, admissible=True, falls=False):
     return StaticCap(level, falls, check), checked
 
 
-def assert_bracket(s, tolerance=1e-4):
+def assert_bracket(s, tolerance=SETTINGS.tolerance):
     assert s.status == Status.LIMIT, s.status
     assert s.lower <= LIMIT < s.upper and s.upper - s.lower <= tolerance * s.lower * (1 + 1e-9)
 
@@ -129,7 +132,7 @@ def test_a_newton_method_that_stalls_below_the_limit_is_a_solver_failure():
 
 
 def test_no_collapse_up_to_the_maximum_load_is_locked():
-    s = search(OneDof(), max_load=0.5 * LIMIT)
+    s = search(OneDof(), replace(SETTINGS, max_load=0.5 * LIMIT))
     assert s.status == Status.LOCKED and s.lower == 0.5 * LIMIT and s.upper is None
 
 
@@ -219,9 +222,7 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
     for settles in (False, True):
         collapsed, asked = collapse_state(settles)
         solver = Unprovable()
-        s = find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=1e-4, initial_step=WEIGHT / 4,
-                            max_load=100 * WEIGHT, max_steps=200, guess=LIMIT,
-                            collapse=CollapseCheck(lambda it: None, collapsed))
+        s = search(solver, guess=LIMIT, collapse=CollapseCheck(lambda it: None, collapsed))
         (lower, trial), = asked
         assert lower <= LIMIT < trial and trial - lower <= 1e-4 * lower
         if settles:

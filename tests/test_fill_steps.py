@@ -3,12 +3,12 @@ one-degree-of-freedom fake solver of test_bracket (displacement = load level, no
 behave like a Mohr-Coulomb fill: every converged live-load step takes more Newton iterations than the self-weight
 step did."""
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import pytest
-from test_bracket import LIMIT, WEIGHT, OneDof, assert_bracket, search
+from test_bracket import LIMIT, SETTINGS, WEIGHT, OneDof, assert_bracket, search
 
-from bridgefem.pathfollow import find_limit_load
 from bridgefem.solver import StepOutcome
 from bridgefem.status import Status
 
@@ -79,8 +79,6 @@ def test_a_flattening_curve_is_bracketed_where_its_tangent_drops_whatever_the_st
     one, a property of the curve: the bracket holds it for every step schedule (the guess sets the approach, the
     initial step the first steps). A secant over a converged step is above the tangent at its end on this concave
     curve: alone, a long step from below FLAT to above it converges and counts as steep."""
-    s = find_limit_load(Softening(), lambda it: float(it.x.array[0]), tolerance=1e-4,
-                        initial_step=initial_step, max_load=100 * WEIGHT, max_steps=200, guess=guess,
-                        stiffness_drop=DROP)
+    s = search(Softening(), replace(SETTINGS, initial_step=initial_step, stiffness_drop=DROP), guess=guess)
     assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
     assert s.lower <= FLAT < s.upper and s.upper - s.lower <= 1e-4 * s.lower * (1 + 1e-9), (s.lower, s.upper)

@@ -11,12 +11,11 @@ from bridgefem import analysis, sizing
 from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, REFINEMENT_FLOOR,
                                 first_step, refined_elements, run_analysis)
 from bridgefem.linsolve import CheckedSolve, SolveBudgetSpent
-from bridgefem.pathfollow import find_limit_load
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
 
 from conftest import campaign_scene, scene_dict
-from test_bracket import LIMIT, WEIGHT, OneDof, assert_bracket, static_cap
+from test_bracket import LIMIT, OneDof, assert_bracket, search, static_cap
 
 # campaign seed 1, scene 45 (benchmarks/campaign.py): a semicircle of 6 voussoirs at mu 0.312 (the least a
 # semicircle stands with is 0.309) under a point load of 1 % of its weight on a joint. With 4 elements through the
@@ -131,11 +130,6 @@ class CountedOneDof(OneDof):
         return super().solve_step(*args, **kw)
 
 
-def one_dof_search(solver, **kw):
-    return find_limit_load(solver, lambda it: float(it.x.array[0]), tolerance=1e-4, initial_step=WEIGHT / 4,
-                           max_load=100 * WEIGHT, max_steps=200, **kw)
-
-
 def small_system(n=3):
     """A diagonal system diag(1..n) x = b with b = (1..n): its solution is all ones (checked per solve)."""
     A = PETSc.Mat().createAIJ([n, n], nnz=1, comm=PETSc.COMM_SELF)
@@ -175,7 +169,7 @@ def test_no_trial_passes_the_level_whose_width_reaches_the_static_bound(coarser)
     bracket with the bound, which holds the limit), and the search ends there on the bound."""
     cap = (1 + 0.5e-4) * LIMIT
     bound, _ = static_cap(cap)
-    s = one_dof_search(CountedOneDof(), guess=1.3 * LIMIT, bound=bound, coarser=coarser)
+    s = search(CountedOneDof(), guess=1.3 * LIMIT, bound=bound, coarser=coarser)
     assert_bracket(s)
     assert max(st.level for st in s.steps) <= cap / (1 + 1e-4) * (1 + 1e-12), [st.level for st in s.steps]
     assert s.static and s.upper == cap
@@ -187,7 +181,7 @@ def test_a_coarser_runs_limit_sets_the_path_never_the_bracket(coarser):
     limit): the bracket still holds the exact limit whichever side of it that level lies, proved or not."""
     for proves in (True, False):
         bound, _ = static_cap(1.3 * LIMIT)
-        assert_bracket(one_dof_search(CountedOneDof(proves=proves), guess=1.3 * LIMIT, bound=bound, coarser=coarser))
+        assert_bracket(search(CountedOneDof(proves=proves), guess=1.3 * LIMIT, bound=bound, coarser=coarser))
 
 
 def test_a_coarser_limit_near_the_true_one_saves_trials():
@@ -198,7 +192,7 @@ def test_a_coarser_limit_near_the_true_one_saves_trials():
     for coarser in (None, 0.995 * LIMIT):
         solver = CountedOneDof(proves=False)
         bound, _ = static_cap(1.3 * LIMIT)
-        assert_bracket(one_dof_search(solver, guess=1.3 * LIMIT, bound=bound, coarser=coarser))
+        assert_bracket(search(solver, guess=1.3 * LIMIT, bound=bound, coarser=coarser))
         counts.append(solver.stats["solves"])
     assert counts[1] <= 20 and counts[1] < counts[0], counts
 
