@@ -38,7 +38,9 @@ DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight re
 
 class ActiveSetFailure(NamedTuple):
     """A failed solve of an active set: why, whether it shows a mechanism (``proof``: a proved one), and the local
-    pairs that an inadmissible diverging mode pushes into each other, to be closed (None: no repair)."""
+    pairs that an inadmissible diverging mode pushes into each other, to be closed (None: no repair). Made by the
+    solver from a checked linear solve that failed (:class:`bridgefem.linsolve.SolveFailure`: a mechanism when
+    singular) or by :meth:`DivergenceTest.failure`."""
 
     message: str
     mechanism: bool
