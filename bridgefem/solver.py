@@ -9,11 +9,11 @@ One load step (:meth:`ContactSolver.solve_step`), from a converged state; each N
    and solve it with the reused factorisation, checked (:class:`bridgefem.contact_system.ContactSystem`,
    :mod:`bridgefem.linsolve`: a solver that did not solve is a failure, never a mechanism):
    :meth:`ContactSolver._solve_set`.
-3. A solution that diverges is judged by :func:`bridgefem.mechanism.judge`: a proof of collapse ends the step; a
-   wrong active set is solved again with a proximal term (*Proximal solves*, :meth:`ContactSolver._note_failure`),
-   else damped (the half of the proposed changes farthest from the joint law they leave:
-   :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired (:meth:`ContactSolver._recover`); an admissible
-   mode is a mechanism without proof.
+3. A solution that diverges is judged by its mode (:meth:`bridgefem.divergence.DivergenceTest.failure`): a proof of
+   collapse ends the step; a wrong active set is solved again with a proximal term (*Proximal solves*,
+   :meth:`ContactSolver._note_failure`), else damped (the half of the proposed changes farthest from the joint law
+   they leave: :meth:`bridgefem.contact.CoulombJoints.classify`) or repaired (:meth:`ContactSolver._recover`); an
+   admissible mode is a mechanism without proof.
 4. With a plastic fill (or the retry setting ``line_search``), backtrack the step (line search on the merit below):
    :meth:`ContactSolver._accept`.
 5. Classify the solution with the joint law (a reversed slip is proposed as stick: *Reversed slips*; a solution
@@ -118,7 +118,8 @@ of a few newtons and the search went on to a proved limit equal to the LP's. Oth
 **Mechanism verdicts.** A failure is reported as a mechanism (``StepOutcome.mechanism``: no equilibrium, which the
 load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) = -10), when
 a step ends on an active set that does not change but cannot be solved accurately, or when a solve diverges
-(displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response) along an admissible mode:
+(displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response:
+:class:`bridgefem.divergence.DivergenceTest`) along an admissible mode:
 :func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at the
 pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip against
 the friction force; a failure without proof, solved with a proximal term (below) or damped like any failed proposal,
@@ -133,7 +134,8 @@ without proof: the damping chain or the cycle that returns to them decides, and 
 (:mod:`bridgefem.evidence`).
 
 **First contact.** A repair closes the open pairs that close first when the structure moves from the step's start
-along the diverging mode (:func:`bridgefem.mechanism.first_contact`, given the start's gaps by :meth:`_verdict`):
+along the diverging mode (:func:`bridgefem.mechanism.first_contact`, given the start's gaps by
+:meth:`bridgefem.divergence.DivergenceTest.verdict`):
 each open pair closes at the mode's amplitude gap / closing rate, the least sets the first contact, and every open
 pair closing within ``mechanism.FIRST_CONTACT`` of it is closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
 open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first
@@ -309,14 +311,13 @@ from petsc4py import PETSc
 from .contact import OPEN, SLIP, STICK, ContactState, CoulombJoints, JointPairs
 from .contact_system import ContactSystem
 from .cycles import CycleCondenser
+from .divergence import ActiveSetFailure, DivergenceTest
 from .joint_condensation import ENUMERATED_PAIRS
-from .mechanism import Mode, Verdict, judge
 
 if TYPE_CHECKING:
     from .fill import FillResponse, PlasticFill
 
 EQUILIBRIUM_RTOL = 1e-8  # scaled residual |K u - G^T lam - f|_inf / |f|_inf for a converged step
-DIVERGENCE_FACTOR = 1e6  # |u| beyond this multiple of the bonded self-weight response is divergence
 LINE_SEARCH_HALVINGS = 5  # with a plastic fill, a Newton step is halved at most this many times by the line search
 ARMIJO = 1e-4  # sufficient decrease of the line search's merit, per unit step length
 DIVERGED_OUT_OF_BALANCE = 100.0  # with a plastic fill, an out-of-balance force beyond this multiple of the largest
@@ -394,18 +395,6 @@ class _Proposal(NamedTuple):
     violation: np.ndarray
 
 
-class _Failure(NamedTuple):
-    """A failed solve: why, whether it shows a mechanism (``proof``: a proved one), and the local pairs that an
-    inadmissible diverging mode pushes into each other, to be closed (None: no repair)."""
-
-    message: str
-    mechanism: bool
-    repair: np.ndarray | None = None
-    proof: bool = False
-    unbounded: bool = False  # the solve diverged (along any mode) or was singular
-    slides: bool = False  # the solve diverged along a mode that slips pairs against their friction force
-
-
 @dataclass(frozen=True)
 class _StepTask:
     """What one load step solves, and its limits: fixed for the step."""
@@ -426,7 +415,7 @@ class _Recovery:
     damping: bool = False  # in a damping chain
     recovered: int = 0  # damping chains that ended with a solved active set
     mechanisms: int = 0  # failed solves that were singular or diverged along an admissible mode
-    singular: _Failure | None = None  # the last singular proposal
+    singular: ActiveSetFailure | None = None  # the last singular proposal
     fix: ContactState | None = None  # the repair of the set whose solve failed last
     repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
 
@@ -457,7 +446,7 @@ class _ProximalSolves:
 
     sets: dict = field(default_factory=dict)  # global key -> the set's plain failure
     count: int = 0  # sets solved with the proximal term in this step
-    drift: _Failure | None = None  # the plain failure of a proximal set that drifts along its mode
+    drift: ActiveSetFailure | None = None  # the plain failure of a proximal set that drifts along its mode
 
 
 @dataclass
@@ -501,7 +490,7 @@ class ContactSolver:
         self.stats.update(condensation_solves=0, retry_solves=0)
         self.cycles = CycleCondenser(self.system, reuse=material is None)  # the module's step 5
         self.max_iterations = max_iterations
-        self.u_cap = np.inf
+        self.divergence = DivergenceTest(self.system, self.law, pairs.joint, provable=material is None)  # step 3
         self.setting, self._setting_from = DEFAULT_SETTING, 0  # the setting, and the solves made before it was set
         self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._full, self._step = self.system.vector(), self.system.vector()  # the line search's full step
@@ -554,48 +543,15 @@ class ContactSolver:
     def _solve_active(self, level: float, active: ContactState, slip_ref: np.ndarray, x: PETSc.Vec,
                       origin: PETSc.Vec, near: PETSc.Vec | None = None, forces: PETSc.Vec | None = None):
         """Solve the linear system of an active set into x (with ``near``: its proximal system anchored there,
-        :meth:`bridgefem.contact_system.ContactSystem.solve_set`); returns None or the :class:`_Failure`. A
-        displacement beyond the cap is a mechanism only when the diverging direction from ``origin`` (the step's
-        converged start) is admissible (:meth:`_verdict`, with the normal forces of ``forces``, the last solved
+        :meth:`bridgefem.contact_system.ContactSystem.solve_set`); returns None or the
+        :class:`bridgefem.divergence.ActiveSetFailure`. A displacement beyond the cap is a mechanism only when the
+        diverging direction from ``origin`` (the step's converged start) is admissible
+        (:meth:`bridgefem.divergence.DivergenceTest.failure`, with the normal forces of ``forces``, the last solved
         iterate; by default ``origin``)."""
         failure = self.system.solve_set(level, active, slip_ref, x, near)
         if failure is not None:
-            return _Failure(failure.message, failure.singular)
-        u_max = self.system.norm_inf(x.array[:self.n_u])
-        if not np.isfinite(self.u_cap) and u_max > 0:
-            self.u_cap = DIVERGENCE_FACTOR * u_max  # first solve: every joint bonded, self-weight
-        if u_max > self.u_cap:
-            text = f"diverged: displacement {u_max:.3g} m exceeds the cap {self.u_cap:.3g} m"
-            verdict = self._verdict(level, active, x, origin, origin if forces is None else forces)
-            if verdict.flaw is not None:
-                return _Failure(f"{text} along an inadmissible mode: {verdict.flaw} (a wrong active set, not a "
-                                "mechanism)", False, verdict.repair, unbounded=True, slides=verdict.slides)
-            if verdict.proof:
-                return _Failure(f"{text} (no equilibrium: mechanism; proof: an admissible rigid-block mode on which "
-                                "the loads do positive work)", True, proof=True)
-            return _Failure(f"{text} (no equilibrium: mechanism)", True)
-        return None
-
-    def _verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec, forces: PETSc.Vec
-                 ) -> Verdict:
-        """What the diverging direction x - origin of a solve shows (:func:`bridgefem.mechanism.judge`), with the
-        power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
-        those of ``forces`` (the last solved iterate, N), and the gaps at ``origin`` for its repair's first contact.
-        Collective."""
-        system = self.system
-        lam_n = system.split(forces)[1][:, 0]
-        gap = system.split(origin)[2][:, 0]
-        u, d = system.mode(x, origin)
-        drive, name = (system.f_live, "live load") if level > 0 else (system.f_dead, "self-weight")
-        total = system.loads(level)
-        friction = np.where(active.state == SLIP, active.sign * self.law.mu * lam_n, 0.0)  # lam_t of the slip law
-        works = self.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
-                                              np.abs(drive.array).sum(), np.abs(total).sum(),
-                                              np.abs(total).sum() + np.abs(friction).sum()]))
-        scales = works[3:] * system.norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, self.law.mu, self.pairs.joint, tuple(works[:2]),
-                          tuple(scales[:2]), name, (works[2], scales[2]), gap), provable=self.material is None,
-                     comm=self.comm)
+            return ActiveSetFailure(failure.message, failure.singular)
+        return self.divergence.failure(level, active, x, origin, origin if forces is None else forces)
 
     def live_load_tangent(self, it: Iterate) -> Iterate | None:
         """The response to a unit increment of the live-load level at the converged ``it`` with its active set
@@ -699,7 +655,7 @@ class ContactSolver:
             return self._test(step)  # 6
         return self._advance(step, proposal, changed)  # 6, with step 5's cycles
 
-    def _solve_set(self, step: _NewtonStep) -> _Failure | None:
+    def _solve_set(self, step: _NewtonStep) -> ActiveSetFailure | None:
         """Step 2: solve the active set's system into x (a set with a proximal failure: its proximal system,
         anchored at the last solved iterate), checked; a proximal set that drifts keeps its plain failure without a
         solve (the module's *Proximal solves*). Returns None or the failure. Collective."""
@@ -708,14 +664,14 @@ class ContactSolver:
             return step.proximal.drift
         return self._solve_current(step, step.key in step.proximal.sets)
 
-    def _solve_current(self, step: _NewtonStep, proximal: bool) -> _Failure | None:
+    def _solve_current(self, step: _NewtonStep, proximal: bool) -> ActiveSetFailure | None:
         """Solve the active set's system at the step's level into x, checked against the step's start (with
         ``proximal``: its proximal system anchored at the last solved iterate). Collective."""
         task = step.task
         return self._solve_active(task.level, step.active, task.start.slip_ref, step.x, task.start.x,
                                   step.near if proximal else None, step.near)
 
-    def _note_failure(self, step: _NewtonStep, failure: _Failure) -> _Failure | None:
+    def _note_failure(self, step: _NewtonStep, failure: ActiveSetFailure) -> ActiveSetFailure | None:
         """Step 3: note a failed solve without proof (the last singular one, unbounded solves, mechanisms, the
         repair of an inadmissible mode); a set whose first failure diverges along a mode that slips pairs against
         their friction force is solved again with the proximal term (the module's *Proximal solves*). Returns
@@ -737,7 +693,7 @@ class ContactSolver:
             return self._solve_current(step, True)
         return failure
 
-    def _recover(self, step: _NewtonStep, failure: _Failure) -> StepOutcome | None:
+    def _recover(self, step: _NewtonStep, failure: ActiveSetFailure) -> StepOutcome | None:
         """Step 3: recover from a failed solve (the module's *Damping chains*): from the last good active set, apply
         the half of its proposed changes with the largest violations (:meth:`_damp`); with nothing left to halve,
         a friction flip on its cone frozen (:meth:`_freeze_at_cone`), else the failed set's repair (the pairs an
