@@ -21,12 +21,13 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
    pair that it slips against the pair's friction force (the slip law lam_t = s mu lam_n assumes slip d_t of sign
    -s: s d_t > 0 is backwards), measured by mu s d_t, the friction's work on it per unit normal force (mu = 0
    pairs slip freely). Closed pairs keep d_n = 0 and sticking pairs d_t = 0 by their laws.
-3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a
-   part of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
-   displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes and sticks the pairs whose
-   violation is within ``REPAIR`` of the worst, narrowed to its *first contact* when the mode carries the gaps of
-   the step's start (:func:`first_contact`). A flaw that is a slip against the friction force marks a *sliding*
-   mode (``Verdict.slides``: the solver solves its set again with a proximal term).
+3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a part
+   of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
+   displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes the pairs whose violation is
+   within ``REPAIR`` of the worst, narrowed to its *first contact* when the mode carries the gaps of the step's
+   start (:func:`first_contact`); the solver closes them sticking, or sliding on a sliding joint
+   (:meth:`bridgefem.solver.ContactSolver._repaired`). A flaw that is a slip against the friction force marks a
+   *sliding* mode (``Verdict.slides``: the solver solves its set again with a proximal term).
 4. A *proof*: an admissible rigid-block hinge mode, with violation and friction slip below ``PROOF_TOL`` (mu = 0
    pairs may slip) on which the whole load and the driving load do positive work. By virtual work any equilibrium
    with compressive joint forces lam_n >= 0 would give that work as -sum(lam_n d_n) <= 0: no equilibrium exists.

@@ -119,11 +119,11 @@ of a few newtons and the search went on to a proved limit equal to the LP's. Oth
 load incrementation may take for the limit) when MUMPS finds the system numerically singular (INFOG(1) = -10), when
 a step ends on an active set that does not change but cannot be solved accurately, or when a solve diverges
 (displacement beyond ``DIVERGENCE_FACTOR`` times the bonded self-weight response:
-:class:`bridgefem.divergence.DivergenceTest`) along an admissible mode:
-:func:`bridgefem.mechanism.judge` decides from the mode (the solution minus the step's converged start, at the
-pairs) whether it is a wrong active set (a *flaw*: no work by the driving load, interpenetration, or a slip against
-the friction force; a failure without proof, solved with a proximal term (below) or damped like any failed proposal,
-carrying a *repair* that closes the offending pairs: sticking, or sliding on a sliding joint, *First contact*), a mechanism, or a *proof* of collapse
+:class:`bridgefem.divergence.DivergenceTest`) along an admissible mode: :func:`bridgefem.mechanism.judge` decides
+from the mode (the solution minus the step's converged start, at the pairs) whether it is a wrong active set (a
+*flaw*: no work by the driving load, interpenetration, or a slip against the friction force; a failure without
+proof, solved with a proximal term (below) or damped like any failed proposal, carrying a *repair* that closes the
+offending pairs: sticking, or sliding on a sliding joint, *First contact*), a mechanism, or a *proof* of collapse
 (``StepOutcome.proved``: an admissible rigid-block hinge mode on which the loads do positive work). A proof ends the
 step at once whatever its history (a predicted or damped active set). The repair is tried when damping has nothing
 left to halve, or when the iteration returns to that active set (e.g. the thin ring t/R = 0.11, where opening the
@@ -135,20 +135,19 @@ without proof: the damping chain or the cycle that returns to them decides, and 
 
 **First contact.** A repair closes the open pairs that close first when the structure moves from the step's start
 along the diverging mode (:func:`bridgefem.mechanism.first_contact`, given the start's gaps by
-:meth:`bridgefem.divergence.DivergenceTest.verdict`):
-each open pair closes at the mode's amplitude gap / closing rate, the least sets the first contact, and every open
-pair closing within ``mechanism.FIRST_CONTACT`` of it is closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
-open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first
-contact stops it; closing a hinge that it would reach later imposes a rotation the blocks can only take by
-straining, and the set's next solve puts other joints in tension. It changes the Newton iteration's path, never
-what counts as converged. Campaign seed 1 #147 with its ``--options``
-support movement (semicircle, 39 voussoirs; the right springing 8.06 mm inwards, 9.43 mm down) is at its maximum
-thrust after the movement: hinges at both springings and at joints 10 and 29, the thrust line through all four.
-A live load of 0.13 N opens the pair beside joint 29's hinge pair (it carried 0.7 N); the four-hinge mode then
-closes joint 0 at an amplitude of 1.7e-5 and joint 10 at 2.3e-5 (their rates within ``mechanism.REPAIR`` of each
-other), and the repair of both failed at every level down to 0.13 N, a solver failure; closing joint 0 alone, the
-ring reaches the LP's limit (78.96 kN, 155 solves; 0.6 to 1.5 times the movement, or in 1 or 16 increments:
-107 to 182).
+:meth:`bridgefem.divergence.DivergenceTest.verdict`): each open pair closes at the mode's amplitude gap / closing
+rate, the least sets the first contact, and every open pair closing within ``mechanism.FIRST_CONTACT`` of it is
+closed (a hinge's pairs close together, up to the blocks' elastic strain: 4 to 10 % apart below), the others stay
+open. A mode of free rigid-block motion (a mechanism of a wrong active set) moves the blocks until its first contact
+stops it; closing a hinge that it would reach later imposes a rotation the blocks can only take by straining, and
+the set's next solve puts other joints in tension. It changes the Newton iteration's path, never what counts as
+converged. Campaign seed 1 #147 with its ``--options`` support movement (semicircle, 39 voussoirs; the right
+springing 8.06 mm inwards, 9.43 mm down) is at its maximum thrust after the movement: hinges at both springings and
+at joints 10 and 29, the thrust line through all four. A live load of 0.13 N opens the pair beside joint 29's hinge
+pair (it carried 0.7 N); the four-hinge mode then closes joint 0 at an amplitude of 1.7e-5 and joint 10 at 2.3e-5
+(their rates within ``mechanism.REPAIR`` of each other), and the repair of both failed at every level down to
+0.13 N, a solver failure; closing joint 0 alone, the ring reaches the LP's limit (78.96 kN, 155 solves; 0.6 to 1.5 times
+the movement, or in 1 or 16 increments: 107 to 182).
 An open pair that a repair closes on a *sliding joint* (every other closed pair of that joint slipping one way:
 :meth:`bridgefem.contact.ContactState.sliding_joints`) closes sliding that way, not sticking: a new contact on a
 joint that slides slides with it, so the joint's contact zone can widen while it slides. Sticking there ties the
@@ -935,8 +934,8 @@ class ContactSolver:
     def _repaired(self, active: ContactState, repair: np.ndarray | None, frozen: np.ndarray
                   ) -> ContactState | None:
         """``active`` with the ``repair`` pairs closed and sticking, except that an open one on a sliding joint
-        (:meth:`bridgefem.contact.ContactState.sliding_joints`) closes sliding with it (the module's *First contact*); None without a repair
-        anywhere. Collective."""
+        (:meth:`bridgefem.contact.ContactState.sliding_joints`) closes sliding with it (the module's *First
+        contact*); None without a repair anywhere. Collective."""
         if not self._any(repair is not None and bool(repair.any())):
             return None
         repair = np.zeros(len(self.pairs), bool) if repair is None else repair
