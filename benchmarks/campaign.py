@@ -30,7 +30,8 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   bridge with its fill (results.json ``fill_bounds``, N): its lower bound x (1 - ``NO_SLIP_TOL``) at most the FE
   bracket's lower end and the bracket's upper end at most (1 + ``BOUND_TOL``) x the upper bound (the dead-load LP
   is no floor: the fill can fail under the load first); with an elastic fill (no bounds) any FE verdict at or
-  above the LP with the fill as dead load;
+  above the LP with the fill as dead load (every verdict is, where that LP is unstable under self-weight: the
+  elastic fill can hold up a ring that its weight alone brings down);
 - *solver failure*: the run says so (exit 1): honest, but no answer;
 - *wrong*: a verdict the LP contradicts (e.g. "unstable" while the LP stands, or FE far from the LP);
   *wrong (fill mesh not converged)*: a fill scene's FE limit above the conic upper bound (docs/fill.md), counted
@@ -276,6 +277,9 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
             cls = "wrong (fill mesh not converged)"
         else:
             cls = "confirmed" if bounds["lower"] * (1 - NO_SLIP_TOL) <= lim["lower"] else "wrong"
+    elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
+        cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict
+        # is at or above that LP
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
         cls = "wrong"
     elif status == "limit load found":

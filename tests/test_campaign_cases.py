@@ -209,6 +209,25 @@ def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
     assert campaign.judge({**unbounded, **{"limit_load": below["limit_load"]}}, 0, "", fill=True)["class"] == "wrong"
 
 
+def test_an_elastic_fill_that_holds_up_a_ring_the_lp_drops_is_at_or_above_that_lp():
+    """Seed 3, #2 (parabolic, t = 0.207 m, the least that stands bare, 5 voussoirs, elastic fill 1.15 m deep): the
+    rigid-block LP with the fill as dead load is unstable under self-weight, the FE with the elastic fill stands and
+    is locked at 100 x the ring's weight (it warns of the LP). An elastic fill has no bounds, and any verdict is at or
+    above an LP that cannot stand; without a fill, or with a Mohr-Coulomb fill's bounds, the contradiction stays
+    wrong."""
+    campaign = campaign_module()
+    data = {"status": "no collapse up to the maximum load (locked)", "limit_load": {"lower": 13066.7e3, "upper": None},
+            "lp": {"status": "unstable under self-weight", "load": None, "mechanism": {"sliding": []}},
+            "mechanism": {"sliding": []}, "evidence": "equilibrium found", "solver": {"solves": 76},
+            "mesh_refinements": [], "fill_bounds": {"lower": None, "upper": None, "unit": "N"}}
+    assert campaign.judge(data, 0, "", fill=True)["class"] == "confirmed"
+    assert campaign.judge({**data, "status": "limit load found", "limit_load": {"lower": 90e3, "upper": 90.01e3}},
+                          0, "", fill=True)["class"] == "confirmed"
+    assert campaign.judge(data, 0, "")["class"] == "wrong"  # a bare ring
+    bounded = {**data, "fill_bounds": {"lower": 419e3, "upper": 1029e3, "unit": "N"}}
+    assert campaign.judge(bounded, 0, "", fill=True)["class"] == "wrong"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("index, thickness, status, lp_status", [
     # a live-load step at the bracket diverged along slip modes against friction with the default settings; solved
