@@ -249,7 +249,7 @@ the solution's own evidence of the way the joint goes, and the old ones stop thr
 8 voussoirs, mu = 0.366) hinged at its right springing on two closed pairs, the inner slipping inwards and the next
 sticking. The next converged state has them the other way round, the next pair slipping outwards: at 220 kN that
 set is consistent from the state at 217.1 kN. The Newton iteration proposed the next pair's slip with the inner
-one's kept; both slid, the joint ran 0.12 mm, and the inner pair's slip was backwards. It cycled, and ended with a
+one's kept; both slid, the joint ran 0.12 mm, and the next pair slipped against its friction force. It cycled, and ended with a
 pair frozen to stick whose law was waived by 0.25 N per N of load step. The search crawled 400 N in steps of 5 to
 40 N: 523 solves, 299 of them the cycles' condensations. With the inner pair stuck, 15 solves, the same bracket.
 
