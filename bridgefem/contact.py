@@ -197,14 +197,37 @@ class ContactState:
         that joint outside the mask ``held`` (at least one) slips that way, else 0; 0 on the arch-fill interface.
         Collective: a joint's pairs may lie on several ranks."""
         ring = joint >= 0
-        n = comm.allreduce(int(joint.max(initial=-1)) + 1, op=MPI.MAX)
         closed = ring & (self.state != OPEN) & ~held
         slips = closed & (self.state == SLIP)
-        counts = comm.allreduce(np.stack([np.bincount(joint[m], minlength=n) for m in
-                                          (closed, slips & (self.sign > 0), slips & (self.sign < 0))]))
+        counts = joint_counts(joint, (closed, slips & (self.sign > 0), slips & (self.sign < 0)), comm)
         sliding = counts[0] > 0
         sign = np.where(sliding & (counts[1] == counts[0]), 1, np.where(sliding & (counts[2] == counts[0]), -1, 0))
         return np.where(ring, sign[np.maximum(joint, 0)], 0).astype(np.int8)
+
+    def opposed_slips(self, previous: "ContactState", joint: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+        """The local pairs of this proposed set that still slip as in ``previous`` on a ring joint (ids ``joint``)
+        whose closed pairs all slip, the ones that start slipping (or reverse) one way and these the other way: a
+        joint sliding both ways at once, its friction forces cancelling. Collective."""
+        ring = joint >= 0
+        slips = ring & (self.state == SLIP)
+        kept = slips & (previous.state == SLIP) & (previous.sign == self.sign)
+        closed = ring & (self.state != OPEN)
+        up, down = slips & (self.sign > 0), slips & (self.sign < 0)
+        counts = joint_counts(joint, (closed, up, down, up & ~kept, down & ~kept), comm)
+        total, n_up, n_down, new_up, new_down = counts
+        all_slip = (total > 0) & (n_up + n_down == total)
+        old_down = all_slip & (new_up == n_up) & (new_up > 0) & (new_down == 0) & (n_down > 0)  # new +, old -
+        old_up = all_slip & (new_down == n_down) & (new_down > 0) & (new_up == 0) & (n_up > 0)  # new -, old +
+        at = np.maximum(joint, 0)
+        return ring & kept & ((down & old_down[at]) | (up & old_up[at]))
+
+
+def joint_counts(joint: np.ndarray, masks: tuple[np.ndarray, ...], comm: MPI.Comm) -> np.ndarray:
+    """For each local pair mask, the number of its pairs per ring joint over all ranks ((masks, joints); ids
+    ``joint``, the arch-fill interface's negative id left out). Collective."""
+    ring = joint >= 0
+    n = comm.allreduce(int(joint.max(initial=-1)) + 1, op=MPI.MAX)
+    return comm.allreduce(np.stack([np.bincount(joint[ring & m], minlength=n) for m in masks]))
 
 
 class LawRows(NamedTuple):

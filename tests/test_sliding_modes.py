@@ -133,6 +133,20 @@ def test_seed_1_scene_299_reaches_the_lp_limit(tmp_path):
     assert lower <= 1.005 * lp and upper >= 0.995 * lp
 
 
+def test_seed_3_scene_35_switches_its_springing_slip_within_the_solve_target(tmp_path):
+    """Campaign seed 3, scene 35 (parabolic, 8 voussoirs, mu 0.366, t = 1.3969 m): its right springing's inner pair
+    stops slipping inwards as the next one starts slipping outwards (solver.py, *Opposed slips*). Taken together the
+    joint slid both ways, and the search crawled 400 N through frozen pairs: 523 linear solves where the issue asks
+    for at most 150. The LP slides at joint 5: a limit at most 1.005 times the associative LP, within 0.5 % of it."""
+    scene = write_toml(tmp_path / "s.toml", campaign_scene(35, 1.3969, seed=3))
+    proc = bridgefem("run", str(scene), "--out", str(tmp_path / "out"))
+    data = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert proc.returncode == 0 and data["status"] == "limit load found", data["status"]
+    lower, upper, lp = data["limit_load"]["lower"], data["limit_load"]["upper"], data["lp"]["load"]
+    assert lower <= 1.005 * lp and upper >= 0.995 * lp
+    assert data["solver"]["solves"] <= 150
+
+
 def test_a_joint_slides_when_every_closed_pair_outside_the_repair_slips_one_way():
     """Made-up active set over four ring joints and the arch-fill interface (joint -2): joint 0 has its closed pairs
     slipping + (one open), joint 1 slips - on one pair and sticks on another, joint 2 is all open, joint 3 slips -
@@ -144,3 +158,17 @@ def test_a_joint_slides_when_every_closed_pair_outside_the_repair_slips_one_way(
     assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0, 0]
     held[8] = True
     assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, -1, -1, 0]
+
+
+def test_a_joint_proposed_to_slide_both_ways_keeps_its_new_slips_only():
+    """Made-up proposals over three ring joints (five, two and two pairs): joint 0, every closed pair slipping, one
+    pair slipping - as before and two starting to slip +: the old one is stuck. Joint 1 slips both ways with a
+    pair sticking (not every closed pair slips) and joint 2 has only new slips both ways: both are left alone."""
+    joint = np.array([0, 0, 0, 0, 0, 1, 1, 1, 2, 2])
+    previous = ContactState(np.array([SLIP, STICK, STICK, OPEN, OPEN, SLIP, STICK, STICK, STICK, STICK], dtype=np.int8),
+                            np.array([-1, 0, 0, 0, 0, -1, 0, 0, 0, 0], dtype=np.int8))
+    proposal = ContactState(np.array([SLIP, SLIP, SLIP, OPEN, OPEN, SLIP, SLIP, STICK, SLIP, SLIP], dtype=np.int8),
+                            np.array([-1, 1, 1, 0, 0, -1, 1, 0, 1, -1], dtype=np.int8))
+    assert proposal.opposed_slips(previous, joint, MPI.COMM_SELF).tolist() == [True] + [False] * 9
+    one_way = ContactState(proposal.state.copy(), np.where(np.arange(10) < 3, -1, proposal.sign).astype(np.int8))
+    assert not one_way.opposed_slips(previous, joint, MPI.COMM_SELF).any()
