@@ -1,14 +1,13 @@
 """Newton iterations that start from a predicted active set, and the ranking of proposed changes for damping
 (bridgefem/solver.py, *Predictor* and step 3; bridgefem/contact.py, ``CoulombJoints.classify``)."""
-import json
 
 import numpy as np
 import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
 
-from conftest import bridgefem, campaign_scene, write_toml
 from test_block import W, block_solver
+from test_solver_cycles import run_campaign_scene
 
 
 def test_a_predicted_step_may_return_to_the_start_active_set():
@@ -53,9 +52,4 @@ def test_seed_2_scene_66_reaches_the_lp_limit(tmp_path):
     0.81 kN where the LP on the same joints gives 105.6 kN (a solver failure), its trials failing where a predicted
     step's repair, every pair of the right springing sticking, was its start's active set. Now a limit whose bracket
     reaches within 0.5 % of the LP (its agreement: the evidence rule)."""
-    scene = write_toml(tmp_path / "s.toml", campaign_scene(66, 2.2665, seed=2))
-    proc = bridgefem("run", str(scene), "--out", str(tmp_path / "out"))
-    data = json.loads((tmp_path / "out" / "results.json").read_text())
-    assert proc.returncode == 0 and data["status"] == "limit load found", data["status"]
-    lower, upper, lp = data["limit_load"]["lower"], data["limit_load"]["upper"], data["lp"]["load"]
-    assert lower <= 1.005 * lp and upper >= 0.995 * lp
+    run_campaign_scene(tmp_path, 66, 2.2665, seed=2)
