@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from petsc4py import PETSc
 
-from .contact import SLIP, ContactState, CoulombJoints
+from .contact import SLIP, ContactState
 from .contact_system import ContactSystem
 from .mechanism import Mode, Verdict, judge
 
@@ -52,14 +52,12 @@ class ActiveSetFailure(NamedTuple):
 
 @dataclass(eq=False)
 class DivergenceTest:
-    """The divergence test of the solves of one :class:`bridgefem.contact_system.ContactSystem` with the joint law
-    ``law`` (its Coulomb coefficients as they stand at each test), the joint ids ``joint`` of the local pairs (for
-    messages) and ``provable``: whether a diverging mode can prove collapse (no plastic fill). ``cap`` (m) is set
-    by the first solve that moves the structure (module docstring, step 1) and fixed from then on."""
+    """The divergence test of the solves of one :class:`bridgefem.contact_system.ContactSystem` (its joint law's
+    Coulomb coefficients as they stand at each test, its pairs' joint ids for messages) and ``provable``: whether a
+    diverging mode can prove collapse (no plastic fill). ``cap`` (m) is set by the first solve that moves the
+    structure (module docstring, step 1) and fixed from then on."""
 
     system: ContactSystem
-    law: CoulombJoints
-    joint: np.ndarray
     provable: bool
     cap: float = np.inf
 
@@ -96,11 +94,12 @@ class DivergenceTest:
         u, d = system.mode(x, origin)
         drive, name = (system.f_live, "live load") if level > 0 else (system.f_dead, "self-weight")
         total = system.loads(level)
-        friction = np.where(active.state == SLIP, active.sign * self.law.mu * lam_n, 0.0)  # lam_t of the slip law
+        mu = system.law.mu
+        friction = np.where(active.state == SLIP, active.sign * mu * lam_n, 0.0)  # lam_t of the slip law
         works = system.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
                                                 np.abs(drive.array).sum(), np.abs(total).sum(),
                                                 np.abs(total).sum() + np.abs(friction).sum()]))
         scales = works[3:] * system.norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, self.law.mu, self.joint, tuple(works[:2]),
+        return judge(Mode(d, active.state, active.sign, mu, system.pairs.joint, tuple(works[:2]),
                           tuple(scales[:2]), name, (works[2], scales[2]), gap), provable=self.provable,
                      comm=system.comm)

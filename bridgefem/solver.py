@@ -503,7 +503,7 @@ class ContactSolver:
         self.stats.update(condensation_solves=0, retry_solves=0)
         self.cycles = CycleCondenser(self.system, reuse=material is None)  # the module's step 5
         self.max_iterations = max_iterations
-        self.divergence = DivergenceTest(self.system, self.law, pairs.joint, provable=material is None)  # step 3
+        self.divergence = DivergenceTest(self.system, provable=material is None)  # step 3
         self.setting, self._setting_from = DEFAULT_SETTING, 0  # the setting, and the solves made before it was set
         self._unbounded = self._diverged = False  # the last / any solve of the current step was unbounded
         self._full, self._step = self.system.vector(), self.system.vector()  # the line search's full step

@@ -45,13 +45,11 @@ CAPACITY_FLOOR = 1e-6  # least capacity per pair, of the largest applied nodal f
 
 
 class TrescaStep(NamedTuple):
-    """A Tresca QP's solution: displacements u (m), normal and tangential joint forces (N), and whether Clarabel
-    solved it."""
+    """A Tresca QP's solution: displacements u (m), normal and tangential joint forces (N)."""
 
     u: np.ndarray
     lam_n: np.ndarray
     lam_t: np.ndarray
-    solved: bool
 
 
 class TrescaProblem:
@@ -67,10 +65,11 @@ class TrescaProblem:
         self.P = sp.block_diag([sp.triu(K / self.stiffness), zero]).tocsc()
         self.A = sp.vstack([sp.hstack([-Gn, zero]), sp.hstack([Gt, -eye]), sp.hstack([-Gt, -eye])]).tocsc()
 
-    def step(self, f: np.ndarray, offset: np.ndarray, slip_ref: np.ndarray, capacity: np.ndarray) -> TrescaStep:
+    def step(self, f: np.ndarray, offset: np.ndarray, slip_ref: np.ndarray, capacity: np.ndarray
+             ) -> TrescaStep | None:
         """The QP for the loads f (N), the ground offsets (m, 2; m) and the start's tangential displacements
         ``slip_ref`` (m), the capacities g (N per pair); forces scaled by the largest load F, displacements by
-        F / k."""
+        F / k. None when Clarabel did not solve it (or raised)."""
         n, m = self.n, self.m
         force = max(float(np.abs(f).max()), 1e-300)
         unit = force / self.stiffness  # m
@@ -80,11 +79,10 @@ class TrescaProblem:
         settings = clarabel.DefaultSettings()
         settings.verbose = False
         sol, _ = clarabel_solve(self.P, q, self.A, b, [clarabel.NonnegativeConeT(3 * m)], settings)
-        if sol is None:  # Clarabel raised: no prediction
-            return TrescaStep(np.zeros(n), np.zeros(m), np.zeros(m), False)
+        if sol is None or str(sol.status) != "Solved":
+            return None
         z = np.asarray(sol.z)
-        return TrescaStep(np.asarray(sol.x)[:n] * unit, z[:m] * force, (z[2 * m:] - z[m:2 * m]) * force,
-                          str(sol.status) == "Solved")
+        return TrescaStep(np.asarray(sol.x)[:n] * unit, z[:m] * force, (z[2 * m:] - z[m:2 * m]) * force)
 
     def coulomb_fixed_point(self, f: np.ndarray, offset: np.ndarray, slip_ref: np.ndarray, mu: np.ndarray,
                             normal: np.ndarray) -> TrescaStep | None:
@@ -93,7 +91,7 @@ class TrescaProblem:
         previous = np.maximum(normal, 0.0)
         for _ in range(TRESCA_QPS):
             step = self.step(f, offset, slip_ref, mu * previous)
-            if not step.solved:
+            if step is None:
                 return None
             lam_n = np.maximum(step.lam_n, 0.0)
             if np.abs(lam_n - previous).max() <= SETTLED * max(lam_n.max(), 1e-300):
