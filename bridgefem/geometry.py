@@ -317,8 +317,8 @@ def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.nda
     kinks), summed over chords; a chord that ends at a kink ends on its own arc (``KINK_NUDGE`` of it short of the
     kink), so the centreline's jump there, between the offsets of the two arcs (the pointed crown: t sin(phi / 2) for
     an angle phi between their normals), is no length and joints at equal lengths give voussoirs of equal centreline
-    length on both sides of the crown. Counted, the jump drew every joint that fell on it to the apex (slivers of a
-    millimetre between joints a fraction of a degree apart)."""
+    length on both sides of the crown (counted, it would draw every joint that falls on it to the apex: slivers of a
+    millimetre between joints a fraction of a degree apart; ``docs/joints-and-lp.md``)."""
     start, end = _ring_point(shape, thickness, p[:-1], 0.5), _ring_point(shape, thickness, p[1:], 0.5)
     for k in np.flatnonzero(np.isin(p, shape.kinks)):
         if k > 0:
