@@ -36,6 +36,7 @@ LOAD_SIDES = ("left", "right", "split")
 # a load point within this fraction of the span of a joint's extrados corner is on the joint: it acts at the
 # corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
 AT_JOINT_TOL = 1e-4
+KINK_NUDGE = 1e-6  # a chord's end at a kink is moved this fraction of it back onto its own arc
 _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
 # points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
 # holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
@@ -311,6 +312,22 @@ def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray
     return shape.point(p) + offset * thickness * shape.normal(p)
 
 
+def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.ndarray:
+    """The ring's centreline arc length (m) from p[0] at the increasing parameters ``p`` (which hold the shape's
+    kinks), summed over chords; a chord that ends at a kink ends on its own arc (``KINK_NUDGE`` of it short of the
+    kink), so the centreline's jump there, between the offsets of the two arcs (the pointed crown: t sin(phi / 2) for
+    an angle phi between their normals), is no length and joints at equal lengths give voussoirs of equal centreline
+    length on both sides of the crown (counted, it would draw every joint that falls on it to the apex: slivers of a
+    millimetre between joints a fraction of a degree apart; ``docs/joints-and-lp.md``)."""
+    start, end = _ring_point(shape, thickness, p[:-1], 0.5), _ring_point(shape, thickness, p[1:], 0.5)
+    for k in np.flatnonzero(np.isin(p, shape.kinks)):
+        if k > 0:
+            end[k - 1] = _ring_point(shape, thickness, p[k] - KINK_NUDGE * (p[k] - p[k - 1]), 0.5)
+        if k < len(p) - 1:
+            start[k] = _ring_point(shape, thickness, p[k] + KINK_NUDGE * (p[k + 1] - p[k]), 0.5)
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(end - start, axis=1))])
+
+
 def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, bool]:
     """The curve parameter whose extrados point is at horizontal position x (m), interpolated in fine samples (about
     span / 4000^2 off: the load's vertex is the extrados vertex nearest to x, :meth:`ArchRing.extrados_vertex`), and
@@ -355,8 +372,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     """
     curve = make_shape(shape, span, rise)
     p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), curve.kinks]))
-    centre = _ring_point(curve, thickness, p, 0.5)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))])
+    s = _centreline_length(curve, thickness, p)
 
     def s_of_p(q):
         return np.interp(q, p, s)

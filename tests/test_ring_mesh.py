@@ -1,5 +1,6 @@
-"""Rings the geometry cannot mesh are clear errors, and loads next to joints make no sliver edges (which made Gmsh
-hang or abort). The full probe over shapes, voussoir counts and loads is benchmarks/mesh_probe.py."""
+"""Joints are evenly spaced along the centreline, rings the geometry cannot mesh are clear errors, and loads next to
+joints make no sliver edges (which made Gmsh hang or abort). The full probe over shapes, voussoir counts and loads is
+benchmarks/mesh_probe.py."""
 import json
 import subprocess
 import sys
@@ -71,3 +72,21 @@ print(json.dumps(out))
     assert run.returncode == 0, run.stderr[-2000:]
     cells = json.loads(run.stdout.splitlines()[-1])
     assert all(c > 0 for c in cells)
+
+
+@pytest.mark.parametrize("shape,span,rise,thickness,voussoirs", [
+    ("pointed", 24.967, 24.404, 5.4763, 233),  # campaign seed 1 #235: a 3.2 m jump at the crown, 12 joints on it
+    ("pointed", 3.755, 2.882, 0.9225, 109),    # seed 1 #75
+    ("pointed", 6.0, 6.0 * np.sqrt(3) / 2, 0.6, 28),  # equilateral, a joint at the apex
+    ("pointed", 6.0, 6.0 * np.sqrt(3) / 2, 0.6, 27),  # ... a keystone across it
+    ("semicircular", 10.0, 5.0, 1.0, 36),
+    ("segmental", 10.0, 2.5, 0.5, 15),
+])
+def test_joints_are_evenly_spaced_along_each_arcs_centreline(shape, span, rise, thickness, voussoirs):
+    """On a circular arc the centreline's length grows with the angle, and the shapes' parameter p is proportional
+    to it on each arc (the pointed arch's two arcs meet at p = 0.5), so joints evenly spaced along the centreline are
+    at p = j / n exactly. At the pointed crown the centreline jumps between the offsets of its two arcs: counted as
+    length, that jump drew every joint that fell on it to the apex (#235: 12 joints within 5e-4 of it, voussoirs of
+    2.6 mm)."""
+    ring = build_ring(shape, span, rise, thickness, voussoirs)
+    assert np.allclose(ring.params, np.linspace(0.0, 1.0, voussoirs + 1), rtol=0, atol=1e-9)

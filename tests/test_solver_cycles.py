@@ -29,9 +29,9 @@ def test_a_springing_friction_cycle_is_solved_within_the_issues_solve_budget(tmp
 
 @pytest.mark.slow
 def test_a_pointed_ring_whose_trials_reversed_slips_reaches_the_lp(tmp_path):
-    """Campaign seed 1 #235 (pointed, 233 voussoirs, mu = 0.334, t = 5.4763 m): a solver failure at 1887.55 kN
-    where the LP on the same joints gives 2102.93 kN, its last trials diverging after proposals that reversed slips
-    at once. Now a limit within 0.5 % of the LP (the evidence rule's agreement)."""
+    """Campaign seed 1 #235 (pointed, 233 voussoirs, mu = 0.334, t = 5.4763 m): a thick ring of slices whose
+    collapse slides at the crown, where proposals that reverse slips at once made trials diverge (a solver failure
+    10 % below the LP). A limit within 0.5 % of the LP (the evidence rule's agreement)."""
     run_campaign_scene(tmp_path, 235, 5.4763)
 
 
