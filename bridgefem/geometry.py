@@ -312,6 +312,12 @@ def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray
     return shape.point(p) + offset * thickness * shape.normal(p)
 
 
+def _samples(shape: _Shape) -> np.ndarray:
+    """``_FINE`` equally spaced parameters in [0, 1] and the shape's kinks, sorted: where arc lengths are measured
+    and x(p) inverted."""
+    return np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
+
+
 def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.ndarray:
     """The ring's centreline arc length (m) from p[0] at the increasing parameters ``p`` (which hold the shape's
     kinks), summed over chords; a chord that ends at a kink ends on its own arc (``KINK_NUDGE`` of it short of the
@@ -334,7 +340,7 @@ def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, b
     whether that point exists: at a kink the extrados jumps (the pointed crown's cap between the offsets of its two
     arcs, closed by chords to the apex), and a load on the cap, farther than ``AT_JOINT_TOL`` x the ring's width from
     the interpolated point, gets the kink's parameter and False."""
-    p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
+    p = _samples(shape)
     xs = _ring_point(shape, thickness, p, 1.0)[:, 0]
     q = float(np.interp(x, xs, p))
     if abs(_ring_point(shape, thickness, q, 1.0)[0] - x) <= AT_JOINT_TOL * (xs[-1] - xs[0]):
@@ -371,7 +377,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     concentrated load overstates the limit load).
     """
     curve = make_shape(shape, span, rise)
-    p = np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), curve.kinks]))
+    p = _samples(curve)
     s = _centreline_length(curve, thickness, p)
 
     def s_of_p(q):
