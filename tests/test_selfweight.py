@@ -1,4 +1,4 @@
-"""The self-weight state (bridgefem.selfweight) and the re-run of a self-weight failure on a finer mesh
+"""The self-weight state (bridgefem.selfweight) and the re-run of a failure without proof on a finer mesh
 (bridgefem.analysis.refinement_reason), issue 12."""
 from types import SimpleNamespace
 
@@ -100,16 +100,20 @@ def analysis_like(*, mesh_dependent=False, converged=False, proved=False, lp=Sta
     ({"lp": Status.UNBOUNDED}, True),
     ({"lp": Status.UNSTABLE}, False),  # the LP agrees the ring falls: a finer mesh cannot make it stand
     ({"proved": True}, False),  # a proved mechanism is a verdict, not a failure
-    ({"converged": True}, False),  # the self-weight converged: a limit-search failure
+    ({"converged": True}, True),  # the self-weight converged, the live load's search failed without proof
+    ({"converged": True, "proved": True}, False),
+    ({"converged": True, "lp": Status.UNSTABLE}, False),
+    ({"converged": True, "shortest": 0.2}, False),
     ({"shortest": 0.2}, False),  # voussoirs longer than an element
     ({"mesh_dependent": True, "converged": True}, True)])
 def test_which_failures_are_re_run_on_a_finer_mesh(case, re_run):
-    """A self-weight failure is re-run only without proof, with voussoirs shorter than an element and the LP's ring
-    standing; a mesh-dependent limit always."""
+    """A failure, under self-weight or under live load, is re-run only without proof, with voussoirs shorter than an
+    element and the LP's ring standing; a mesh-dependent limit always."""
     reason = refinement_reason(analysis_like(**case), 4)
     assert bool(reason) == re_run
     if re_run and not case.get("mesh_dependent"):
-        assert reason.startswith("the self-weight failed without proof")
+        where = "the search at 0 kN" if case.get("converged") else "the self-weight"
+        assert reason.startswith(f"{where} failed without proof on voussoirs shorter than an element")
 
 
 @pytest.mark.slow
