@@ -296,7 +296,8 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness (empty: it cannot): a confirmed
     non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (both
     ``Verdict.mesh_dependent``), or a run that failed without proof where the rigid-block LP finds the ring standing:
-    under live load, or under self-weight on voussoirs shorter than an element.
+    on a live-load trial (not at the cap on the load steps), or under self-weight on voussoirs shorter than an
+    element.
     Near its least thickness such a ring stands with hundreds of joint pairs open; from the bonded start the Newton
     method proposes too many openings at once, most of them mechanisms, and damping spends the iteration budget
     (campaign seed 1, #251, 0.3 % above its least thickness: with 4 elements through the thickness no solver setting
@@ -319,10 +320,10 @@ def refinement_reason(an: Analysis, ett: int) -> str:
                 f"{an.lp.load / 1e3:.6g} kN)")
     unproven = (Status.of(an.search.status) is Status.FAILURE and not an.search.proved
                 and an.lp.status in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED))
-    if unproven and an.search.last is not None:
+    if unproven and an.search.settled is not None and an.search.failure:  # a failed live-load trial ended it
         return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN ({ett} elements "
                 f"through the thickness), where the rigid-block LP finds the ring standing")
-    if unproven and an.shortest_voussoir < an.block_mesh.element_size:
+    if unproven and an.search.last is None and an.shortest_voussoir < an.block_mesh.element_size:
         return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
                 f"the thickness), where the rigid-block LP finds the ring standing")
     return ""

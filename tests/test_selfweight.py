@@ -84,13 +84,16 @@ def test_a_retry_starts_again_when_no_continuation_step_converged():
     assert resumed == [(1.0, retry, UNLOADED)]
 
 
-def analysis_like(*, mesh_dependent=False, converged=False, proved=False, lp=Status.LIMIT, shortest=0.08):
+def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved=False, lp=Status.LIMIT,
+                  shortest=0.08):
     """The parts of an Analysis that refinement_reason reads: a failed run (4 elements, 0.134 m) that carried
-    nothing."""
+    nothing, its self-weight ``converged`` or not, its live-load search ended by a failed trial or ``capped`` by the
+    load steps."""
     return SimpleNamespace(
         load_total=1.0, verdict=SimpleNamespace(mesh_dependent=mesh_dependent),
-        search=SimpleNamespace(status=Status.failure("x"), last="state" if converged else None, proved=proved,
-                               lower=0.0),
+        search=SimpleNamespace(status=Status.failure("x"), last="state" if converged else None,
+                               settled="state" if converged else None, proved=proved, lower=0.0,
+                               failure="" if capped else "diverged"),
         lp=SimpleNamespace(status=lp, load=343.0), shortest_voussoir=shortest,
         block_mesh=SimpleNamespace(element_size=0.134))
 
@@ -104,6 +107,7 @@ def analysis_like(*, mesh_dependent=False, converged=False, proved=False, lp=Sta
     ({"converged": True, "shortest": 0.2}, True),  # ... on voussoirs of any length
     ({"converged": True, "proved": True}, False),
     ({"converged": True, "lp": Status.UNSTABLE}, False),
+    ({"converged": True, "capped": True}, False),  # the cap on the load steps ended it: the scene's setting
     ({"shortest": 0.2}, False),  # a self-weight failure on voussoirs longer than an element
     ({"mesh_dependent": True, "converged": True}, True)])
 def test_which_failures_are_re_run_on_a_finer_mesh(case, re_run):
