@@ -296,8 +296,8 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness (empty: it cannot): a confirmed
     non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (both
     ``Verdict.mesh_dependent``), or a run that failed without proof where the rigid-block LP finds the ring standing:
-    on a live-load trial (not at the cap on the load steps), or under self-weight on voussoirs shorter than an
-    element.
+    on a live-load trial (not at the cap on the load steps) of a bare ring, or of a ring under a fill on voussoirs
+    shorter than an element, or under self-weight on such voussoirs.
     Near its least thickness such a ring stands with hundreds of joint pairs open; from the bonded start the Newton
     method proposes too many openings at once, most of them mechanisms, and damping spends the iteration budget
     (campaign seed 1, #251, 0.3 % above its least thickness: with 4 elements through the thickness no solver setting
@@ -309,7 +309,9 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     ring 0.044 m thick: stalled at 0.91 of the LP with 4, the static theorem's bracket at the LP with 8; seed 1,
     #181 under an elastic fill: 1961 solves to a failure with 4, the limit in 1125 with 8). A self-weight failure
     on longer voussoirs is not re-run: that is where a PETSc option that breaks the linear solve fails, and a finer
-    mesh cannot mend it. The re-run's verdict needs the same evidence."""
+    mesh cannot mend it. Nor is a fill's failure on longer voussoirs: the fill's own restraint, not the joints,
+    decides it, and its re-runs are costly (the reference arch under a stiff rough fill: 22 s to its failure with 2
+    elements, 329 s with its re-runs on finer meshes). The re-run's verdict needs the same evidence."""
     if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
         return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
                 f"({ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, the LP "
@@ -318,12 +320,16 @@ def refinement_reason(an: Analysis, ett: int) -> str:
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
                 f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
                 f"{an.lp.load / 1e3:.6g} kN)")
-    unproven = (Status.of(an.search.status) is Status.FAILURE and not an.search.proved
-                and an.lp.status in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED))
-    if unproven and an.search.settled is not None and an.search.failure:  # a failed live-load trial ended it
-        return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN ({ett} elements "
-                f"through the thickness), where the rigid-block LP finds the ring standing")
-    if unproven and an.search.last is None and an.shortest_voussoir < an.block_mesh.element_size:
+    if (Status.of(an.search.status) is not Status.FAILURE or an.search.proved
+            or an.lp.status not in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)):
+        return ""
+    short = an.shortest_voussoir < an.block_mesh.element_size
+    live = an.search.settled is not None and bool(an.search.failure)  # a failed live-load trial ended it
+    if live and (short or an.scene.fill is None):
+        return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
+                f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
+                f"thickness), where the rigid-block LP finds the ring standing")
+    if an.search.last is None and short:
         return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
                 f"the thickness), where the rigid-block LP finds the ring standing")
     return ""
