@@ -245,7 +245,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
 
     A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
     ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without
-    proof on voussoirs shorter than an element) is run again with twice the elements through the thickness
+    proof under live load, or under self-weight on voussoirs shorter than an element) is run again with twice the elements through the thickness
     (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
     the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
     on these elements); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
@@ -295,19 +295,23 @@ def _replaced(an: Analysis, ett: int) -> MeshRefinement:
 def refinement_reason(an: Analysis, ett: int) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness (empty: it cannot): a confirmed
     non-associative collapse state below the associative LP, or a failed run whose limit depends on the mesh (both
-    ``Verdict.mesh_dependent``), or a run that failed without proof, under self-weight or under live load, on
-    voussoirs shorter than an element where the rigid-block LP finds the ring standing (as the run's warning says,
-    such a mesh can stop below the limit load).
+    ``Verdict.mesh_dependent``), or a run that failed without proof where the rigid-block LP finds the ring standing:
+    on a live-load trial (not at the cap on the load steps) of a bare ring, or of a ring under a fill on voussoirs
+    shorter than an element, or under self-weight on such voussoirs.
     Near its least thickness such a ring stands with hundreds of joint pairs open; from the bonded start the Newton
     method proposes too many openings at once, most of them mechanisms, and damping spends the iteration budget
     (campaign seed 1, #251, 0.3 % above its least thickness: with 4 elements through the thickness no solver setting
     converges within 60 iterations, six of ten in 66-303; with 8, where the voussoirs are an element long or more,
-    five of eight in 20-52). Under live load a joint of 5 pairs opens and slides a quarter of the thickness at a
-    time, and a slice of a voussoir between two such joints turns the Newton method's proposals into inadmissible
-    modes (campaign seed 4, #38, 166 voussoirs of 0.27 m against elements of 0.81 m: with 4 elements every trial from
-    1540.9 kN, 0.87 of the LP, diverged with every setting; with 8 a collapse state at 1691 kN, confirmed, in 75
-    solves; seed 1, #181 under an elastic fill, 0.023 m against 0.129 m: 1961 solves to a failure with 4, the
-    limit in 1125 with 8). The re-run's verdict needs the same evidence."""
+    five of eight in 20-52). Under live load a joint of ``ett`` + 1 pairs opens and slides an ``ett``-th of the
+    thickness at a time; near the limit the Newton method's proposals then turn into inadmissible modes, and a
+    finer joint settles it (campaign seed 4, #38, 166 voussoirs of 0.27 m: with 4 elements every trial from 0.87 of
+    the LP diverged with every setting, with 8 a collapse state at 1691 kN, confirmed, in 75 solves; seed 4, #10, a
+    ring 0.044 m thick: stalled at 0.91 of the LP with 4, the static theorem's bracket at the LP with 8; seed 1,
+    #181 under an elastic fill: 1961 solves to a failure with 4, the limit in 1125 with 8). A self-weight failure
+    on longer voussoirs is not re-run: that is where a PETSc option that breaks the linear solve fails, and a finer
+    mesh cannot mend it. Nor is a fill's failure on longer voussoirs: the fill's own restraint, not the joints,
+    decides it, and its re-runs are costly (the reference arch under a stiff rough fill: 22 s to its failure with 2
+    elements, 329 s with its re-runs on finer meshes). The re-run's verdict needs the same evidence."""
     if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
         return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
                 f"({ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, the LP "
@@ -316,13 +320,18 @@ def refinement_reason(an: Analysis, ett: int) -> str:
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
                 f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
                 f"{an.lp.load / 1e3:.6g} kN)")
-    if (Status.of(an.search.status) is Status.FAILURE and not an.search.proved
-            and an.lp.status in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)
-            and an.shortest_voussoir < an.block_mesh.element_size):
-        where = ("the self-weight" if an.search.last is None else
-                 f"the search at {an.search.lower * an.load_total / 1e3:.6g} kN")
-        return (f"{where} failed without proof on voussoirs shorter than an element ({ett} elements through the "
+    if (Status.of(an.search.status) is not Status.FAILURE or an.search.proved
+            or an.lp.status not in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)):
+        return ""
+    short = an.shortest_voussoir < an.block_mesh.element_size
+    live = an.search.settled is not None and bool(an.search.failure)  # a failed live-load trial ended it
+    if live and (short or an.scene.fill is None):
+        return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
+                f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
                 f"thickness), where the rigid-block LP finds the ring standing")
+    if an.search.last is None and short:
+        return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
+                f"the thickness), where the rigid-block LP finds the ring standing")
     return ""
 
 

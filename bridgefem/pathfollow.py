@@ -252,9 +252,10 @@ class LimitSearch:
     """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
     the estimate of the limit level the search used (N per unit load factor; None: none); ``last`` is the last
     converged state, ``settled`` the converged state at live load 0 (after self-weight and any support movement)
-    from which the live-load search started (None when it was not reached); ``proved``: the failed step that ended
-    the search proved its mechanism (:class:`bridgefem.solver.StepOutcome`), else the verdict needs other evidence
-    (:mod:`bridgefem.evidence`)."""
+    from which the live-load search started (None when it was not reached); ``failure``: what ended the search
+    above ``lower``, the failed step's reason or the static bound's (empty at the cap on the load steps or a locked
+    ring); ``proved``: the failed step that ended the search proved its mechanism
+    (:class:`bridgefem.solver.StepOutcome`), else the verdict needs other evidence (:mod:`bridgefem.evidence`)."""
 
     status: str
     lower: float

@@ -84,13 +84,16 @@ def test_a_retry_starts_again_when_no_continuation_step_converged():
     assert resumed == [(1.0, retry, UNLOADED)]
 
 
-def analysis_like(*, mesh_dependent=False, converged=False, proved=False, lp=Status.LIMIT, shortest=0.08):
+def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved=False, lp=Status.LIMIT,
+                  shortest=0.08, fill=None):
     """The parts of an Analysis that refinement_reason reads: a failed run (4 elements, 0.134 m) that carried
-    nothing."""
+    nothing, its self-weight ``converged`` or not, its live-load search ended by a failed trial or ``capped`` by the
+    load steps."""
     return SimpleNamespace(
-        load_total=1.0, verdict=SimpleNamespace(mesh_dependent=mesh_dependent),
-        search=SimpleNamespace(status=Status.failure("x"), last="state" if converged else None, proved=proved,
-                               lower=0.0),
+        load_total=1.0, verdict=SimpleNamespace(mesh_dependent=mesh_dependent), scene=SimpleNamespace(fill=fill),
+        search=SimpleNamespace(status=Status.failure("x"), last="state" if converged else None,
+                               settled="state" if converged else None, proved=proved, lower=0.0,
+                               failure="" if capped else "diverged"),
         lp=SimpleNamespace(status=lp, load=343.0), shortest_voussoir=shortest,
         block_mesh=SimpleNamespace(element_size=0.134))
 
@@ -101,19 +104,24 @@ def analysis_like(*, mesh_dependent=False, converged=False, proved=False, lp=Sta
     ({"lp": Status.UNSTABLE}, False),  # the LP agrees the ring falls: a finer mesh cannot make it stand
     ({"proved": True}, False),  # a proved mechanism is a verdict, not a failure
     ({"converged": True}, True),  # the self-weight converged, the live load's search failed without proof
+    ({"converged": True, "shortest": 0.2}, True),  # ... on voussoirs of any length
     ({"converged": True, "proved": True}, False),
     ({"converged": True, "lp": Status.UNSTABLE}, False),
-    ({"converged": True, "shortest": 0.2}, False),
-    ({"shortest": 0.2}, False),  # voussoirs longer than an element
+    ({"converged": True, "capped": True}, False),  # the cap on the load steps ended it: the scene's setting
+    ({"converged": True, "fill": "a fill"}, True),  # under a fill on voussoirs shorter than an element
+    ({"converged": True, "fill": "a fill", "shortest": 0.2}, False),  # ... not on longer ones
+    ({"shortest": 0.2}, False),  # a self-weight failure on voussoirs longer than an element
     ({"mesh_dependent": True, "converged": True}, True)])
 def test_which_failures_are_re_run_on_a_finer_mesh(case, re_run):
-    """A failure, under self-weight or under live load, is re-run only without proof, with voussoirs shorter than an
-    element and the LP's ring standing; a mesh-dependent limit always."""
+    """A failure is re-run only without proof and with the LP's ring standing: on a live-load trial of a bare ring,
+    or on voussoirs shorter than an element under live load with a fill or under self-weight; a mesh-dependent
+    limit always."""
     reason = refinement_reason(analysis_like(**case), 4)
     assert bool(reason) == re_run
     if re_run and not case.get("mesh_dependent"):
-        where = "the search at 0 kN" if case.get("converged") else "the self-weight"
-        assert reason.startswith(f"{where} failed without proof on voussoirs shorter than an element")
+        short = "" if case.get("shortest") else " on voussoirs shorter than an element"
+        assert reason.startswith(f"the search failed without proof at 0 kN{short} (" if case.get("converged") else
+                                 "the self-weight failed without proof on voussoirs shorter than an element")
 
 
 @pytest.mark.slow
