@@ -245,7 +245,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
 
     A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
     ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without
-    proof under live load, or under self-weight on voussoirs shorter than an element) is run again with twice the elements through the thickness
+    proof under live load, with a fill only on voussoirs shorter than an element, or under self-weight on such
+    voussoirs) is run again with twice the elements through the thickness
     (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
     the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
     on these elements); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
@@ -303,14 +304,14 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     (campaign seed 1, #251, 0.3 % above its least thickness: with 4 elements through the thickness no solver setting
     converges within 60 iterations, six of ten in 66-303; with 8, where the voussoirs are an element long or more,
     five of eight in 20-52). Under live load a joint of ``ett`` + 1 pairs opens and slides an ``ett``-th of the
-    thickness at a time; near the limit the Newton method's proposals then turn into inadmissible modes, and a
-    finer joint settles it (campaign seed 4, #38, 166 voussoirs of 0.27 m: with 4 elements every trial from 0.87 of
-    the LP diverged with every setting, with 8 a collapse state at 1691 kN, confirmed, in 75 solves; seed 4, #10, a
-    ring 0.044 m thick: stalled at 0.91 of the LP with 4, the static theorem's bracket at the LP with 8; seed 1,
-    #181 under an elastic fill: 1961 solves to a failure with 4, the limit in 1125 with 8). A self-weight failure
-    on longer voussoirs is not re-run: that is where a PETSc option that breaks the linear solve fails, and a finer
-    mesh cannot mend it. Nor is a fill's failure on longer voussoirs: the fill's own restraint, not the joints,
-    decides it, and its re-runs are costly (the reference arch under a stiff rough fill: 22 s to its failure with 2
+    thickness at a time; near the limit the Newton method's proposals then turn into inadmissible modes, and a finer
+    joint settles it (campaign seed 4, #38, 166 voussoirs of 0.27 m: with 4 elements every trial from 0.87 of the LP
+    diverged with every setting, its re-run with 8 a confirmed collapse state at 1691 kN in 90 solves; seed 4, #10,
+    a ring 0.044 m thick: stalled at 0.91 of the LP with 4, the static theorem's bracket at the LP with 8; seed 1,
+    #181 under an elastic fill: 1961 solves to a failure with 4, the limit in 979 more with 8). A self-weight
+    failure on longer voussoirs is not re-run: that is where a PETSc option that breaks the linear solve fails, and
+    a finer mesh cannot mend it. Nor is a fill's failure on longer voussoirs, where the fill's restraint decides the
+    limit and the re-runs are costly (the reference arch under a stiff rough fill: 22 s to its failure with 2
     elements, 329 s with its re-runs on finer meshes). The re-run's verdict needs the same evidence."""
     if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
         return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
