@@ -91,6 +91,18 @@ def bridgefem(*args, ranks: int = 1, timeout: int = 600) -> subprocess.Completed
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
 
 
+def run_campaign_scene(tmp_path: Path, index: int, thickness: float, seed: int = 1) -> dict:
+    """Run campaign scene ``index`` of ``seed`` at ``thickness`` (m) through the command line; assert it ends in a
+    limit load that agrees with the LP on the same joints; its results.json."""
+    scene = write_toml(tmp_path / "s.toml", campaign_scene(index, thickness, seed))
+    proc = bridgefem("run", str(scene), "--out", str(tmp_path / "out"))
+    data = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert proc.returncode == 0 and data["status"] == "limit load found", data["status"]
+    lower, upper, lp = data["limit_load"]["lower"], data["limit_load"]["upper"], data["lp"]["load"]
+    assert lower <= 1.005 * lp and upper >= 0.995 * lp  # the evidence rule's agreement with the LP
+    return data
+
+
 @pytest.fixture
 def tmp_scene(tmp_path):
     def make(d: dict, name: str = "scene") -> Path:

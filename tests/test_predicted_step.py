@@ -6,8 +6,8 @@ import pytest
 
 from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
 
+from conftest import run_campaign_scene
 from test_block import W, block_solver
-from test_solver_cycles import run_campaign_scene
 
 
 def test_a_predicted_step_may_return_to_the_start_active_set():

@@ -2,7 +2,7 @@
 *Leaps*): a campaign scene whose trials wandered through nearly singular active sets."""
 import pytest
 
-from test_solver_cycles import run_campaign_scene
+from conftest import run_campaign_scene
 
 
 @pytest.mark.slow

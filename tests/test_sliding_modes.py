@@ -10,8 +10,8 @@ from bridgefem.contact import OPEN, SLIP, STICK, ContactState
 from bridgefem.contact_system import PROXIMAL
 from bridgefem.mechanism import Mode, judge
 
+from conftest import run_campaign_scene
 from test_block import W, block_solver
-from test_solver_cycles import run_campaign_scene
 
 
 def _judged(d, state, sign, works=(1.0, 1.0)):

@@ -1,20 +1,8 @@
 """A cycle is condensed with the pairs that churned in the step (bridgefem/solver.py, *Cycles*), and reversed slips
 pass through stick (*Reversed slips*): campaign scenes whose live-load trials failed far below their limit."""
-import json
-
 import pytest
 
-from conftest import bridgefem, campaign_scene, write_toml
-
-
-def run_campaign_scene(tmp_path, index: int, thickness: float, seed: int = 1) -> dict:
-    scene = write_toml(tmp_path / "s.toml", campaign_scene(index, thickness, seed))
-    proc = bridgefem("run", str(scene), "--out", str(tmp_path / "out"))
-    data = json.loads((tmp_path / "out" / "results.json").read_text())
-    assert proc.returncode == 0 and data["status"] == "limit load found", data["status"]
-    lower, upper, lp = data["limit_load"]["lower"], data["limit_load"]["upper"], data["lp"]["load"]
-    assert lower <= 1.005 * lp and upper >= 0.995 * lp  # the evidence rule's agreement with the LP
-    return data
+from conftest import run_campaign_scene
 
 
 @pytest.mark.slow
