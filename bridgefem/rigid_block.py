@@ -26,8 +26,9 @@ with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k
 
 The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
-decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no state at lambda = 0
-exists, and the load follows the self-weight, as in the FE); otherwise :class:`LPFailure` (campaign seed 5, #162,
+decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
+admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
+FE); otherwise :class:`LPFailure` (campaign seed 5, #162,
 an elliptical ring of 185 voussoirs at mu = 0.3: every HiGHS method, with or without presolve, gives no status for
 the load programme and a deficit of 2675 N).
 
@@ -385,9 +386,9 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
                                                           seed)
     if sol.status not in (0, 2, 3) and np.any(model.live):  # no status: the deficit programme decides
-        _, dead = dead_load_deficit(model, friction_model, beta=beta, rtol=rtol, max_iterations=max_iterations)
+        _, dead = dead_load_deficit(model)  # statics alone: a deficit rules out every flow rule's equilibrium
         if dead.status == "unstable under self-weight":
-            dead.time_s = time.perf_counter() - start
+            dead.friction_model, dead.time_s = friction_model, time.perf_counter() - start
             return dead
     res = _status(sol, model, prog, friction_model)
     res.level_associative, res.level_seeded = levels
