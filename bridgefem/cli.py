@@ -214,9 +214,16 @@ def _check(args) -> int:
 
 
 def _lp(args) -> int:
-    from .rigid_block import collapse_load
+    from .rigid_block import LPFailure, collapse_load
 
-    res = collapse_load(load_scene(args.scene), friction_model=args.friction_model)
+    scene = load_scene(args.scene)
+    try:
+        res = collapse_load(scene, friction_model=args.friction_model)
+    except LPFailure as err:
+        status = f"solver failure: {err}"
+        print(json.dumps({"load": None, "unit": "N", "status": status, "friction_model": args.friction_model})
+              if args.json else f"rigid-block LP ({args.friction_model} friction): {status}")
+        return 1
     if args.json:
         from .results import lp_summary
 
@@ -237,13 +244,15 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from .rigid_block import NoStableThickness, min_thickness
+    from .rigid_block import LPFailure, NoStableThickness, min_thickness
 
+    scene = load_scene(args.scene)
     try:
-        res = min_thickness(load_scene(args.scene), friction_model=args.friction_model)
-    except NoStableThickness as err:
-        print(json.dumps({"thickness": None, "reason": str(err)}) if args.json
-              else f"minimum thickness under self-weight: none: {err}")
+        res = min_thickness(scene, friction_model=args.friction_model)
+    except (NoStableThickness, LPFailure) as err:
+        what = "none" if isinstance(err, NoStableThickness) else "solver failure"
+        print(json.dumps({"thickness": None, "reason": f"{what}: {err}"}) if args.json
+              else f"minimum thickness under self-weight: {what}: {err}")
         return 1
     if args.json:
         print(json.dumps(res.to_dict()))

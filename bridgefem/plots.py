@@ -46,6 +46,8 @@ def plot_load_deflection(data: dict, path: Path) -> None:
     if pts:
         load, defl = np.array(pts).T
         ax.plot(defl * 1e3, load / 1e3, "o-", ms=3, label="converged load steps (FE)")
+    else:
+        ax.text(0.5, 0.5, "no converged load step", transform=ax.transAxes, ha="center", va="center")
     lp = data.get("lp")
     if lp and lp.get("load"):
         ax.axhline(lp["load"] / 1e3, color="k", ls="--", lw=1,
@@ -66,7 +68,8 @@ def plot_load_deflection(data: dict, path: Path) -> None:
     ax.set_ylabel(f"live load (kN, for a width of {lim['width']:g} m)")
     _title(ax, data)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right", fontsize=7)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower right", fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -24,7 +24,13 @@ with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k
     |m_j| <= n_j t_j / 2          no tension: the thrust lies within the joint
     |s_j| <= mu_j n_j + c_j       Coulomb friction (associative: c_j = 0)
 
-The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS).
+The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
+programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
+decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
+admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
+FE); otherwise :class:`LPFailure` (campaign seed 5, #162,
+an elliptical ring of 185 voussoirs at mu = 0.3: every HiGHS method, with or without presolve, gives no status for
+the load programme and a deficit of 2675 N).
 
 **Mechanism.** The equilibrium duals are the block virtual velocities ``(u, v, omega)`` at ``r_k`` (the velocity
 is ``minus`` HiGHS' marginals, normalised so that the live load does unit work). At a joint the relative motion of
@@ -298,6 +304,10 @@ def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesi
     res.dissipation = float(-(prog.rhs(cohesion) @ z) * prog.fref) if res.level is not None else 0.0
 
 
+class LPFailure(RuntimeError):
+    """HiGHS gave no answer for a programme (its message says why)."""
+
+
 def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LPResult:
     """An LPResult carrying the outcome of a load-factor LP (forces and mechanism still empty)."""
     if sol.status == 2:
@@ -305,7 +315,7 @@ def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LP
     if sol.status == 3 or not np.any(model.live):
         return LPResult(None, None, "no collapse (unbounded)", friction_model)
     if sol.status != 0:
-        raise RuntimeError(f"rigid-block LP failed: {sol.message}")
+        raise LPFailure(f"rigid-block LP failed: {sol.message}")
     lam = float(sol.x[-1] * prog.fref)
     total_live = float(np.hypot(model.live[:, 0], model.live[:, 1]).sum())
     return LPResult(lam * total_live, lam, "limit load found", friction_model)
@@ -375,6 +385,11 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     prog = _Programme(model)
     sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
                                                           seed)
+    if sol.status not in (0, 2, 3) and np.any(model.live):  # no status: the deficit programme decides
+        _, dead = dead_load_deficit(model)  # statics alone: a deficit rules out every flow rule's equilibrium
+        if dead.status == "unstable under self-weight":
+            dead.friction_model, dead.time_s = friction_model, time.perf_counter() - start
+            return dead
     res = _status(sol, model, prog, friction_model)
     res.level_associative, res.level_seeded = levels
     if res.level is not None:
@@ -642,7 +657,7 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     prog = _Programme(model)
     sol, cohesion, iterations, converged, _ = _solve(prog, True, friction_model, beta, rtol, max_iterations)
     if sol.status != 0:
-        raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
+        raise LPFailure(f"rigid-block deficit LP failed: {sol.message}")
     tau = float(sol.x[-1] * prog.fref)
     res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > _DEFICIT_TOL else "stable under self-weight",
                    friction_model)
@@ -660,7 +675,7 @@ def standing_deficit(model: BlockModel) -> float:
     the deficit programme of :func:`dead_load_deficit` with its ``n >= 0`` relaxed to ``n >= -tau``, solved in
     ``nu = n + tau >= 0``. Any state that violates no tension, the thrust's place and Coulomb's law by at most those
     amounts is a point of it, so a deficit above them proves that no such state exists (the static theorem under
-    dead load; :class:`bridgefem.evidence.StaticBound`). Raises RuntimeError when the LP fails."""
+    dead load; :class:`bridgefem.evidence.StaticBound`). Raises :class:`LPFailure` when the LP fails."""
     prog = _Programme(model)
     nj = model.n_joints
     mu = np.asarray(model.friction, float)
@@ -672,7 +687,7 @@ def standing_deficit(model: BlockModel) -> float:
                   A_eq=sp.hstack([prog.A, sp.csr_matrix(shift[:, None])], format="csr"), b_eq=prog.b_eq,
                   bounds=prog.bounds, method=_LP_METHOD)
     if sol.status != 0:
-        raise RuntimeError(f"rigid-block deficit LP failed: {sol.message}")
+        raise LPFailure(f"rigid-block deficit LP failed: {sol.message}")
     return float(sol.x[-1] * prog.fref)
 
 

@@ -5,9 +5,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import bridgefem.rigid_block as rigid_block
+from conftest import scene_dict, write_toml
+from bridgefem.cli import main
 from bridgefem.geometry import build_ring
-from bridgefem.rigid_block import (BlockModel, collapse_load, dead_load_deficit, generalised_loads, min_thickness,
-                                   ring_model, ring_under_forces, solve_blocks)
+from bridgefem.rigid_block import (BlockModel, LPFailure, NoStableThickness, collapse_load, dead_load_deficit,
+                                   generalised_loads, min_thickness, ring_model, ring_under_forces, solve_blocks)
 from bridgefem.scene import Fill, scene_from_dict
 
 
@@ -182,6 +185,58 @@ def test_non_associative_collapse_load_is_not_unique():
 @pytest.mark.parametrize("friction, status", [(0.3, "unstable under self-weight"), (0.6, "limit load found")])
 def test_status(friction, status):
     assert collapse_load(scene(friction=friction)).status == status
+
+
+def test_a_load_programme_without_status_is_decided_by_the_dead_load_deficit():
+    """Campaign seed 5, #162: HiGHS gives no status for the load programme of this elliptical ring at mu = 0.3
+    (checked below, so that the test exercises that path); the deficit programme finds that its self-weight needs a
+    joint tension, so the LP says "unstable under self-weight" with a mechanism that the self-weight drives. Checked
+    independently: no thickness of this ring carries its self-weight at mu = 0.3 (the least-thickness search)."""
+    ellipse = scene_from_dict({
+        "arch": {"shape": "elliptical", "span": 3.629, "rise": 1.217, "thickness": 0.2563, "width": 1.0,
+                 "voussoirs": 185, "joint_at_loads": True},
+        "masonry": {"young": 968e6, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.3},
+        "load": [{"kind": "patch", "position": 0.2358, "length": 0.83}]})
+    model = ring_model(ellipse, load_at_joint="split")
+    programme = rigid_block._Programme(model)
+    assert programme.solve(np.asarray(model.friction, float), np.zeros(model.n_joints), False).status == 4
+    res = collapse_load(ellipse)
+    assert res.status == "unstable under self-weight" and res.load is None
+    assert res.work_dead > 0 and res.hinges  # the self-weight does work on the mechanism
+    with pytest.raises(NoStableThickness):
+        min_thickness(ellipse)
+
+
+@pytest.fixture
+def no_load_status(monkeypatch):
+    """HiGHS ends every load programme without a status (its code 4); the deficit programme still solves."""
+    solve = rigid_block._Programme.solve
+
+    def failing(self, mu, cohesion, deficit):
+        sol = solve(self, mu, cohesion, deficit)
+        if not deficit:
+            sol.status, sol.message = 4, "injected: model_status is Unknown"
+        return sol
+
+    monkeypatch.setattr(rigid_block._Programme, "solve", failing)
+
+
+@pytest.mark.parametrize("friction_model", ["associative", "non-associative"])
+def test_without_a_status_only_a_positive_deficit_gives_a_verdict(no_load_status, friction_model):
+    """With the load programme's status lost, the reference ring at mu = 0.3 (which cannot carry its self-weight,
+    test_status) is still "unstable under self-weight"; at mu = 0.6 (it stands) nothing decides: LPFailure."""
+    assert collapse_load(scene(friction=0.3), friction_model).status == "unstable under self-weight"
+    with pytest.raises(LPFailure, match="model_status is Unknown"):
+        collapse_load(scene(friction=0.6), friction_model)
+
+
+def test_lp_command_reports_a_failed_programme_in_one_line(no_load_status, tmp_path, capsys):
+    """`bridgefem lp` on a programme HiGHS cannot answer: exit 1 and one line that says solver failure (no
+    traceback)."""
+    path = write_toml(tmp_path / "scene.toml", scene_dict())
+    assert main(["lp", str(path)]) == 1
+    out = capsys.readouterr().out.strip()
+    assert len(out.splitlines()) == 1 and "solver failure: rigid-block LP failed: injected" in out
 
 
 def test_unbounded_and_stable_dead_load():
