@@ -8,7 +8,9 @@ have a single face, which meets the rigid ground.
 Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
 ``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
 segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
-size within the fill's depth of the extrados, graded to the far fill's size beyond.
+size within the fill's depth of the extrados, graded to the far fill's size beyond. The road's load points (patch
+edges, point loads) get ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill,
+whose depth, not the ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
 
 Elastic abutments (:func:`bridgefem.geometry.add_abutments`) are meshed with unstructured triangles of twice the
 ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
@@ -45,7 +47,7 @@ FILL_END_TAG = 1_000_003  # vertical ends of the fill (rollers)
 FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
 BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
 BEAM_HEIGHT = 0.5  # height of a loading beam / its length
-LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the ring's element size
+LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the extrados element size (the fill's own scale)
 FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
 EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
 FILL_GRADING = 0.5  # growth of the fill mesh size per unit distance beyond that band (m/m)
@@ -148,7 +150,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             extrados_curves += extra
         abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
                              for ab in ring.abutments]
-        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, h * LOAD_REFINEMENT, beams)
+        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados, beams)
                        if outline is not None else {})
         geo.synchronize()
         if outline is not None or ring.abutments:
