@@ -28,9 +28,8 @@ The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linpro
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
 decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
 admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
-FE); otherwise :class:`LPFailure` (campaign seed 5, #162,
-an elliptical ring of 185 voussoirs at mu = 0.3: every HiGHS method, with or without presolve, gives no status for
-the load programme and a deficit of 2675 N).
+FE); otherwise :class:`LPFailure` (campaign seed 5, #162, an elliptical ring of 185 voussoirs at mu = 0.3: every
+HiGHS method, with or without presolve, gives no status for the load programme and a deficit of 2675 N).
 
 **Mechanism.** The equilibrium duals are the block virtual velocities ``(u, v, omega)`` at ``r_k`` (the velocity
 is ``minus`` HiGHS' marginals, normalised so that the live load does unit work). At a joint the relative motion of

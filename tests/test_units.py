@@ -88,6 +88,17 @@ def test_plots_from_a_results_dict(tmp_path):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_load_deflection_plot_without_a_converged_step_has_no_empty_legend(tmp_path, caplog):
+    """A ring unstable under self-weight, whose LP has no load either, has nothing to draw in the legend: the plot
+    says so in its axes and matplotlib logs no warning (it did: "No artists with labels found")."""
+    data = {**results_dict(), "status": "unstable under self-weight", "lp": {"load": None, "model": "bare ring"},
+            "history": [{"load": 0.0, "deflection": None, "converged": False}]}
+    with caplog.at_level("WARNING"):
+        plot_load_deflection(data, tmp_path / "ld.png")
+    assert (tmp_path / "ld.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not [r for r in caplog.records if "legend" in r.getMessage()]
+
+
 def test_lp_of_a_three_voussoir_arch_is_a_four_hinge_mechanism():
     """Three voussoirs have four joints: without sliding (mu = 10) a collapse needs all four as hinges, alternating
     intrados/extrados."""
