@@ -29,6 +29,9 @@ from .scene import Scene, SceneError
 
 FAR_SIZE = 4.0  # element size away from the ring and the loads, in multiples of the size near them
 LOAD_SIZE = 0.5  # element size at the edges of a loaded patch, in multiples of the size near the ring
+MAX_TRIANGLES = 6000  # triangles of the fill at refine 1 (x refine^2), above which the size grows to fit (module
+# docstring of bridge_problem: campaign seed 5, #158, 18 425 triangles of a 0.049 m ring's t/2 took 271 s; the
+# campaigns' other fill scenes have at most 3419, Prestwood 1649 and 6467 at refine 2)
 
 
 @dataclass(frozen=True)
@@ -135,8 +138,11 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     as Mohr-Coulomb soil meshed with element size ``min(ring thickness / 2, fill depth over the crown) / refine``
     near the extrados (half that at the load patches' edges, ``FAR_SIZE`` times it far from them; the depth keeps
     a thin fill over a thick ring from being one triangle deep, on which no mechanism forms and the upper bound
-    is unbounded). Without a fill this is the LP's model (point loads on a Mohr-Coulomb fill are refused by the
-    scene)."""
+    is unbounded). A mesh of more than ``MAX_TRIANGLES`` x refine^2 triangles (a thin ring under a deep, long fill)
+    is made again with the size grown by the square root of the excess: the programmes' cost grows with the
+    triangles (campaign seed 5, #158, t = 0.049 m under 0.27 m of fill: 18 425 triangles of 0.024 m, 271 s for
+    both), and a coarser mesh still gives bounds, only wider. Without a fill this is the LP's model (point loads
+    on a Mohr-Coulomb fill are refused by the scene)."""
     width = scene.arch.width
     live_total = float(sum(ld.factor for ld in scene.loads))
     if scene.fill is None:  # a point load on a joint goes on the block the LP finds least favourable
@@ -149,11 +155,16 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     size = min(scene.arch.thickness / 2, f.depth) / refine
     blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)
     outline = _bridge_outline(scene, ring, size, blocks.n_blocks)
+    mesh, cap = triangulate(outline), MAX_TRIANGLES * refine ** 2
+    if mesh.n_triangles > cap:
+        size *= math.sqrt(mesh.n_triangles / cap)
+        outline = _bridge_outline(scene, ring, size, blocks.n_blocks)
+        mesh = triangulate(outline)
     if f.loading_beam:
         blocks = with_loading_beams(blocks, [ld.x_range(scene.arch.span) for ld in scene.loads],
                                     [ld.factor for ld in scene.loads], outline.points[-1, 1])
     soil = Soil(f.cohesion, f.friction_angle, f.unit_weight, f.tension_cutoff)
-    return LimitProblem(blocks, width, live_total, soil, triangulate(outline), f.interface_friction, size)
+    return LimitProblem(blocks, width, live_total, soil, mesh, f.interface_friction, size)
 
 
 def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) -> Outline:
