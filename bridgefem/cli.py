@@ -214,16 +214,13 @@ def _check(args) -> int:
 
 
 def _lp(args) -> int:
-    from .rigid_block import LPFailure, collapse_load
+    from .rigid_block import LPFailure, LPResult, collapse_load
 
     scene = load_scene(args.scene)
     try:
         res = collapse_load(scene, friction_model=args.friction_model)
-    except LPFailure as err:
-        status = f"solver failure: {err}"
-        print(json.dumps({"load": None, "unit": "N", "status": status, "friction_model": args.friction_model})
-              if args.json else f"rigid-block LP ({args.friction_model} friction): {status}")
-        return 1
+    except LPFailure as err:  # reported like any result, with no load and no mechanism
+        res = LPResult(None, None, f"solver failure: {err}", args.friction_model)
     if args.json:
         from .results import lp_summary
 
@@ -240,7 +237,7 @@ def _lp(args) -> int:
             fixed = "a fixed point" if res.converged else f"no fixed point in {res.iterations} LPs"
             print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN; "
                   f"non-associative: {fixed} (one collapse state of several, not a bound: docs/joints-and-lp.md)")
-    return 0
+    return 1 if Status.of(res.status) is Status.FAILURE else 0
 
 
 def _min_thickness(args) -> int:

@@ -232,11 +232,14 @@ def test_without_a_status_only_a_positive_deficit_gives_a_verdict(no_load_status
 
 def test_lp_command_reports_a_failed_programme_in_one_line(no_load_status, tmp_path, capsys):
     """`bridgefem lp` on a programme HiGHS cannot answer: exit 1 and one line that says solver failure (no
-    traceback)."""
+    traceback); with --json the same status and no load."""
     path = write_toml(tmp_path / "scene.toml", scene_dict())
     assert main(["lp", str(path)]) == 1
     out = capsys.readouterr().out.strip()
     assert len(out.splitlines()) == 1 and "solver failure: rigid-block LP failed: injected" in out
+    assert main(["lp", str(path), "--json"]) == 1
+    data = json.loads(capsys.readouterr().out)
+    assert data["status"].startswith("solver failure: rigid-block LP failed") and data["load"] is None
 
 
 def test_unbounded_and_stable_dead_load():
