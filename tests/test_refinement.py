@@ -9,7 +9,7 @@ from petsc4py import PETSc
 
 from bridgefem import analysis, sizing
 from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, REFINEMENT_FLOOR,
-                                first_step, refined_elements, run_analysis)
+                                SETTLED_MOVE, first_step, refined_elements, run_analysis)
 from bridgefem.linsolve import CheckedSolve, SolveBudgetSpent
 from bridgefem.scene import scene_from_dict
 from bridgefem.status import Status
@@ -29,10 +29,10 @@ HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness"
 
 
 def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None, coarser=None, budgets=None,
-                  solves=(30, 40, 50)):
+                  solves=(30, 40, 50), tolerance=1e-4):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
-    solves; returns the meshes run, and appends to the list ``coarser`` the coarser run's level each run was given
+    solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser run's level each run was given
     and to ``budgets`` its budget of linear solves."""
     meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
@@ -49,7 +49,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                                solver=SimpleNamespace(stats={"solves": solves.pop(0)}),
                                lp=SimpleNamespace(load=100.0, level=100.0),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
-                                                      tolerance=1e-4))
+                                                      tolerance=tolerance))
 
     monkeypatch.setattr(analysis, "_analyse", fake)
     return meshes
@@ -86,6 +86,18 @@ def test_no_second_re_run_when_the_first_did_not_move_the_limit(monkeypatch):
     ran = fake_analyses(monkeypatch, (True, True, True), lowers=(97.0, 97.001, 99.0))
     an = run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
     assert ran == [4, 8] and [r.elements_through_thickness for r in an.refinements] == [4]
+
+
+@pytest.mark.parametrize("move, tolerance, meshes", [(0.9 * SETTLED_MOVE, 1e-4, [4, 8]),
+                                                     (1.1 * SETTLED_MOVE, 1e-4, [4, 8, 16]),
+                                                     (1.5 * SETTLED_MOVE, 2 * SETTLED_MOVE, [4, 8])])
+def test_a_re_run_that_moved_the_limit_less_than_the_settled_move_is_not_re_run_again(monkeypatch, move, tolerance,
+                                                                                       meshes):
+    """A re-run whose limit moved by less than SETTLED_MOVE (the LP agreement, 0.5 %) or the search's tolerance,
+    whichever is larger, settles the mesh; a larger move asks for the next mesh."""
+    ran = fake_analyses(monkeypatch, (True, True, True), lowers=(97.0, 97.0 * (1 + move), 99.0), tolerance=tolerance)
+    run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
+    assert ran == meshes
 
 
 @pytest.mark.parametrize("finer, kept", [("solver failure: y", 4), (Status.LIMIT, 8)])
