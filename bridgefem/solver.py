@@ -203,7 +203,13 @@ proximal step at the limit leads to another path). #235 still stops 10 % below t
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
 proposal that fails again after ``DAMPING_CHAINS`` such recoveries (or a cycle) ends the step as
 non-convergence: repeated wandering into mechanisms is the Newton method failing on a large step, and the load
-incrementation retries with a smaller one. It is reported as a mechanism *without proof* only when the failing
+incrementation retries with a smaller one. Once a step, such a failure along an inadmissible mode is first followed
+by its repair (*First contact*), as damping with nothing left to halve is: where trials stall at one level, the
+pairs that the wrong set's mode pushes into each other are the change the path needs there (campaign seed 4 #10, a
+0.044 m parabolic ring of 134 voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness, 314
+solves, and was re-run with 8, 508 in all; with the repair the 4-element run reaches the static theorem's bracket
+at the LP in 33. Seed 1: the same classes and limits, 68 bare-ring limits up by 1 to 9 solves, 11 down by up to
+34: 9237 -> 9156 solves on its 251 limits; #38 of seed 4 415 -> 159, #60 of seed 3 153 -> 126). It is reported as a mechanism *without proof* only when the failing
 solve and an earlier one of the step were singular or diverged along admissible modes: the load incrementation then
 takes it for the bracket's upper end only on a step within the width (:mod:`bridgefem.pathfollow`), and the
 evidence rule accepts that bracket only when the rigid-block LP on the same joints agrees within 0.5 %
@@ -431,6 +437,7 @@ class _Recovery:
     singular: ActiveSetFailure | None = None  # the last singular proposal
     fix: ContactState | None = None  # the repair of the set whose solve failed last
     repairs: dict = field(default_factory=dict)  # global key of a set whose diverging mode was inadmissible -> repair
+    last_repair: bool = False  # the repair solved in place of giving up (the module's *Damping chains*)
 
     def solved(self) -> None:
         """A set solved: the damping chain, if one was open, ended and recovered."""
@@ -712,9 +719,12 @@ class ContactSolver:
         a friction flip on its cone frozen (:meth:`_freeze_at_cone`), else the failed set's repair (the pairs an
         inadmissible diverging mode pushes into each other, closed and sticking); else the failure ends the step
         (a mechanism without proof, unless the set was predicted), as it does once ``chains`` damping chains have
-        recovered. Collective."""
+        recovered (after that repair, once a step). Collective."""
         recovery = step.recovery
         if recovery.recovered >= step.task.chains and not recovery.damping:
+            if not recovery.last_repair and self._take_repair(step):  # the module's *Damping chains*: once a step
+                recovery.last_repair = True
+                return None
             return self._ended(step, f"no convergence: a proposed active set failed again after {recovery.recovered} "
                                      f"damping chain(s): {failure.message}",
                                mechanism=failure.mechanism and recovery.mechanisms > 1)
@@ -722,16 +732,24 @@ class ContactSolver:
         damped = self._damp(step.base) if step.base is not None else None
         if damped is None and not failure.mechanism and self._freeze_at_cone(step):
             return None
-        if damped is None and recovery.fix is not None:
-            fix = self._global_key(recovery.fix)
-            if fix not in step.memory.seen:
-                step.memory.seen.add(fix)
-                step.active = recovery.fix
-                return None
+        if damped is None and self._take_repair(step):
+            return None
         if damped is None:
             return self._ended(step, failure.message, mechanism=failure.mechanism and step.predicted is None)
         step.active, step.base = damped
         return None
+
+    def _take_repair(self, step: _NewtonStep) -> bool:
+        """Make the failed set's repair the next active set, unless the step has none or visited it already; returns
+        whether it did. Collective (the global key)."""
+        if step.recovery.fix is None:
+            return False
+        fix = self._global_key(step.recovery.fix)
+        if fix in step.memory.seen:
+            return False
+        step.memory.seen.add(fix)
+        step.active = step.recovery.fix
+        return True
 
     def _accept(self, step: _NewtonStep) -> "FillResponse | None":
         """Step 4: a solved set ends the damping chain; with a line search (the module's *Line search*) the step is
