@@ -203,13 +203,7 @@ proximal step at the limit leads to another path). #235 still stops 10 % below t
 which ends when a damped active set solves. In a step the caller can retry with a smaller one (``give_up``), a
 proposal that fails again after ``DAMPING_CHAINS`` such recoveries (or a cycle) ends the step as
 non-convergence: repeated wandering into mechanisms is the Newton method failing on a large step, and the load
-incrementation retries with a smaller one. Once a step, such a failure along an inadmissible mode is first followed
-by its repair (*First contact*), as damping with nothing left to halve is: where trials stall at one level, the
-pairs that the wrong set's mode pushes into each other are the change the path needs there (campaign seed 4 #10, a
-0.044 m parabolic ring of 134 voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness, 314
-solves, and was re-run with 8, 508 in all; with the repair the 4-element run reaches the static theorem's bracket
-at the LP in 33. Seed 1: the same classes and limits, 68 bare-ring limits up by 1 to 9 solves, 11 down by up to
-34: 9237 -> 9156 solves on its 251 limits; #38 of seed 4 415 -> 159, #60 of seed 3 153 -> 126). It is reported as a mechanism *without proof* only when the failing
+incrementation retries with a smaller one. It is reported as a mechanism *without proof* only when the failing
 solve and an earlier one of the step were singular or diverged along admissible modes: the load incrementation then
 takes it for the bracket's upper end only on a step within the width (:mod:`bridgefem.pathfollow`), and the
 evidence rule accepts that bracket only when the rigid-block LP on the same joints agrees within 0.5 %
@@ -218,6 +212,13 @@ the lower end is a converged equilibrium, and the associative LP bounds the non-
 above. The three-voussoir keystone pushed through by sliding (``tests/test_joint_loads.py``) ends that way at
 0.9956 of the LP: the step's first proposal, every closed pair sliding, diverges along an admissible slip mode (no
 hinge-mode proof exists for it), damping returns to the same sliding mechanism.
+Once a step, a proposal that fails after the chains allowed is first followed by its repair (*First contact*: the
+pairs that its inadmissible mode pushes into each other, closed), as in a damping chain with nothing left to halve:
+where trials stall at one level, that is the change the path needs there. Campaign seed 4 #10, a 0.044 m parabolic ring of 134
+voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness (314 solves) and was re-run with 8 (508
+in all); with the repair its 4-element run reaches the static theorem's bracket at the LP in 33. Seed 1: the same
+classes and limits, 68 bare-ring limits up by 1 to 9 solves and 11 down by up to 34, 9237 -> 9156 on its 251
+limits; seed 4 #38 415 -> 159, seed 3 #60 153 -> 126.
 
 **Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
 of the solution (the load incrementation extrapolates the last two converged states) against the converged
