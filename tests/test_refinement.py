@@ -293,25 +293,24 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve
 
 
 @pytest.mark.slow
-def test_a_live_load_failure_without_proof_is_settled_on_a_finer_mesh():
+def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again():
     """Campaign seed 4, scene 38 (pointed, 166 voussoirs of 0.27 m, mu = 0.538, a patch load): with 4 elements
-    through the thickness (0.81 m) every trial beyond 0.87 of the LP diverges along inadmissible modes, a failure
-    without proof; the re-run with 8 finds a confirmed non-associative collapse state (sliding at the LP's sliding
-    joint 83), refined once more, and the answer lies below the associative LP on the same joints (computed here
-    independently) by no more than elastic blocks stop below it."""
+    through the thickness (0.81 m) a confirmed non-associative collapse state (sliding at the LP's sliding joint 83)
+    4.7 % below the associative LP, re-run with 8; that run moves the limit by less than SETTLED_MOVE, so no run with
+    16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
+    more than elastic blocks stop below it."""
     from bridgefem.rigid_block import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
     lines = []
     an = run_analysis(scene, notice=lines.append)
     lp = collapse_load(scene)
-    (coarse, finer) = an.refinements
-    assert (coarse.elements_through_thickness, finer.elements_through_thickness) == (4, 8)
-    assert Status.of(coarse.status) is Status.FAILURE and Status.of(finer.status) is Status.LIMIT
-    assert lines[0].startswith("the search failed without proof at ")
-    stalled = float(lines[0].removeprefix("the search failed without proof at ").split(" kN")[0])
-    assert stalled < 0.95 * an.search.lower * an.load_total / 1e3  # well below what the finer mesh carries
-    assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 16
+    (coarse,) = an.refinements
+    assert coarse.elements_through_thickness == 4 and Status.of(coarse.status) is Status.LIMIT
+    assert lines[0].startswith("a non-associative collapse state ")
+    carried = float(lines[0].split("elements through the thickness carry ")[1].split(" kN")[0])
+    assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 8
+    assert abs(an.search.lower * an.load_total / 1e3 / carried - 1) < SETTLED_MOVE
     assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert 83 in lp.sliding and any(j.sliding and j.id == 83 for j in an.joints)
     assert 0.9 * lp.load <= an.search.lower * an.load_total < an.search.upper * an.load_total <= lp.load
