@@ -247,22 +247,21 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     and ``report(step)`` each load step.
 
     A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
-    ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without
-    proof under live load, with a fill only on voussoirs shorter than an element, or under self-weight on such
-    voussoirs) is run again with twice the elements through the thickness
-    (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
-    the re-run's last converged load is within ``SETTLED_MOVE`` (or the search's tolerance, if larger) of the
-    previous one's: the limit is then settled on these elements (with an error of first order in the element size,
-    the finer run's error is about its move); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
-    are the level the run before it reached (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last
-    run is returned, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same evidence. A
-    confirmed run that is re-run (a collapse state of evidence 3 below the associative LP) is kept when the finer
-    run fails: a solver failure on the finer mesh does not undo a confirmed answer on the coarser one (the failed
-    run is listed in ``Analysis.refinements``). Such a re-run can only refine the answer, so its search gets a
-    budget of ``REFINEMENT_BUDGET`` times the linear solves of the confirmed run, at least ``REFINEMENT_FLOOR``, its
-    self-weight included; it holds exactly (the solve past it is never made, whatever asks for it:
-    :meth:`bridgefem.linsolve.CheckedSolve.limited`), and a re-run that spends it unsettled is a failure "not settled
-    within its budget".
+    ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without proof
+    under live load, with a fill only on voussoirs shorter than an element, or under self-weight on such voussoirs) is
+    run again with twice the elements through the thickness (:func:`refined_elements`, within ``max_dofs`` unknowns), at
+    most ``max_refinements`` times, and not again when the re-run's last converged load is within ``SETTLED_MOVE`` (or
+    the search's tolerance, if larger) of the previous one's: the limit is then settled on these elements (with an error
+    of first order in the element size, the finer run's error is about its move); ``notice(line)`` announces each
+    re-run, whose first live-load step and whose search's target are the level the run before it reached
+    (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last run is returned, the runs it replaced listed in
+    ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state of
+    evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh does not
+    undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``). Such a re-run can
+    only refine the answer, so its search gets a budget of ``REFINEMENT_BUDGET`` times the linear solves of the
+    confirmed run, at least ``REFINEMENT_FLOOR``, its self-weight included; it holds exactly (the solve past it is never
+    made, whatever asks for it: :meth:`bridgefem.linsolve.CheckedSolve.limited`), and a re-run that spends it unsettled
+    is a failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
     refinements, previous, confirmed = [], None, None
     with quiet_compiler():

@@ -212,13 +212,13 @@ the lower end is a converged equilibrium, and the associative LP bounds the non-
 above. The three-voussoir keystone pushed through by sliding (``tests/test_joint_loads.py``) ends that way at
 0.9956 of the LP: the step's first proposal, every closed pair sliding, diverges along an admissible slip mode (no
 hinge-mode proof exists for it), damping returns to the same sliding mechanism.
-Once a step, a proposal that fails after the chains allowed is first followed by its repair (*First contact*: the
-pairs that its inadmissible mode pushes into each other, closed), as in a damping chain with nothing left to halve:
-where trials stall at one level, that is the change the path needs there. Campaign seed 4 #10, a 0.044 m parabolic ring of 134
-voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness (314 solves) and was re-run with 8 (508
-in all); with the repair its 4-element run reaches the static theorem's bracket at the LP in 33. Seed 1: the same
-classes and limits, 68 bare-ring limits up by 1 to 9 solves and 11 down by up to 34, 9237 -> 9156 on its 251
-limits; seed 4 #38 415 -> 159, seed 3 #60 153 -> 126.
+Once a step, a proposal that fails after the chains allowed is first followed by its repair (*First contact*: the pairs
+that its inadmissible mode pushes into each other, closed), as in a damping chain with nothing left to halve: where
+trials stall at one level, that is the change the path needs there. Campaign seed 4 #10, a 0.044 m parabolic ring of 134
+voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness (314 solves) and was re-run with 8 (508 in
+all); with the repair its 4-element run reaches the static theorem's bracket at the LP in 33. Seed 1: the same classes
+and limits, 68 bare-ring limits up by 1 to 9 solves and 11 down by up to 34, 9237 -> 9156 on its 251 limits; seed 4 #38
+415 -> 159, seed 3 #60 153 -> 126.
 
 **Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
 of the solution (the load incrementation extrapolates the last two converged states) against the converged

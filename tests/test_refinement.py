@@ -32,8 +32,8 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                   solves=(30, 40, 50), tolerance=1e-4):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
-    solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser run's level each run was given
-    and to ``budgets`` its budget of linear solves."""
+    solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser
+    run's level each run was given and to ``budgets`` its budget of linear solves."""
     meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
