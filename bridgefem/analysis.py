@@ -39,7 +39,7 @@ from .fill import PlasticFill
 from .geometry import ArchRing, fill_outline, scene_ring
 from .mesh import EXTRADOS_TAG, BlockMesh, build_block_mesh
 from .model import ElasticModel, build_elastic_model, node_blocks
-from .evidence import SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
+from .evidence import AGREEMENT, SlipCheck, StaticBound, Verdict, confirm, coulomb_limited, needs_slip_check
 from .linsolve import SolveBudgetSpent
 from .pathfollow import (CollapseCheck, LimitSearch, LoadStep, SearchGuides, SearchObservers, SearchSettings,
                          find_limit_load, monitor_deflection)
@@ -65,6 +65,9 @@ SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void t
 MAX_REFINEMENTS = 2  # re-runs of a limit that depends on the mesh, each with twice the elements through the thickness
 REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach (campaign scenes 2, 193, 297 at 16:
 # within 0.65 % of the LP; docs/joints-and-lp.md)
+SETTLED_MOVE = AGREEMENT  # a re-run whose limit moved by less than this fraction (or the search's tolerance, if
+# larger) is not re-run again. Campaigns seeds 1-7: of the 24 bare rings re-run up to 16 elements, 18 had moved by
+# 0.02-0.34 % from 4 to 8 elements, and 16 elements moved those (17 settled) by at most 0.10 % more
 REFINEMENT_BUDGET = 2  # a re-run of a confirmed run may spend this many times the linear solves of that run, ...
 REFINEMENT_FLOOR = 80  # ... and at least this many. The re-runs of confirmed runs that settled on the campaigns
 # (seeds 1 and 2, 12 re-runs) spent 0.19-1.46 times the solves of the run they re-ran (seed 1: #2 38/26, #297 42/134
@@ -244,21 +247,21 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     and ``report(step)`` each load step.
 
     A run that fails where a finer mesh can settle it (:func:`refinement_reason`: a limit that depends on the mesh,
-    ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without
-    proof under live load, with a fill only on voussoirs shorter than an element, or under self-weight on such
-    voussoirs) is run again with twice the elements through the thickness
-    (:func:`refined_elements`, within ``max_dofs`` unknowns), at most ``max_refinements`` times, and not again when
-    the re-run's last converged load is the previous one's (within the search's tolerance: the limit does not depend
-    on these elements); ``notice(line)`` announces each re-run, whose first live-load step and whose search's target
-    are the level the run before it reached (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last
-    run is returned, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same evidence. A
-    confirmed run that is re-run (a collapse state of evidence 3 below the associative LP) is kept when the finer
-    run fails: a solver failure on the finer mesh does not undo a confirmed answer on the coarser one (the failed
-    run is listed in ``Analysis.refinements``). Such a re-run can only refine the answer, so its search gets a
-    budget of ``REFINEMENT_BUDGET`` times the linear solves of the confirmed run, at least ``REFINEMENT_FLOOR``, its
-    self-weight included; it holds exactly (the solve past it is never made, whatever asks for it:
-    :meth:`bridgefem.linsolve.CheckedSolve.limited`), and a re-run that spends it unsettled is a failure "not settled
-    within its budget".
+    ``Verdict.mesh_dependent``, the associative LP's mechanism a little below the LP's level; a failure without proof
+    under live load, with a fill only on voussoirs shorter than an element, or under self-weight on such voussoirs) is
+    run again with twice the elements through the thickness (:func:`refined_elements`, within ``max_dofs`` unknowns), at
+    most ``max_refinements`` times, and not again when the re-run's last converged load is within ``SETTLED_MOVE`` (or
+    the search's tolerance, if larger) of the previous one's: the limit is then settled on these elements (with an error
+    of first order in the element size, the finer run's error is about its move); ``notice(line)`` announces each
+    re-run, whose first live-load step and whose search's target are the level the run before it reached
+    (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last run is returned, the runs it replaced listed in
+    ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state of
+    evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh does not
+    undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``). Such a re-run can
+    only refine the answer, so its search gets a budget of ``REFINEMENT_BUDGET`` times the linear solves of the
+    confirmed run, at least ``REFINEMENT_FLOOR``, its self-weight included; it holds exactly (the solve past it is never
+    made, whatever asks for it: :meth:`bridgefem.linsolve.CheckedSolve.limited`), and a re-run that spends it unsettled
+    is a failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
     refinements, previous, confirmed = [], None, None
     with quiet_compiler():
@@ -273,7 +276,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                        f"confirmed run with {confirmed.scene.mesh.elements_through_thickness} stands")
                 confirmed.refinements = refinements[:-1] + [_replaced(an, ett)]
                 return confirmed
-            moved = previous is None or abs(carried - previous) > an.search.tolerance * previous
+            moved = previous is None or abs(carried - previous) > max(an.search.tolerance, SETTLED_MOVE) * previous
             finer, why = None, refinement_reason(an, ett)
             if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
                 finer = refined_elements(scene, max_dofs)
