@@ -217,7 +217,7 @@ that its inadmissible mode pushes into each other, closed), as in a damping chai
 trials stall at one level, that is the change the path needs there. Campaign seed 4 #10, a 0.044 m parabolic ring of 134
 voussoirs, stalled at 0.91 of the LP with 4 elements through the thickness (314 solves) and was re-run with 8 (508 in
 all); with the repair its 4-element run reaches the static theorem's bracket at the LP in 33. Seed 1: the same classes
-and limits, 68 bare-ring limits up by 1 to 9 solves and 11 down by up to 34, 9237 -> 9156 on its 251 limits; seed 4 #38
+and limits, 64 bare-ring limits up by 1 to 9 solves and 11 down by 5 to 34, 9237 -> 9156 on its 251 limits; seed 4 #38
 415 -> 159, seed 3 #60 153 -> 126.
 
 **Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
