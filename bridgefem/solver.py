@@ -220,16 +220,16 @@ all); with the repair its 4-element run reaches the static theorem's bracket at 
 and limits, 64 bare-ring limits up by 1 to 9 solves and 11 down by 5 to 34, 9237 -> 9156 on its 251 limits; seed 4 #38
 415 -> 159, seed 3 #60 153 -> 126.
 
-**Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
-of the solution (the load incrementation extrapolates the last two converged states, or a re-run transfers its
-coarser run's path: :class:`PairPrediction`) against the converged start. The start's active set is then the base of the first damping chain, and a failure before the step has
-solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it), unless its
-diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited set of the step (it was solved at the
-start's load, not at this one): an iteration that returns to it, by damping or as a repair, solves it and goes on,
-where a return to a visited set is a cycle. A block on the ground pushed by half its sliding load, its predicted
-set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
-counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
-the equilibrium (``tests/test_predicted_step.py``).
+**Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate of the
+solution (the load incrementation extrapolates the last two converged states, or a re-run transfers its coarser run's
+path: :class:`PairPrediction`) against the converged start. The start's active set is then the base of the first
+damping chain, and a failure before the step has solved any active set is no proof of a mechanism (the estimate, not
+the Newton method, proposed it), unless its diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited
+set of the step (it was solved at the start's load, not at this one): an iteration that returns to it, by damping or
+as a repair, solves it and goes on, where a return to a visited set is a cycle. A block on the ground pushed by half
+its sliding load, its predicted set every base pair sliding (free to slide: a divergence), is damped back to every
+pair sticking, the start's set: counted as a cycle, that return would end the step as a mechanism ("damped iterations
+return to it"); solved, it is the equilibrium (``tests/test_predicted_step.py``).
 
 **Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
 slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
@@ -624,7 +624,8 @@ class ContactSolver:
         With ``give_up`` (the caller can retry a smaller step), a failure after ``DAMPING_CHAINS`` recovered chains
         ends the step at once, as non-convergence, and so does a cycle. ``iterations``: this step's Newton iteration
         budget (default ``max_iterations``). ``predictor``: an estimate of the solution at ``level`` (combined
-        vector, or its joint pairs'); the first active set solved is its classification against ``start`` (the module's *Predictor*).
+        vector, or its joint pairs'); the first active set solved is its classification against ``start`` (the
+        module's *Predictor*).
         """
         step = self._begin(level, start, predictor, give_up, iterations)
         for it in range(1, step.task.budget + 1):

@@ -84,3 +84,28 @@ def test_a_level_reached_again_takes_the_later_state():
     assert list(path.levels) == [0.0, 2.0]
     traction, d = path.at(0.0)
     assert np.allclose(d, 0.0) and np.allclose(traction, 0.0)
+
+
+def test_the_search_starts_only_its_far_trials_from_the_coarser_path():
+    """On the one-degree-of-freedom fake: every trial more than the width above ``lower`` starts from the path's start
+    (the solver is given it), the closing trials from their converged state (a closing failure stays the Newton
+    method's own evidence), and the bracket is the one the fake's limit gives."""
+    from test_bracket import LIMIT, SETTINGS, OneDof, assert_bracket, search
+
+    from bridgefem.solver import PairPrediction
+
+    start = PairPrediction(np.zeros((0, 2)), np.zeros((0, 2)))
+    asked = []
+
+    class Recording(OneDof):
+        def solve_step(self, level, begin, predictor=None, give_up=False, iterations=None):
+            asked.append((level, float(begin.x.array[0]), predictor))
+            return super().solve_step(level, begin, predictor, give_up, iterations)
+
+    s = search(Recording(), coarser=LIMIT, coarser_path=lambda trial, lower, state: start)
+    assert_bracket(s)
+    live = asked[1:]  # after the self-weight
+    far = [(level, lower, p) for level, lower, p in live if level - lower > SETTINGS.tolerance * lower]
+    assert far and all(p is start for _, _, p in far)
+    closing = [p for level, lower, p in live if level - lower <= SETTINGS.tolerance * lower]
+    assert closing and all(p is None for p in closing)
