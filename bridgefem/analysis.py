@@ -33,6 +33,7 @@ from petsc4py import PETSc
 
 from .abutments import support_motion
 from .bounds import fill_bounds
+from .coarser_path import CoarserPath
 from .convergence import with_mesh
 from .contact import ARCH_FILL, OPEN, SLIP, JointPairs, build_pairs, ground_offsets
 from .fill import PlasticFill
@@ -130,6 +131,7 @@ class Analysis:
     verdict: Verdict | None = None
     refinements: list[MeshRefinement] = field(default_factory=list)
     static: StaticBound | None = None  # the static theorem's bound of a bare ring (evidence.StaticBound)
+    path: CoarserPath | None = None  # a bare ring's converged path, for its re-run on a finer mesh
 
     @property
     def load_total(self) -> float:
@@ -254,7 +256,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     the search's tolerance, if larger) of the previous one's: the limit is then settled on these elements (with an error
     of first order in the element size, the finer run's error is about its move); ``notice(line)`` announces each
     re-run, whose first live-load step and whose search's target are the level the run before it reached
-    (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*). The last run is returned, the runs it replaced listed in
+    (:func:`first_step`; :mod:`bridgefem.pathfollow`, *Guess*); a bare ring's re-run starts its trials from that run's
+    converged path (:mod:`bridgefem.coarser_path`). The last run is returned, the runs it replaced listed in
     ``Analysis.refinements``; its verdict needs the same evidence. A confirmed run that is re-run (a collapse state of
     evidence 3 below the associative LP) is kept when the finer run fails: a solver failure on the finer mesh does not
     undo a confirmed answer on the coarser one (the failed run is listed in ``Analysis.refinements``). Such a re-run can
@@ -263,12 +266,12 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     made, whatever asks for it: :meth:`bridgefem.linsolve.CheckedSolve.limited`), and a re-run that spends it unsettled
     is a failure "not settled within its budget".
     The decision is rank 0's, broadcast (every rank re-runs or none)."""
-    refinements, previous, confirmed = [], None, None
+    refinements, previous, confirmed, path = [], None, None, None
     with quiet_compiler():
         while True:
             budget = max(REFINEMENT_FLOOR, REFINEMENT_BUDGET * refinements[-1].solves) if confirmed is not None \
                 else None
-            an = _analyse(scene, comm, petsc_options, report, phase, previous, budget)
+            an = _analyse(scene, comm, petsc_options, report, phase, previous, budget, path)
             ett, carried = scene.mesh.elements_through_thickness, an.search.lower
             failed = Status.of(an.search.status) is Status.FAILURE
             if failed and confirmed is not None:
@@ -285,7 +288,7 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                 an.refinements = refinements
                 return an
             refinements.append(_replaced(an, ett))
-            previous, confirmed = carried, None if failed else an
+            previous, confirmed, path = carried, None if failed else an, an.path
             notice(f"{why}: re-running with {finer} elements through the thickness")
             del an  # free a failed coarse model before the finer one is built
             scene = with_mesh(scene, finer)
@@ -380,9 +383,11 @@ def search_settings(scene: Scene, dead_weight: float, coarser: float | None = No
 
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
-             coarser: float | None = None, budget: int | None = None) -> Analysis:
+             coarser: float | None = None, budget: int | None = None, path: CoarserPath | None = None
+             ) -> Analysis:
     """One run of the scene's mesh (:func:`run_analysis`); ``coarser``: the last converged level (N per unit load
-    factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run;
+    factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
+    ``path`` that run's converged path (a bare ring's trials start from it: :mod:`bridgefem.coarser_path`);
     ``budget``: the linear solves its search may spend (None: no limit), exactly; a failure when spent."""
     timings = {}
     t = time.perf_counter()
@@ -431,6 +436,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                   if material is not None and model.live_per_level > 0 else monitor_deflection(solver, model.monitor))
     total = sum(ld.factor for ld in scene.loads) or 1.0  # N of live load per unit level
     states: list[ConvergedState] = []
+    path_states: list[tuple[float, np.ndarray, np.ndarray]] = []  # (level, lam, d) at the pairs, for a re-run
     attempted: list[LoadStep] = []
 
     def note(step: LoadStep) -> None:  # every attempted step, kept for a search that its budget stops
@@ -440,6 +446,9 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     def keep(step: LoadStep, it: Iterate) -> None:  # every converged state, for the fields' time series
         states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
                                      it.active.state.copy()))
+        if fill is None:
+            _, lam, d = solver.system.split(it.x)
+            path_states.append((step.level, lam.copy(), d.copy()))
 
     blocks = fe_blocks(scene, model, bm) if fill is None else None  # the rigid blocks loaded as the FE loads them
     bound = static_cap(blocks, model, bm, pairs, solver) if fill is None else None
@@ -452,7 +461,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                   bound=bound[1] if bound else None, coarser=coarser,
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring, s.tolerance,
                                                           total),
-                                  predicted=predictor.predict if predictor is not None else None)
+                                  predicted=predictor.predict if predictor is not None else None,
+                                  coarser_path=path.guide(solver) if path is not None and fill is None else None)
             search = find_limit_load(solver, under_load, search_settings(scene, model.dead_weight, coarser),
                                      guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
@@ -467,7 +477,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                       static=bound[0] if bound else None, closed=search.static)
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict,
-                    static=bound[0] if bound else None)
+                    static=bound[0] if bound else None, path=CoarserPath.of(pairs, path_states, comm))
 
 
 def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:

@@ -86,7 +86,10 @@ there the bracket still depends on the path the steps take (#14: +1.1 % with hal
 **Predictor.** A trial more than the width above ``lower`` starts from the active set predicted by the secant
 through the last two converged states (``lower`` and the one before it, both with live load: the self-weight
 state is a poor start for a secant), extrapolated to the trial (:meth:`bridgefem.solver.ContactSolver.solve_step`):
-on a load path whose joints open and slide progressively that saves the first Newton iteration. A trial within
+on a load path whose joints open and slide progressively that saves the first Newton iteration. A bare ring's
+re-run on a finer mesh starts such a trial, within its coarser run's path, from that path's increment over the step
+instead (``guides.coarser_path``, :mod:`bridgefem.coarser_path`): its joints open and slide as the coarser run's did,
+and its first trial, with no secant yet, is the longest of its steps. A trial within
 the width of ``lower`` (one that can close the bracket) starts from the converged active set, so that its
 failure is the Newton method's own evidence. With a plastic fill every trial after two live-load states, the
 closing ones too, also starts from the secant's displacements and joint forces (:func:`_displaced`), its active
@@ -188,7 +191,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from .selfweight import carry_self_weight
-from .solver import ContactSolver, Iterate, StepOutcome, retried
+from .solver import ContactSolver, Iterate, PairPrediction, StepOutcome, retried
 from .status import Status
 
 LIMIT_FOUND, UNSTABLE, LOCKED, STABLE = Status.LIMIT, Status.UNSTABLE, Status.LOCKED, Status.STABLE
@@ -335,6 +338,8 @@ class SearchGuides:
     ``collapse``: evidence 3 at the converged states of a bare ring (module docstring, *Collapse state*).
     ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
     (module docstring, *Predictor*). Collective.
+    ``coarser_path(trial, lower, state)``: a re-run's start of a trial from its converged ``state`` at ``lower`` on its
+    coarser run's path (:class:`bridgefem.coarser_path.CoarserPath`), or None (module docstring, *Predictor*).
     """
 
     guess: float | None = None
@@ -342,6 +347,7 @@ class SearchGuides:
     coarser: float | None = None
     collapse: CollapseCheck | None = None
     predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None
+    coarser_path: Callable[[float, float, Iterate], PairPrediction | None] | None = None
 
 
 @dataclass(frozen=True)
@@ -406,7 +412,8 @@ class _StepRecorder:
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
 
-    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *, predictor: PETSc.Vec | None = None,
+    def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *,
+                 predictor: PETSc.Vec | PairPrediction | None = None,
                  give_up: bool = False, iterations: int | None = None, estimate: PETSc.Vec | None = None
                  ) -> StepOutcome:
         """Solve ``level`` from the converged ``start`` at ``start_level`` (N per unit load factor), starting from
@@ -758,7 +765,8 @@ class _Search:
         lower, state = b.lower, b.state
         secant = _secant(b.history[-1], lower, state, trial) if b.history and b.history[-1].level > 0 else None
         far = trial - lower > b.width  # cannot close the bracket
-        predictor = secant if far else None  # two live-load states, not closing
+        path = self.guides.coarser_path(trial, lower, state) if far and self.guides.coarser_path else None
+        predictor = path or (secant if far else None)  # a re-run's coarser path, or two live-load states; not closing
         estimate = secant if self.plastic else None
         budget = self.schedule.budget(not self.plastic and b.failed_before(trial)) if far else None
         out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)

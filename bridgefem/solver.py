@@ -220,16 +220,16 @@ all); with the repair its 4-element run reaches the static theorem's bracket at 
 and limits, 64 bare-ring limits up by 1 to 9 solves and 11 down by 5 to 34, 9237 -> 9156 on its 251 limits; seed 4 #38
 415 -> 159, seed 3 #60 153 -> 126.
 
-**Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate
-of the solution (the load incrementation extrapolates the last two converged states) against the converged
-start. The start's active set is then the base of the first damping chain, and a failure before the step has
-solved any active set is no proof of a mechanism (the estimate, not the Newton method, proposed it), unless its
-diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited set of the step (it was solved at the
-start's load, not at this one): an iteration that returns to it, by damping or as a repair, solves it and goes on,
-where a return to a visited set is a cycle. A block on the ground pushed by half its sliding load, its predicted
-set every base pair sliding (free to slide: a divergence), is damped back to every pair sticking, the start's set:
-counted as a cycle, that return would end the step as a mechanism ("damped iterations return to it"); solved, it is
-the equilibrium (``tests/test_predicted_step.py``).
+**Predictor.** A step may start from a predicted active set: the Alart-Curnier classification of an estimate of the
+solution (the load incrementation extrapolates the last two converged states, or a re-run transfers its coarser run's
+path: :class:`PairPrediction`) against the converged start. The start's active set is then the base of the first
+damping chain, and a failure before the step has solved any active set is no proof of a mechanism (the estimate, not
+the Newton method, proposed it), unless its diverging mode proves collapse (*Mechanism verdicts*). Nor is it a visited
+set of the step (it was solved at the start's load, not at this one): an iteration that returns to it, by damping or
+as a repair, solves it and goes on, where a return to a visited set is a cycle. A block on the ground pushed by half
+its sliding load, its predicted set every base pair sliding (free to slide: a divergence), is damped back to every
+pair sticking, the start's set: counted as a cycle, that return would end the step as a mechanism ("damped iterations
+return to it"); solved, it is the equilibrium (``tests/test_predicted_step.py``).
 
 **Reversed slips.** A pair that slid in the last solved active set and whose Alart-Curnier function now asks it to
 slide the other way is proposed to stick (:func:`_through_stick`): the incremental Coulomb law is a monotone graph,
@@ -374,6 +374,16 @@ DEFAULT_SETTING = Setting()
 RETRIES = (Setting(fresh=True), Setting(scale=10.0), Setting(scale=0.1), Setting(line_search=True),
            Setting(fresh=True, patient=True, through_stick=False))
 # the settings a load step that failed without proof is solved again with, in this order (module's *Retries*)
+
+
+@dataclass(frozen=True)
+class PairPrediction:
+    """An estimate of this rank's joint pairs at a step's level: forces ``lam`` (N) and relative displacements ``d``
+    (m), each (pairs, 2) as (normal, tangential) like :meth:`bridgefem.contact_system.ContactSystem.split`'s. A step
+    starts from its classification as from a predicted combined vector's (the module's *Predictor*)."""
+
+    lam: np.ndarray
+    d: np.ndarray
 
 
 @dataclass
@@ -597,7 +607,7 @@ class ContactSolver:
         damped.state[keep], damped.sign[keep] = base.proposal.state[keep], base.proposal.sign[keep]
         return damped, base._replace(pending=keep)
 
-    def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | None = None,
+    def solve_step(self, level: float, start: Iterate, predictor: PETSc.Vec | PairPrediction | None = None,
                    give_up: bool = False, iterations: int | None = None) -> StepOutcome:
         """One load step (:meth:`_newton`); a failure says whether its last solve and whether any solve was unbounded
         (singular, or diverging along any mode)."""
@@ -606,7 +616,7 @@ class ContactSolver:
         return out if out.converged else replace(out, unbounded=out.mechanism or self._unbounded,
                                                  diverged=out.mechanism or self._diverged)
 
-    def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | None,
+    def _newton(self, level: float, start: Iterate, predictor: PETSc.Vec | PairPrediction | None,
                 give_up: bool, iterations: int | None) -> StepOutcome:
         """Solve for live-load level ``level`` (N per unit load factor) from a converged ``start``: the module's
         steps 1-6, one Newton iteration (:meth:`_iteration`) at a time within the step's budget.
@@ -614,7 +624,8 @@ class ContactSolver:
         With ``give_up`` (the caller can retry a smaller step), a failure after ``DAMPING_CHAINS`` recovered chains
         ends the step at once, as non-convergence, and so does a cycle. ``iterations``: this step's Newton iteration
         budget (default ``max_iterations``). ``predictor``: an estimate of the solution at ``level`` (combined
-        vector); the first active set solved is its classification against ``start`` (the module's *Predictor*).
+        vector, or its joint pairs'); the first active set solved is its classification against ``start`` (the
+        module's *Predictor*).
         """
         step = self._begin(level, start, predictor, give_up, iterations)
         for it in range(1, step.task.budget + 1):
@@ -627,7 +638,7 @@ class ContactSolver:
                                      f"nodal force after {step.task.budget} iterations")
         return self._ended(step, f"max iterations ({step.task.budget}) reached with the active set still changing")
 
-    def _begin(self, level: float, start: Iterate, predictor: PETSc.Vec | None, give_up: bool,
+    def _begin(self, level: float, start: Iterate, predictor: PETSc.Vec | PairPrediction | None, give_up: bool,
                iterations: int | None) -> _NewtonStep:
         """Step 1: the step's state at its start, with the start's active set (every joint closed and sticking with
         the setting ``fresh``) or the one ``predictor`` proposes (the module's *Predictor*). Collective."""
@@ -980,11 +991,14 @@ class ContactSolver:
         _stick(fixed, frozen)
         return fixed
 
-    def _predict(self, predictor: PETSc.Vec, active: ContactState, slip_ref: np.ndarray,
+    def _predict(self, predictor: PETSc.Vec | PairPrediction, active: ContactState, slip_ref: np.ndarray,
                  frozen: np.ndarray) -> "_Proposal | None":
-        """The active set an estimate of the solution proposes from the converged ``active``, as a proposal whose
-        good set is ``active``; None when it proposes no change."""
-        _, lam, d = self.system.split(predictor)
+        """The active set an estimate of the solution (a combined vector or its pairs') proposes from the converged
+        ``active``, as a proposal whose good set is ``active``; None when it proposes no change."""
+        if isinstance(predictor, PairPrediction):
+            lam, d = predictor.lam, predictor.d
+        else:
+            _, lam, d = self.system.split(predictor)
         proposal = self._propose(active, lam, d, slip_ref, frozen)
         return proposal if self._any(proposal.pending.any()) else None
 

@@ -29,16 +29,19 @@ HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness"
 
 
 def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=None, coarser=None, budgets=None,
-                  solves=(30, 40, 50), tolerance=1e-4):
+                  solves=(30, 40, 50), tolerance=1e-4, paths=None):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
     solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser
-    run's level each run was given and to ``budgets`` its budget of linear solves."""
+    run's level each run was given, to ``budgets`` its budget of linear solves and to ``paths`` the coarser run's
+    path it was given (each run's path is the string "path of <its elements through the thickness>")."""
     meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
-    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None):
+    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None, path=None):
         meshes.append(scene.mesh.elements_through_thickness)
+        if paths is not None:
+            paths.append(path)
         if coarser is not None:
             coarser.append(coarser_level)
         if budgets is not None:
@@ -49,10 +52,20 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                                solver=SimpleNamespace(stats={"solves": solves.pop(0)}),
                                lp=SimpleNamespace(load=100.0, level=100.0),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
-                                                      tolerance=tolerance))
+                                                      tolerance=tolerance),
+                               path=f"path of {scene.mesh.elements_through_thickness}")
 
     monkeypatch.setattr(analysis, "_analyse", fake)
     return meshes
+
+
+def test_a_re_run_is_given_the_path_of_the_run_before_it(monkeypatch):
+    """A first run has no coarser path; each re-run starts from the path of the run it replaces
+    (bridgefem.coarser_path)."""
+    paths = []
+    fake_analyses(monkeypatch, (True, True, False), paths=paths)
+    run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
+    assert paths == [None, "path of 4", "path of 8"]
 
 
 @pytest.mark.parametrize("outcomes, meshes", [((False,), [4]), ((True, False), [4, 8]),
@@ -314,3 +327,22 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert 83 in lp.sliding and any(j.sliding and j.id == 83 for j in an.joints)
     assert 0.9 * lp.load <= an.search.lower * an.load_total < an.search.upper * an.load_total <= lp.load
+
+
+@pytest.mark.slow
+def test_a_re_run_starts_its_trials_from_the_coarser_runs_path():
+    """Campaign seed 1, scene 284 (pointed, 130 voussoirs as short as 0.073 m, mu = 0.554, a point load): with 4
+    elements through the thickness a confirmed collapse state 0.5 % below the associative LP, re-run with 8. The
+    re-run's trials start from the coarser run's path (bridgefem.coarser_path): the limit, both runs counted, within
+    the issue's 150 linear solves (205 when they started from the re-run's own secant), and it agrees with the LP on
+    the same joints (computed here independently)."""
+    from bridgefem.rigid_block import collapse_load
+
+    scene = scene_from_dict(campaign_scene(284, 0.987))
+    an = run_analysis(scene)
+    lp = collapse_load(scene).load
+    (coarse,) = an.refinements
+    assert coarse.elements_through_thickness == 4 and Status.of(coarse.status) is Status.LIMIT
+    assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 8
+    assert (1 - SETTLED_MOVE) * lp <= an.search.lower * an.load_total <= an.search.upper * an.load_total <= lp
+    assert an.solver.stats["solves"] + coarse.solves <= 150
