@@ -78,13 +78,17 @@ REFINEMENT_FLOOR = 80  # ... and at least this many. The re-runs of confirmed ru
 
 @dataclass
 class ConvergedState:
-    """One converged load step kept for the output time series: ``step`` its index in the history, ``load`` the
-    live load (N), ``u`` the owned displacement dofs (m), ``pair_state`` OPEN/STICK/SLIP of the local joint pairs."""
+    """One converged load step kept for the output time series and a re-run's coarser path: ``step`` its index in the
+    history, ``load`` the live load (N), ``u`` the owned displacement dofs (m), ``pair_state`` OPEN/STICK/SLIP of the
+    local joint pairs, ``lam`` their forces (N) and ``d`` their relative displacements (m), each (pairs, 2) as (normal,
+    tangential)."""
 
     step: int
     load: float
     u: np.ndarray
     pair_state: np.ndarray
+    lam: np.ndarray
+    d: np.ndarray
 
 
 @dataclass
@@ -131,7 +135,6 @@ class Analysis:
     verdict: Verdict | None = None
     refinements: list[MeshRefinement] = field(default_factory=list)
     static: StaticBound | None = None  # the static theorem's bound of a bare ring (evidence.StaticBound)
-    path: CoarserPath | None = None  # a bare ring's converged path, for its re-run on a finer mesh
 
     @property
     def load_total(self) -> float:
@@ -288,7 +291,9 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                 an.refinements = refinements
                 return an
             refinements.append(_replaced(an, ett))
-            previous, confirmed, path = carried, None if failed else an, an.path
+            previous, confirmed = carried, None if failed else an
+            path = CoarserPath.of(an.pairs, [(c.load / an.load_total, c.lam, c.d) for c in an.converged], comm) \
+                if scene.fill is None else None
             notice(f"{why}: re-running with {finer} elements through the thickness")
             del an  # free a failed coarse model before the finer one is built
             scene = with_mesh(scene, finer)
@@ -387,7 +392,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              ) -> Analysis:
     """One run of the scene's mesh (:func:`run_analysis`); ``coarser``: the last converged level (N per unit load
     factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
-    ``path`` that run's converged path (a bare ring's trials start from it: :mod:`bridgefem.coarser_path`);
+    ``path`` that run's converged path, a bare ring's (its trials start from it: :mod:`bridgefem.coarser_path`);
     ``budget``: the linear solves its search may spend (None: no limit), exactly; a failure when spent."""
     timings = {}
     t = time.perf_counter()
@@ -436,19 +441,16 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                   if material is not None and model.live_per_level > 0 else monitor_deflection(solver, model.monitor))
     total = sum(ld.factor for ld in scene.loads) or 1.0  # N of live load per unit level
     states: list[ConvergedState] = []
-    path_states: list[tuple[float, np.ndarray, np.ndarray]] = []  # (level, lam, d) at the pairs, for a re-run
     attempted: list[LoadStep] = []
 
     def note(step: LoadStep) -> None:  # every attempted step, kept for a search that its budget stops
         attempted.append(step)
         report(step)
 
-    def keep(step: LoadStep, it: Iterate) -> None:  # every converged state, for the fields' time series
-        states.append(ConvergedState(step.index, step.level * total, it.x.array[:solver.n_u].copy(),
-                                     it.active.state.copy()))
-        if fill is None:
-            _, lam, d = solver.system.split(it.x)
-            path_states.append((step.level, lam.copy(), d.copy()))
+    def keep(step: LoadStep, it: Iterate) -> None:  # every converged state: the fields' time series, a re-run's path
+        u, lam, d = solver.system.split(it.x)
+        states.append(ConvergedState(step.index, step.level * total, u.copy(), it.active.state.copy(), lam.copy(),
+                                     d.copy()))
 
     blocks = fe_blocks(scene, model, bm) if fill is None else None  # the rigid blocks loaded as the FE loads them
     bound = static_cap(blocks, model, bm, pairs, solver) if fill is None else None
@@ -462,7 +464,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, pairs, ring, s.tolerance,
                                                           total),
                                   predicted=predictor.predict if predictor is not None else None,
-                                  coarser_path=path.guide(solver) if path is not None and fill is None else None)
+                                  coarser_path=path.guide(solver) if path is not None else None)
             search = find_limit_load(solver, under_load, search_settings(scene, model.dead_weight, coarser),
                                      guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
@@ -477,7 +479,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
                       static=bound[0] if bound else None, closed=search.static)
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, ring, bm, model, pairs, solver, search, joints, lp, timings, states, verdict,
-                    static=bound[0] if bound else None, path=CoarserPath.of(pairs, path_states, comm))
+                    static=bound[0] if bound else None)
 
 
 def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:

@@ -212,6 +212,7 @@ the lower end is a converged equilibrium, and the associative LP bounds the non-
 above. The three-voussoir keystone pushed through by sliding (``tests/test_joint_loads.py``) ends that way at
 0.9956 of the LP: the step's first proposal, every closed pair sliding, diverges along an admissible slip mode (no
 hinge-mode proof exists for it), damping returns to the same sliding mechanism.
+
 Once a step, a proposal that fails after the chains allowed is first followed by its repair (*First contact*: the pairs
 that its inadmissible mode pushes into each other, closed), as in a damping chain with nothing left to halve: where
 trials stall at one level, that is the change the path needs there. Campaign seed 4 #10, a 0.044 m parabolic ring of 134

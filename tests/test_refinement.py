@@ -22,6 +22,7 @@ from test_bracket import LIMIT, OneDof, assert_bracket, search, static_cap
 # thickness the FE's state is a collapse state of its meshed voussoirs, 0.7 % below the LP, but the exact
 # voussoirs' weights (0.075 % more) move that collapse load by 2.6 %: its limit depends on the mesh
 SCENE_45 = campaign_scene(45, 1.4923)
+ELASTIC_FILL = {"depth": 0.5, "extension": 1.0, "unit_weight": 18000.0, "young": 5e7}
 # 6 voussoirs on a 100 m span, 8 elements through the 0.08 m ring: the re-run with 16 has about 1.07 million
 # unknowns
 HUGE = scene_from_dict(scene_dict(arch={"span": 100.0, "rise": 50.0, "thickness": 0.08, "voussoirs": 6},
@@ -34,7 +35,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
     solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser
     run's level each run was given, to ``budgets`` its budget of linear solves and to ``paths`` the coarser run's
-    path it was given (each run's path is the string "path of <its elements through the thickness>")."""
+    path it was given (each run has no converged state; its ``pairs`` name its elements through the thickness)."""
     meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
@@ -53,19 +54,23 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                                lp=SimpleNamespace(load=100.0, level=100.0),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
                                                       tolerance=tolerance),
-                               path=f"path of {scene.mesh.elements_through_thickness}")
+                               pairs=f"pairs of {scene.mesh.elements_through_thickness}", converged=[])
 
     monkeypatch.setattr(analysis, "_analyse", fake)
     return meshes
 
 
-def test_a_re_run_is_given_the_path_of_the_run_before_it(monkeypatch):
-    """A first run has no coarser path; each re-run starts from the path of the run it replaces
-    (bridgefem.coarser_path)."""
+@pytest.mark.parametrize("fill, expected", [(None, [None, "path of pairs of 4", "path of pairs of 8"]),
+                                            (ELASTIC_FILL, [None, None, None])])
+def test_a_re_run_is_given_the_path_of_the_run_before_it(monkeypatch, fill, expected):
+    """A first run has no coarser path; each re-run of a bare ring starts from the path of the run it replaces
+    (bridgefem.coarser_path), a re-run under a fill from none."""
     paths = []
     fake_analyses(monkeypatch, (True, True, False), paths=paths)
-    run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
-    assert paths == [None, "path of 4", "path of 8"]
+    monkeypatch.setattr(analysis.CoarserPath, "of", lambda pairs, states, comm: f"path of {pairs}")
+    d = scene_dict(mesh={"elements_through_thickness": 4})
+    run_analysis(scene_from_dict({**d, "fill": fill} if fill else d))
+    assert paths == expected
 
 
 @pytest.mark.parametrize("outcomes, meshes", [((False,), [4]), ((True, False), [4, 8]),
