@@ -112,19 +112,37 @@ def test_a_level_failed_from_this_state_and_from_any_state():
     assert b.failed_here(1200.0) and not b.failed_before(1150.0)
 
 
-def test_the_step_doubles_after_an_easy_step_and_never_shrinks_after_a_converged_one():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False)
+def test_without_a_fill_every_converged_step_doubles_the_next():
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.converged(EASY_ITERATIONS, 100.0)
     assert s.step == 200.0
-    s.converged(EASY_ITERATIONS + 1, 100.0)
+    s.converged(30, 100.0)  # however many iterations it took: only a failure shortens a ring's step
+    assert s.step == 200.0
+
+
+def test_with_an_elastic_fill_only_an_easy_step_doubles():
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=True)
+    s.converged(EASY_ITERATIONS, 100.0)
+    assert s.step == 200.0
+    s.converged(EASY_ITERATIONS + 2, 100.0)
     assert s.step == 100.0
-    slow = _Schedule(250.0, self_weight_iterations=EASY_ITERATIONS + 3, plastic=False)
+    s.converged(EASY_ITERATIONS + 1, 100.0)  # no harder than the step before it: easy only with a plastic fill
+    assert s.step == 100.0
+
+
+def test_with_a_plastic_fill_an_easy_step_doubles_and_a_hard_one_keeps_its_length():
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
+    s.converged(EASY_ITERATIONS, 100.0)
+    assert s.step == 200.0
+    s.converged(EASY_ITERATIONS + 1, 100.0)  # harder than the step before it and than EASY_ITERATIONS
+    assert s.step == 100.0
+    slow = _Schedule(250.0, self_weight_iterations=EASY_ITERATIONS + 3, plastic=True, flat=True)
     slow.converged(EASY_ITERATIONS + 3, 100.0)  # as many as the self-weight step took
     assert slow.step == 200.0
 
 
 def test_with_a_plastic_fill_a_step_no_harder_than_the_one_before_is_easy():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=True)
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
     s.converged(12, 100.0)
     assert s.step == 100.0  # harder than the self-weight step's 2
     s.converged(11, 100.0)
@@ -134,7 +152,7 @@ def test_with_a_plastic_fill_a_step_no_harder_than_the_one_before_is_easy():
 
 
 def test_arrival_at_the_target_sets_the_width_and_a_cleared_soft_bound_keeps_half_its_failed_step():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False)
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.converged(2, 100.0, width=0.5)
     assert s.step == 0.5
     s.converged(9, 10.0, failed=80.0)
@@ -144,7 +162,7 @@ def test_arrival_at_the_target_sets_the_width_and_a_cleared_soft_bound_keeps_hal
 
 
 def test_a_soft_failure_halves_the_step_and_a_backtrack_shortens_the_discarded_one():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False)
+    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.halve(80.0)
     assert s.step == 40.0
     s.back_off(80.0)
@@ -152,7 +170,7 @@ def test_a_soft_failure_halves_the_step_and_a_backtrack_shortens_the_discarded_o
 
 
 def test_the_trial_budget_follows_the_hardest_step_and_a_retried_level_the_latest():
-    s = _Schedule(250.0, self_weight_iterations=1, plastic=False)
+    s = _Schedule(250.0, self_weight_iterations=1, plastic=False, flat=False)
     assert BUDGET * 1 < BUDGET_FLOOR and s.budget(again=False) == BUDGET_FLOOR
     s.converged(15, 100.0)
     assert BUDGET * 15 > BUDGET_FLOOR and s.budget(again=False) == BUDGET * 15
