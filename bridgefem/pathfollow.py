@@ -50,30 +50,32 @@ guess therefore costs steps, never the bracket rule. A re-run on a finer mesh al
 run's bracket, ``coarser``: T is at most (1 - tolerance) x it, so that its trials above it are plausible, not suspect
 (the re-runs of the campaigns carry within 2 % of their coarser run's limit).
 
-**Steps.** The step is the last step taken. Without a fill it doubles after every converged step: there the Newton
-iterations of a converged step hardly depend on its length, so only a failure says that a step is too long (campaign
-seeds 1-7, the 3989 converged live-load steps below 0.98 of the limit of the bare rings not re-run: on rings of
-fewer than 100 voussoirs a median of 3 iterations for steps under 5 % of the limit and 4 for steps over 40 %; on
-rings of 100 to 256 voussoirs 6 and 7, where a crack front crosses about one joint per iteration, so that a rule on
-the iterations never let their steps grow). On seeds 1-7 that took the bare rings' solves from 35652 to 34559 (the
-223 rings of 100 or more voussoirs 13993 -> 13232), every class and limit as before (docs/robustness.md, *The
-campaign*). Where the search checks a flat curve (a fill) a step's length is part of the criterion (its secant), and
-the step doubles only after a converged step of at most ``EASY_ITERATIONS`` Newton iterations or as many as the
-self-weight step took (a plastic fill needs several on every step) and, with a plastic fill, after a converged step
-of no more iterations than the step before it: a yielding fill takes 10 to 30 on every step near its mechanism
-whatever the step's size (campaign seed 2, #13: 11-20 on each of 75 steps of the width, from the guess's target up
-to the limit 37 % above it), so only the iterations' growth says the step is too long. ``EASY_ITERATIONS`` = 4
-rather than 3: on the 4-element runs of the 383 bare rings of campaigns seeds 1 and 2, 17603 -> 17361 linear solves,
-36 scenes fewer (265), 10 more (23), every bracket within the tolerance of its old one (a 3 % larger first step
-instead shuffles 174 scenes, 92 up and 82 down, for -49). It never shrinks after a converged step (that would stall
-where every step needs many iterations), a soft failure halves it, and arriving at T sets it to the width. It is the
-step away from T (beyond T, or without a guess) and bounds every approach step (first: ``initial_step``), which
-bounds the cost of a guess that is too high. Without a plastic fill, a converged step that reaches the soft bound
-clears it and leaves a step of at least half the one whose failure set that bound: the level has converged from a
-nearer state, so the failure was the Newton method's on a long step into that level, not the path's beyond it (seed
-1, #182: past 2390 kN, which failed from 88 kN below and converged from 11 kN below, the next step is 44 kN instead
-of 11 kN; 391 -> 329 linear solves). With a plastic fill the steps stay as they were: its flat-curve bracket moves
-with the step schedule (*Flat curve*; seed 1, #136 and seed 2, #14 moved by 0.25 % and 0.8 % with that rule).
+**Steps.** The step is the last step taken. Without a flat-curve check or a plastic fill (a bare ring; an elastic
+fill with ``stiffness_drop`` 0) it doubles after every converged step: there the Newton iterations of a converged
+step hardly depend on its length, so only a failure says that a step is too long (campaign seeds 1-7, the 3989
+converged live-load steps below 0.98 of the limit of the bare rings not re-run: on rings of fewer than 100 voussoirs
+a median of 3 iterations for steps under 5 % of the limit and 4 for steps over 40 %; on rings of 100 to 256
+voussoirs 6 and 7, where a crack front crosses about one joint per iteration, so that a rule on the iterations never
+let their steps grow). On seeds 1-7 that took the bare rings' solves from 35652 to 34559 (the 223 rings of 100 or
+more voussoirs 13993 -> 13232), every class and limit as before (docs/robustness.md, *The campaign*). Where the
+search checks a flat curve (a fill) a step's length is part of the criterion (its secant), and with a plastic fill
+the iterations' growth is what says a step is too long (below); there the step doubles only after a converged step
+of at most ``EASY_ITERATIONS`` Newton iterations or as many as the self-weight step took (a plastic fill needs
+several on every step) and, with a plastic fill, after a converged step of no more iterations than the step before
+it: a yielding fill takes 10 to 30 on every step near its mechanism whatever the step's size (campaign seed 2, #13:
+11-20 on each of 75 steps of the width, from the guess's target up to the limit 37 % above it), so only the
+iterations' growth says the step is too long. ``EASY_ITERATIONS`` = 4 rather than 3: on the 4-element runs of the
+383 bare rings of campaigns seeds 1 and 2, 17603 -> 17361 linear solves, 36 scenes fewer (265), 10 more (23), every
+bracket within the tolerance of its old one (a 3 % larger first step instead shuffles 174 scenes, 92 up and 82 down,
+for -49). It never shrinks after a converged step (that would stall where every step needs many iterations), a soft
+failure halves it, and arriving at T sets it to the width. It is the step away from T (beyond T, or without a guess)
+and bounds every approach step (first: ``initial_step``), which bounds the cost of a guess that is too high. Without
+a plastic fill, a converged step that reaches the soft bound clears it and leaves a step of at least half the one
+whose failure set that bound: the level has converged from a nearer state, so the failure was the Newton method's on
+a long step into that level, not the path's beyond it (seed 1, #182: past 2390 kN, which failed from 88 kN below and
+converged from 11 kN below, the next step is 44 kN instead of 11 kN; 391 -> 329 linear solves). With a plastic fill
+the steps stay as they were: its flat-curve bracket moves with the step schedule (*Flat curve*; seed 1, #136 and
+seed 2, #14 moved by 0.25 % and 0.8 % with that rule).
 
 **Flat curve.** A structure whose mechanism is restrained by a soft or yielding fill never loses equilibrium
 exactly: its load-deflection curve flattens. With ``stiffness_drop`` set, a converged trial counts as failed (a
@@ -603,7 +605,7 @@ class _Schedule:
     step: float  # the next step (first: the initial step)
     self_weight_iterations: int  # Newton iterations of the self-weight step
     plastic: bool  # a plastic fill: a step of no more iterations than the one before it is easy too
-    flat: bool  # the search checks a flat curve (a fill): only an easy converged step doubles the step
+    flat: bool  # the search checks a flat curve (a fill): a step's length is part of that criterion
     hardest: int = field(init=False)  # Newton iterations of the hardest converged step
     latest: int = field(init=False)  # Newton iterations of the step that reached lower
 
@@ -622,7 +624,7 @@ class _Schedule:
         """Count the ``iterations`` of the converged step ``taken`` and set the next step (*Steps*): the ``width``
         when the step arrived at T, else twice the step taken when it was easy and the step taken when not, at
         least half the ``failed`` step whose soft bound it cleared (None: none cleared)."""
-        easy = not self.flat or iterations <= max(EASY_ITERATIONS, self.self_weight_iterations) or (
+        easy = not (self.flat or self.plastic) or iterations <= max(EASY_ITERATIONS, self.self_weight_iterations) or (
             self.plastic and iterations <= self.latest)
         self.hardest = max(self.hardest, iterations)
         self.latest = iterations

@@ -139,6 +139,9 @@ def test_with_a_plastic_fill_an_easy_step_doubles_and_a_hard_one_keeps_its_lengt
     slow = _Schedule(250.0, self_weight_iterations=EASY_ITERATIONS + 3, plastic=True, flat=True)
     slow.converged(EASY_ITERATIONS + 3, 100.0)  # as many as the self-weight step took
     assert slow.step == 200.0
+    unchecked = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=False)  # stiffness_drop = 0
+    unchecked.converged(EASY_ITERATIONS + 1, 100.0)  # a plastic fill keeps the rule without the flat-curve check
+    assert unchecked.step == 100.0
 
 
 def test_with_a_plastic_fill_a_step_no_harder_than_the_one_before_is_easy():
