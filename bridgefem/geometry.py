@@ -196,7 +196,8 @@ class Voussoir(_Polygonal):
     """A block of the ring: intrados and extrados edges as polylines (left to right), m.
 
     ``*_splits`` are indices of interior polyline points where the edge has a corner (pointed crown) or
-    carries a concentrated load; the mesh places a node there.
+    carries a concentrated load, and on the extrados where the crown's cap chord to the apex begins; the mesh places
+    a node there, and its edge between two splits is straight (the polygon's chord) when they are neighbours.
     """
 
     id: int
@@ -416,6 +417,9 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
         q = np.unique(np.concatenate([regular, special]))
         intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
         kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
+        apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))  # or at an end
+        cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
+        split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
         for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
             if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
                 continue

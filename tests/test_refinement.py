@@ -336,18 +336,19 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
 
 @pytest.mark.slow
 def test_a_re_run_starts_its_trials_from_the_coarser_runs_path():
-    """Campaign seed 1, scene 284 (pointed, 130 voussoirs as short as 0.073 m, mu = 0.554, a point load): with 4
-    elements through the thickness a confirmed collapse state 0.5 % below the associative LP, re-run with 8. The
-    re-run's trials start from the coarser run's path (bridgefem.coarser_path): the limit, both runs counted, within
-    the issue's 150 linear solves (205 when they started from the re-run's own secant), and it agrees with the LP on
-    the same joints (computed here independently)."""
+    """Campaign seed 7, scene 166 (pointed, 243 voussoirs, t = 5.95 m, mu = 1.0, a point load): with 4 elements
+    through the thickness a confirmed collapse state 1.4 % below the associative LP, re-run with 8. The re-run's
+    trials start from the coarser run's path (bridgefem.coarser_path): the limit, both runs counted, within the issue's
+    150 linear solves (195 when they started from the re-run's own secant), and it agrees with the rigid-block Tresca
+    fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently)."""
     from bridgefem.rigid_block import collapse_load
 
-    scene = scene_from_dict(campaign_scene(284, 0.987))
+    scene = scene_from_dict(campaign_scene(166, 5.9455, seed=7))
     an = run_analysis(scene)
-    lp = collapse_load(scene).load
+    tresca = collapse_load(scene, friction_model="non-associative").load
     (coarse,) = an.refinements
     assert coarse.elements_through_thickness == 4 and Status.of(coarse.status) is Status.LIMIT
     assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 8
-    assert (1 - SETTLED_MOVE) * lp <= an.search.lower * an.load_total <= an.search.upper * an.load_total <= lp
+    lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
+    assert (1 - SETTLED_MOVE) * tresca <= lower <= upper <= (1 + SETTLED_MOVE) * tresca
     assert an.solver.stats["solves"] + coarse.solves <= 150
