@@ -145,29 +145,31 @@ in any scene, the brackets unchanged (#48 305 -> 291, seed 2 #41 170 -> 165); wi
 
 **Collapse state.** On a bare ring ``collapse`` reads each converged state as rigid blocks (evidence 3 of
 :mod:`bridgefem.evidence`): ``collapse.level(state)`` is the level F at which the state's blocks with its friction
-capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are
-at their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks). Once the FE
-slides on that mechanism F often stops rising: campaign seed 1, 4 elements through the thickness, #220: F =
-7943.26 kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184: 10766.57 kN from
-9883 kN, 8 % below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its limit 7630.2 kN. But
-where the normal forces of the sliding joints grow with the load it rises nearly as fast as the load (#290: 0.9 x
-the step; #2: 0.4), and a search that aimed at it would creep up in ever shorter steps (#290: no bracket within 200
-steps). So F counts as *settled* only when it rose by at most ``RISE`` x the step that reached its state, and only
-while a failure lies above the state (where the search bisects near the top). Where F falls (it approaches the
-limit from above, #124), the reserve F - L of the last two states is extrapolated to zero along the secant, L + (F -
-L) / (1 - dF/dL), a level below F; where it rises, F itself (extrapolating its rise overshoots where F jumps and then
-stays, #220). That estimate sets the target T = estimate / (1 + ``STRADDLE`` tolerance), never above the target of
-the guess, the static bound or a coarser run, and a state within the width of its estimate tries the width above
-it next, the closing trial, half a width beyond the estimate when the search landed on T (a trial at F itself,
-where the curve is flat, fails without showing a mechanism and only halves the step). A target sets the path,
-never the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). Campaign seed 1, with the
-retries below: #220 254 linear solves -> 127, #184 236 -> 102, #124 187 -> 85, each bracket within 5e-5 of the
-one before; #290 and #2 keep their paths. A settled F can still lie below the limit and lengthen the path (#175: F
-rose by 0.29 of a step, then faster). ``RISE`` 0.25 instead of 0.5 cost more (11 sliding scenes of both seeds, 4
-elements: 817 solves against 768), and the extrapolation of a falling F saved more (743, no scene dearer). A
-reading costs the frozen LP and the joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton
-iteration), so a search stops reading after ``RISINGS`` states whose F rose too fast (#290: its search 1.0 s -> 1.4
-s, 1.9 s without that stop).
+capacities (mu x its joint normal forces) collapse, on a mechanism that slides only where the state's joints are at
+their Coulomb limit. F is at least the state's level (its forces are admissible for those blocks). Once the FE
+slides on that mechanism F often stops rising: campaign seed 1, 4 elements through the thickness, #220: F = 7943.26
+kN, to 1e-10, at every state from 7703 kN up to its limit [7943.26, 7943.44] kN; #184: 10766.57 kN from 9883 kN, 8 %
+below its limit; on #124 F falls from 7655 to 7630.28 kN as the states reach its limit 7630.2 kN. But where the
+normal forces of the sliding joints grow with the load it rises nearly as fast as the load (#290: 0.9 x the step;
+#2: 0.4; seed 6, #146: 0.76), and a search that aimed at F itself would creep up in ever shorter steps, each gaining
+1 - dF/dL of the reserve F - L (#290: no bracket within 200 steps). So F counts as *settled* only while that reserve
+shrinks (F rose by less than the step that reached its state), and only while a failure lies above the state (where
+the search bisects near the top). The reserve of the last two states is then extrapolated to zero along the secant,
+L + (F - L) / (1 - dF/dL): a level below F where F falls (it approaches the limit from above, #124), above F where F
+rises by more than ``RISE`` x the step (seed 6, #146 on 4 elements: 2549.9 kN from its states at 2456.3 and 2521.8
+kN, its limit [2549.80, 2550.05] kN: 2 trials and 7 linear solves from the later state instead of 17 and 44). Where
+F rises by at most ``RISE`` x the step the estimate is F itself (extrapolating a slow rise overshoots where F jumps
+and then stays, #220). That estimate sets the target T = estimate / (1 + ``STRADDLE`` tolerance), never above the
+target of the guess, the static bound or a coarser run, and a state within the width of its estimate tries the width
+above it next, the closing trial, half a width beyond the estimate when the search landed on T (a trial at F itself,
+where the curve is flat, fails without showing a mechanism and only halves the step). A target sets the path, never
+the bracket rule; failures above (1 - PLAUSIBLE) T are plausible (*Guess*). Campaign seed 1, with the retries below:
+#220 254 linear solves -> 127, #184 236 -> 102, #124 187 -> 85, each bracket within 5e-5 of the one before; #290 and
+#2 keep their paths. A settled F can still lie below the limit and lengthen the path (#175: F rose by 0.29 of a
+step, then faster). ``RISE`` 0.25 instead of 0.5 cost more (11 sliding scenes of both seeds, 4 elements: 817 solves
+against 768), and the extrapolation of a falling F saved more (743, no scene dearer). A reading costs the frozen LP
+and the joints' resultants (20 to 30 ms at 165 voussoirs, as much as a Newton iteration), so a search stops reading
+after ``RISINGS`` states whose reserve did not shrink (#290: its search 1.0 s -> 1.4 s, 1.9 s without that stop).
 A closing failure without proof is first checked against the converged state it started from (``collapse.settles``,
 :meth:`bridgefem.evidence.SlipCheck.settles`): when that state is a collapse state (evidence 3) whose F lies within
 the width above ``lower``, the failure is the mechanism without retries. The verdict confirms the bracket [lower,
@@ -223,9 +225,10 @@ BUDGET = 2  # a trial that cannot close the bracket gets this many times the New
 # recover)
 BUDGET_FLOOR = 20  # ... and at least this many: a bare ring's hardest converged step may take one iteration
 # (module docstring, *Failures without proof*)
-RISE = 0.5  # a collapse state's estimate is settled when it rose by at most this fraction of the step to its state
-RISINGS = 3  # ... and the search stops reading them after this many states whose level rose faster (#290: 16
-# readings of 20 to 30 ms each, a third of its search's time, none settled)
+RISE = 0.5  # a collapse level that rose by at most this fraction of the step to its state is the estimate itself;
+# one that rose faster, but by less than the step, is extrapolated to where its reserve vanishes
+RISINGS = 3  # the search stops reading collapse states after this many whose level rose by the step or more (#290:
+# 16 readings of 20 to 30 ms each, a third of its search's time, none settled)
 STRADDLE = 0.5  # a collapse state's estimate lies this many widths above the target it sets (module docstring,
 # *Collapse state*)
 RETRY_FLOOR = 14  # without a plastic fill, a trial at a level that failed before gets at most BUDGET times the Newton
@@ -689,17 +692,20 @@ class _Target:
     def _settled_collapse(self, bracket: _Bracket) -> float | None:
         """Where the converged states' collapse levels meet the load, when they are settled and a failure lies above
         (*Collapse state*), else None; read only then, once per state, and no longer after ``RISINGS`` states whose
-        level rose too fast."""
+        reserve did not shrink."""
         if self.collapse is None or bracket.soft == math.inf or not bracket.history or len(self.risen) >= RISINGS:
             return None
         previous = bracket.history[-1]
         now = self._reading(bracket.state, bracket.visit)
         before = self._reading(previous.state, previous.visit)
-        if now is not None and before is not None and now - before > RISE * bracket.taken:
-            self.risen.add(bracket.visit)
-        if now is None or before is None or bracket.visit in self.risen:
+        if now is None or before is None:
             return None
-        return min(now, bracket.lower + (now - bracket.lower) / (1.0 - (now - before) / bracket.taken))
+        rise = (now - before) / bracket.taken  # dF/dL over the step that reached the state
+        if rise >= 1.0:  # the reserve F - L does not shrink
+            self.risen.add(bracket.visit)
+            return None
+        zero = bracket.lower + (now - bracket.lower) / (1.0 - rise)  # where the reserve's secant meets zero
+        return zero if rise > RISE else min(now, zero)
 
 
 @dataclass

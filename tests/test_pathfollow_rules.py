@@ -233,6 +233,17 @@ def test_a_slowly_rising_collapse_level_is_taken_as_it_is_and_never_raises_the_t
     assert low.foreseen == 1060.0 and low.level == 900.0
 
 
+def test_a_collapse_level_rising_slower_than_the_load_is_extrapolated_to_where_its_reserve_vanishes():
+    """F rises from 1040 to 1110 over the step 900 -> 1000: dF/dL = 0.7 > RISE, so F itself would creep towards the
+    limit (each state's reserve F - L only 0.7 of the one before); the reserve 140 -> 110 vanishes along its secant
+    at L + (F - L) / (1 - dF/dL) = 1000 + 110 / 0.3."""
+    readings = Readings({"S1": 1040.0, "S2": 1110.0})
+    assert RISE < 0.7 < 1.0
+    t = _Target(5000.0, readings.check())
+    t.read(climbed(900.0, 1000.0, soft=1100.0))
+    assert t.foreseen == pytest.approx(1000.0 + 110.0 / 0.3) and not t.risen
+
+
 def test_a_fast_rising_collapse_level_is_not_settled_and_reading_stops_after_enough_of_them():
     levels = {f"S{i}": 1000.0 + 100.0 * i for i in range(RISINGS + 3)}  # each rises by the whole step
     readings = Readings(levels)

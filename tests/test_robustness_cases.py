@@ -83,6 +83,24 @@ def test_a_ring_of_many_voussoirs_grows_its_steps_after_every_converged_one():
     assert_first_mesh_brackets_the_lp(index=75, thickness=5.4509, seed=5)
 
 
+def test_a_sliding_collapse_is_bracketed_where_the_reserve_of_its_states_vanishes():
+    """Campaign seed 6, scene 146 (pointed, 175 voussoirs, t = 4.15 m, mu = 0.579): its joints slide at 0.86 of the
+    associative LP, and the collapse level F of each converged state rises by 0.76 of the step that reached it, so a
+    search that aimed at F crept up to the limit a share of the reserve F - L at a time (after its state at 2521.8 kN:
+    17 more trials, 44 linear solves on 4 elements, 104 in all). F - L now vanishes along its secant
+    (bridgefem.pathfollow, *Collapse state*): two trials close the bracket, within 0.5 % of the rigid-block Tresca
+    fixed point (Gilbert, Casapulla & Ahmed 2006, computed here), in at most 80 solves."""
+    from conftest import campaign_scene
+
+    scene = scene_from_dict(campaign_scene(146, 4.1524, seed=6))
+    an = run_analysis(scene, max_refinements=0)
+    tresca = collapse_load(scene, friction_model="non-associative")
+    assert an.search.status == Status.LIMIT
+    lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
+    assert 0.995 * tresca.load <= lower <= upper <= 1.005 * tresca.load
+    assert an.solver.stats["solves"] <= 80
+
+
 def assert_first_mesh_brackets_the_lp(index: int, thickness: float, seed: int) -> None:
     """Campaign scene ``index`` of ``seed`` at ``thickness`` (m): a limit on the first mesh (no re-run) within 0.5 %
     of the rigid-block LP on the same joints, computed here, in at most the issue's 150 linear solves."""
