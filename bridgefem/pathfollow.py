@@ -657,7 +657,7 @@ class _Target:
     level: float = field(init=False)  # T
     foreseen: float | None = None  # the converged state's settled collapse level (None: none)
     readings: dict[int, float | None] = field(default_factory=dict)  # each read state's collapse level, by visit
-    risen: set[int] = field(default_factory=set)  # the states whose collapse level rose too fast to be settled
+    risen: set[int] = field(default_factory=set)  # the states whose reserve did not shrink (not settled)
 
     def __post_init__(self) -> None:
         self.level = self.aim
@@ -704,8 +704,9 @@ class _Target:
         if rise >= 1.0:  # the reserve F - L does not shrink
             self.risen.add(bracket.visit)
             return None
-        zero = bracket.lower + (now - bracket.lower) / (1.0 - rise)  # where the reserve's secant meets zero
-        return zero if rise > RISE else min(now, zero)
+        if 0.0 < rise <= RISE:  # a slow rise: F itself
+            return now
+        return bracket.lower + (now - bracket.lower) / (1.0 - rise)  # where the reserve's secant meets zero
 
 
 @dataclass
