@@ -4,7 +4,7 @@ makes cheaper."""
 import numpy as np
 from mpi4py import MPI
 
-from bridgefem.coarser_path import REACH, CoarserPath
+from bridgefem.coarser_path import CoarserPath
 from bridgefem.contact import ARCH_FILL, JointPairs
 
 THICKNESS = 0.6  # m, every joint's length
@@ -63,12 +63,16 @@ def test_the_start_is_the_increment_not_the_coarser_state():
     assert np.allclose(start.lam, want_lam + 3.0) and np.allclose(start.d, want_d + 1e-3)
 
 
-def test_no_start_beyond_the_reach_of_the_path_or_without_live_load():
+def test_a_start_up_to_the_paths_last_level_and_none_beyond_it_or_without_live_load():
+    """The path's last converged level (3.0) starts a trial, exactly its fields there; a level beyond it is not
+    extrapolated."""
     fine = joint_pairs(5)
     lam, d = fields(fine, 1.0)
     path = coarse_path()
-    assert path.start(fine, lam, d, 1.0, REACH * 3.0) is not None
-    assert path.start(fine, lam, d, 1.0, 1.001 * REACH * 3.0) is None
+    start = path.start(fine, lam, d, 1.0, 3.0)
+    want_lam, want_d = fields(fine, 3.0)
+    assert np.allclose(start.lam, want_lam, rtol=1e-12, atol=1e-9) and np.allclose(start.d, want_d, atol=1e-15)
+    assert path.start(fine, lam, d, 1.0, 3.0 * (1 + 1e-9)) is None
     coarse = joint_pairs(3)
     assert CoarserPath.of(coarse, [(0.0, *fields(coarse, 0.0))], MPI.COMM_WORLD) is None
 
