@@ -417,7 +417,8 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
         q = np.unique(np.concatenate([regular, special]))
         intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
         kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
-        apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))  # or at an end
+        # the apex inside this voussoir or at one of its joints (``kinks`` leaves a joint's out: no split there)
+        apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))
         cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
         split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
         for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
