@@ -455,8 +455,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     blocks = fe_blocks(scene, model, bm) if fill is None else None  # the rigid blocks loaded as the FE loads them
     bound = static_cap(blocks, model, bm, pairs, solver) if fill is None else None
     lap("static bound")
-    # a failed trial's predicted state (bridgefem.tresca_predictor): bare rings whose LP mechanism does not slide
-    predictor = TrescaPredictor(solver) if fill is None and not lp.sliding else None
+    # a failed trial's predicted state (bridgefem.tresca_predictor): every bare ring
+    predictor = TrescaPredictor(solver) if fill is None else None
     try:
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.linsolve)
             guides = SearchGuides(guess=lp.level if lp.status == Status.LIMIT else None,
