@@ -112,9 +112,10 @@ nodal force through their 60 iterations from the converged state, a solver failu
 trial converges in 17 and its flat secant closes the bracket.
 A failed trial more than the width above ``lower`` is solved once more from the state ``predicted`` proposes for it
 when one is given (:class:`bridgefem.tresca_predictor.TrescaPredictor`: the FE's own step with Tresca friction, its
-Coulomb fixed point; built for bare rings whose rigid-block mechanism does not slide), before the step is halved: the
-prediction changes only the path, its outcome is judged as any other. Campaign seed 1, #48: 284 -> 78 solves, #224:
-185 -> 42, the same brackets (the predicted trials converge in 1 to 3 Newton iterations). After
+Coulomb fixed point; built for every bare ring), before the step is halved: the prediction changes only the path,
+its outcome is judged as any other. Campaign seed 1, #48: 284 -> 78 solves, #224: 185 -> 42, the same brackets (the
+predicted trials converge in 1 to 3 Newton iterations); where the rigid-block mechanism slides, seed 9 #159: 246 -> 74
+(the module's measurements: :mod:`bridgefem.tresca_predictor`). After
 ``FUTILE_PREDICTIONS`` predicted trials in a row that failed (or whose fixed point did not settle) the search stops
 predicting: each costs up to 8 QPs and a trial's Newton budget.
 

@@ -5,12 +5,19 @@ opening) and tangent +x (d_t = u_x); loads H along x and -W along y (N), frictio
 dilatancy): the pair stays closed (u_y = 0, lam_n = W); for H < mu W it sticks (u_x = 0, lam_t = -H: the friction
 force opposes the push); for H > mu W it slides, u_x = (H - mu W) / k_x and lam_t = -mu W. A load P lifting the node
 opens the pair: u_y = P / k_y, no joint force.
+
+End to end, a ring whose rigid-block mechanism slides: its failed trials are solved once more from the fixed point.
 """
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from bridgefem.analysis import run_analysis
+from bridgefem.rigid_block import collapse_load
+from bridgefem.scene import scene_from_dict
+from bridgefem.status import Status
 from bridgefem.tresca_predictor import TrescaProblem
+from conftest import campaign_scene
 
 K_X, K_Y, MU, W = 2.0e8, 5.0e8, 0.6, 1.0e4
 K = sp.diags([K_X, K_Y]).tocsr()
@@ -80,3 +87,22 @@ def test_a_clarabel_panic_is_a_conic_solver_failure_and_an_interrupt_is_not_caug
     monkeypatch.setattr(Raising, "error", KeyboardInterrupt())
     with pytest.raises(KeyboardInterrupt):
         programme.solve(np.array([-1.0]), np.ones(1))
+
+
+@pytest.mark.slow
+def test_a_ring_whose_mechanism_slides_reaches_its_limit_through_predicted_trials():
+    """Campaign seed 9, scene 159 (pointed, span 4.93 m, t = 0.571 m, 179 voussoirs of 0.049 m, mu = 0.331, a point
+    load at 0.289 of the span): the rigid-block LP on the same joints (computed here independently) hinges at joints
+    74 and 145 and slides at 69 and the springing 179. Its failed trials are solved once more from the Tresca fixed
+    point (bridgefem.tresca_predictor): the limit within 0.05 % of that LP (the associative and the non-associative
+    rigid-block loads coincide here) in at most the issue's 150 linear solves (246 when the fixed point was used only
+    on rings whose mechanism does not slide)."""
+    scene = scene_from_dict(campaign_scene(159, 0.5711, seed=9))
+    lp = collapse_load(scene)
+    assert lp.sliding == [69, 179] and collapse_load(scene, friction_model="non-associative").load == \
+        pytest.approx(lp.load, rel=1e-9)
+    an = run_analysis(scene)
+    assert an.search.status == Status.LIMIT
+    lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
+    assert lower == pytest.approx(lp.load, rel=5e-4) and upper == pytest.approx(lp.load, rel=5e-4)
+    assert an.solver.stats["solves"] + sum(r.solves for r in an.refinements) <= 150
