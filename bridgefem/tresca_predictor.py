@@ -26,8 +26,8 @@ settles less often, and an unsettled fixed point is no prediction (no solve). Of
 seeds 1-9 whose rigid-block mechanism slides, it changed the searches of 20: 53 predictions asked, 24 settled, 19 of
 their trials converged. Seed 9 #159 (179 voussoirs, mu = 0.331) went from 246 to 74 linear solves and seed 1 #235 from
 91 to 52; of the 292 limits 15 were cheaper and 3 dearer by 2 to 11 solves, every class and bracket as before (to
-2e-12). So :mod:`bridgefem.analysis` builds the predictor for every bare ring. K and G are gathered on rank 0 once, each QP
-runs there (Clarabel) and the state is scattered: collective.
+2e-12). So :mod:`bridgefem.analysis` builds the predictor for every bare ring. K and G are gathered on rank 0 once,
+each QP runs there (Clarabel) and the state is scattered: collective.
 """
 from __future__ import annotations
 
