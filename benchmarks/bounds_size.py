@@ -1,4 +1,4 @@
-"""Sizes and times of the collapse-bound programmes (bridgefem.bounds) per mesh, and their brackets.
+"""Sizes and times of the collapse-bound programmes (bridgefem.limit.bounds) per mesh, and their brackets.
 
 For the Prestwood bridge (demos/prestwood.toml, the TRRL test: 228 kN; its load through a rigid loading beam,
 ``[fill] loading_beam``) at mesh refinement factors 0.5, 1 (the default: element size ring thickness / 2 near the
@@ -22,9 +22,9 @@ import math
 import time
 from pathlib import Path
 
-from bridgefem.bounds import collapse_bounds, problem_bounds
-from bridgefem.bounds_model import Soil, strip_footing_problem
-from bridgefem.scene import load_scene
+from bridgefem.limit.bounds import collapse_bounds, problem_bounds
+from bridgefem.limit.bounds_model import Soil, strip_footing_problem
+from bridgefem.scene.schema import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET_SECONDS = 10.0

@@ -3,7 +3,7 @@
 Each scene is drawn from the seed and its index alone (so one scene can be re-run with ``--only``):
 
 - shape: all five; span 3-30 m; rise/span 0.15-0.5 (segmental 0.1-0.45, pointed 0.55-1.0);
-- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.rigid_block.
+- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.rigid_block.
   min_thickness`, at the scene's mu) to 0.4 of the centreline radius (circular shapes) or of the rise (others); when
   no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
 - voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
@@ -24,7 +24,7 @@ Every scene is run by the command line (``bridgefem run``) in a subprocess with 
 rigid-block LP on the same joints that the run reports (results.json ``lp``, associative friction):
 
 - *confirmed*: FE and LP give the same verdict; for a limit load, the FE bracket within ``NO_SLIP_TOL`` of the LP
-  (:func:`bridgefem.evidence.reaches`, the evidence rule's agreement) when no joint slides (FE or LP), its lower end
+  (:func:`bridgefem.analysis.evidence.reaches`, the evidence rule's agreement) when no joint slides (FE or LP), its lower end
   at most ``1 + NO_SLIP_TOL`` x LP when one does (and its upper end below ``1 - NO_SLIP_TOL`` x LP only
   with a proved mechanism: results.json ``evidence``); with a Mohr-Coulomb fill against the conic bounds of the
   bridge with its fill (results.json ``fill_bounds``, N): its lower bound x (1 - ``NO_SLIP_TOL``) at most the FE
@@ -62,8 +62,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bridgefem.evidence import AGREEMENT, reaches
-from bridgefem.output import failed_target
+from bridgefem.analysis.evidence import AGREEMENT, reaches
+from bridgefem.io.output import failed_target
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
@@ -182,8 +182,8 @@ def reference_length(choice: dict, thickness: float) -> float:
 
 def thickness_of(choice: dict) -> tuple[float, float | None]:
     """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
-    from bridgefem.rigid_block import min_thickness
-    from bridgefem.scene import scene_from_dict
+    from bridgefem.limit.rigid_block import min_thickness
+    from bridgefem.scene.schema import scene_from_dict
 
     try:
         bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None, "option": None}  # nor do loads
@@ -218,7 +218,7 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
     row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
-    command = [sys.executable, "-m", "bridgefem.cli", "run", str(folder / "scene.toml"), "--out",
+    command = [sys.executable, "-m", "bridgefem.io.cli", "run", str(folder / "scene.toml"), "--out",
                str(folder / "results"), "--quiet"]
     t0 = time.perf_counter()
     try:

@@ -5,7 +5,7 @@ the default preset's bracket tolerance), refined through the thickness from abou
 the voussoirs stay many elements long), each size runs in a fresh process, after a warm-up run that loads Gmsh and
 compiles the forms, and measures:
 
-- the whole limit analysis (:func:`bridgefem.analysis.run_analysis`, all phases; fastest of up to 5 repeats
+- the whole limit analysis (:func:`bridgefem.analysis.runner.run_analysis`, all phases; fastest of up to 5 repeats
   for the small sizes) and its phases;
 - one linear elastic solve of the same mesh: the bonded system (every joint pair stuck, i.e. the stiffness
   matrix with the joints glued, the first system of every analysis) factorised by a fresh MUMPS LU — symbolic
@@ -38,8 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import (bracket_kn, builtin_cases, fmt, machine_line, run_jobs, scene_variant, worker,  # noqa: E402
-                     write_outputs)
+from harness import bracket_kn, builtin_cases, fmt, machine_line, run_jobs, scene_variant, worker, write_outputs  # noqa: E402
 
 RATIO_TARGET = 20.0  # whole limit analysis <= this many linear elastic solves of the same mesh
 SHARE_TARGET = 0.10  # meshing + assembly <= this share of a limit analysis
@@ -112,8 +111,8 @@ def slope(rows: list[dict], key: str, min_dofs: int = 900) -> float | None:
 
 def lp_timing(base: dict, blocks: int = LP_BLOCKS, repeats: int = 3) -> dict:
     """Wall time (s) of the rigid-block LP with ``blocks`` voussoirs (ring model + LP), fastest of ``repeats``."""
-    from bridgefem.rigid_block import collapse_load
-    from bridgefem.scene import scene_from_dict
+    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.scene.schema import scene_from_dict
 
     scene = scene_from_dict(scene_variant(base, voussoirs=blocks))
     times, lp = [], None
@@ -255,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.worker is not None:
         worker(json.loads(args.worker), extra=bonded_extra)
         return 0
-    from bridgefem.scene import PRESETS
+    from bridgefem.scene.schema import PRESETS
 
     builtin = builtin_cases()
     unknown = [c for c in args.cases if c not in builtin]

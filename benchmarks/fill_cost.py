@@ -2,10 +2,10 @@
 (demos/prestwood.toml, its loading beam rigid) on each mesh, with the distance of each limit from the
 extrapolated mesh-converged value (``bridgefem converge`` on P2, docs/fill.md).
 
-A benchmark that prints figures, not a timed test. Each case is one :func:`bridgefem.convergence.solve_mesh`
+A benchmark that prints figures, not a timed test. Each case is one :func:`bridgefem.analysis.convergence.solve_mesh`
 (the whole analysis: meshing, assembly, self-weight, limit search) at the scene's bracket tolerance (the
 fill preset's); the distance is to ``--reference`` (kN, default :data:`REFERENCE_KN`). The mesh of each
-:data:`bridgefem.scene.FILL_PRESETS` preset is marked. ``demos/speed_accuracy.py --fill`` prints the same table.
+:data:`bridgefem.scene.schema.FILL_PRESETS` preset is marked. ``demos/speed_accuracy.py --fill`` prints the same table.
 
 Run:
 
@@ -19,8 +19,8 @@ import dataclasses
 import logging
 from pathlib import Path
 
-from bridgefem.convergence import solve_mesh, with_mesh
-from bridgefem.scene import FILL_PRESETS, load_scene
+from bridgefem.analysis.convergence import solve_mesh
+from bridgefem.scene.schema import FILL_PRESETS, load_scene, with_mesh
 
 SCENE = Path(__file__).resolve().parents[1] / "demos/prestwood.toml"
 CASES = {f"P{d}-t{n}": (d, n) for d in (1, 2) for n in (2, 4, 8)}

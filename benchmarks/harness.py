@@ -25,7 +25,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("geometry", "mesh", "assembly", "pairing", "solver setup", "limit search")
-# run_analysis calls these module-level names of bridgefem.analysis once each, in phase order
+# run_analysis calls these module-level names of bridgefem.analysis.runner once each, in phase order
 PHASE_CALLS = {"scene_ring": "geometry", "build_block_mesh": "mesh", "build_elastic_model": "assembly",
                "build_pairs": "pairing", "ContactSolver": "solver setup", "find_limit_load": "limit search"}
 REPEAT_BUDGET_S = 2.0  # repeat a timed run (fastest kept) while the runs so far took less than this
@@ -74,9 +74,9 @@ def scene_variant(base: dict, *, preset: str | None = None, ett: int | None = No
 # ------------------------------------------------------------------------------------------------ the guess
 @contextmanager
 def scaled_guess(factor: float | None):
-    """Within the block :func:`bridgefem.analysis.run_analysis` seeds the limit search with ``factor`` x the
+    """Within the block :func:`bridgefem.analysis.runner.run_analysis` seeds the limit search with ``factor`` x the
     rigid-block LP level (None: no guess at all), by wrapping the search it calls."""
-    from bridgefem import analysis
+    from bridgefem.analysis import runner as analysis
     original = analysis.find_limit_load
 
     def search(*args, guides, **kwargs):
@@ -113,14 +113,14 @@ def _reset_peak() -> bool:
 
 class PhaseMemory:
     """Peak resident memory (MB above the level when entered) of each phase of run_analysis: the phase functions
-    of :mod:`bridgefem.analysis` are wrapped so that VmHWM is reset when a phase starts and read when it ends."""
+    of :mod:`bridgefem.analysis.runner` are wrapped so that VmHWM is reset when a phase starts and read when it ends."""
 
     def __init__(self):
         self.peaks: dict[str, float] = {}
         self._saved: dict[str, object] = {}
 
     def __enter__(self):
-        from bridgefem import analysis
+        from bridgefem.analysis import runner as analysis
 
         self.base_kb = _proc_status_kb("VmRSS")
         self.enabled = self.base_kb is not None and _reset_peak()
@@ -140,7 +140,7 @@ class PhaseMemory:
         return wrapped
 
     def __exit__(self, *exc):
-        from bridgefem import analysis
+        from bridgefem.analysis import runner as analysis
 
         for name, fn in self._saved.items():
             setattr(analysis, name, fn)
@@ -160,10 +160,10 @@ def warm_up(scene_dict: dict) -> None:
     """Load Gmsh and JIT-compile the forms of this material and degree with a one-element-thick run (once per
     process and form-relevant part of the scene), so that the timed runs measure the analysis, not one-off
     library loading and form compilation."""
-    from bridgefem.analysis import run_analysis
-    from bridgefem.scene import scene_from_dict
-
     import gmsh  # noqa: F401  (the mesh phase imports it lazily: ~0.5 s once per process)
+
+    from bridgefem.analysis.runner import run_analysis
+    from bridgefem.scene.schema import scene_from_dict
     d = copy.deepcopy(scene_dict)
     d.setdefault("mesh", {})["elements_through_thickness"] = 1
     d.pop("solver", None)
@@ -178,7 +178,7 @@ def measure_once(scene, comm) -> tuple:
     sizes, counts, wall and CPU time in total and per phase, peak memory)."""
     from mpi4py import MPI
 
-    from bridgefem.analysis import run_analysis
+    from bridgefem.analysis.runner import run_analysis
 
     with PhaseMemory() as pm:
         t0, c0 = time.perf_counter(), time.process_time()
@@ -213,7 +213,7 @@ def measure(scene_dict: dict, repeat_budget: float = REPEAT_BUDGET_S, comm=None,
     it; None: no guess): the first Analysis and the merged record (fastest times)."""
     from mpi4py import MPI
 
-    from bridgefem.scene import scene_from_dict
+    from bridgefem.scene.schema import scene_from_dict
 
     comm = comm or MPI.COMM_WORLD
     scene = scene_from_dict(scene_dict)
@@ -297,9 +297,9 @@ def git_state() -> str:
 def write_outputs(out: Path, stem: str, rows: list[dict], markdown: str, plot=None,
                   figures: Path | None = None) -> None:
     """Write OUT/STEM.csv (every key of every row), OUT/STEM.md and, with ``plot(path)``, OUT/STEM.png, atomically
-    and under bridgefem's output policy (:func:`bridgefem.output.results_folder`); copy the .md and .png into
+    and under bridgefem's output policy (:func:`bridgefem.io.output.results_folder`); copy the .md and .png into
     ``figures`` when given; print the markdown and where the files went."""
-    from bridgefem.output import results_folder
+    from bridgefem.io.output import results_folder
 
     made = [f"{stem}.md"] + ([f"{stem}.png"] if plot is not None else [])
     with results_folder(out) as tmp:

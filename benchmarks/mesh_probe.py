@@ -30,7 +30,7 @@ MEMORY_CAP = 3 * 1024 ** 3  # bytes per child process
 
 
 def cases(voussoirs, per_thickness) -> list[dict]:
-    from bridgefem.geometry import build_ring
+    from bridgefem.geometry.ring import build_ring
 
     out = []
     for n, per, (shape, (span, rise)) in itertools.product(voussoirs, per_thickness, SHAPES.items()):
@@ -47,8 +47,8 @@ def cases(voussoirs, per_thickness) -> list[dict]:
 def worker(case_file: str, start: int, log_file: str) -> None:
     """Mesh the cases from ``start`` on; one JSON line per case started and per case finished."""
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP, MEMORY_CAP))
-    from bridgefem.geometry import build_ring
-    from bridgefem.mesh import _gmsh_bridge
+    from bridgefem.fe.mesh import _gmsh_bridge
+    from bridgefem.geometry.ring import build_ring
 
     todo = json.loads(Path(case_file).read_text())
     with open(log_file, "a") as log:

@@ -3,7 +3,7 @@
 The machine's load average is printed before and after: on a shared 2-core machine another job running at the
 same time slows the 2-rank run most, so the ratio is only meaningful when both load averages are low. Each run is
 a fresh process (serial: ``python``; parallel: ``mpirun -n 2 python``) that first does a warm-up run
-(Gmsh loaded, forms compiled) and then times :func:`bridgefem.analysis.run_analysis`, per phase (the slowest
+(Gmsh loaded, forms compiled) and then times :func:`bridgefem.analysis.runner.run_analysis`, per phase (the slowest
 rank). The speed-up is serial time / parallel time, measured in one invocation so that machine noise is shared;
 with ``--repeat`` the runs alternate and the fastest of each is kept. The brackets must match (same status, and
 the same bounds to 1e-9 relative, or the same load steps).
@@ -28,8 +28,7 @@ import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import (PHASES, bracket_kn, builtin_cases, machine_line, run_jobs, scene_variant,  # noqa: E402
-                     write_outputs)
+from harness import PHASES, bracket_kn, builtin_cases, machine_line, run_jobs, scene_variant, write_outputs  # noqa: E402
 
 TARGET = 1.5
 
@@ -65,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--case {args.case!r}: built-in cases are {', '.join(builtin_cases())}")
     scene = scene_variant(base, preset="default", ett=args.ett, degree=args.degree, tolerance=args.tolerance)
     if args.tolerance is None:
-        from bridgefem.scene import PRESETS
+        from bridgefem.scene.schema import PRESETS
 
         args.tolerance = PRESETS["default"][("solver", "tolerance")]
     job = {"scene": scene, "repeat_budget": 0.0}

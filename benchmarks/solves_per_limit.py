@@ -1,13 +1,13 @@
-"""Linear solves per limit load: how much the load incrementation (:mod:`bridgefem.pathfollow`) costs.
+"""Linear solves per limit load: how much the load incrementation (:mod:`bridgefem.search.pathfollow`) costs.
 
 The issue's target is at most 25 linear solves (``solver.stats["solves"]``: one per active-set Newton iteration,
 self-weight step included) per limit load at a 0.5 % bracket tolerance (TOLERANCE). The cases are variants of
 demos/bare_arch.toml and the Prestwood bridge with backfill (demos/prestwood.toml), each run through
-:func:`bridgefem.analysis.run_analysis`, which seeds the search with the rigid-block LP level. The "guess" column
+:func:`bridgefem.analysis.runner.run_analysis`, which seeds the search with the rigid-block LP level. The "guess" column
 scales that seed (x0.1, x10: a deliberately wrong guess; none: no guess; done by wrapping the search that
 run_analysis calls) to show that the bracket stays correct and the cost bounded when the estimate is wrong. The
 table lists linear solves (and of them those that condensed cycles and those of retries with other solver
-settings: :mod:`bridgefem.cycles` and :mod:`bridgefem.solver` *Retries*), factorisations, load steps (failed ones in brackets),
+settings: :mod:`bridgefem.solver.cycles` and :mod:`bridgefem.solver.newton` *Retries*), factorisations, load steps (failed ones in brackets),
 the FE bracket and the LP value (kN for the scene's width) and whether the solves meet the target. A benchmark that
 prints figures, not a timed test.
 
@@ -26,9 +26,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from bridgefem import analysis
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import Scene, load_scene
+from bridgefem.analysis import runner as analysis
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import Scene, load_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from harness import scaled_guess  # noqa: E402

@@ -2,7 +2,7 @@
 #
 # This script walks the library through one analysis of the reference bare arch (a semicircular stone ring,
 # 9 m span, 1 m thick, 16 voussoirs, a point load near quarter span) and prints its limit load beside the
-# rigid-block LP. `bridgefem run` does all of this in one call (`bridgefem.analysis.run_analysis`); here each
+# rigid-block LP. `bridgefem run` does all of this in one call (`bridgefem.analysis.runner.runner.run_analysis`); here each
 # stage is one call, so that you can see and change what flows from one to the next:
 #
 #     scene -> ring geometry -> mesh -> elastic model -> joint pairs -> contact solver -> limit search
@@ -10,17 +10,17 @@
 # Run it with `./run python demos/tutorial.py` (about a second; the same answer under `./run mpirun -n 2`).
 
 # +
+from bridgefem.analysis.runner.runner import joint_states, search_settings
+from bridgefem.geometry.ring.ring import build_ring
+from bridgefem.scene.schema.schema import scene_from_dict
+from bridgefem.solver.newton.newton import ContactSolver
 from mpi4py import MPI
 
-from bridgefem.analysis import joint_states, search_settings
-from bridgefem.contact import build_pairs
-from bridgefem.geometry import build_ring
-from bridgefem.mesh import build_block_mesh
-from bridgefem.model import build_elastic_model
-from bridgefem.pathfollow import SearchGuides, find_limit_load, monitor_deflection
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
-from bridgefem.solver import ContactSolver
+from bridgefem.fe.mesh import build_block_mesh
+from bridgefem.fe.model import build_elastic_model
+from bridgefem.fe.pairs import build_pairs
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.search.pathfollow import SearchGuides, find_limit_load, monitor_deflection
 
 say = print if MPI.COMM_WORLD.rank == 0 else (lambda *args: None)  # print once under mpirun
 # -

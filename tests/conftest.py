@@ -83,7 +83,7 @@ def write_toml(path: Path, d: dict) -> Path:
 
 def bridgefem(*args, ranks: int = 1, timeout: int = 600) -> subprocess.CompletedProcess:
     """Run the installed command line, optionally under mpirun."""
-    cmd = [sys.executable, "-m", "bridgefem.cli", *map(str, args)]
+    cmd = [sys.executable, "-m", "bridgefem.io.cli", *map(str, args)]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",

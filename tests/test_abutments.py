@@ -13,15 +13,14 @@ import re
 
 import numpy as np
 import pytest
+from conftest import bridgefem, scene_dict, write_toml
 from scipy.optimize import linprog
 
-from bridgefem.analysis import Analysis, run_analysis, springing_reactions
-from bridgefem.geometry import ArchRing
-from bridgefem.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import SceneError, scene_from_dict
-
-from conftest import bridgefem, scene_dict, write_toml
+from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions
+from bridgefem.geometry.ring import ArchRing
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses
 
@@ -56,7 +55,7 @@ def min_thrust_of_ring(ring: ArchRing, unit_weight: float) -> float:
     resultant (-H, -W) crosses the joint at a + s T (a: intrados end, T: unit tangent, 0 <= s <= t) where moment
     equilibrium about that point gives s (W T_x - H T_y) = H a_y - H y_c + S - W a_x. Written with
     q = s (W T_x - H T_y), which is <= 0 for compression, the constraints t (W T_x - H T_y) <= q <= 0 are linear.
-    Independent of the FE and of bridgefem.rigid_block (only the block areas and centroids are shared).
+    Independent of the FE and of bridgefem.limit.rigid_block (only the block areas and centroids are shared).
     """
     n = ring.n_voussoirs
     w = np.array([unit_weight * v.area for v in ring.voussoirs])
@@ -164,7 +163,7 @@ def test_large_spreading_keeps_the_limit_load():
     """5 mm of spreading opens all three hinges (test_spreading_opens_three_hinges_at_the_minimum_thrust); under
     live load the three-hinge arch needs a finite motion to close a crack the movement opened. The active-set
     iteration meets singular systems on the way whose diverging modes push open pairs into each other; those are
-    no mechanisms (bridgefem.solver, Mechanism verdicts), and the limit load is the unmoved one (measured: the same
+    no mechanisms (bridgefem.solver.newton, Mechanism verdicts), and the limit load is the unmoved one (measured: the same
     bracket [136.956, 136.964] kN; it once stopped at 8.891 kN), with no mechanism reported below it."""
     before = analyse("{}", friction=10.0)
     an = analyse(repr({"movement_springing": "right", "movement_horizontal": 5e-3}), friction=10.0)

@@ -3,13 +3,12 @@ rigid-block collapse loads of the issue (147.4 kN and 137.1 kN), the LP's hinges
 springing reactions with the weight of the ring plus the live load."""
 import numpy as np
 import pytest
-
-from bridgefem.analysis import run_analysis, springing_reactions
-from bridgefem.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
-
 from conftest import scene_dict
+
+from bridgefem.analysis.runner import run_analysis, springing_reactions
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses
 

@@ -7,13 +7,13 @@ up to the bracket tolerance.
 import numpy as np
 import pytest
 
-from bridgefem.contact import build_pairs
-from bridgefem.geometry import ArchRing, Joint, Voussoir
-from bridgefem.mesh import build_block_mesh
-from bridgefem.model import build_elastic_model
-from bridgefem.pathfollow import LIMIT_FOUND, SearchSettings, find_limit_load
-from bridgefem.scene import scene_from_dict
-from bridgefem.solver import ContactSolver
+from bridgefem.fe.mesh import build_block_mesh
+from bridgefem.fe.model import build_elastic_model
+from bridgefem.fe.pairs import build_pairs
+from bridgefem.geometry.ring import ArchRing, Joint, Voussoir
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND, SearchSettings, find_limit_load
+from bridgefem.solver.newton import ContactSolver
 
 B, H, RHO, G = 1.0, 2.0, 2000.0, 9.81
 W = RHO * G * B * H  # N per metre of width

@@ -1,4 +1,4 @@
-"""Collapse bounds by conic optimisation (bridgefem.bounds) against independent values: the rigid-block LP
+"""Collapse bounds by conic optimisation (bridgefem.limit.bounds) against independent values: the rigid-block LP
 without fill, Prandtl's bearing capacity factor and the exact N_gamma of a rough strip footing."""
 from __future__ import annotations
 
@@ -7,15 +7,14 @@ import math
 
 import numpy as np
 import pytest
-
-from bridgefem.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
-from bridgefem.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
-from bridgefem.bounds_plot import plot_bounds
-from bridgefem.footing import MARTIN_N_GAMMA
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import SceneError, load_scene, scene_from_dict
-
 from conftest import ROOT, bridgefem, scene_dict
+
+from bridgefem.fe.footing import MARTIN_N_GAMMA
+from bridgefem.io.bounds_plot import plot_bounds
+from bridgefem.limit.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
+from bridgefem.limit.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import SceneError, load_scene, scene_from_dict
 
 
 @pytest.mark.parametrize("sections", [

@@ -1,4 +1,4 @@
-"""The limit search's bracket logic (bridgefem.pathfollow) on a one-degree-of-freedom fake solver whose limit is
+"""The limit search's bracket logic (bridgefem.search.pathfollow) on a one-degree-of-freedom fake solver whose limit is
 known exactly (milliseconds): equilibrium exists up to LIMIT and not above; the fake Newton method may also fail,
 without proof, on steps longer than ``reach`` (as the active-set method does on large steps)."""
 import math
@@ -9,15 +9,21 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.contact import ContactState
-from bridgefem.pathfollow import (FUTILE_PREDICTIONS, CollapseCheck, SearchGuides, SearchSettings, StaticCap,
-                                  find_limit_load)
-from bridgefem.selfweight import SELF_WEIGHT_RETRIES
-from bridgefem.solver import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
+from bridgefem.laws.coulomb import ContactState
+from bridgefem.search.pathfollow import (
+    FUTILE_PREDICTIONS,
+    CollapseCheck,
+    SearchGuides,
+    SearchSettings,
+    StaticCap,
+    find_limit_load,
+)
+from bridgefem.search.selfweight import SELF_WEIGHT_RETRIES
+from bridgefem.solver.newton import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
 LIMIT = 1234.5  # N per unit load factor
-WEIGHT = 1000.0  # N: the initial step is a quarter of it, as in bridgefem.analysis
+WEIGHT = 1000.0  # N: the initial step is a quarter of it, as in bridgefem.analysis.runner
 SETTINGS = SearchSettings(tolerance=1e-4, initial_step=WEIGHT / 4, max_load=100 * WEIGHT, max_steps=200)
 
 
@@ -122,7 +128,7 @@ def test_failures_without_proof_on_long_steps_never_close_the_bracket(reach):
 def test_an_unproven_mechanism_is_reported_as_such():
     s = search(OneDof(proves=False))
     assert_bracket(s)
-    assert not s.proved  # the verdict then needs the LP (bridgefem.evidence)
+    assert not s.proved  # the verdict then needs the LP (bridgefem.analysis.evidence)
 
 
 def test_a_newton_method_that_stalls_below_the_limit_is_a_solver_failure():
@@ -190,7 +196,7 @@ def test_a_self_weight_that_cannot_stand_is_not_retried():
 
 class Unprovable(OneDof):
     """No equilibrium above ``limit``, where its Newton method fails without showing a mechanism; counts the steps
-    it solves again with other settings (bridgefem.solver.retried)."""
+    it solves again with other settings (bridgefem.solver.newton.retried)."""
 
     def __init__(self, **kw):
         super().__init__(**kw)
@@ -205,7 +211,7 @@ class Unprovable(OneDof):
 
 
 def collapse_state(settles):
-    """A collapse check (bridgefem.analysis.collapse_check) that answers ``settles``; records (lower, trial)."""
+    """A collapse check (bridgefem.analysis.runner.collapse_check) that answers ``settles``; records (lower, trial)."""
     asked = []
 
     def collapsed(lower, trial, state):

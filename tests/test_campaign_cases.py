@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from bridgefem.geometry import AT_JOINT_TOL, polygon_area_centroid, scene_ring
-from bridgefem.scene import scene_from_dict
-
 from conftest import ROOT, campaign_module, campaign_scene, scene_dict
+
+from bridgefem.geometry.ring import AT_JOINT_TOL, polygon_area_centroid
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.structure.ring import scene_ring
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
 # 2.5 m either side of the apex, and the chords to the apex close the crown's cap
@@ -25,8 +25,8 @@ def fe_live_load(sc):
     thickness, and its total (N per unit load level)."""
     from mpi4py import MPI
 
-    from bridgefem.mesh import build_block_mesh
-    from bridgefem.model import build_elastic_model
+    from bridgefem.fe.mesh import build_block_mesh
+    from bridgefem.fe.model import build_elastic_model
 
     ring = scene_ring(sc)
     model = build_elastic_model(build_block_mesh(ring, 1), ring, sc)
@@ -95,8 +95,8 @@ def test_fe_patch_on_the_cap_loads_the_lp_blocks(arch, patch):
     """The FE loads each voussoir with the patch's share over its extrados x-range, as the LP does: each patch edge
     is a vertex (a facet never straddles it). With an edge's vertex 0.1 m off on scene 186, the FE lost the patch's
     right part and proved a limit 1.35 x the LP's."""
-    from bridgefem.mesh import build_block_mesh
-    from bridgefem.model import build_elastic_model, node_blocks
+    from bridgefem.fe.mesh import build_block_mesh
+    from bridgefem.fe.model import build_elastic_model, node_blocks
 
     sc = scene_from_dict(scene_dict(arch=arch, load=[{"kind": "patch", **patch}], mesh={"elements_through_thickness": 1}))
     ring = scene_ring(sc)
@@ -299,7 +299,7 @@ def test_a_solve_after_a_petsc_error_is_a_fresh_solve():
     every live-load trial that way. The next solve now uses a new KSP and solves the system."""
     from petsc4py import PETSc
 
-    from bridgefem.linsolve import CheckedSolve
+    from bridgefem.solver.linear import CheckedSolve
 
     A = PETSc.Mat().createAIJ([4, 4], nnz=1, comm=PETSc.COMM_SELF)
     for i in range(4):
@@ -321,7 +321,7 @@ def test_with_a_fill_unstable_where_the_lp_stands_is_a_solver_failure(lp_status,
     """Scene 136 (Mohr-Coulomb fill): the FE search said "unstable under self-weight" (exit 0, no proof: a yielding
     fill proves nothing) while the rigid-block LP with the fill as dead load stands: the ring carries the fill's
     weight, so the unproven "unstable" is a solver failure."""
-    from bridgefem.evidence import confirm
+    from bridgefem.analysis.evidence import confirm
     from bridgefem.status import Status
 
     v = confirm(Status.UNSTABLE, 0.0, None, False, lp_status, lp_level, fill=True)
@@ -335,7 +335,7 @@ def test_with_a_fill_a_limit_is_not_refused_by_the_lp_but_one_below_it_warns():
     """With a fill the LP (fill as dead load) cannot confirm a limit: one above it stands without agreement; one
     below it stands with a warning naming the fill's own failure; the search's maximum load above it is no
     contradiction."""
-    from bridgefem.evidence import confirm
+    from bridgefem.analysis.evidence import confirm
     from bridgefem.status import Status
 
     above = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True)
@@ -368,11 +368,11 @@ def test_scene_136_is_no_false_unstable(tmp_path):
 
 
 class ScriptedSolver:
-    """A stand-in for ContactSolver in :func:`bridgefem.solver.retried`: each solve returns the next scripted outcome
+    """A stand-in for ContactSolver in :func:`bridgefem.solver.newton.retried`: each solve returns the next scripted outcome
     and records the setting it was solved with."""
 
     def __init__(self, outcomes, material=None):
-        from bridgefem.solver import DEFAULT_SETTING
+        from bridgefem.solver.newton import DEFAULT_SETTING
 
         self.outcomes, self.setting, self.used, self.material = list(outcomes), DEFAULT_SETTING, [], material
 
@@ -385,14 +385,14 @@ class ScriptedSolver:
 
 
 def _outcome(converged=False, mechanism=False, proved=False, unbounded=False, diverged=False, reason="failed"):
-    from bridgefem.solver import StepOutcome
+    from bridgefem.solver.newton import StepOutcome
 
     return StepOutcome(converged, "" if converged else reason, 3, 0.0, 1, mechanism=mechanism, proved=proved,
                        unbounded=unbounded, diverged=diverged)
 
 
 def test_a_retry_that_converges_continues_and_restores_the_default_setting():
-    from bridgefem.solver import DEFAULT_SETTING, RETRIES, retried
+    from bridgefem.solver.newton import DEFAULT_SETTING, RETRIES, retried
 
     solver = ScriptedSolver([_outcome(), _outcome(converged=True)])
     out = retried(solver, solver.solve, _outcome(unbounded=True, diverged=True))
@@ -402,7 +402,7 @@ def test_a_retry_that_converges_continues_and_restores_the_default_setting():
 def test_with_a_plastic_fill_the_line_search_alone_is_no_retry():
     """A plastic fill's steps are line searched already: the retry whose only change is the line search would
     repeat the failed solve, so it is skipped; every other setting is tried."""
-    from bridgefem.solver import RETRIES, Setting, retried
+    from bridgefem.solver.newton import RETRIES, Setting, retried
 
     solver = ScriptedSolver([_outcome() for _ in RETRIES], material=object())
     out = retried(solver, solver.solve, _outcome())
@@ -413,7 +413,7 @@ def test_with_a_plastic_fill_the_line_search_alone_is_no_retry():
 def test_every_setting_diverging_is_a_mechanism_without_proof_and_anything_else_stays_a_failure():
     """No setting finds an equilibrium and each meets an unbounded solve: a mechanism, never a proof (the evidence
     rule then needs the LP's agreement). One setting that only ran out of iterations keeps the failure a failure."""
-    from bridgefem.solver import RETRIES, retried
+    from bridgefem.solver.newton import RETRIES, retried
 
     diverging = [_outcome(unbounded=True, diverged=True) for _ in RETRIES]
     solver = ScriptedSolver(diverging)

@@ -8,7 +8,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, bridgefem, scene_dict, write_toml
 
 pytestmark = pytest.mark.slow  # every test runs the command line in a new process
@@ -38,14 +37,14 @@ def test_failed_run_keeps_earlier_results(tmp_path):
 FAIL_ON_RANK_1 = """
 import sys
 from mpi4py import MPI
-import bridgefem.analysis
-from bridgefem import cli
-run_analysis = bridgefem.analysis.run_analysis
+import bridgefem.analysis.runner
+from bridgefem.io import cli
+run_analysis = bridgefem.analysis.runner.run_analysis
 def failing(*args, **kwargs):
     if MPI.COMM_WORLD.rank == 1:
         raise RuntimeError("injected failure on rank 1")
     return run_analysis(*args, **kwargs)
-bridgefem.analysis.run_analysis = failing
+bridgefem.analysis.runner.run_analysis = failing
 sys.exit(cli.main(sys.argv[1:]))
 """
 
@@ -225,7 +224,7 @@ def test_first_run_prints_no_compiler_output(tmp_path):
     scene = write_toml(tmp_path / "s.toml", scene_dict(arch={"voussoirs": 4}, mesh={"elements_through_thickness": 1},
                                                        solver={"tolerance": 0.01}))
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
-    proc = subprocess.run([sys.executable, "-m", "bridgefem.cli", "run", str(scene), "--out", str(tmp_path / "out")],
+    proc = subprocess.run([sys.executable, "-m", "bridgefem.io.cli", "run", str(scene), "--out", str(tmp_path / "out")],
                           capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     assert any((tmp_path / "cache").rglob("*.c")), "nothing was compiled: the test does not test the first run"
@@ -246,8 +245,9 @@ def test_abutments_example_in_the_docs_is_its_output(tmp_path):
 def test_no_size_limit_holds_for_the_re_runs_on_finer_meshes(tmp_path, monkeypatch):
     """``run --no-size-limit`` reaches the analysis, whose automatic re-runs on finer meshes it also frees
     (tests/test_refinement.py); without it they keep the default limit."""
-    from bridgefem import analysis, cli
-    from bridgefem.sizing import MAX_DOFS
+    from bridgefem.analysis import runner as analysis
+    from bridgefem.fe.sizing import MAX_DOFS
+    from bridgefem.io import cli
 
     class Stop(Exception):
         pass

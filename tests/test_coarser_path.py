@@ -1,11 +1,11 @@
-"""A re-run's trials start from its coarser run's path (bridgefem.coarser_path): the transfer between meshes is
+"""A re-run's trials start from its coarser run's path (bridgefem.search.coarser_path): the transfer between meshes is
 checked on made-up pairs against fields whose interpolation is exact, and on a campaign ring whose re-run it
 makes cheaper."""
 import numpy as np
 from mpi4py import MPI
 
-from bridgefem.coarser_path import CoarserPath
-from bridgefem.contact import ARCH_FILL, JointPairs
+from bridgefem.fe.pairs import ARCH_FILL, JointPairs
+from bridgefem.search.coarser_path import CoarserPath
 
 THICKNESS = 0.6  # m, every joint's length
 
@@ -96,7 +96,7 @@ def test_the_search_starts_only_its_far_trials_from_the_coarser_path():
     method's own evidence), and the bracket is the one the fake's limit gives."""
     from test_bracket import LIMIT, SETTINGS, OneDof, assert_bracket, search
 
-    from bridgefem.solver import PairPrediction
+    from bridgefem.solver.newton import PairPrediction
 
     start = PairPrediction(np.zeros((0, 2)), np.zeros((0, 2)))
     asked = []

@@ -3,8 +3,9 @@ earlier bridgefem results folder, `bounds --plot` never overwrites a file; a ref
 computation, and the user's files are untouched."""
 from __future__ import annotations
 
-from bridgefem import cli
 from conftest import ROOT
+
+from bridgefem.io import cli
 
 DEMO = ROOT / "demos" / "bare_arch.toml"
 

@@ -1,10 +1,9 @@
-"""Richardson extrapolation of the mesh study (bridgefem.convergence) on sequences with a known limit."""
+"""Richardson extrapolation of the mesh study (bridgefem.analysis.convergence) on sequences with a known limit."""
 import pytest
-
-from bridgefem.convergence import MeshLimit, richardson, study
-from bridgefem.scene import scene_from_dict
-
 from conftest import scene_dict
+
+from bridgefem.analysis.convergence import MeshLimit, richardson, study
+from bridgefem.scene.schema import scene_from_dict
 
 
 @pytest.mark.parametrize("order", [0.5, 1.0, 1.75, 2.0])
@@ -44,7 +43,7 @@ def test_study_needs_three_meshes_refined_by_two():
 def test_a_mesh_without_a_bracket_leaves_the_study_without_extrapolation(monkeypatch):
     """A solver failure's last converged load is no limit: a study whose finest mesh failed does not extrapolate,
     and its table says which mesh (the small bridge of docs/bounds.md once gave 'L* = 75.3 +- 57.0 kN' from one)."""
-    from bridgefem import convergence
+    from bridgefem.analysis import convergence
 
     meshes = iter([MeshLimit(2, 151.7, 151.8, "limit load found", 1, 1, 1, 1.0),
                    MeshLimit(4, 134.2, 134.4, "limit load found", 1, 1, 1, 1.0),
@@ -73,8 +72,9 @@ def test_converge_command_on_a_bare_arch_extrapolates_to_the_rigid_block_limit(t
     the rigid-block LP's collapse load (the FE converges to it as the elastic voussoirs stiffen) within 1 %."""
     import json
 
-    from bridgefem.rigid_block import collapse_load
     from conftest import bridgefem
+
+    from bridgefem.limit.rigid_block import collapse_load
     d = scene_dict()
     proc = bridgefem("converge", tmp_scene(d), "--levels", "1,2,4", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stdout + proc.stderr

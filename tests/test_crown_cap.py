@@ -3,9 +3,9 @@ gets a segment (Gmsh aborts on one without), e.g. a patch with both edges on a t
 import numpy as np
 import pytest
 
-from bridgefem.geometry import scene_ring
-from bridgefem.mesh import _segment_counts, build_block_mesh
-from bridgefem.scene import scene_from_dict
+from bridgefem.fe.mesh import _segment_counts, build_block_mesh
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.structure.ring import scene_ring
 
 # campaign seed 1, scene 182: t = 7.04 m on a 25 m pointed arch; the crown voussoir's extrados is a 6.1 m cap
 # (the offsets of the two arcs, closed by chords to the apex) over a 0.26 m intrados, the patch's edges on the cap
@@ -55,7 +55,7 @@ CAP_ABORTS = [
 
 @pytest.mark.parametrize("span, rise, thickness, voussoirs, per, edges", CAP_ABORTS)
 def test_patches_on_pointed_caps_mesh(span, rise, thickness, voussoirs, per, edges):
-    from bridgefem.geometry import build_ring
+    from bridgefem.geometry.ring import build_ring
 
     ring = build_ring("pointed", span, rise, thickness, voussoirs, edges, joint_at_loads=False)
     assert build_block_mesh(ring, per).n_cells > 0

@@ -6,8 +6,8 @@ from types import SimpleNamespace
 import numpy as np
 from mpi4py import MPI
 
-from bridgefem.contact import OPEN, STICK, ContactState, CoulombJoints
-from bridgefem.cycles import CycleCondenser
+from bridgefem.laws.coulomb import OPEN, STICK, ContactState, CoulombJoints
+from bridgefem.solver.cycles import CycleCondenser
 
 
 class MadeUpSystem:

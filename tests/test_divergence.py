@@ -1,12 +1,11 @@
-"""The divergence test of a solve (bridgefem.divergence) on the elastic block on rigid ground of tests/test_block.py,
+"""The divergence test of a solve (bridgefem.solver.divergence) on the elastic block on rigid ground of tests/test_block.py,
 mu = 2, pushed at h = 1.5 m: its rigid-block tipping load about the far corner of its base is P = W b / (2 h)."""
 import numpy as np
 import pytest
-
-from bridgefem.contact import OPEN, STICK, ContactState
-from bridgefem.divergence import DIVERGENCE_FACTOR
-
 from test_block import B, W, block_solver
+
+from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.solver.divergence import DIVERGENCE_FACTOR
 
 H_PUSH = 1.5
 TIPPING = W * B / (2 * H_PUSH)

@@ -19,14 +19,13 @@ import time
 
 import numpy as np
 import pytest
-
-from bridgefem.analysis import Analysis, run_analysis, springing_reactions, transmitted_load_check
-from bridgefem.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
-from bridgefem.results import summary
-from bridgefem.rigid_block import collapse_load, min_thickness
-from bridgefem.scene import Scene, scene_from_dict
-
 from conftest import bridgefem, scene_dict, write_toml
+
+from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions, transmitted_load_check
+from bridgefem.io.results import summary
+from bridgefem.limit.rigid_block import collapse_load, min_thickness
+from bridgefem.scene.schema import Scene, scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses
 
@@ -157,7 +156,7 @@ def expect_reference(an):
     assert fe_hinges(an) >= set(res.hinges)
     # a larger trial (128.5 kN from 119.9 kN) once diverged along a mode the live load does no work on, which
     # pushed joints 6 and 11 into each other, and was reported as a mechanism ('confirmed'): inadmissible modes
-    # are no mechanisms (bridgefem.solver, Mechanism verdicts); that trial now converges
+    # are no mechanisms (bridgefem.solver.newton, Mechanism verdicts); that trial now converges
     assert_no_false_mechanism(an, res.load)
 
 
@@ -214,7 +213,7 @@ def expect_thin(an):
     # the reference's). The active-set step that opens the last pair of joint 13 (e.g. 1982 -> 2973 N) once gave a
     # singular system whose diverging mode pushes joint 0 into the ground, and the solver took it for a mechanism
     # (failures from 2621 N to 2973 N that only the search's guess rule discarded). An inadmissible diverging mode
-    # is no mechanism (bridgefem.solver, Mechanism verdicts): that step now converges and the FE brackets the limit
+    # is no mechanism (bridgefem.solver.newton, Mechanism verdicts): that step now converges and the FE brackets the limit
     # at [3967.41, 3967.81] N, FE/LP = 1.0006 (measured, serial and 2 ranks), hinges at the LP's joints 3, 8, 13, 16.
     res = lp("t/R=0.11")
     assert_brackets_lp(an, res)

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from bridgefem.analysis import run_analysis
-from bridgefem.pathfollow import LIMIT_FOUND, LOCKED, STABLE
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
-
 from conftest import scene_dict
+
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, STABLE
 
 pytestmark = pytest.mark.slow
 

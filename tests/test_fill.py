@@ -7,22 +7,27 @@ import json
 import numpy as np
 import pytest
 import ufl
+from conftest import ROOT, bridgefem, scene_dict, write_toml
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.analysis import interface_forces, joint_states, run_analysis, springing_reactions, transmitted_load_check
-from bridgefem.bounds import fill_bounds
-from bridgefem.mesh import FILL_BASE_TAG
-from bridgefem.model import beam_lame, cell_constant, lame, strain
-from bridgefem.pathfollow import LIMIT_FOUND
-from bridgefem.selfweight import cohesion_continuation
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
-from bridgefem.solver import DIVERGED_OUT_OF_BALANCE
-
-from conftest import ROOT, bridgefem, scene_dict, write_toml
+from bridgefem.analysis.runner import (
+    interface_forces,
+    joint_states,
+    run_analysis,
+    springing_reactions,
+    transmitted_load_check,
+)
+from bridgefem.fe.mesh import FILL_BASE_TAG
+from bridgefem.fe.model import beam_lame, cell_constant, lame, strain
+from bridgefem.limit.bounds import fill_bounds
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.search.pathfollow import LIMIT_FOUND
+from bridgefem.search.selfweight import cohesion_continuation
+from bridgefem.solver.newton import DIVERGED_OUT_OF_BALANCE
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.5, "extension": 2.0, "interface_friction": 0.5}
 
@@ -185,8 +190,8 @@ def test_assembled_tangent_is_the_derivative_of_the_internal_force():
     self-weight displacements of the cohesionless fill plus a random field on the fill's nodes, from zero plastic
     strain. Step h: the strains move by about 1e-9 of themselves; the tolerance is the apex regularisation
     (APEX_STIFFNESS of the elastic matrix) with a margin."""
-    from bridgefem.fill import APEX_STIFFNESS
-    from bridgefem.plasticity import return_map
+    from bridgefem.fe.fill import APEX_STIFFNESS
+    from bridgefem.laws.soil import return_map
 
     _, an = cohesionless_analysis()
     fill, n_u, V = an.solver.material, an.solver.n_u, an.model.V
@@ -372,7 +377,7 @@ def test_prestwood_same_bracket_under_mpi(prestwood):
                                         (31.0, 30.0, False), (-1.0, 30.0, False)])
 def test_dilation_angle_is_checked_against_the_friction_angle(psi, phi, ok):
     """[fill] dilation_angle: 0 <= psi <= phi (non-associated to associated flow); absent means psi = phi."""
-    from bridgefem.scene import SceneError
+    from bridgefem.scene.schema import SceneError
     fill = {**FILL, "material": "mohr-coulomb", "friction_angle": phi, "cohesion": 1e3}
     if psi is not None:
         fill["dilation_angle"] = psi
@@ -475,8 +480,8 @@ def test_fill_reaction_on_the_loading_beam_is_the_patch_load_through_its_centre(
 def test_loading_beams_of_touching_patches_are_refused():
     """Two patches that touch would give two beams sharing a side: the scene refuses them, naming the loads and the
     key; as pressures they are allowed."""
-    from bridgefem.analysis import loading_beams
-    from bridgefem.scene import SceneError
+    from bridgefem.analysis.runner import loading_beams
+    from bridgefem.scene.schema import SceneError
     patches = [{"kind": "patch", "position": 0.25, "length": 0.5}, {"kind": "patch", "position": 0.25 + 0.5 / 9.0,
                                                                     "length": 0.5}]
     with pytest.raises(SceneError, match=r"#1 and #2.*loading_beam = false"):
@@ -488,7 +493,7 @@ def test_loading_beams_of_touching_patches_are_refused():
 def test_a_mohr_coulomb_fill_takes_the_fill_presets(preset):
     """With a Mohr-Coulomb fill a preset sets FILL_PRESETS' mesh (quadratic: P1 locks) and tolerance; a bare arch
     and an elastic fill keep PRESETS; a key in the scene overrides either."""
-    from bridgefem.scene import FILL_PRESETS, PRESETS
+    from bridgefem.scene.schema import FILL_PRESETS, PRESETS
     mc = {**FILL, "material": "mohr-coulomb", "cohesion": 5e3}
     patch = [{"kind": "patch", "position": 0.25, "length": 0.5}]
     for fill, presets in ((mc, FILL_PRESETS), ({**FILL, "material": "elastic"}, PRESETS), (None, PRESETS)):

@@ -1,4 +1,4 @@
-"""Step control of the limit search with a plastic fill (bridgefem.pathfollow, *Steps* and *Predictor*) on the
+"""Step control of the limit search with a plastic fill (bridgefem.search.pathfollow, *Steps* and *Predictor*) on the
 one-degree-of-freedom fake solver of test_bracket (displacement = load level, no equilibrium above LIMIT), made to
 behave like a Mohr-Coulomb fill: every converged live-load step takes more Newton iterations than the self-weight
 step did."""
@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import pytest
 from test_bracket import LIMIT, SETTINGS, WEIGHT, OneDof, assert_bracket, search
 
-from bridgefem.solver import StepOutcome
+from bridgefem.solver.newton import StepOutcome
 from bridgefem.status import Status
 
 FILL_ITERATIONS = 12  # Newton iterations of every converged live-load step (the self-weight takes 2)

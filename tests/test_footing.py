@@ -1,5 +1,5 @@
 """The fill's constitutive model calibrated on closed-form collapse loads, independently of the arch
-(bridgefem.footing: the plasticity module's return map on a plain soil box, displacement control, Newton).
+(bridgefem.fe.footing: the plasticity module's return map on a plain soil box, displacement control, Newton).
 
 References (all associated flow, psi = phi, which the bound theorems and the closed forms assume):
 - Rankine: a smooth wall moved into / away from a soil column with weight; the column reaches a homogeneous
@@ -19,15 +19,22 @@ References (all associated flow, psi = phi, which the bound theorems and the clo
   displacements overestimates N_c by 28 % at phi = 0: linear triangles lock under plastic flow (Sloan &
   Randolph 1982), which is why the fill needs quadratic elements.
 - Martin (2005), method of characteristics: a rigid rough strip footing on a cohesionless soil with weight,
-  q = gamma B N_gamma / 2, N_gamma = 14.75 at phi = 30 deg (cited, bridgefem.footing.MARTIN_N_GAMMA); the FE reaches
-  c = 0 through two vanishing cohesions on a cone with a smoothed apex (bridgefem.footing.cohesionless_n_gamma).
+  q = gamma B N_gamma / 2, N_gamma = 14.75 at phi = 30 deg (cited, bridgefem.fe.footing.MARTIN_N_GAMMA); the FE reaches
+  c = 0 through two vanishing cohesions on a cone with a smoothed apex (bridgefem.fe.footing.cohesionless_n_gamma).
 """
 import numpy as np
 import pytest
 
-from bridgefem.footing import (MARTIN_N_GAMMA, cohesionless_n_gamma, graded, prandtl_nc, rankine_coefficient,
-                               retaining_wall, strip_footing)
-from bridgefem.plasticity import MohrCoulomb
+from bridgefem.fe.footing import (
+    MARTIN_N_GAMMA,
+    cohesionless_n_gamma,
+    graded,
+    prandtl_nc,
+    rankine_coefficient,
+    retaining_wall,
+    strip_footing,
+)
+from bridgefem.laws.soil import MohrCoulomb
 
 GAMMA = 18e3  # N/m^3
 C = 10e3  # Pa

@@ -1,5 +1,5 @@
 """Friction thresholds of a complete semicircular arch with radial joints under self-weight, rigid-block LP
-(bridgefem.rigid_block) against published values.
+(bridgefem.limit.rigid_block) against published values.
 
 Cocchetti & Rizzi (2020, Frattura ed Integrita Strutturale 51:356, Table 3), continuous radial joints: sliding
 first appears at mu_rm = 0.395832 (below it the least thickness grows above Heyman's t/R = 0.107426, with sliding
@@ -14,11 +14,10 @@ means no admissible equilibrium exists, which fails either model; Gilbert et al.
 non-associative LP. The tests run both models where it costs little.
 """
 import pytest
-
-from bridgefem.rigid_block import NoStableThickness, dead_load_deficit, min_thickness, ring_model
-from bridgefem.scene import scene_from_dict
-
 from conftest import bridgefem
+
+from bridgefem.limit.rigid_block import NoStableThickness, dead_load_deficit, min_thickness, ring_model
+from bridgefem.scene.schema import scene_from_dict
 
 MU_RM, MU_MS, ETA_MS = 0.395832, 0.309215, 0.200637
 FRICTION_MODELS = ["associative", "non-associative"]

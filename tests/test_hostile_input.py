@@ -4,7 +4,7 @@ the file and what is allowed, writes nothing, and shows no traceback.
 The cases are generated: each key of a valid scene (every section present) given a value of the wrong type, out
 of its range, nan or inf, or an unknown key beside it; plus the cases found by hand (PETSc viewers in the scene,
 huge or dangerous names, physical values that overflow, a model far beyond the machine) and bad kinds of file.
-They run in-process through ``bridgefem.cli.main``: validation comes before any heavy import, and a case that
+They run in-process through ``bridgefem.io.cli.main``: validation comes before any heavy import, and a case that
 reached the analysis would fail (it is replaced by a trap). A few run as real subprocesses.
 """
 from __future__ import annotations
@@ -15,11 +15,10 @@ import tempfile
 from pathlib import Path
 
 import pytest
-
-from bridgefem import cli
-from bridgefem.scene import SCHEMA, scene_from_dict
-
 from conftest import bridgefem, scene_dict, write_toml
+
+from bridgefem.io import cli
+from bridgefem.scene.schema import SCHEMA, scene_from_dict
 
 
 def valid_scene() -> dict:
@@ -136,7 +135,7 @@ def test_the_valid_scene_reaches_the_analysis(tmp_path, monkeypatch, capsys):
     """The base of the mutations is valid: only the mutation is refused (cli.main reaches the trap)."""
     scene_from_dict(valid_scene())
     scene = write_toml(tmp_path / "s.toml", valid_scene())
-    import bridgefem.analysis
+    import bridgefem.analysis.runner
 
     class Reached(Exception):
         pass
@@ -144,7 +143,7 @@ def test_the_valid_scene_reaches_the_analysis(tmp_path, monkeypatch, capsys):
     def trap(*args, **kwargs):
         raise Reached()
 
-    monkeypatch.setattr(bridgefem.analysis, "run_analysis", trap)
+    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", trap)
     with pytest.raises(Reached):
         cli.main(["run", str(scene), "--out", str(tmp_path / "out")])
 
@@ -164,12 +163,12 @@ def case_dir(cases_root):
 @pytest.fixture
 def trapped(case_dir, monkeypatch):
     """An empty working folder as the cwd, and the analysis replaced by a trap."""
-    import bridgefem.analysis
+    import bridgefem.analysis.runner
 
     def reached(*args, **kwargs):
         raise AssertionError("the analysis was reached")
 
-    monkeypatch.setattr(bridgefem.analysis, "run_analysis", reached)
+    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
     work = case_dir / "work"
     work.mkdir()
     monkeypatch.chdir(work)

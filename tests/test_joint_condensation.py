@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
-from bridgefem.joint_condensation import consistent_states, is_p_matrix, lcp_active_set, lemke, opens_when_pulled
+from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from bridgefem.solver.condensation import consistent_states, is_p_matrix, lcp_active_set, lemke, opens_when_pulled
 
 NANO = 1e-9  # m/N
 
@@ -89,17 +89,17 @@ def test_two_coupled_pairs():
 
 def test_condensed_compliance_reproduces_the_full_solve():
     """The standing block of tests/test_block.py pushed at half its tipping load: the base pairs' response condensed
-    from open (d = d0 + C lam, :meth:`bridgefem.cycles.CycleCondenser.pair_response`) with the converged forces at
+    from open (d = d0 + C lam, :meth:`bridgefem.solver.cycles.CycleCondenser.pair_response`) with the converged forces at
     two base pairs gives back their converged relative displacements (closed, no slip), and their consistent state is
     the converged one with the same forces: superposition on the full linear system, independent of the active-set
     iteration."""
-    from test_block import B, RHO, W, standing_block
+    from test_block import RHO, B, W, standing_block
 
-    from bridgefem.contact import build_pairs
-    from bridgefem.mesh import build_block_mesh
-    from bridgefem.model import build_elastic_model
-    from bridgefem.scene import scene_from_dict
-    from bridgefem.solver import ContactSolver
+    from bridgefem.fe.mesh import build_block_mesh
+    from bridgefem.fe.model import build_elastic_model
+    from bridgefem.fe.pairs import build_pairs
+    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.solver.newton import ContactSolver
 
     scene = scene_from_dict({"arch": {"shape": "segmental", "span": 1.0, "rise": 0.5, "thickness": 0.2,
                                       "voussoirs": 2}, "masonry": {"young": 1e9, "poisson": 0.2, "density": RHO},

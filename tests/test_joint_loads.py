@@ -3,12 +3,12 @@ favourable allocation (rigid_block.collapse_load) and the FE load vector that fo
 against the closed-form push-through load of a keystone wedged between two voussoirs that slide on the ground."""
 import numpy as np
 import pytest
-
-from bridgefem.geometry import joint_under, point_load_blocks, scene_ring
-from bridgefem.rigid_block import BlockModel, collapse_load, generalised_loads, solve_blocks
-from bridgefem.scene import scene_from_dict
-
 from conftest import scene_dict
+
+from bridgefem.geometry.ring import joint_under, point_load_blocks
+from bridgefem.limit.rigid_block import BlockModel, collapse_load, generalised_loads, solve_blocks
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.structure.ring import scene_ring
 
 R, DENSITY, G = 5.0, 2000.0, 9.81
 
@@ -117,8 +117,8 @@ def test_fe_load_vector_follows_the_allocation():
     by default), at the joint's extrados corner."""
     from mpi4py import MPI
 
-    from bridgefem.mesh import build_block_mesh
-    from bridgefem.model import build_elastic_model, node_blocks
+    from bridgefem.fe.mesh import build_block_mesh
+    from bridgefem.fe.model import build_elastic_model, node_blocks
 
     sc = scene_from_dict(scene_dict(mesh={"elements_through_thickness": 1}))
     ring = scene_ring(sc)
@@ -138,8 +138,8 @@ def test_fe_load_vector_follows_the_allocation():
 def test_fe_keystone_push_through():
     """The FE (elastic voussoirs, two elements through the thickness) with the LP's allocation reaches the
     closed-form push-through load within 1 % (elastic blocks, finite E)."""
-    from bridgefem.analysis import run_analysis
-    from bridgefem.pathfollow import LIMIT_FOUND
+    from bridgefem.analysis.runner import run_analysis
+    from bridgefem.search.pathfollow import LIMIT_FOUND
 
     sc = three_voussoirs(2.0, 0.35, mesh={"elements_through_thickness": 2})
     s = run_analysis(sc).search

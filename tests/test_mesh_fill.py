@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bridgefem.geometry import build_ring, fill_outline
-from bridgefem.mesh import FILL_DEPTH_SHARE, LOAD_REFINEMENT, _gmsh_bridge, extrados_element_size
+from bridgefem.fe.mesh import FILL_DEPTH_SHARE, LOAD_REFINEMENT, _gmsh_bridge, extrados_element_size
+from bridgefem.geometry.ring import build_ring, fill_outline
 
 THICKNESS, DEPTH = 1.2, 0.3  # m: a thick ring under a thin fill (depth / thickness as in #125 and #276)
 

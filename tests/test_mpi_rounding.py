@@ -7,13 +7,12 @@ its sign."""
 import numpy as np
 import pytest
 from petsc4py import PETSc
-
-from bridgefem.contact import OPEN, STICK, ContactState
-from bridgefem.cycles import CycleCondenser
-from bridgefem.joint_condensation import opens_when_pulled, pulled_margin
-from bridgefem.linsolve import CheckedSolve
-
 from test_cycles import MadeUpSystem
+
+from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.solver.condensation import opens_when_pulled, pulled_margin
+from bridgefem.solver.cycles import CycleCondenser
+from bridgefem.solver.linear import CheckedSolve
 
 
 def test_the_refinement_correction_is_the_error_of_a_perturbed_solution():

@@ -1,6 +1,6 @@
-"""The non-associative rigid-block check (bridgefem.rigid_block, ``friction_model="non-associative"``: the Tresca
+"""The non-associative rigid-block check (bridgefem.limit.rigid_block, ``friction_model="non-associative"``: the Tresca
 fixed point of Gilbert, Casapulla & Ahmed 2006) against closed forms and hand-derived collapse states, and its use
-as evidence for an FE limit with sliding joints (bridgefem.evidence, rule 3).
+as evidence for an FE limit with sliding joints (bridgefem.analysis.evidence, rule 3).
 
 A fixed point is a non-associative collapse state: joint forces in equilibrium obeying no tension and
 |s| <= mu n, and a mechanism of hinges and slips without dilatancy whose load work equals the friction
@@ -10,14 +10,22 @@ independent values: a block on an incline (W tan(theta + phi)), the keystone pus
 seed of the normal forces."""
 import numpy as np
 import pytest
-
-from bridgefem.evidence import coulomb_limited
-from bridgefem.rigid_block import (BlockModel, _relative_motion, collapse_load, collapse_state_from,
-                                   frozen_capacity_collapse, generalised_loads, ring_model, solve_blocks, statics)
-from bridgefem.scene import scene_from_dict
-
 from test_joint_loads import push_through, three_voussoirs
 from test_rigid_block import THREE_BLOCK_JOINTS, three_blocks
+
+from bridgefem.analysis.evidence import coulomb_limited
+from bridgefem.limit.rigid_block import (
+    BlockModel,
+    _relative_motion,
+    collapse_load,
+    collapse_state_from,
+    frozen_capacity_collapse,
+    generalised_loads,
+    ring_model,
+    solve_blocks,
+    statics,
+)
+from bridgefem.scene.schema import scene_from_dict
 
 
 def incline(theta, friction, weight=10.0, b=2.0, h=1.0):
@@ -149,8 +157,8 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
     at no less than its last converged load (lower-bound theorem) and within 0.5 % of it, sliding at joint 27
     where the FE's forces are at their Coulomb limit: the FE's state is a collapse state (evidence rule 3); the
     associative collapse state (hinges 0, 20, 43) is a different mechanism."""
-    from bridgefem.analysis import run_analysis
-    from bridgefem.static_bound import fe_blocks
+    from bridgefem.analysis.runner import run_analysis
+    from bridgefem.analysis.static_bound import fe_blocks
     from bridgefem.status import Status
 
     sc = scene_from_dict(SCENE_124)
@@ -180,13 +188,12 @@ def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypat
     their frozen friction capacities collapse, and its closing failure starts from a state whose blocks collapse
     within the bracket's width of it (computed here independently): no retries, fewer solves, and a bracket that
     overlaps the other; the verdict confirms both by the same evidence."""
+    from conftest import campaign_scene
     from mpi4py import MPI
 
-    from bridgefem import analysis
-    from bridgefem.static_bound import fe_blocks
+    from bridgefem.analysis import runner as analysis
+    from bridgefem.analysis.static_bound import fe_blocks
     from bridgefem.status import Status
-
-    from conftest import campaign_scene
 
     scene = scene_from_dict({**campaign_scene(220, 3.2045), "mesh": {"elements_through_thickness": 4}})
     checked = analysis._analyse(scene, MPI.COMM_WORLD, None, lambda s: None, lambda p: None)

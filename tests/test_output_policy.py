@@ -14,11 +14,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from bridgefem import cli
-from bridgefem.output import MARKER, OutputError, check_target, claim, results_folder
-
 from conftest import ROOT, bridgefem, scene_dict, write_toml
+
+from bridgefem.io import cli
+from bridgefem.io.output import MARKER, OutputError, check_target, claim, results_folder
 
 ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
        "OMPI_MCA_rmaps_base_oversubscribe": "1"}
@@ -44,12 +43,12 @@ def strays(parent: Path) -> list[str]:
 @pytest.fixture
 def never_analyse(monkeypatch):
     """In-process runs that must be refused before the analysis: reaching it fails the test."""
-    import bridgefem.analysis
+    import bridgefem.analysis.runner
 
     def reached(*args, **kwargs):
         raise AssertionError("the analysis was reached")
 
-    monkeypatch.setattr(bridgefem.analysis, "run_analysis", reached)
+    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
 
 
 def run_refused(capsys, *args) -> str:
@@ -162,7 +161,7 @@ def test_a_scene_name_that_is_not_a_file_name_touches_nothing(tmp_path, monkeypa
 HOLD = """
 import sys, time
 from pathlib import Path
-from bridgefem.output import claim
+from bridgefem.io.output import claim
 with claim(Path(sys.argv[1])):
     print("holding", flush=True)
     time.sleep(60)
@@ -191,7 +190,7 @@ def test_a_second_run_on_the_same_folder_is_refused(tmp_path, capsys, never_anal
 WRITE_SLOWLY = """
 import sys, time
 from pathlib import Path
-from bridgefem.output import results_folder
+from bridgefem.io.output import results_folder
 with results_folder(Path(sys.argv[1])) as tmp:
     (tmp / "results.json").write_text('{"new": true}')
     print("writing", flush=True)
@@ -227,8 +226,8 @@ def test_sigterm_during_the_cli_write_exits_143_and_keeps_the_earlier_results(tm
     scene = write_toml(tmp_path / "s.toml", scene_dict(**COARSE))
     script = """
 import sys, time
-import bridgefem.results as results
-from bridgefem import cli
+import bridgefem.io.results as results
+from bridgefem.io import cli
 write = results._write_fields
 def slow(*args):
     write(*args)

@@ -2,14 +2,13 @@
 summing to the joint length, loads on joints."""
 import numpy as np
 import pytest
-
-from bridgefem.contact import GROUND, build_pairs
-from bridgefem.geometry import build_ring, make_shape
-from bridgefem.mesh import build_block_mesh
-from bridgefem.model import build_elastic_model
-from bridgefem.scene import scene_from_dict
-
 from conftest import scene_dict
+
+from bridgefem.fe.mesh import build_block_mesh
+from bridgefem.fe.model import build_elastic_model
+from bridgefem.fe.pairs import GROUND, build_pairs
+from bridgefem.geometry.ring import build_ring, make_shape
+from bridgefem.scene.schema import scene_from_dict
 
 
 @pytest.mark.parametrize("shape,rise", [("semicircular", 4.5), ("segmental", 2.25), ("pointed", 6.0),

@@ -1,4 +1,4 @@
-"""The limit search's pieces one rule at a time (bridgefem.pathfollow, module docstring): the bracket and its
+"""The limit search's pieces one rule at a time (bridgefem.search.pathfollow, module docstring): the bracket and its
 backtracking (*Bracket rule*, *Guess*), the step schedule and the trial budget (*Steps*, *Failures without proof*),
 the target and the collapse-state readings (*Guess*, *Collapse state*). Every expected value is worked out by hand
 from the rule's words; states are stand-ins (the pieces only store them and hand them to the collapse check)."""
@@ -7,9 +7,27 @@ import math
 import numpy as np
 import pytest
 
-from bridgefem.pathfollow import (APPROACH, BACKTRACK_STEP, BACKTRACKS, BUDGET, BUDGET_FLOOR, EASY_ITERATIONS,
-                                  LANDING, PLAUSIBLE, RETRY_FLOOR, RISE, RISINGS, SETTLED, STRADDLE, SUBSTEP,
-                                  SUSPECT, CollapseCheck, _Bracket, _Schedule, _Target)
+from bridgefem.search.pathfollow import (
+    APPROACH,
+    BACKTRACK_STEP,
+    BACKTRACKS,
+    BUDGET,
+    BUDGET_FLOOR,
+    EASY_ITERATIONS,
+    LANDING,
+    PLAUSIBLE,
+    RETRY_FLOOR,
+    RISE,
+    RISINGS,
+    SETTLED,
+    STRADDLE,
+    SUBSTEP,
+    SUSPECT,
+    CollapseCheck,
+    _Bracket,
+    _Schedule,
+    _Target,
+)
 
 TOLERANCE = 1e-3
 

@@ -1,13 +1,13 @@
-"""Step control of the limit search (bridgefem.pathfollow) on the one-degree-of-freedom fake solver of
+"""Step control of the limit search (bridgefem.search.pathfollow) on the one-degree-of-freedom fake solver of
 test_bracket, with a Newton method that also fails, without proof, from a *dead end*: a state reached by a long
 step inside a narrow band of load levels (no step from it converges; one reached by a short step is fine), as the
 active-set method does on a path whose joints changed state abruptly. The search must back away from the dead end
 and still bracket the known limit. And with a *hard level*: a band of levels that only a short step reaches."""
 import pytest
-from test_bracket import LIMIT, OneDof, assert_bracket, search
+from test_bracket import OneDof, assert_bracket, search
 
-from bridgefem.pathfollow import BACKTRACK_STEP
-from bridgefem.solver import StepOutcome
+from bridgefem.search.pathfollow import BACKTRACK_STEP
+from bridgefem.solver.newton import StepOutcome
 
 
 class DeadEnd(OneDof):

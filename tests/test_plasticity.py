@@ -1,4 +1,4 @@
-"""Backfill plasticity (bridgefem.plasticity) against closed forms that do not use the implementation.
+"""Backfill plasticity (bridgefem.laws.soil) against closed forms that do not use the implementation.
 
 Every reference is recomputed here from (E, nu, phi, c, sigma_t): Hooke's law, the stress invariants, the
 cone ``sqrt(J2) + alpha I1 - k``, the Mohr-Coulomb plane-strain limit states, and the Kuhn-Tucker conditions
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from bridgefem.plasticity import MohrCoulomb, elastic_tangent, return_map
+from bridgefem.laws.soil import MohrCoulomb, elastic_tangent, return_map
 
 E = 50e6  # Pa
 L = 50e3  # Pa: stress scale of the tests, a few metres of backfill

@@ -3,11 +3,10 @@
 
 import numpy as np
 import pytest
-
-from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
-
 from conftest import run_campaign_scene
 from test_block import W, block_solver
+
+from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
 
 
 def test_a_predicted_step_may_return_to_the_start_active_set():

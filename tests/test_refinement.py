@@ -1,21 +1,29 @@
-"""A limit that depends on the mesh is re-run on finer meshes (bridgefem.analysis.run_analysis, issue 12)."""
+"""A limit that depends on the mesh is re-run on finer meshes (bridgefem.analysis.runner.run_analysis, issue 12)."""
 import json
 import math
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from petsc4py import PETSc
-
-from bridgefem import analysis, sizing
-from bridgefem.analysis import (MAX_REFINEMENTS, REFINED_ELEMENTS_MAX, REFINEMENT_BUDGET, REFINEMENT_FLOOR,
-                                SETTLED_MOVE, first_step, refined_elements, run_analysis)
-from bridgefem.linsolve import CheckedSolve, SolveBudgetSpent
-from bridgefem.scene import scene_from_dict
-from bridgefem.status import Status
-
 from conftest import campaign_scene, scene_dict
+from petsc4py import PETSc
 from test_bracket import LIMIT, OneDof, assert_bracket, search, static_cap
+
+from bridgefem.analysis import runner as analysis
+from bridgefem.analysis.runner import (
+    MAX_REFINEMENTS,
+    REFINED_ELEMENTS_MAX,
+    REFINEMENT_BUDGET,
+    REFINEMENT_FLOOR,
+    SETTLED_MOVE,
+    first_step,
+    refined_elements,
+    run_analysis,
+)
+from bridgefem.fe import sizing
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.solver.linear import CheckedSolve, SolveBudgetSpent
+from bridgefem.status import Status
 
 # campaign seed 1, scene 45 (benchmarks/campaign.py): a semicircle of 6 voussoirs at mu 0.312 (the least a
 # semicircle stands with is 0.309) under a point load of 1 % of its weight on a joint. With 4 elements through the
@@ -64,7 +72,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                                             (ELASTIC_FILL, [None, None, None])])
 def test_a_re_run_is_given_the_path_of_the_run_before_it(monkeypatch, fill, expected):
     """A first run has no coarser path; each re-run of a bare ring starts from the path of the run it replaces
-    (bridgefem.coarser_path), a re-run under a fill from none."""
+    (bridgefem.search.coarser_path), a re-run under a fill from none."""
     paths = []
     fake_analyses(monkeypatch, (True, True, False), paths=paths)
     monkeypatch.setattr(analysis.CoarserPath, "of", lambda pairs, states, comm: f"path of {pairs}")
@@ -252,8 +260,8 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     """Campaign scene 45: with 4 elements the FE's limit is 0.7 % below the LP and moved by the mesh's voussoir
     weights, a failure; the re-run with 8 elements is within 0.5 % of the LP (computed here independently) and
     confirmed by it; results.json names the mesh used and the run it replaced."""
-    from bridgefem.results import write_results
-    from bridgefem.rigid_block import collapse_load
+    from bridgefem.io.results import write_results
+    from bridgefem.limit.rigid_block import collapse_load
 
     scene = scene_from_dict({**SCENE_45, "mesh": {"elements_through_thickness": 4}})
     lp = collapse_load(scene).load
@@ -276,7 +284,7 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
     LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves (no floor) the re-run stops
     unsettled, the confirmed run is the answer (below the LP, computed here independently) and the stopped run is
     listed, having spent its budget exactly: the solve past it is never made, whatever asks for it."""
-    from bridgefem.rigid_block import collapse_load
+    from bridgefem.limit.rigid_block import collapse_load
 
     monkeypatch.setattr(analysis, "REFINEMENT_BUDGET", 0.1)
     monkeypatch.setattr(analysis, "REFINEMENT_FLOOR", 0)
@@ -299,7 +307,7 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve
     level whose width touches the static bound (the rigid-block LP under the FE's loads) and stands, within 0.1 % of
     the LP on the same joints (computed here independently); the three runs spend at most the issue's 150 linear
     solves."""
-    from bridgefem.rigid_block import collapse_load
+    from bridgefem.limit.rigid_block import collapse_load
 
     scene = scene_from_dict(campaign_scene(193, 1.8177))
     an = run_analysis(scene)
@@ -318,7 +326,7 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
     more than elastic blocks stop below it; both runs within the issue's 150 linear solves (153 when the re-run's
     trials started from the coarser run's path only up to 0.98 of its last level)."""
-    from bridgefem.rigid_block import collapse_load
+    from bridgefem.limit.rigid_block import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
     lines = []
@@ -342,11 +350,11 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     """Campaign seed 7, scene 166 (pointed, 243 voussoirs, t = 5.95 m, mu = 1.0, a point load) and seed 6, scene 146
     (pointed, 175 voussoirs, t = 4.15 m, mu = 0.579, a patch load): with 4 elements through the thickness a confirmed
     collapse state 1.4 % and 14.4 % below the associative LP, re-run with 8. The re-run's trials start from the
-    coarser run's path up to its last converged level (bridgefem.coarser_path): the limit, both runs counted, within
+    coarser run's path up to its last converged level (bridgefem.search.coarser_path): the limit, both runs counted, within
     the issue's 150 linear solves (#166: 195 when they started from the re-run's own secant; #146: 176 when the path
     stopped at 0.98 of its last level, and its target failed from 12 % below), and it agrees with the rigid-block
     Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently)."""
-    from bridgefem.rigid_block import collapse_load
+    from bridgefem.limit.rigid_block import collapse_load
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
     an = run_analysis(scene)

@@ -1,17 +1,27 @@
-"""Rigid-block limit analysis (bridgefem.rigid_block) against independent reference values."""
+"""Rigid-block limit analysis (bridgefem.limit.rigid_block) against independent reference values."""
 import json
 from dataclasses import replace
 
 import numpy as np
 import pytest
-
-import bridgefem.rigid_block as rigid_block
-from bridgefem.cli import main
-from bridgefem.geometry import build_ring
-from bridgefem.rigid_block import (BlockModel, LPFailure, NoStableThickness, collapse_load, dead_load_deficit,
-                                   generalised_loads, min_thickness, ring_model, ring_under_forces, solve_blocks)
-from bridgefem.scene import Fill, scene_from_dict
 from conftest import scene_dict, write_toml
+
+import bridgefem.limit.rigid_block as rigid_block
+from bridgefem.geometry.ring import build_ring
+from bridgefem.io.cli import main
+from bridgefem.limit.rigid_block import (
+    BlockModel,
+    LPFailure,
+    NoStableThickness,
+    collapse_load,
+    dead_load_deficit,
+    generalised_loads,
+    min_thickness,
+    ring_model,
+    ring_under_forces,
+    solve_blocks,
+)
+from bridgefem.scene.schema import Fill, scene_from_dict
 
 
 def scene(voussoirs=16, friction=0.6, joint_at_loads=True, loads=None):

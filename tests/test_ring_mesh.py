@@ -7,11 +7,11 @@ import sys
 
 import numpy as np
 import pytest
-
-from bridgefem.geometry import AT_JOINT_TOL, build_ring, scene_ring
-from bridgefem.scene import SceneError, scene_from_dict
-
 from conftest import ROOT, scene_dict
+
+from bridgefem.geometry.ring import AT_JOINT_TOL, build_ring
+from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.structure.ring import scene_ring
 
 
 def edge_steps(v):
@@ -58,8 +58,8 @@ def test_meshes_that_aborted_gmsh():
              ("semicircular", 10.0, 5.0, 256, 1, 0.3), ("pointed", 10.0, 8.66, 8, 2, 0.3)]
     code = f"""
 import json
-from bridgefem.geometry import build_ring
-from bridgefem.mesh import _gmsh_bridge
+from bridgefem.geometry.ring import build_ring
+from bridgefem.fe.mesh import _gmsh_bridge
 out = []
 for shape, span, rise, n, per, offset in {cases!r}:
     ring = build_ring(shape, span, rise, 0.8, n)

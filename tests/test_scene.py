@@ -2,10 +2,9 @@
 import tomllib
 
 import pytest
-
-from bridgefem.scene import SceneError, keys_markdown, load_scene, resolved_toml, scene_from_dict
-
 from conftest import ROOT, scene_dict
+
+from bridgefem.scene.schema import SceneError, keys_markdown, load_scene, resolved_toml, scene_from_dict
 
 
 @pytest.mark.parametrize("sections,expected", [
@@ -52,7 +51,7 @@ def test_defaults_and_units():
 
 
 def test_docs_scene_keys_is_generated_from_the_schema():
-    """docs/scene-keys.md is the schema's table: regenerate it with ./run python -m bridgefem.scene."""
+    """docs/scene-keys.md is the schema's table: regenerate it with ./run python -m bridgefem.scene.schema."""
     assert (ROOT / "docs" / "scene-keys.md").read_text() == keys_markdown()
 
 
@@ -69,7 +68,7 @@ def test_the_resolved_scene_reads_back_as_the_same_scene(demo):
 
 
 def test_check_prints_the_resolved_scene(capsys):
-    from bridgefem import cli
+    from bridgefem.io import cli
 
     assert cli.main(["check", str(ROOT / "demos" / "bare_arch.toml")]) == 0
     out = capsys.readouterr().out

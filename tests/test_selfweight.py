@@ -1,18 +1,17 @@
-"""The self-weight state (bridgefem.selfweight) and the re-run of a failure without proof on a finer mesh
-(bridgefem.analysis.refinement_reason), issue 12."""
+"""The self-weight state (bridgefem.search.selfweight) and the re-run of a failure without proof on a finer mesh
+(bridgefem.analysis.runner.refinement_reason), issue 12."""
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import campaign_scene
 from mpi4py import MPI
 
-from bridgefem.analysis import refinement_reason, run_analysis
-from bridgefem.scene import scene_from_dict
-from bridgefem.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
-from bridgefem.solver import DEFAULT_SETTING, StepOutcome
+from bridgefem.analysis.runner import refinement_reason, run_analysis
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
+from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
 from bridgefem.status import Status
-
-from conftest import campaign_scene
 
 UNLOADED = "unloaded"
 
@@ -130,7 +129,7 @@ def test_a_ring_near_its_least_thickness_stands():
     through the thickness, or after a re-run with 8 where the self-weight fails without proof on 4, as it did before
     predicted steps could return to their start's active set) and brackets the LP's collapse load (computed
     independently) within 0.5 %."""
-    from bridgefem.rigid_block import collapse_load, min_thickness
+    from bridgefem.limit.rigid_block import collapse_load, min_thickness
 
     scene = scene_from_dict(SCENE_251)
     assert 1.0 < scene.arch.thickness / min_thickness(scene).thickness < 1.005

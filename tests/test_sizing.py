@@ -1,18 +1,17 @@
 """The model's size from the scene alone: close to the mesher's counts, a scene beyond the machine refused with the
 numbers, a large run announced with its set-up phases."""
 import pytest
-
-from bridgefem import cli
-from bridgefem.scene import SceneError, scene_from_dict
-from bridgefem.sizing import MAX_DOFS, check_size, estimate_size
-
 from conftest import scene_dict, write_toml
+
+from bridgefem.fe.sizing import MAX_DOFS, check_size, estimate_size
+from bridgefem.io import cli
+from bridgefem.scene.schema import SceneError, scene_from_dict
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("voussoirs,elements,degree", [(16, 4, 1), (64, 8, 2)])
 def test_the_estimate_is_close_to_the_model_and_the_phases_are_announced(voussoirs, elements, degree):
-    from bridgefem.analysis import run_analysis
+    from bridgefem.analysis.runner import run_analysis
 
     scene = scene_from_dict(scene_dict(arch={"voussoirs": voussoirs}, solver={"max_steps": 1},
                                        mesh={"elements_through_thickness": elements, "degree": degree}))

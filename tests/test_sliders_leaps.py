@@ -1,7 +1,6 @@
 """A solution that leaps far beyond the last solved iterate damps the proposal that led to it (bridgefem/solver.py,
 *Leaps*): a campaign scene whose trials wandered through nearly singular active sets."""
 import pytest
-
 from conftest import run_campaign_scene
 
 

@@ -4,14 +4,13 @@ anchor, and the term vanishes at a fixed point."""
 
 import numpy as np
 import pytest
-from mpi4py import MPI
-
-from bridgefem.contact import OPEN, SLIP, STICK, ContactState
-from bridgefem.contact_system import PROXIMAL
-from bridgefem.mechanism import Mode, judge
-
 from conftest import run_campaign_scene
+from mpi4py import MPI
 from test_block import W, block_solver
+
+from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState
+from bridgefem.solver.mechanism import Mode, judge
+from bridgefem.solver.system import PROXIMAL
 
 
 def _judged(d, state, sign, works=(1.0, 1.0)):

@@ -5,12 +5,11 @@ normal block that is not a P-matrix, that pair first the next time; the solves o
 counted apart (``condensation_solves``, ``retry_solves``)."""
 import numpy as np
 import pytest
-
-from bridgefem import cycles as cycles_module
-from bridgefem import solver as solver_module
-from bridgefem.contact import OPEN
-
 from test_block import W, block_solver
+
+from bridgefem.laws.coulomb import OPEN
+from bridgefem.solver import cycles as cycles_module
+from bridgefem.solver import newton as solver_module
 
 
 def settled_block():

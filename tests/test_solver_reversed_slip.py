@@ -2,8 +2,8 @@
 that must leave what counts as converged, the fixed points of the joint law's classification, unchanged."""
 import numpy as np
 
-from bridgefem.contact import OPEN, SLIP, STICK, ContactState, CoulombJoints
-from bridgefem.solver import _through_stick
+from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from bridgefem.solver.newton import _through_stick
 
 
 def random_pairs(rng: np.random.Generator, n: int) -> tuple[CoulombJoints, ContactState, np.ndarray, np.ndarray]:

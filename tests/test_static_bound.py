@@ -1,22 +1,21 @@
-"""The static theorem's bound on a bare ring (bridgefem.evidence, evidence 4): the rigid-block LP on the FE's joints
+"""The static theorem's bound on a bare ring (bridgefem.analysis.evidence, evidence 4): the rigid-block LP on the FE's joints
 under the FE's own loads bounds every FE equilibrium from above, so the limit search ends on it once a converged
 state, checked admissible for that LP, lies within the bracket's width of it."""
 import dataclasses
 
 import numpy as np
 import pytest
-
-from bridgefem.analysis import run_analysis
-from bridgefem.geometry import scene_ring
-from bridgefem.mesh import build_block_mesh
-from bridgefem.model import build_elastic_model
-from bridgefem.static_bound import block_loads, fe_blocks, static_cap
-from bridgefem.evidence import AGREEMENT, admissible
-from bridgefem.rigid_block import BlockModel, Statics, collapse_load, ring_model, standing_deficit
-from bridgefem.scene import scene_from_dict
-from bridgefem.status import Status
-
 from conftest import campaign_scene
+
+from bridgefem.analysis.evidence import AGREEMENT, admissible
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.analysis.static_bound import block_loads, fe_blocks, static_cap
+from bridgefem.fe.mesh import build_block_mesh
+from bridgefem.fe.model import build_elastic_model
+from bridgefem.limit.rigid_block import BlockModel, Statics, collapse_load, ring_model, standing_deficit
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.status import Status
+from bridgefem.structure.ring import scene_ring
 
 # campaign seed 1, scene 3 (benchmarks/campaign.py): a pointed ring of 32 voussoirs, mu = 2.43, a patch load; its
 # FE reaches the LP (no joint slides)

@@ -1,16 +1,16 @@
 """The repair of an inadmissible diverging mode closes the pairs that close first along it
-(bridgefem.mechanism.first_contact; bridgefem/solver.py, *First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
+(bridgefem.solver.mechanism.first_contact; bridgefem/solver.py, *First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
 the thrust line through all four, and the first live-load increment must close one hinge, not two."""
 import json
 
 import numpy as np
 import pytest
-
-from bridgefem.contact import GROUND, OPEN, STICK, ContactState
-from bridgefem.mechanism import FIRST_CONTACT, first_contact
-
 from conftest import bridgefem, write_toml
 from test_block import block_solver
+
+from bridgefem.fe.pairs import GROUND
+from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.solver.mechanism import FIRST_CONTACT, first_contact
 
 
 def _lifted_block(lift: float, tilt: float):

@@ -1,4 +1,4 @@
-"""The Tresca QP and its Coulomb fixed point (bridgefem.tresca_predictor) against a block on the ground, by hand.
+"""The Tresca QP and its Coulomb fixed point (bridgefem.solver.tresca) against a block on the ground, by hand.
 
 One node (u_x, u_y) held by springs k_x, k_y (N/m), on the ground through one pair whose normal is +y (d_n = u_y,
 opening) and tangent +x (d_t = u_x); loads H along x and -W along y (N), friction mu. By hand (Coulomb, no
@@ -11,13 +11,13 @@ End to end, a ring whose rigid-block mechanism slides: its failed trials are sol
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
-from bridgefem.analysis import run_analysis
-from bridgefem.rigid_block import collapse_load
-from bridgefem.scene import scene_from_dict
-from bridgefem.status import Status
-from bridgefem.tresca_predictor import TrescaProblem
 from conftest import campaign_scene
+
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.scene.schema import scene_from_dict
+from bridgefem.solver.tresca import TrescaProblem
+from bridgefem.status import Status
 
 K_X, K_Y, MU, W = 2.0e8, 5.0e8, 0.6, 1.0e4
 K = sp.diags([K_X, K_Y]).tocsr()
@@ -77,7 +77,8 @@ def test_a_clarabel_panic_is_no_prediction_and_no_crash(monkeypatch):
 
 def test_a_clarabel_panic_is_a_conic_solver_failure_and_an_interrupt_is_not_caught(monkeypatch):
     import clarabel
-    from bridgefem.conic import NONNEG, ConicProgramme
+
+    from bridgefem.limit.conic import NONNEG, ConicProgramme
     programme = ConicProgramme(1)
     programme.add(NONNEG, [0], [0], [1.0], [1.0])  # x <= 1
     monkeypatch.setattr(clarabel, "DefaultSolver", Raising)
@@ -94,7 +95,7 @@ def test_a_ring_whose_mechanism_slides_reaches_its_limit_through_predicted_trial
     """Campaign seed 9, scene 159 (pointed, span 4.93 m, t = 0.571 m, 179 voussoirs of 0.049 m, mu = 0.331, a point
     load at 0.289 of the span): the rigid-block LP on the same joints (computed here independently) hinges at joints
     74 and 145 and slides at 69 and the springing 179. Its failed trials are solved once more from the Tresca fixed
-    point (bridgefem.tresca_predictor): the limit within 0.05 % of that LP (the associative and the non-associative
+    point (bridgefem.solver.tresca): the limit within 0.05 % of that LP (the associative and the non-associative
     rigid-block loads coincide here) in at most the issue's 150 linear solves (246 when the fixed point was used only
     on rings whose mechanism does not slide)."""
     scene = scene_from_dict(campaign_scene(159, 0.5711, seed=9))

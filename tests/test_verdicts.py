@@ -1,11 +1,11 @@
 """The verdict rules on small made-up cases (milliseconds): the mechanism verdict on a diverging mode
-(bridgefem.mechanism), the evidence rule against the rigid-block LP (bridgefem.evidence) and the status vocabulary."""
+(bridgefem.solver.mechanism), the evidence rule against the rigid-block LP (bridgefem.analysis.evidence) and the status vocabulary."""
 import numpy as np
 import pytest
 
-from bridgefem.contact import OPEN, SLIP, STICK
-from bridgefem.evidence import SlipCheck, confirm, coulomb_limited, needs_slip_check
-from bridgefem.mechanism import Mode, judge
+from bridgefem.analysis.evidence import SlipCheck, confirm, coulomb_limited, needs_slip_check
+from bridgefem.laws.coulomb import OPEN, SLIP, STICK
+from bridgefem.solver.mechanism import Mode, judge
 from bridgefem.status import Status
 
 

@@ -1,0 +1,135 @@
+"""The static (lower-bound) theorem on a bare ring's FE (:mod:`bridgefem.analysis.evidence`, evidence 4): the FE's loads and
+pair forces as the rigid-block LP's block loads and joint forces on the same joints, the LP's collapse level under
+those loads (an upper bound on every FE equilibrium), and the check of a converged state against the theorem's
+premises. Forces in N, moments in N·m (counter-clockwise), lengths in m."""
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..fe.mesh import BlockMesh
+from ..fe.model import ElasticModel, node_blocks
+from ..fe.pairs import JointPairs
+from ..limit.rigid_block import (
+    BlockModel,
+    LPResult,
+    generalised_loads,
+    ring_model,
+    ring_with_loads,
+    solve_blocks,
+    standing_deficit,
+    statics,
+)
+from ..scene.schema import Scene
+from ..search.pathfollow import LoadStep, StaticCap
+from ..solver.newton import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
+from ..status import Status
+from .evidence import StaticBound, admissible
+
+
+def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
+               ) -> tuple[StaticBound, StaticCap] | None:
+    """The static theorem's bound on a bare ring's FE (:mod:`bridgefem.analysis.evidence`, evidence 4): the rigid-block LP
+    on the same joints under the FE's own block loads, ``blocks`` (:func:`fe_blocks`), its dead-load deficit against the
+    largest one a converged FE state's tolerances can hide, and the check of a converged state's joint resultants
+    against the LP's rows (:func:`bridgefem.analysis.evidence.admissible`) that the search runs before it ends on the bound.
+    The bound caps every search (no FE equilibrium exists above it); whether the bracket it closes is also the
+    limit of the exact voussoirs' weights is the evidence rule's question (:mod:`bridgefem.analysis.evidence`, evidence 4).
+    The LP on rank 0, broadcast; None when it fails (no bound). Collective."""
+    comm = solver.comm
+    pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=blocks.n_joints))
+    nodes, radius = block_extents(model, bm, blocks.ref)
+    delta = 10 * solver.law.force_tol  # the complementarity residual of a converged pair (N)
+    t = blocks.frames()[0]
+
+    def f_scale(level: float) -> float:  # the largest applied nodal force (N), the solver's scale
+        local = np.abs(model.f_dead.array + level * model.f_live.array).max(initial=0.0)
+        return comm.allreduce(float(local), op=MPI.MAX)
+
+    sigma_max = pairs_per_joint.max(initial=0) * (delta + BOND_RTOL * f_scale(0.0))  # every pair waived
+    margin = max(2.0, 1.0 + float(blocks.friction.max(initial=0.0))) * sigma_max
+    out = None
+    if comm.rank == 0:
+        try:
+            deficit = standing_deficit(blocks)  # the dead loads alone
+            fe_lp = solve_blocks(blocks) if deficit <= margin else LPResult(None, None, Status.UNSTABLE)
+            out = StaticBound(fe_lp.level, fe_lp.status, float(deficit), float(margin))
+        except (RuntimeError, ValueError):  # no LP answer: no bound
+            out = None
+    static = comm.bcast(out, root=0)
+
+    def check(step: LoadStep, it: Iterate) -> tuple[bool, str]:
+        waived = step.counts.get("frozen", 0) + step.counts.get("bonded", 0)  # the same on every rank
+        if waived:
+            return False, f"the joint law is waived (frozen or bonded) at {waived} of the pairs"
+        forces = joint_resultants(solver, pairs, blocks, it)
+        sigma = np.maximum(pairs_per_joint * delta, np.finfo(float).tiny)
+        block_force = np.maximum(nodes * EQUILIBRIUM_RTOL * f_scale(step.level), np.finfo(float).tiny)
+        result = None
+        if comm.rank == 0:
+            result = admissible(statics(blocks, step.level, forces), sigma, blocks.friction, t, block_force,
+                                2 * radius * block_force)
+        return comm.bcast(result, root=0)
+
+    if static is None:
+        return None
+    return static, StaticCap(static.level, static.falls, check)
+
+
+def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
+    """The rigid-block LP's ring on the scene's joints loaded as the FE loads its voussoirs: its assembled
+    self-weight and unit live load summed per block (:func:`block_loads`). Collective."""
+    ring = ring_model(scene, live=False)
+    return ring_with_loads(ring, *block_loads(model, bm, ring.ref))
+
+
+def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockModel, it: Iterate) -> np.ndarray:
+    """Per joint of ``blocks`` the resultant of the FE's pair forces at an iterate as the LP's joint forces (nj, 3):
+    n, s (N) along the joint's normal and tangent, the force on its right block, and m (N·m) = -(moment about the
+    joint's centre), the LP's convention (:mod:`bridgefem.limit.rigid_block`); joints without pairs carry none. Every pair
+    acts at its place on the joint, ``position`` from the intrados. Identical on every rank (collective)."""
+    _, lam, _ = solver.system.split(it.x)
+    ring = pairs.joint >= 0
+    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.normal, pairs.tangent])[ring]
+    table = np.vstack(solver.comm.allgather(local))
+    joint, lam_n, lam_t, position = table[:, 0].astype(int), table[:, 1], table[:, 2], table[:, 3]
+    force = lam_n[:, None] * table[:, 4:6] + lam_t[:, None] * table[:, 6:8]  # on the right face (N)
+    _, centre, tangent, normal = blocks.frames()
+    arm = blocks.joint_a[joint] + position[:, None] * table[:, 6:8] - centre[joint]
+    moment = arm[:, 0] * force[:, 1] - arm[:, 1] * force[:, 0]
+    size = blocks.n_joints
+    return np.column_stack([np.bincount(joint, (force * normal[joint]).sum(axis=1), size),
+                            np.bincount(joint, (force * tangent[joint]).sum(axis=1), size),
+                            -np.bincount(joint, moment, size)])
+
+
+def block_extents(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per block of the ring (voussoirs, abutments): its number of nodes and its radius about ``ref`` (nb, 2), the
+    largest distance of its nodes from that point (m). Collective."""
+    V, comm = model.V, model.V.mesh.comm
+    n_owned = V.dofmap.index_map.size_local
+    blk = node_blocks(V, bm)[:n_owned]
+    on = (blk >= 0) & (blk < len(ref))
+    x = V.tabulate_dof_coordinates()[:n_owned, :2][on]
+    distance = np.linalg.norm(x - ref[blk[on]], axis=1)
+    radius = np.zeros(len(ref))
+    np.maximum.at(radius, blk[on], distance)
+    return comm.allreduce(np.bincount(blk[on], minlength=len(ref))), np.max(comm.allgather(radius), axis=0)
+
+
+def block_loads(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The FE's self-weight and unit live load on each block of the ring (voussoirs, abutments) as resultants
+    (nb, 3): Fx, Fy (N) and M (N·m, counter-clockwise) about ``ref`` (nb, 2), the sums of the assembled nodal
+    forces (the meshed voussoirs' weight, which the mesh's straight cell edges make differ from the exact
+    voussoirs' by O(h^2)). Collective."""
+    V, comm = model.V, model.V.mesh.comm
+    n_owned = V.dofmap.index_map.size_local
+    blk = node_blocks(V, bm)[:n_owned]
+    on = (blk >= 0) & (blk < len(ref))
+    x = V.tabulate_dof_coordinates()[:n_owned, :2][on]
+
+    def resultants(vec: PETSc.Vec) -> np.ndarray:
+        return comm.allreduce(generalised_loads(ref, blk[on], x, vec.array[:2 * n_owned].reshape(-1, 2)[on]))
+
+    return resultants(model.f_dead), resultants(model.f_live)

@@ -1,0 +1,389 @@
+"""Gmsh mesh of the voussoirs, split into blocks with duplicated nodes on every joint, as a DOLFINx mesh.
+
+Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is conformal; each joint has
+``elements_through_thickness`` segments. The mesh is then split: every node gets one copy per block it
+belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
+have a single face, which meets the rigid ground.
+
+Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
+``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
+segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
+size within the fill's depth of the extrados, graded to the far fill's size beyond. The road's load points (patch
+edges, point loads) get ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill,
+whose depth, not the ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
+
+Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice the
+ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
+single face, like a springing on rigid ground. Without them no abutment is meshed.
+
+Tags on the DOLFINx mesh:
+- cell tag = voussoir id, abutment id, or ``fill_block`` (= number of voussoirs and abutments) for the fill;
+- facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
+  ``EXTRADOS_TAG`` = extrados of the ring (where live loads act on a bare arch); with a fill, its side of the
+  extrados ``FILL_INTERFACE_TAG`` (the extrados becomes an interface like a joint: its nodes are duplicated),
+  the road ``ROAD_TAG``, its vertical ends ``FILL_END_TAG`` and its base ``FILL_BASE_TAG``; the top face of a
+  loading beam ``BEAM_TOP_TAG``.
+
+Loading beams (``beams``: the x-ranges of the patch loads, m): a rectangle on the road over each range, of height
+``BEAM_HEIGHT`` x its length, meshed with the fill and sharing its nodes on the road (bonded: not split), with a
+cell tag of its own (``beam_blocks``, after the fill's); the road under it is not tagged ``ROAD_TAG``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import cpp as _cpp
+from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_from_entities
+from mpi4py import MPI
+
+from ..geometry.ring import Abutment, ArchRing, FillOutline
+
+EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
+FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
+ROAD_TAG = 1_000_002
+FILL_END_TAG = 1_000_003  # vertical ends of the fill (rollers)
+FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
+BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
+BEAM_HEIGHT = 0.5  # height of a loading beam / its length
+LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the extrados element size (the fill's own scale)
+FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
+EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
+FILL_GRADING = 0.5  # growth of the fill mesh size per unit distance beyond that band (m/m)
+BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG, BEAM_TOP_TAG)
+
+
+def joint_face_tag(joint: int, side: int) -> int:
+    """Facet tag of a joint face: side 0 = the joint's left block, 1 = its right block."""
+    return 2 * joint + side
+
+
+def marked(mesh: Mesh, tags: MeshTagsMetaClass, values) -> MeshTagsMetaClass:
+    """The entities of ``tags`` (on ``mesh``) whose tag is one of ``values``, all tagged 1: a form integrating over tag 1 is
+    then the same (compiled once) whatever the values, e.g. however many voussoirs there are."""
+    entities = tags.indices[np.isin(tags.values, values)]
+    return meshtags(mesh, tags.dim, entities, np.ones(len(entities), dtype=np.int32))
+
+
+@dataclass
+class BlockMesh:
+    """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh;
+    ``fill_block`` is the cell tag of the fill (None without fill), ``abutment_blocks`` those of the abutments,
+    ``beam_blocks`` those of the loading beams."""
+
+    mesh: Mesh
+    cell_tags: MeshTagsMetaClass
+    facet_tags: MeshTagsMetaClass
+    element_size: float
+    n_cells: int
+    n_nodes: int
+    fill_block: int | None = None
+    abutment_blocks: tuple[int, ...] = ()
+    beam_blocks: tuple[int, ...] = ()
+
+
+def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
+    """Splines through ``points`` between existing Gmsh points ``first`` and ``last``, broken at ``splits``."""
+    tags = [first] + [geo.addPoint(x, y, 0.0) for x, y in points[1:-1]] + [last]
+    cuts = [0, *splits, len(points) - 1]
+    return [geo.addSpline(tags[a:b + 1]) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _segment_counts(lengths: list[float], total: int) -> list[int]:
+    """Split ``total`` (at least one per curve) segments over curves in proportion to length, at least one each.
+
+    Rounding and the minimum of one can exceed ``total``; the curve with the most segments then gives up the
+    excess, and when it would keep none (a long chord beside short curves, e.g. a patch's edges on a pointed
+    crown's cap) the curves with the most segments give it theirs back one at a time: Gmsh aborts on a
+    transfinite curve without a segment."""
+    raw = np.maximum(1, np.round(np.asarray(lengths) / sum(lengths) * total)).astype(int)
+    top = int(np.argmax(raw))
+    raw[top] += total - raw.sum()
+    others = np.arange(len(raw)) != top
+    while raw[top] < 1:
+        donor = int(np.argmax(np.where(others, raw, 0)))
+        raw[donor] -= 1
+        raw[top] += 1
+    return [int(v) for v in raw]
+
+
+@dataclass
+class _RawMesh:
+    """The conformal Gmsh mesh before splitting: node coordinates, triangles and their block ids, and boundary
+    segments (pairs of node ids): per joint, on the extrados, and per fill boundary tag."""
+
+    x: np.ndarray
+    cells: np.ndarray
+    blocks: np.ndarray
+    joints: dict
+    extrados: np.ndarray
+    fill: dict
+    h: float
+
+
+def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
+                 beams: tuple[tuple[float, float], ...] = ()) -> _RawMesh:
+    """Mesh the ring, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
+    ``beams``), with Gmsh (rank 0 only)."""
+    import gmsh
+
+    gmsh.initialize([], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("bridge")
+        geo = gmsh.model.geo
+        h = ring.thickness / per_thickness
+        depth = outline.y_road - ring.crown_extrados if outline is not None else None
+        h_extrados = extrados_element_size(ring.thickness, per_thickness, depth)
+        arch_joints = ring.joints[:ring.n_voussoirs + 1]
+        inner = [geo.addPoint(*j.intrados, 0.0) for j in arch_joints]
+        outer = [geo.addPoint(*j.extrados, 0.0) for j in arch_joints]
+        joint_curves = [geo.addLine(a, b) for a, b in zip(inner, outer)]
+        surfaces, extrados_curves = [], []
+        for v in ring.voussoirs:
+            i = v.id
+            intra = _add_polyline_side(geo, v.intrados, v.intrados_splits, inner[i], inner[i + 1])
+            extra = _add_polyline_side(geo, v.extrados, v.extrados_splits, outer[i], outer[i + 1])
+            loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
+            surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
+            extrados_curves += extra
+        abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
+                             for ab in ring.abutments]
+        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados, beams)
+                       if outline is not None else {})
+        geo.synchronize()
+        if outline is not None or ring.abutments:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
+        mesh = gmsh.model.mesh
+        if outline is not None:
+            boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
+            _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
+                                      max(h_fill, h_extrados), depth)
+        for c in joint_curves[:len(arch_joints)]:
+            mesh.setTransfiniteCurve(c, per_thickness + 1)
+        for s, intra, extra, i in surfaces:
+            centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
+            length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
+            # segments along: about one per element size h (1e-9: a length of exactly k h gives k), one per
+            # h_extrados along the extrados under a thin fill (its nodes are the fill's), and at least one per curve
+            # of an edge split at a load point or crown kink (each curve needs a segment)
+            n_fill = sum(int(np.ceil(_curve_length(c) / h_extrados - 1e-9)) for c in extra) if h_extrados < h else 0
+            n_along = max(int(np.ceil(length / h - 1e-9)), n_fill, len(intra), len(extra))
+            for side in (intra, extra):
+                lengths = [_curve_length(c) for c in side] if len(side) > 1 else [1.0]  # one curve: all n_along
+                for c, n in zip(side, _segment_counts(lengths, n_along)):
+                    mesh.setTransfiniteCurve(c, n + 1)
+            mesh.setTransfiniteSurface(s, "Alternate", [inner[i], inner[i + 1], outer[i + 1], outer[i]])
+        mesh.generate(2)
+        tags, xyz, _ = mesh.getNodes()
+        order = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        order[tags.astype(np.int64)] = np.arange(len(tags))
+
+        def elements(dim, entity, nodes_per):
+            return order[np.asarray(mesh.getElements(dim, entity)[2][0], dtype=np.int64)].reshape(-1, nodes_per)
+
+        block_surfaces = [(s, i) for s, _, _, i in surfaces] + abutment_surfaces
+        if outline is not None:
+            block_surfaces.append((fill_curves.pop("surface"), ring.n_blocks))
+            block_surfaces += [(b, ring.n_blocks + 1 + k) for k, b in enumerate(fill_curves.pop("beams"))]
+        cells = [elements(2, s, 3) for s, _ in block_surfaces]
+        blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
+        return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
+                        {j: elements(1, c, 2) for j, c in enumerate(joint_curves)},
+                        np.vstack([elements(1, c, 2) for c in extrados_curves]),
+                        {tag: np.vstack([elements(1, c, 2) for c in curves]) for tag, curves in fill_curves.items()},
+                        h)
+    finally:
+        gmsh.finalize()
+
+
+def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
+    """Element size (m) along the extrados: the ring's, ``thickness`` / ``per_thickness``; under a fill ``depth`` (m)
+    deep over the crown at most ``FILL_DEPTH_SHARE`` x ``depth`` / ``per_thickness``, so that a thin fill over a
+    thick ring has elements through its depth and the size still halves with each doubling of ``per_thickness``."""
+    return min(thickness, FILL_DEPTH_SHARE * depth if depth is not None else thickness) / per_thickness
+
+
+def _grade_fill_from_extrados(surface: int, boundary: list[int], extrados_curves: list[int], size: float,
+                              far_size: float, depth: float) -> None:
+    """Gmsh size field of the fill (its ``surface`` and its ``boundary`` curves only): ``size`` (m) within
+    ``EXTRADOS_BAND`` x ``depth`` (the fill's depth over the crown, m) of the extrados, growing by ``FILL_GRADING``
+    per metre beyond that band up to ``far_size``. Gmsh takes the smaller of this and the sizes at the fill's points
+    (load edges, corners)."""
+    import gmsh
+
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "CurvesList", extrados_curves)
+    field.setNumber(distance, "NumPointsPerCurve", 20)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", distance)
+    field.setNumber(threshold, "SizeMin", size)
+    field.setNumber(threshold, "SizeMax", far_size)
+    field.setNumber(threshold, "DistMin", EXTRADOS_BAND * depth)
+    field.setNumber(threshold, "DistMax", EXTRADOS_BAND * depth + (far_size - size) / FILL_GRADING)
+    restricted = field.add("Restrict")
+    field.setNumber(restricted, "InField", threshold)
+    field.setNumbers(restricted, "FacesList", [surface])
+    field.setNumbers(restricted, "EdgesList", boundary)
+    field.setAsBackgroundMesh(restricted)
+
+
+def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float,
+              h_load: float, beams: tuple[tuple[float, float], ...] = ()) -> dict:
+    """The fill surface over the extrados and the loading beams on its road (one per x-range of ``beams``, whose
+    ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
+    tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
+    loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
+    (:func:`extrados_element_size`) along it and within the fill's depth of it (:func:`_grade_fill_from_extrados`);
+    Gmsh grades in between."""
+    o = outline
+    base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
+                                                                                         h_fill)
+    road_x = [o.x_right, *sorted((x for x in o.road_x if o.x_left < x < o.x_right), reverse=True), o.x_left]
+    road = [geo.addPoint(x, o.y_road, 0.0, h_fill if i in (0, len(road_x) - 1) else h_load)
+            for i, x in enumerate(road_x)]
+    bases = [geo.addLine(base_left, outer[0]), geo.addLine(outer[-1], base_right)]
+    ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
+    road_lines = [geo.addLine(a, b) for a, b in zip(road[:-1], road[1:])]
+    loop = geo.addCurveLoop([bases[0], *extrados_curves, bases[1], ends[0], *road_lines, ends[1]])
+    under, surfaces, tops = set(), [], []
+    for a, b in beams:
+        first, last = road_x.index(b), road_x.index(a)  # road_x descends: the lines first .. last - 1 lie under
+        height = BEAM_HEIGHT * (b - a)
+        top_b, top_a = (geo.addPoint(x, o.y_road + height, 0.0, height) for x in (b, a))
+        sides = [geo.addLine(road[first], top_b), geo.addLine(top_b, top_a), geo.addLine(top_a, road[last])]
+        bottom = [-road_lines[k] for k in range(last - 1, first - 1, -1)]  # from a to b
+        surfaces.append(geo.addPlaneSurface([geo.addCurveLoop([*bottom, *sides])]))
+        tops.append(sides[1])
+        under.update(range(first, last))
+    return {"surface": geo.addPlaneSurface([loop]), "beams": surfaces, FILL_BASE_TAG: bases, FILL_END_TAG: ends,
+            ROAD_TAG: [c for k, c in enumerate(road_lines) if k not in under], FILL_INTERFACE_TAG: extrados_curves,
+            **({BEAM_TOP_TAG: tops} if beams else {})}
+
+
+def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], outer: list[int],
+                  joint_curves: list[int], size: float) -> int:
+    """The Gmsh surface of an abutment. Its top uses the springing joint's points and curve; its base line is
+    appended to ``joint_curves`` (at the base joint's id). ``size`` (m): mesh size at its other corners."""
+    side = 0 if abutment.side == "left" else 1
+    springing, base = ring.springings[side], ring.joints[ring.n_voussoirs + 1 + side]
+
+    def key(p):
+        return tuple(float(v) for v in p)
+
+    tag = {key(springing.intrados): inner[springing.id], key(springing.extrados): outer[springing.id]}
+    points = [tag.get(key(p)) or geo.addPoint(*p, 0.0, size) for p in abutment.polygon]
+    tag.update(zip(map(key, abutment.polygon), points))
+    joint_curves.append(geo.addLine(tag[key(base.intrados)], tag[key(base.extrados)]))
+    directed = {(tag[key(j.intrados)], tag[key(j.extrados)]): joint_curves[j.id] for j in (springing, base)}
+    curves = []
+    for a, b in zip(points, points[1:] + points[:1]):
+        if (a, b) in directed:
+            curves.append(directed[a, b])
+        elif (b, a) in directed:
+            curves.append(-directed[b, a])
+        else:
+            curves.append(geo.addLine(a, b))
+    return geo.addPlaneSurface([geo.addCurveLoop(curves)])
+
+
+def _curve_length(curve: int) -> float:
+    import gmsh
+
+    lo, hi = gmsh.model.getParametrizationBounds(1, curve)
+    pts = np.asarray(gmsh.model.getValue(1, curve, np.linspace(lo, hi, 9).ravel())).reshape(-1, 3)
+    return float(np.linalg.norm(np.diff(pts[:, :2], axis=0), axis=1).sum())
+
+
+def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
+    """Give every node one copy per block: returns new coordinates, cells and ``copy(block, old_node)``."""
+    n_old = len(x)
+    keys = blocks.astype(np.int64)[:, None] * n_old + cells
+    unique, inverse = np.unique(keys.ravel(), return_inverse=True)
+
+    def copy(block, old):
+        k = np.asarray(block, dtype=np.int64) * n_old + np.asarray(old, dtype=np.int64)
+        idx = np.searchsorted(unique, k)
+        assert np.all(unique[np.minimum(idx, len(unique) - 1)] == k), "node not in block"
+        return idx
+
+    return x[unique % n_old], inverse.reshape(cells.shape), copy
+
+
+def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD,
+                     fill: FillOutline | None = None, fill_element_size: float = 0.0,
+                     beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
+    """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
+
+    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size);
+    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
+    """
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
+    fill_block = ring.n_blocks if fill is not None else None
+    beams = beams if fill is not None else ()
+    beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
+    if comm.rank == 0:
+        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness,
+                           beams)
+        # a beam is bonded to the road: its nodes are the fill's (split as one block)
+        xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
+        facets, values = [], []
+        for j, seg in raw.joints.items():
+            if ring.joints[j].free:
+                continue
+            for side, block in enumerate((ring.joints[j].left, ring.joints[j].right)):
+                if block is not None:
+                    facets.append(copy(np.full(seg.shape, block), seg))
+                    values.append(np.full(len(seg), joint_face_tag(j, side), dtype=np.int32))
+        ring_cells = np.flatnonzero(raw.blocks < ring.n_blocks)  # the fill's cells share the extrados edges
+        ext_block = raw.blocks[ring_cells[_owning_cell(raw.cells[ring_cells], raw.extrados)]]
+        facets.append(copy(np.stack([ext_block, ext_block], axis=1), raw.extrados))
+        values.append(np.full(len(raw.extrados), EXTRADOS_TAG, dtype=np.int32))
+        for tag, seg in raw.fill.items():
+            facets.append(copy(np.full(seg.shape, fill_block), seg))
+            values.append(np.full(len(seg), tag, dtype=np.int32))
+        facets, values = np.vstack(facets).astype(np.int64), np.concatenate(values)
+        cell_values = raw.blocks
+        info = comm.bcast((raw.h, len(cs), len(xs)), root=0)
+    else:
+        xs, cs = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
+        facets, values = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
+        cell_values = np.zeros(0, dtype=np.int32)
+        info = comm.bcast(None, root=0)
+    mesh = _create_mesh(comm, cs, xs, domain)
+    tdim = mesh.topology.dim
+    ct = _tags(mesh, tdim, cs, cell_values)
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    ft = _tags(mesh, tdim - 1, facets, values)
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments),
+                     beam_blocks)
+
+
+def _create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, domain: ufl.Mesh) -> Mesh:
+    """:func:`dolfinx.mesh.create_mesh` with the cells passed as an adjacency list: given a numpy array, DOLFINx
+    0.5 first calls the C++ function with it, which raises a TypeError whose message formats both arrays."""
+    cmap = _cpp.fem.CoordinateElement(_cpp.mesh.CellType.triangle, 1)
+    adjacency = _cpp.graph.AdjacencyList_int64(np.ascontiguousarray(cells, dtype=np.int64))
+    return Mesh(_cpp.mesh.create_mesh(comm, adjacency, cmap, np.ascontiguousarray(x), GhostMode.shared_facet,
+                                      _cpp.mesh.create_cell_partitioner()), domain)
+
+
+def _owning_cell(cells: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """For each boundary segment (two node ids), the index of a cell containing both nodes."""
+    n = cells.max() + 1
+    edge_keys = np.concatenate([np.sort(cells[:, [a, b]], axis=1) @ np.array([n, 1]) for a, b in
+                                ((0, 1), (1, 2), (2, 0))])
+    edge_cell = np.tile(np.arange(len(cells)), 3)
+    order = np.argsort(edge_keys)
+    seg_keys = np.sort(segments, axis=1) @ np.array([n, 1])
+    pos = np.searchsorted(edge_keys[order], seg_keys)
+    return edge_cell[order][pos]
+
+
+def _tags(mesh: Mesh, dim: int, entities: np.ndarray, values: np.ndarray) -> MeshTagsMetaClass:
+    local, local_values = _cpp.io.distribute_entity_data(mesh._mesh, dim, entities, values)
+    mesh.topology.create_connectivity(dim, 0)
+    return meshtags_from_entities(mesh, dim, _cpp.graph.AdjacencyList_int32(local),
+                                  np.asarray(local_values, dtype=np.int32))

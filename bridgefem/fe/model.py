@@ -1,0 +1,236 @@
+"""Linear elasticity of the voussoirs assembled once with DOLFINx: stiffness, self-weight and live-load vectors.
+
+All quantities are for the full out-of-plane width of the ring: K in N/m, forces in N. The live-load
+vector is for a unit load level (1 N times each load's ``factor``); loads point down (-y).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..geometry.ring import ArchRing, joint_under, point_load_blocks
+from ..scene.schema import Fill, Scene
+from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
+
+POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the load
+BEAM_STIFFNESS = 1000.0  # Young's modulus of a loading beam / the fill's: rigid against the fill (docs/fill.md)
+
+
+@dataclass
+class ElasticModel:
+    """Assembled operators; ``monitor`` holds the owned node indices (blocked) of the ring's extrados whose mean
+    vertical displacement is the deflection under the first load (at the crown without live load).
+    ``dead_weight`` is the ring's weight, ``fill_weight`` the fill's and ``abutment_weight`` that of the elastic
+    abutments (N); ``bcs`` the fill's supports."""
+
+    V: fem.FunctionSpace
+    K: PETSc.Mat
+    f_dead: PETSc.Vec
+    f_live: PETSc.Vec
+    monitor: np.ndarray
+    dead_weight: float
+    live_per_level: float
+    fill_weight: float = 0.0
+    bcs: list = field(default_factory=list)
+    abutment_weight: float = 0.0
+
+
+def lame(young: float, poisson: float, plane: str) -> tuple[float, float]:
+    """Lame constants (Pa) of the 2D model; plane stress uses lambda* = 2 lambda mu / (lambda + 2 mu)."""
+    lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = young / (2 * (1 + poisson))
+    return (2 * lam * mu / (lam + 2 * mu) if plane == "stress" else lam), mu
+
+
+def _owned_distances(V: fem.FunctionSpace, point: np.ndarray) -> np.ndarray:
+    """Distance (m) from ``point`` to every owned node of V."""
+    n_owned = V.dofmap.index_map.size_local
+    return np.linalg.norm(V.tabulate_dof_coordinates()[:n_owned, :2] - point, axis=1)
+
+
+def _owned_nodes_at(V: fem.FunctionSpace, point: np.ndarray, tol: float) -> np.ndarray:
+    return np.flatnonzero(_owned_distances(V, point) < tol)
+
+
+def beam_lame(fill: Fill) -> tuple[float, float]:
+    """Lame constants (Pa, plane strain) of a loading beam: ``BEAM_STIFFNESS`` x the fill's Young's modulus, the
+    fill's Poisson's ratio."""
+    return lame(BEAM_STIFFNESS * fill.young, fill.poisson, "strain")
+
+
+def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
+                  abutment_value: float | None = None, Q: fem.FunctionSpace | None = None,
+                  beam_value: float = 0.0) -> fem.Function:
+    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill,
+    ``abutment_value`` on elastic abutments (default: ``arch_value``) and ``beam_value`` on loading beams; ``Q``:
+    the DG0 space (default: a new one)."""
+    Q = fem.FunctionSpace(bm.mesh, ("DG", 0)) if Q is None else Q
+    q = fem.Function(Q)
+    tags = bm.cell_tags
+    is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
+    value = np.where(is_fill, fill_value, arch_value)
+    if abutment_value is not None:
+        value[np.isin(tags.values, bm.abutment_blocks)] = abutment_value
+    value[np.isin(tags.values, bm.beam_blocks)] = beam_value
+    q.x.array[Q.dofmap.list.array[tags.indices]] = value
+    q.x.scatter_forward()
+    return q
+
+
+def node_blocks(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
+    """The block (cell tag: voussoir, abutment or fill) of each local node of V, owned then ghost (-1: none).
+    Nodes are duplicated at the joints, so each belongs to one block; a loading beam's nodes count as the fill's
+    (it is bonded to the road)."""
+    imap = V.dofmap.index_map
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    block = np.full(imap.size_local + imap.num_ghosts, -1)
+    tags = bm.cell_tags.values.copy()
+    if bm.beam_blocks:
+        tags[np.isin(tags, bm.beam_blocks)] = bm.fill_block
+    block[dofs[bm.cell_tags.indices].ravel()] = np.repeat(tags, dofs.shape[1])
+    return block
+
+
+def fill_supports(V: fem.FunctionSpace, bm: BlockMesh) -> list[fem.DirichletBCMetaClass]:
+    """The fill's supports: its base fixed, its vertical ends on rollers (u_x = 0); none without fill."""
+    if bm.fill_block is None:
+        return []
+    tags = bm.facet_tags
+    zero = PETSc.ScalarType(0.0)
+    base = fem.locate_dofs_topological(V, 1, tags.indices[tags.values == FILL_BASE_TAG])
+    ends = fem.locate_dofs_topological(V.sub(0), 1, tags.indices[tags.values == FILL_END_TAG])
+    return [fem.dirichletbc(np.zeros(2, dtype=PETSc.ScalarType), base, V),
+            fem.dirichletbc(zero, ends, V.sub(0))]
+
+
+def strain(w):
+    return ufl.sym(ufl.grad(w))
+
+
+def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
+                        point_load_sides: list[str | None] | None = None) -> ElasticModel:
+    """Assemble K, the self-weight vector and the unit live-load vector. Live loads act on the extrados of a bare
+    arch and on the road over a fill, a patch on the top face of its loading beam when the mesh has beams
+    (weightless, elastic with :func:`beam_lame`); the fill's supports are built into K and the loads. A point
+    load is a nodal force shared equally by the nodes at the load point of the blocks that carry it
+    (:func:`load_point`): a load on a joint is on the side given per scene load by ``point_load_sides`` ("left" |
+    "right" | "split"; None for a load off the joints), by default the rigid-block LP's least favourable one
+    (:func:`least_favourable_sides`), so that the FE and the LP load the same block."""
+    mesh, comm = bm.mesh, bm.mesh.comm
+    fill = scene.fill
+    V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
+    Q = fem.FunctionSpace(mesh, ("DG", 0))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    ab = scene.abutments
+    arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
+    fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
+    abutment_lame = lame(ab.young, ab.poisson, scene.model.plane) if ab.elastic else (None, None)
+    beam = beam_lame(fill) if bm.beam_blocks else (0.0, 0.0)
+    lam, mu = (cell_constant(bm, a, f, b, Q, e) for a, f, b, e in zip(arch_lame, fill_lame, abutment_lame, beam))
+    width = scene.arch.width
+    bcs = fill_supports(V, bm)
+
+    sigma = 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
+    K = assemble_matrix(fem.form(width * ufl.inner(sigma, strain(v)) * ufl.dx), bcs=bcs)
+    K.assemble()
+
+    rho_g = scene.masonry.density * scene.gravity
+    weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
+                           ab.unit_weight if ab.elastic else None, Q)
+    f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
+
+    def weight_of(blocks: tuple[int, ...]) -> float:
+        """Weight (N) of the cells with these tags (marked 1 in a tag of their own: one form for any blocks)."""
+        if not blocks:
+            return 0.0
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=marked(mesh, bm.cell_tags, blocks))
+        return comm.allreduce(fem.assemble_scalar(fem.form(width * weight * dx(1))))
+
+    dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * ufl.dx)))
+    fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
+    abutment_weight = weight_of(bm.abutment_blocks)
+
+    surface = (BEAM_TOP_TAG if bm.beam_blocks else ROAD_TAG) if fill is not None else EXTRADOS_TAG
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=bm.facet_tags)
+    x = ufl.SpatialCoordinate(mesh)
+    n = ufl.FacetNormal(mesh)
+    patch = ufl.inner(fem.Constant(mesh, PETSc.ScalarType((0.0, 0.0))), v) * ufl.dx
+    for ld in scene.loads:
+        if ld.kind == "patch":
+            a, b = ld.x_range(scene.arch.span)
+            inside = ufl.conditional(ufl.And(ufl.ge(x[0], a), ufl.le(x[0], b)), 1.0, 0.0)
+            patch = patch - ld.factor / ld.length * inside * abs(n[1]) * v[1] * ds(surface)
+    f_live = _load_vector(patch, bcs)
+    if point_load_sides is None:
+        point_load_sides = least_favourable_sides(scene, comm)
+    blocks = node_blocks(V, bm)
+    for ld, side in zip(scene.loads, point_load_sides):
+        if ld.kind == "point":
+            point, carriers = load_point(ring, scene, ld.x_range(scene.arch.span)[0], side or "split")
+            nodes = _owned_nodes_at(V, point, POINT_TOL)
+            nodes = nodes[np.isin(blocks[nodes], carriers)]
+            count = comm.allreduce(len(nodes))
+            if count == 0:
+                raise RuntimeError(f"no mesh node at the point load x = {point[0]:.6g} m")
+            with f_live.localForm() as loc:
+                loc.array[2 * nodes + 1] -= ld.factor / count
+    live = -f_live.sum()
+
+    x_mon = 0.5 * sum(scene.loads[0].x_range(scene.arch.span)) if scene.loads else 0.0
+    ring_nodes = _ring_nodes(V, bm)
+    point = ring.extrados_point(x_mon)
+    d = _owned_distances(V, point)[ring_nodes]
+    tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
+    monitor = ring_nodes[d < tol]
+    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight - abutment_weight, live, fill_weight,
+                        bcs, abutment_weight)
+
+
+def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> tuple[np.ndarray, tuple[int, ...]]:
+    """Where a point load at horizontal position x (m) acts and the blocks whose nodes there carry it: on the road
+    over a fill (the fill's block), else on the ring's extrados as :func:`bridgefem.geometry.ring.point_load_blocks`
+    says for ``side`` (a load on a joint acts at the joint's extrados corner)."""
+    if scene.fill is not None:
+        return np.array([x, ring.crown_extrados + scene.fill.depth]), (ring.n_blocks,)
+    j = joint_under(ring, x)
+    point = ring.extrados_vertex(x) if j is None else ring.joints[j].extrados
+    return point, point_load_blocks(ring, x, side)
+
+
+def least_favourable_sides(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> list[str | None]:
+    """Per scene load, the block side ("left" | "right") that carries a point load lying on a joint in the
+    rigid-block LP's least favourable allocation (:func:`bridgefem.limit.rigid_block.collapse_load`), else None. Over
+    a fill the loads act on the road and no side is needed. Computed on rank 0 and broadcast; if the LP fails (a
+    RuntimeError from HiGHS) the loads stay shared by both faces (None)."""
+    if scene.fill is not None or not any(ld.kind == "point" for ld in scene.loads):
+        return [None] * len(scene.loads)
+    from ..limit.rigid_block import collapse_load
+
+    def sides() -> list[str | None]:
+        try:
+            return collapse_load(scene).load_sides
+        except RuntimeError:
+            return [None] * len(scene.loads)
+
+    return comm.bcast(sides() if comm.rank == 0 else None, root=0)
+
+
+def _ring_nodes(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
+    """Owned (blocked) node indices of the voussoirs' extrados faces."""
+    facets = bm.facet_tags.indices[bm.facet_tags.values == EXTRADOS_TAG]
+    nodes = fem.locate_dofs_topological(V, 1, facets)
+    return nodes[nodes < V.dofmap.index_map.size_local]
+
+
+def _load_vector(form, bcs) -> PETSc.Vec:
+    """Assemble a load vector (N), add ghost contributions and zero it on supported dofs."""
+    vec = assemble_vector(fem.form(form))
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    set_bc(vec, bcs)
+    return vec

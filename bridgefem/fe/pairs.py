@@ -1,0 +1,174 @@
+"""Joint node pairs and the unilateral contact / Coulomb friction laws (seed paper, eqs. 1-6).
+
+Each joint is a set of coincident node pairs (left face, right face; a springing pairs a voussoir face
+with the rigid ground). Per pair k, with unit normal n from the left face into the right face and tangent
+tau = n rotated +90 degrees:
+
+- relative displacement ``d = [(u_R - u_L).n, (u_R - u_L).tau]`` (m); ``d_n >= 0`` is opening
+  (eq. 1 with zero initial gap: ``h = -d_n <= 0``); on the ground side u is the imposed ground movement
+  (zero, or a support movement: :func:`ground_offsets`);
+- joint force on the right face ``lam = [lam_n, lam_t]`` (N, whole width); ``lam_n >= 0`` is compression
+  (eq. 2) and ``lam_n d_n = 0`` (eq. 3);
+- Coulomb friction (eqs. 4-6): ``|lam_t| <= mu lam_n``; stick (``Delta d_t = 0``) while strictly inside the
+  cone; slip in either direction with ``lam_t = -mu lam_n sign(Delta d_t)`` (friction opposes the slip of the
+  right face). ``Delta d_t`` is the slip since the last converged load step (incremental, path following).
+
+The laws are written as Alart-Curnier complementarity functions with the constant c (N/m per pair):
+``sigma_n = lam_n - c d_n`` (contact iff > 0), ``sigma_t = lam_t - c Delta d_t`` (stick iff |sigma_t| <= mu
+sigma_n), in the law object :class:`CoulombJoints`. Their semismooth Newton method is the primal-dual active-set
+method in :mod:`bridgefem.solver.newton`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_vector
+from petsc4py import PETSc
+from scipy.spatial import cKDTree
+
+from ..geometry.ring import ArchRing
+from .mesh import BOUNDARY_TAGS, EXTRADOS_TAG, FILL_BASE_TAG, FILL_INTERFACE_TAG, BlockMesh, joint_face_tag, marked
+from .model import node_blocks
+
+GROUND = -1
+ARCH_FILL = -2  # joint id of the arch-fill interface pairs
+
+
+@dataclass
+class JointPairs:
+    """The node pairs of this rank (a contiguous share ``offset .. offset + len`` of ``total`` pairs).
+
+    ``left``/``right`` are global blocked node indices of the vector space (``GROUND`` for the rigid ground);
+    ``length`` is the tributary length (m) of the pair along its joint; ``position`` its distance from the
+    intrados (m), or its x (m) on the arch-fill interface (joint id ``ARCH_FILL``).
+    """
+
+    joint: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    length: np.ndarray
+    position: np.ndarray
+    offset: int
+    total: int
+
+    def __len__(self) -> int:
+        return len(self.joint)
+
+
+def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
+    """Integral of each basis function over the joint faces: the tributary length per blocked dof (m).
+
+    The faces are marked 1 in a tag of their own (:func:`bridgefem.fe.mesh.marked`), so that the form does not depend on which tags (how many
+    voussoirs) are integrated over: compiled once, not per joint layout."""
+    ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=marked(bm.mesh, bm.facet_tags, tags))
+    v = ufl.TestFunction(V)
+    vec = assemble_vector(fem.form(v[0] * ds(1)))
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return vec.array[0::2].copy()
+
+
+def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
+    """Rows (tag, global blocked node, x, y, tributary length, block) of the owned nodes on each facet tag,
+    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
+    comm = bm.mesh.comm
+    imap = V.dofmap.index_map
+    weights = _tributary_lengths(V, bm, tags)
+    blocks = node_blocks(V, bm)
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    rows = []
+    for tag in tags:
+        facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
+        nodes = fem.locate_dofs_topological(V, 1, facets)
+        nodes = nodes[nodes < imap.size_local]
+        g = imap.local_to_global(nodes.astype(np.int32))
+        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes], blocks[nodes]]))
+    return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 6))))
+
+
+def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:
+    """Pairs of the arch-fill interface: each fill node on the extrados (except those on the fixed base) with
+    the ring node at its place. At a joint's extrados corner two voussoir faces meet: the fill node is paired
+    with one of them, since pairing both would over-constrain a closed joint: the voussoir with the lower block
+    number (the one on the left of the joint), a choice of the geometry, not of the node numbering, which differs
+    between partitions (pairing by the lower global index made the fill ride on different voussoirs under MPI
+    once a joint opened). Normal from
+    the ring into the fill, from the neighbouring interface nodes (central differences)."""
+    table = _gather_face_nodes(V, bm, [EXTRADOS_TAG, FILL_INTERFACE_TAG, FILL_BASE_TAG])
+    ring_rows = table[table[:, 0] == EXTRADOS_TAG]
+    fill_rows = table[table[:, 0] == FILL_INTERFACE_TAG]
+    fill_rows = fill_rows[~np.isin(fill_rows[:, 1], table[table[:, 0] == FILL_BASE_TAG][:, 1])]
+    fill_rows = fill_rows[np.argsort(fill_rows[:, 2])]
+    dist, idx = cKDTree(ring_rows[:, 2:4]).query(fill_rows[:, 2:4], k=2)
+    if np.any(dist[:, 0] > match_tol):
+        raise RuntimeError("arch-fill interface: fill nodes without a ring node at their place")
+    near = dist <= match_tol
+    left = np.argmin(np.where(near, ring_rows[idx, 5], np.inf), axis=1)  # the voussoir on the joint's left
+    ring_node = ring_rows[idx[np.arange(len(idx)), left], 1]
+    x = fill_rows[:, 2:4]
+    tangent = np.gradient(x, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    n = len(fill_rows)
+    return {"joint": np.full(n, ARCH_FILL), "left": ring_node.astype(np.int64),
+            "right": fill_rows[:, 1].astype(np.int64), "normal": normal,
+            "tangent": np.column_stack([-normal[:, 1], normal[:, 0]]), "length": fill_rows[:, 4],
+            "position": x[:, 0]}
+
+
+def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: float) -> JointPairs:
+    """Pair the nodes of both faces of every joint by position along the joint (any degree, any partition),
+    and, with a fill, the ring and fill nodes of the extrados (joint id ``ARCH_FILL``).
+
+    Owned face nodes of all ranks are gathered (only joint nodes: small), paired identically on every rank,
+    then split evenly over the ranks. ``match_tol`` (m) is the largest allowed distance within a pair.
+    """
+    comm = bm.mesh.comm
+    local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t not in BOUNDARY_TAGS]
+    table = _gather_face_nodes(V, bm, sorted(set(comm.allreduce(local_tags))))
+
+    cols = {k: [] for k in ("joint", "left", "right", "normal", "tangent", "length", "position")}
+    for jt in (j for j in ring.joints if not j.free):
+        faces = []
+        for side in (0, 1):
+            sel = table[table[:, 0] == joint_face_tag(jt.id, side)]
+            s = (sel[:, 2:4] - jt.intrados) @ jt.tangent
+            faces.append((sel[np.argsort(s)], np.sort(s)))
+        present = [f for f in faces if len(f[0])]
+        if len(present) == 2 and len(present[0][0]) != len(present[1][0]):
+            raise RuntimeError(f"joint {jt.id}: {len(present[0][0])} and {len(present[1][0])} nodes on its faces")
+        if len(present) == 2 and np.abs(present[0][0][:, 2:4] - present[1][0][:, 2:4]).max() > match_tol:
+            raise RuntimeError(f"joint {jt.id}: face nodes do not coincide")
+        ref, s = present[0]
+        n = len(ref)
+        side_nodes = [f[0][:, 1].astype(np.int64) if len(f[0]) else np.full(n, GROUND) for f in faces]
+        cols["joint"].append(np.full(n, jt.id))
+        cols["left"].append(side_nodes[0])
+        cols["right"].append(side_nodes[1])
+        cols["normal"].append(np.tile(jt.normal, (n, 1)))
+        cols["tangent"].append(np.tile(jt.tangent, (n, 1)))
+        cols["length"].append(np.mean([f[0][:, 4] for f in present], axis=0))
+        cols["position"].append(s)
+    if bm.fill_block is not None:
+        for k, v in _interface_pairs(V, bm, match_tol).items():
+            cols[k].append(v)
+    total = sum(len(c) for c in cols["joint"])
+    share = np.array_split(np.arange(total), comm.size)[comm.rank]
+    lo, hi = (int(share[0]), int(share[-1]) + 1) if len(share) else (0, 0)
+    return JointPairs(**{k: np.concatenate(v)[lo:hi] for k, v in cols.items()}, offset=lo, total=total)
+
+
+def ground_offsets(pairs: JointPairs, motion: dict[int, np.ndarray]) -> np.ndarray:
+    """What a ground movement adds to the relative displacement of each local pair, (m, 2) in m (normal,
+    tangential): ``d = G u + offset``. ``motion``: joint id -> ground displacement (m; x, y) under that joint."""
+    delta = np.zeros((len(pairs), 2))
+    for joint, vector in motion.items():  # a few supports, not pairs
+        delta[pairs.joint == joint] = vector
+    side = np.where(pairs.right == GROUND, 1.0, np.where(pairs.left == GROUND, -1.0, 0.0))  # ground is R / L
+    return side[:, None] * np.column_stack([(delta * pairs.normal).sum(axis=1), (delta * pairs.tangent).sum(axis=1)])
+
+

@@ -1,0 +1,104 @@
+"""The size of a scene's model, estimated from the scene alone before anything is built: cells, unknowns and the
+memory of the direct solver, so that a run far beyond the machine is refused with the numbers instead of
+swapping for minutes, and a long one is announced.
+
+Cells follow the mesher's rules (:mod:`bridgefem.fe.mesh`): element size h = thickness / elements_through_thickness
+in the ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
+cut into two triangles (more along under a thin fill: one per extrados element size); the fill and the abutments
+unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
+is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
+(MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
+bare arch from 1k to 68k unknowns (185, 208 and 325 MB at 1k, 13k and 68k: 117 to 127 bytes per n log2 n); cells
+and unknowns came within 1 % of the mesher's on bare arches and within 30 % with a fill (cells 12 to 22 % under
+the mesher's on Prestwood and campaign scenes #125, #145, #276, over it by 8 % on #260).
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.ring import make_shape
+from ..scene.schema import Scene, SceneError
+from .mesh import EXTRADOS_BAND, extrados_element_size
+
+MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
+MEMORY_PER_DOF = 120.0  # bytes per n log2 n unknowns: matrix, factor and work space (fit, see the docstring)
+LARGE_DOFS = 200_000  # unknowns above which a run is announced with its estimate and set-up phases
+MAX_DOFS = 1_000_000  # unknowns above which a run is refused (unless asked for): a limit search factorises the
+# matrix 50-100 times, which at this size takes hours on a workstation
+TRIANGLES_PER_AREA = 4.2  # unstructured triangles per h^2 of fill area (Gmsh, measured on two fills)
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """Cells, unknowns (displacements and joint forces) and peak memory (bytes) of a scene's model."""
+
+    cells: int
+    dofs: int
+    memory: float
+
+    def describe(self) -> str:
+        return (f"about {self.cells:,} cells, {self.dofs:,} unknowns and {self.memory / 1e9:.1f} GB of memory "
+                "(estimate)")
+
+
+def estimate_size(scene: Scene) -> SizeEstimate:
+    """The model's size from the scene alone (no mesh is built)."""
+    a, ett, degree = scene.arch, scene.mesh.elements_through_thickness, scene.mesh.degree
+    shape = make_shape(a.shape, a.span, a.rise)
+    p = np.linspace(0.0, 1.0, 257)
+    centre = shape.point(p) + 0.5 * a.thickness * shape.normal(p)
+    length = float(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum())
+    extrados = shape.point(p) + a.thickness * shape.normal(p)
+    extrados_length = float(np.linalg.norm(np.diff(extrados, axis=0), axis=1).sum())
+    h = a.thickness / ett
+    h_extrados = extrados_element_size(a.thickness, ett, scene.fill.depth if scene.fill is not None else None)
+    along = max(1, math.ceil(length / a.voussoirs / h),
+                math.ceil(extrados_length / a.voussoirs / h_extrados) if h_extrados < h else 0)
+    n = a.voussoirs
+    cells = 2 * n * ett * along
+    nodes = n * (degree * ett + 1) * (degree * along + 1)
+    pairs = (n + 1) * (degree * ett + 1)
+    if scene.fill is not None:
+        f = scene.fill
+        hf = f.element_size or 2 * h
+        box = (a.span + 2 * a.thickness + 2 * f.extension) * (a.rise + a.thickness + f.depth)
+        area = max(box - math.pi / 4 * (a.span + 2 * a.thickness) * (a.rise + a.thickness), 0.2 * box)
+        band = min(extrados_length * EXTRADOS_BAND * f.depth, area)  # kept at h_extrados (mesh.py)
+        fill_cells = TRIANGLES_PER_AREA * (band / min(h_extrados, hf) ** 2 + (area - band) / hf ** 2)
+        cells += fill_cells
+        nodes += fill_cells * (0.5 if degree == 1 else 2.0)
+        pairs += (extrados_length / min(h_extrados, hf)) * degree
+    if scene.abutments.elastic:
+        ab = scene.abutments
+        block_cells = 2 * TRIANGLES_PER_AREA * ab.height * ab.length / (2 * h) ** 2
+        cells += block_cells
+        nodes += block_cells * (0.5 if degree == 1 else 2.0)
+    dofs = int(2 * nodes + 2 * pairs)
+    memory = MEMORY_BASE + MEMORY_PER_DOF * dofs * math.log2(max(dofs, 2))
+    return SizeEstimate(int(cells), dofs, memory)
+
+
+def machine_memory() -> float:
+    """Physical memory of this machine (bytes)."""
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def check_size(scene: Scene, memory: float | None = None, max_dofs: float = MAX_DOFS) -> SizeEstimate:
+    """The scene's size estimate; SceneError, naming the numbers and the keys that set them, when its memory
+    exceeds 80 % of ``memory`` (default: this machine's) or its unknowns ``max_dofs``."""
+    size = estimate_size(scene)
+    memory = machine_memory() if memory is None else memory
+    a, m = scene.arch, scene.mesh
+    keys = (f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
+            f"degree = {m.degree}")
+    if size.memory > 0.8 * memory:
+        raise SceneError(f"{keys}: {size.describe()}, more than the allowed 80 % of this "
+                         f"machine's {memory / 1e9:.1f} GB; use fewer voussoirs or elements")
+    if size.dofs > max_dofs:
+        raise SceneError(f"{keys}: {size.describe()}, more than the {max_dofs:,.0f} unknowns allowed "
+                         "(hours per limit search); use fewer voussoirs or elements, or --no-size-limit")
+    return size

@@ -1,0 +1,501 @@
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
+
+Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
+x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
+springing (p = 0) to the right springing (p = 1).
+
+The ring is the band swept by the joint segments ``intrados(p) -> intrados(p) + t n(p)`` where ``n`` is
+the unit normal of the intrados pointing towards the extrados. Offset curves share their normals, so
+every joint is perpendicular to the intrados, the centreline (offset t/2) and the extrados (offset t);
+for circular shapes the joints are radial. Joints are spaced evenly along the centreline arc length,
+except that by default the nearest joint is moved under each concentrated load.
+
+Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
+joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
+normal points from its left block into its right block (the centreline tangent); its unit tangent is
+the normal rotated +90 degrees, which points from the intrados towards the extrados at the left springing.
+
+On elastic abutments (:func:`add_abutments`) blocks N (left) and N + 1 (right) stand below the springings:
+joints 0 and N then separate the ring from an abutment, and joints N + 1 (left) and N + 2 (right) are the
+abutments' bases on the ground, drawn from the inner base corner (their "intrados", on the span side) to
+the outer one (their "extrados").
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    pass
+
+SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
+LOAD_SIDES = ("left", "right", "split")
+# a load point within this fraction of the span of a joint's extrados corner is on the joint: it acts at the
+# corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
+AT_JOINT_TOL = 1e-4
+KINK_NUDGE = 1e-6  # a chord's end at a kink is moved this fraction of it back onto its own arc
+_FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
+# points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
+# holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
+_EDGE_SAMPLES = 17
+
+
+class _Shape(ABC):
+    """An intrados curve: ``point(p)`` and ``normal(p)`` for p in [0, 1], vectorised; ``kinks`` lists corners."""
+
+    kinks: tuple[float, ...] = ()
+
+    @abstractmethod
+    def point(self, p: np.ndarray) -> np.ndarray:
+        """Intrados points (m), shape (..., 2)."""
+
+    @abstractmethod
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit normals towards the extrados, shape (..., 2)."""
+
+
+class _Circular(_Shape):
+    """Circular arc through both springings and the crown (semicircular when rise = span/2)."""
+
+    def __init__(self, span: float, rise: float):
+        self.radius = (span ** 2 / 4 + rise ** 2) / (2 * rise)
+        self.yc = rise - self.radius
+        self.a0 = np.arccos(np.clip(span / (2 * self.radius), -1.0, 1.0))
+
+    def _angle(self, p):
+        return self.a0 + np.asarray(p, float) * (np.pi - 2 * self.a0)
+
+    def point(self, p):
+        a = self._angle(p)
+        return np.stack([-self.radius * np.cos(a), self.yc + self.radius * np.sin(a)], axis=-1)
+
+    def normal(self, p):
+        a = self._angle(p)
+        return np.stack([-np.cos(a), np.sin(a)], axis=-1)
+
+
+class _Pointed(_Shape):
+    """Two circular arcs centred on the springing line, meeting at the crown (equilateral if rise = span*sqrt(3)/2)."""
+
+    kinks = (0.5,)
+
+    def __init__(self, span: float, rise: float):
+        self.x0 = (rise ** 2 - span ** 2 / 4) / span
+        self.radius = span / 2 + self.x0
+        self.a_top = np.arccos(self.x0 / self.radius)
+
+    def _left(self, q):
+        a = 2 * np.asarray(q, float) * self.a_top
+        pt = np.stack([self.x0 - self.radius * np.cos(a), self.radius * np.sin(a)], axis=-1)
+        return pt, np.stack([-np.cos(a), np.sin(a)], axis=-1)
+
+    def _mirror(self, p, which):
+        p = np.asarray(p, float)
+        left = p <= 0.5
+        v = which(np.where(left, p, 1.0 - p))
+        return np.where(left[..., None], v, v * np.array([-1.0, 1.0]))
+
+    def point(self, p):
+        return self._mirror(p, lambda q: self._left(q)[0])
+
+    def normal(self, p):
+        n = self._mirror(p, lambda q: self._left(q)[1])
+        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)  # p = 0.5 up to round-off: the apex
+        return np.where(crown[..., None], np.array([0.0, 1.0]), n)
+
+
+class _Elliptical(_Shape):
+    """Semi-ellipse with semi-axes span/2 (horizontal) and rise (vertical)."""
+
+    def __init__(self, span: float, rise: float):
+        self.a, self.b = span / 2, rise
+
+    def point(self, p):
+        t = np.pi * np.asarray(p, float)
+        return np.stack([-self.a * np.cos(t), self.b * np.sin(t)], axis=-1)
+
+    def normal(self, p):
+        t = np.pi * np.asarray(p, float)
+        n = np.stack([-self.b * np.cos(t), self.a * np.sin(t)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+class _Parabolic(_Shape):
+    """Parabola y = rise (1 - (2x/span)^2)."""
+
+    def __init__(self, span: float, rise: float):
+        self.span, self.rise = span, rise
+
+    def point(self, p):
+        x = self.span * (np.asarray(p, float) - 0.5)
+        return np.stack([x, self.rise * (1 - (2 * x / self.span) ** 2)], axis=-1)
+
+    def normal(self, p):
+        x = self.span * (np.asarray(p, float) - 0.5)
+        n = np.stack([8 * self.rise * x / self.span ** 2, np.ones_like(x)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def make_shape(shape: str, span: float, rise: float) -> _Shape:
+    """The intrados curve of a named shape (see ``SHAPES``); span and rise in m on the intrados."""
+    return {"semicircular": _Circular, "segmental": _Circular, "pointed": _Pointed,
+            "elliptical": _Elliptical, "parabolic": _Parabolic}[shape](span, rise)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A potential crack between two blocks; ``left``/``right`` are voussoir ids or None for the ground
+    (or, with ``free``, for nothing: an unloaded free face)."""
+
+    id: int
+    intrados: np.ndarray
+    extrados: np.ndarray
+    left: int | None
+    right: int | None
+    free: bool = False  # a free face (no ground behind the missing block), e.g. the top of a standing block
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.extrados - self.intrados))
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Unit vector along the joint, from intrados to extrados."""
+        return (self.extrados - self.intrados) / self.length
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normal from the left block into the right block (the centreline direction)."""
+        t = self.tangent
+        return np.array([t[1], -t[0]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        return 0.5 * (self.intrados + self.extrados)
+
+
+class _Polygonal:
+    """Area (m^2) and centroid (m) of a block from its counter-clockwise ``polygon``."""
+
+    polygon: np.ndarray
+
+    @property
+    def area(self) -> float:
+        return polygon_area_centroid(self.polygon)[0]
+
+    @property
+    def centroid(self) -> np.ndarray:
+        return polygon_area_centroid(self.polygon)[1]
+
+
+@dataclass(frozen=True)
+class Voussoir(_Polygonal):
+    """A block of the ring: intrados and extrados edges as polylines (left to right), m.
+
+    ``*_splits`` are indices of interior polyline points where the edge has a corner (pointed crown) or
+    carries a concentrated load, and on the extrados where the crown's cap chord to the apex begins; the mesh places
+    a node there, and its edge between two splits is straight (the polygon's chord) when they are neighbours.
+    """
+
+    id: int
+    intrados: np.ndarray
+    extrados: np.ndarray
+    intrados_splits: tuple[int, ...] = ()
+    extrados_splits: tuple[int, ...] = ()
+
+    @property
+    def polygon(self) -> np.ndarray:
+        """Counter-clockwise boundary: intrados left to right, then extrados right to left."""
+        return np.vstack([self.intrados, self.extrados[::-1]])
+
+
+def polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
+    """Area (m^2) and centroid (m) of a simple counter-clockwise polygon (shoelace formula)."""
+    x, y = poly[:, 0], poly[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = 0.5 * cross.sum()
+    cx = ((x + xn) * cross).sum() / (6 * area)
+    cy = ((y + yn) * cross).sum() / (6 * area)
+    return float(area), np.array([cx, cy])
+
+
+@dataclass(frozen=True)
+class Abutment(_Polygonal):
+    """An elastic block below a springing: ``polygon`` counter-clockwise (m), ``side`` "left" or "right"."""
+
+    id: int
+    polygon: np.ndarray
+    side: str
+
+
+@dataclass(frozen=True)
+class ArchRing:
+    """The geometry of a ring of voussoirs on two springings, and its abutments when they are elastic.
+
+    ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings); ``joints`` are the ring's
+    joints 0..N followed by the abutments' base joints.
+    """
+
+    shape: str
+    span: float
+    rise: float
+    thickness: float
+    params: np.ndarray
+    joints: list[Joint] = field(repr=False)
+    voussoirs: list[Voussoir] = field(repr=False)
+    abutments: list[Abutment] = field(default_factory=list, repr=False)
+
+    @property
+    def n_voussoirs(self) -> int:
+        return len(self.voussoirs)
+
+    @property
+    def n_blocks(self) -> int:
+        """Voussoirs and abutments: the block ids 0 .. n_blocks - 1 (the next id is the fill's)."""
+        return len(self.voussoirs) + len(self.abutments)
+
+    @property
+    def springings(self) -> tuple[Joint, Joint]:
+        """The left and right springing joints (0 and N)."""
+        return self.joints[0], self.joints[self.n_voussoirs]
+
+    @property
+    def bases(self) -> list[Joint]:
+        """The elastic abutments' base joints on the ground (N + 1, N + 2; none on rigid springings)."""
+        return self.joints[self.n_voussoirs + 1:]
+
+    @property
+    def crown_extrados(self) -> float:
+        """Height (m) of the highest extrados point."""
+        return max(float(v.extrados[:, 1].max()) for v in self.voussoirs)
+
+    def extrados_vertex(self, x: float) -> np.ndarray:
+        """The vertex of the voussoirs' extrados polylines nearest to horizontal position x (m): where a point load
+        at x acts, since :func:`build_ring` puts a vertex (a mesh node) under every load unless the load is within
+        ``AT_JOINT_TOL`` x span of a joint's corner or the pointed crown's apex, where it acts at that corner."""
+        ext = np.vstack([v.extrados for v in self.voussoirs])
+        return ext[np.argmin(np.abs(ext[:, 0] - x))]
+
+    def extrados_point(self, x: float) -> np.ndarray:
+        """The extrados point above horizontal position x (m)."""
+        ext = np.vstack([v.extrados for v in self.voussoirs])
+        return np.array([x, np.interp(x, ext[:, 0], ext[:, 1])])
+
+
+@dataclass(frozen=True)
+class FillOutline:
+    """The backfill region (m): vertical ends at ``x_left``/``x_right``, base at ``y_base`` (the level of the
+    springings' extrados corners, fixed: elastic abutments below it are not connected to it), road at
+    ``y_road``. The region is bounded below by the base lines and the ring's extrados; ``road_x`` are the road
+    points that must be mesh nodes (point loads and patch edges)."""
+
+    x_left: float
+    x_right: float
+    y_base: float
+    y_road: float
+    road_x: tuple[float, ...]
+
+
+def fill_outline(ring: ArchRing, depth: float, extension: float, road_x: list[float] = ()) -> FillOutline:
+    """The fill over ``ring`` with the road ``depth`` (m) above the crown's extrados, reaching ``extension`` (m)
+    beyond each springing's extrados corner."""
+    left, right = (j.extrados for j in ring.springings)
+    return FillOutline(float(left[0]) - extension, float(right[0]) + extension, float(left[1]),
+                       ring.crown_extrados + depth,
+                       tuple(sorted(set(float(x) for x in road_x))))
+
+
+def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray:
+    return shape.point(p) + offset * thickness * shape.normal(p)
+
+
+def _samples(shape: _Shape) -> np.ndarray:
+    """``_FINE`` equally spaced parameters in [0, 1] and the shape's kinks, sorted: where arc lengths are measured
+    and x(p) inverted."""
+    return np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
+
+
+def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.ndarray:
+    """The ring's centreline arc length (m) from p[0] at the increasing parameters ``p`` (which hold the shape's
+    kinks), summed over chords; a chord that ends at a kink ends on its own arc (``KINK_NUDGE`` of it short of the
+    kink), so the centreline's jump there, between the offsets of the two arcs (the pointed crown: t sin(phi / 2) for
+    an angle phi between their normals), is no length and joints at equal lengths give voussoirs of equal centreline
+    length on both sides of the crown (counted, it would draw every joint that falls on it to the apex: slivers of a
+    millimetre between joints a fraction of a degree apart; ``docs/joints-and-lp.md``)."""
+    start, end = _ring_point(shape, thickness, p[:-1], 0.5), _ring_point(shape, thickness, p[1:], 0.5)
+    for k in np.flatnonzero(np.isin(p, shape.kinks)):
+        if k > 0:
+            end[k - 1] = _ring_point(shape, thickness, p[k] - KINK_NUDGE * (p[k] - p[k - 1]), 0.5)
+        if k < len(p) - 1:
+            start[k] = _ring_point(shape, thickness, p[k] + KINK_NUDGE * (p[k + 1] - p[k]), 0.5)
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(end - start, axis=1))])
+
+
+def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, bool]:
+    """The curve parameter whose extrados point is at horizontal position x (m), interpolated in fine samples (about
+    span / 4000^2 off: the load's vertex is the extrados vertex nearest to x, :meth:`ArchRing.extrados_vertex`), and
+    whether that point exists: at a kink the extrados jumps (the pointed crown's cap between the offsets of its two
+    arcs, closed by chords to the apex), and a load on the cap, farther than ``AT_JOINT_TOL`` x the ring's width from
+    the interpolated point, gets the kink's parameter and False."""
+    p = _samples(shape)
+    xs = _ring_point(shape, thickness, p, 1.0)[:, 0]
+    q = float(np.interp(x, xs, p))
+    if abs(_ring_point(shape, thickness, q, 1.0)[0] - x) <= AT_JOINT_TOL * (xs[-1] - xs[0]):
+        return q, True
+    return min(shape.kinks, key=lambda v: abs(v - q)), False
+
+
+def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float]) -> np.ndarray:
+    """Move the nearest interior joint onto each load parameter; springing joints never move."""
+    params = params.copy()
+    taken: set[int] = set()
+    s_joints = s_of_p(params)
+    for pl in sorted(set(load_params)):
+        order = np.argsort(np.abs(s_joints - s_of_p(np.array([pl]))[0]))
+        free = [j for j in order if 0 < j < len(params) - 1 and j not in taken]
+        if not free:
+            break
+        j = free[0]
+        params[j] = pl
+        taken.add(j)
+    if np.any(np.diff(s_of_p(params)) <= AT_JOINT_TOL * s_of_p(np.array([1.0]))[0]):
+        raise ValueError("loads are too close together for this number of voussoirs: a voussoir would vanish "
+                         f"(shorter than {AT_JOINT_TOL:g} x the ring's length); use more voussoirs or "
+                         "joint_at_loads = false")
+    return params
+
+
+def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoirs: int,
+               load_x: list[float] = (), joint_at_loads: bool = True) -> ArchRing:
+    """Build joints and voussoirs of a ring (all lengths in m).
+
+    ``load_x`` are the horizontal positions of concentrated loads and patch-load edges on the extrados;
+    with ``joint_at_loads`` the nearest interior joint is moved under each (a block straddling a
+    concentrated load overstates the limit load).
+    """
+    curve = make_shape(shape, span, rise)
+    p = _samples(curve)
+    s = _centreline_length(curve, thickness, p)
+
+    def s_of_p(q):
+        return np.interp(q, p, s)
+
+    xs = np.unique(np.asarray(load_x, float))
+    gaps = np.diff(xs)
+    if np.any(gaps < AT_JOINT_TOL * span):
+        k = int(np.argmin(gaps))
+        raise ValueError(f"point loads or patch edges at x = {xs[k]:.9g} and {xs[k + 1]:.9g} m are {gaps[k]:.3g} m "
+                         f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
+                         "have an edge that short; put them at one position or further apart")
+    located = [_extrados_param(curve, thickness, x) for x in xs]
+    load_params = [q for q, _ in located]  # a load on a kink's cap gets a joint at the kink
+    curve_params = [q for q, on_curve in located if on_curve]
+    cap_x = [x for x, (_, on_curve) in zip(xs, located) if not on_curve]
+    params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
+    params[0], params[-1] = 0.0, 1.0
+    if joint_at_loads and len(load_params):
+        params = _place_joints_at_loads(params, s_of_p, load_params)
+
+    def extrados_x(q):
+        return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
+
+    def voussoir(i):
+        pa, pb = params[i], params[i + 1]
+        kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
+        inside = np.array([k for k in curve_params if pa < k < pb])  # a load on a joint's corner is at the joint
+        corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
+        loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
+        special = np.array(sorted(kinks + loads))
+        regular = np.linspace(pa, pb, _EDGE_SAMPLES)
+        if len(special):  # no spline point closer than a quarter of the sample spacing to a corner or load point
+            gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
+            regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
+        q = np.unique(np.concatenate([regular, special]))
+        intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
+        kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
+        # the apex inside this voussoir or at one of its joints (``kinks`` leaves a joint's out: no split there)
+        apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))
+        cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
+        split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
+        for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
+            if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
+                continue
+            k = int(np.searchsorted(extra[:, 0], xc))
+            f = (xc - extra[k - 1, 0]) / (extra[k, 0] - extra[k - 1, 0])
+            qc = q[k - 1] + f * (q[k] - q[k - 1])
+            intra = np.insert(intra, k, _ring_point(curve, thickness, qc, 0.0), axis=0)
+            extra = np.insert(extra, k, extra[k - 1] + f * (extra[k] - extra[k - 1]), axis=0)
+            q, kink_at, split_at = np.insert(q, k, qc), np.insert(kink_at, k, False), np.insert(split_at, k, True)
+        return Voussoir(i, intra, extra, tuple(np.flatnonzero(kink_at).tolist()),
+                        tuple(np.flatnonzero(split_at).tolist()))
+
+    voussoirs = [voussoir(i) for i in range(n_voussoirs)]
+    joints = []
+    for j, pj in enumerate(params):
+        a = _ring_point(curve, thickness, pj, 0.0)
+        b = _ring_point(curve, thickness, pj, 1.0)
+        joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
+    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs)
+
+
+def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
+    """The ring on elastic abutments: below each springing a block from the springing line (y = 0) down to
+    y = -height (m), reaching ``length`` (m) outwards from the springing's intrados corner (at least to its
+    extrados corner). Its top is the springing joint, then a free face at the extrados corner's level; its
+    base is a new joint to the ground. Block and joint ids as in the module docstring."""
+    n = ring.n_voussoirs
+    joints = list(ring.joints)
+    abutments = []
+    for k, (joint, outward) in enumerate(zip(ring.springings, (-1.0, 1.0))):
+        inner, outer = joint.intrados, joint.extrados
+        x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
+        base = (np.array([inner[0], -height]), np.array([x_out, -height]))
+        # a corner above the outer base corner unless it is the springing's extrados corner (1e-12 m: round-off)
+        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
+        polygon = np.array(corners + [base[1]])
+        if polygon_area_centroid(polygon)[0] < 0:
+            polygon = polygon[::-1]
+        block = n + k
+        abutments.append(Abutment(block, polygon, ("left", "right")[k]))
+        joints[joint.id] = Joint(joint.id, inner, outer, block if joint.left is None else joint.left,
+                                 block if joint.right is None else joint.right)
+        base_joint = Joint(n + 1 + k, *base, None, None)
+        ground_left = base_joint.normal[1] > 0  # the normal points up: from the ground into the block
+        joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
+    return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
+                    abutments)
+
+
+def joint_under(ring: ArchRing, x: float) -> int | None:
+    """The interior joint whose extrados corner is at horizontal position x (m), within ``AT_JOINT_TOL`` x span,
+    or None (springing corners do not count: a load there is on the end voussoir only)."""
+    inner = ring.joints[1:ring.n_voussoirs]
+    if not inner:
+        return None
+    j = min(inner, key=lambda jt: abs(jt.extrados[0] - x))
+    return j.id if abs(j.extrados[0] - x) <= AT_JOINT_TOL * ring.span else None
+
+
+def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[int, ...]:
+    """The voussoir(s) that carry a vertical point load at horizontal position x (m) on the extrados.
+
+    A load off the joints is on the voussoir below it. A load on a joint's extrados corner (:func:`joint_under`)
+    is on the joint's ``side`` block ("left" | "right"), or half on each ("split"): the one choice the FE load
+    vector and the rigid-block LP both take from here. Raises ValueError off the extrados or for an unknown side.
+    """
+    if side not in LOAD_SIDES:
+        raise ValueError(f"load side {side!r}: allowed are {', '.join(LOAD_SIDES)}")
+    j = joint_under(ring, x)
+    if j is not None:
+        left, right = ring.joints[j].left, ring.joints[j].right
+        return {"left": (left,), "right": (right,), "split": (left, right)}[side]
+    on = [v.id for v in ring.voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
+    if not on:
+        raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
+    return (on[0],)
+
+

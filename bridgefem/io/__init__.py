@@ -1,0 +1,1 @@
+"""Input/output: the command line, results files, plots and the output-folder policy."""

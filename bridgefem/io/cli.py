@@ -1,0 +1,324 @@
+"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check SCENE.toml``.
+
+Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
+the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
+output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
+earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md).
+PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import sys
+import traceback
+from pathlib import Path
+
+from ..fe.sizing import LARGE_DOFS, MAX_DOFS, check_size
+from ..scene.schema import PETSC_PREFIX, SceneError, load_scene, resolved_toml
+from ..status import Status
+from .output import OutputError, Terminated, claim, failed_target, sigterm_raises, version
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="bridgefem", description="Limit loads of masonry arch bridges.")
+    p.add_argument("--version", action="version", version=f"bridgefem {version()}")
+    sub = p.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
+    run.add_argument("scene", type=Path)
+    run.add_argument("--out", type=Path, help="output folder (default results/<scene name>)")
+    run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
+                     help="PETSc option for the contact solver, without the prefix (repeatable)")
+    run.add_argument("--quiet", action="store_true", help="no per-step progress")
+    run.add_argument("--no-size-limit", action="store_true",
+                     help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
+    conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
+    conv.add_argument("scene", type=Path)
+    conv.add_argument("--levels", default="2,4,8", help="elements through the ring, each twice the previous")
+    conv.add_argument("--out", type=Path, help="folder for convergence.json (default: none written)")
+    check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
+                                          "filled in, with units)")
+    check.add_argument("scene", type=Path)
+    lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
+    lp.add_argument("scene", type=Path)
+    lp.add_argument("--json", action="store_true", help="print one JSON object")
+    lp.add_argument("--friction-model", choices=["associative", "non-associative"], default="associative")
+    mt = sub.add_parser("min-thickness", help="least ring thickness in equilibrium under self-weight (LP)")
+    mt.add_argument("scene", type=Path)
+    mt.add_argument("--json", action="store_true", help="print one JSON object")
+    mt.add_argument("--friction-model", choices=["associative", "non-associative"], default="associative")
+    bd = sub.add_parser("bounds", help="lower and upper collapse bounds with the fill (conic optimisation)")
+    bd.add_argument("scene", type=Path)
+    bd.add_argument("--json", action="store_true", help="print one JSON object")
+    bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
+    bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
+    return p
+
+
+def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+    prefix = "-" + PETSC_PREFIX
+    out = {}
+    for item in pairs:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise SceneError(f"--petsc {item!r}: expected KEY=VALUE, e.g. --petsc ksp_type=preonly")
+        out[key.lstrip("-")] = value
+    i = 0
+    while i < len(raw):
+        arg = raw[i]
+        if not arg.startswith(prefix):
+            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {prefix}")
+        has_value = i + 1 < len(raw) and not raw[i + 1].startswith("-")
+        out[arg[len(prefix):]] = raw[i + 1] if has_value else ""
+        i += 2 if has_value else 1
+    return out
+
+
+def _progress(total: float):
+    """Print one line per load step (rank 0): the live load, the outcome, Newton iterations, the residual and how
+    many joint node pairs are open, sticking and slipping."""
+    from mpi4py import MPI
+
+    def report(step) -> None:
+        if MPI.COMM_WORLD.rank != 0:
+            return
+        if step.index == 0:
+            print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+                  flush=True)
+        c = step.counts
+        if step.converged:
+            what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""
+            outcome = "converged"
+        else:
+            what = _collapse(step.reason) if step.mechanism else step.reason
+            outcome = "failed   "
+        if step.cohesion is not None:
+            what += f"  (fill cohesion raised to {step.cohesion / 1e3:.3g} kPa)"
+        print(f"step {step.index:3d}  load {step.level * total / 1e3:10.3f} kN  {outcome}  newton "
+              f"{step.iterations:2d}  residual {step.residual:.1e}  {what}  ({step.seconds:.2f} s)", flush=True)
+
+    return report
+
+
+def _collapse(reason: str) -> str:
+    """What a failed step that proved collapse means to a user (the solver's numbers stay in results.json)."""
+    if reason.startswith("load-deflection curve flat"):
+        return "the load-deflection curve is flat: the structure moves as a mechanism"
+    if reason.startswith("no trial above the bracket"):
+        return ("no equilibrium by the static theorem: the rigid-block LP on the same joints under the FE's own loads "
+                "bounds every FE equilibrium")
+    return "no equilibrium: the voussoirs move as a mechanism"
+
+
+def _run(args, petsc: dict) -> int:
+    scene = load_scene(args.scene)
+    max_dofs = math.inf if args.no_size_limit else MAX_DOFS
+    size = check_size(scene, max_dofs=max_dofs)
+    out = args.out or Path("results") / scene.name
+    from mpi4py import MPI
+
+    from ..analysis.runner import run_analysis
+    from ..solver.linear import check_petsc_options
+    from .results import write_results
+
+    comm = MPI.COMM_WORLD
+    check_petsc_options({**scene.solver.petsc, **petsc}, comm)
+    total = sum(ld.factor for ld in scene.loads)
+    announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
+    with claim(out, comm, also=(failed_target(out),)):
+        if announce:
+            print(f"{scene.name}: {size.describe()}", flush=True)
+        an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
+                          phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
+        extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+                            "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
+        failed = Status.of(an.search.status) is Status.FAILURE
+        if failed:  # a failed run never replaces earlier results
+            kept, out = out, failed_target(out)
+        data = write_results(an, out, extra)
+    if comm.rank == 0 and failed:
+        print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
+    if comm.rank == 0:
+        from .plots import format_bracket
+
+        lim = data["limit_load"]
+        limit = Status.of(data["status"]) is Status.LIMIT
+        if limit:
+            print(f"{scene.name}: {data['status']}; limit load in "
+                  f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+                  f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+        else:
+            print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
+                  f"width {scene.arch.width:g} m)")
+        if data["evidence"]:
+            print(f"  evidence: {data['evidence']}")
+        if limit:
+            print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
+        elif data["failure_reason"]:
+            print(f"  last failed step: {data['failure_reason']}")
+        print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+        lp = data["lp"]
+        if lp["load"]:
+            ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
+            print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
+                  f"{lp['mechanism']['hinges']}{ratio}")
+        ring = data["ring_under_transmitted_loads"]
+        if ring and ring["load"]:
+            print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
+                  f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
+        refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
+        if refined:
+            print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
+                  f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
+        for warning in data["warnings"]:
+            print(f"  WARNING: {warning}")
+        print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
+    return Status.of(data["status"]).exit_code
+
+
+def _notice(line: str) -> None:
+    """A re-run on a finer mesh, printed by rank 0 (even with --quiet: it changes the run's length and mesh)."""
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"bridgefem: {line}", flush=True)
+
+
+def _phase(name: str) -> None:
+    print(f"  {name} ...", flush=True)
+
+
+def _levels(text: str) -> list[int]:
+    from ..analysis.convergence import check_levels
+
+    try:
+        levels = [int(v) for v in text.split(",")]
+        check_levels(levels)
+    except ValueError as err:
+        raise SceneError(f"--levels {text!r}: {err}") from None
+    return levels
+
+
+
+def _check(args) -> int:
+    scene = load_scene(args.scene)
+    size = check_size(scene)
+    print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
+    return 0
+
+
+def _lp(args) -> int:
+    from ..limit.rigid_block import LPFailure, LPResult, collapse_load
+
+    scene = load_scene(args.scene)
+    try:
+        res = collapse_load(scene, friction_model=args.friction_model)
+    except LPFailure as err:  # reported like any result, with no load and no mechanism
+        res = LPResult(None, None, f"solver failure: {err}", args.friction_model)
+    if args.json:
+        from .results import lp_summary
+
+        print(json.dumps(lp_summary(res)))
+    else:
+        load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
+        print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
+              f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+        sides = [f"load {i + 1} on the {s} voussoir" if s != "split" else f"load {i + 1} shared by both voussoirs"
+                 for i, s in enumerate(res.load_sides) if s is not None]
+        if sides:
+            print(f"  point loads on joints (least favourable): {', '.join(sides)}")
+        if res.friction_model != "associative" and res.level_associative is not None:
+            fixed = "a fixed point" if res.converged else f"no fixed point in {res.iterations} LPs"
+            print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN; "
+                  f"non-associative: {fixed} (one collapse state of several, not a bound: docs/joints-and-lp.md)")
+    return 1 if Status.of(res.status) is Status.FAILURE else 0
+
+
+def _min_thickness(args) -> int:
+    from ..limit.rigid_block import LPFailure, NoStableThickness, min_thickness
+
+    scene = load_scene(args.scene)
+    try:
+        res = min_thickness(scene, friction_model=args.friction_model)
+    except (NoStableThickness, LPFailure) as err:
+        what = "none" if isinstance(err, NoStableThickness) else "solver failure"
+        print(json.dumps({"thickness": None, "reason": f"{what}: {err}"}) if args.json
+              else f"minimum thickness under self-weight: {what}: {err}")
+        return 1
+    if args.json:
+        print(json.dumps(res.to_dict()))
+    else:
+        ratio = "" if res.ratio is None else f", t/R = {res.ratio:.5f}"
+        print(f"minimum thickness under self-weight ({args.friction_model} friction): {res.thickness:.5f} m{ratio}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    logging.getLogger().setLevel(logging.WARNING)
+    argv = sys.argv[1:] if argv is None else argv
+    args, raw = _parser().parse_known_args(argv)
+    try:
+        with sigterm_raises():
+            petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
+            if raw and args.command != "run":
+                raise SceneError(f"unknown argument {raw[0]!r}")
+            if args.command == "run":
+                return _run(args, petsc)
+            if args.command == "check":
+                return _check(args)
+            if args.command == "converge":
+                from .commands import command
+
+                return command(load_scene(args.scene), _levels(args.levels), args.out)
+            if args.command == "bounds":
+                from .commands import bounds_command
+
+                return bounds_command(load_scene(args.scene), args.json, args.refine, args.plot)
+            return _lp(args) if args.command == "lp" else _min_thickness(args)
+    except (SceneError, OutputError) as err:
+        _error(str(err))
+        return 2
+    except Terminated:
+        _error("terminated by SIGTERM; no results folder was left half-written")
+        return 128 + 15
+    except KeyboardInterrupt:
+        _error("interrupted; no results folder was left half-written")
+        return 128 + 2
+    except Exception:
+        _abort_if_parallel()
+        raise
+
+
+def _error(message: str) -> None:
+    """One line on stderr, from one MPI rank (every rank meets the same error)."""
+    if _launcher_rank() == 0:
+        print(f"bridgefem: error: {' '.join(message.split())}", file=sys.stderr, flush=True)
+
+
+def _launcher_rank() -> int:
+    """This process's MPI rank as mpirun tells it (no MPI start-up needed for a bad input)."""
+    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        if os.environ.get(name, "").isdigit():
+            return int(os.environ[name])
+    return 0
+
+
+def _abort_if_parallel() -> None:
+    """An unexpected error on one MPI rank leaves the others waiting in a collective call for ever: print it and
+    abort the whole job (mpirun exits non-zero) instead. Serial runs keep the usual traceback and exit code 1."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        traceback.print_exc()
+        print(f"bridgefem: error on MPI rank {comm.rank}: aborting all {comm.size} ranks", file=sys.stderr,
+              flush=True)
+        comm.Abort(1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

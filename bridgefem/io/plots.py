@@ -1,0 +1,141 @@
+"""PNG plots: the load-deflection path with the limit-load bracket, and the collapse mechanism."""
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..geometry.ring import ArchRing  # noqa: E402
+from ..status import Status  # noqa: E402
+
+BAND_MIN = 0.015  # the bracket band is drawn at least this fraction of the load axis high (1e-4 wide is invisible)
+MODE_SIZE = 0.08  # the collapse mode is amplified until its largest block motion is this fraction of the span
+TITLE_WIDTH = 70  # characters per title line
+
+
+def bracket_decimals(width: float) -> int:
+    """Decimals that show a bracket of this width (at least 2): one digit below its leading one."""
+    return max(2, math.ceil(-math.log10(width)) + 1) if width > 0 else 2
+
+
+def format_bracket(lower: float, upper: float | None, tolerance: float) -> str:
+    """``[lower, upper] kN`` from loads in N, with the decimals that show the bracket's tolerance."""
+    digits = bracket_decimals(tolerance * lower / 1e3)
+    high = "none" if upper is None else f"{upper / 1e3:.{digits}f}"
+    return f"[{lower / 1e3:.{digits}f}, {high}] kN"
+
+
+def _title(ax, data: dict) -> None:
+    """The scene's name (at most two lines) and its status."""
+    name = textwrap.wrap(data["scene"], TITLE_WIDTH, max_lines=2, placeholder=" ...")
+    ax.set_title("\n".join(name + textwrap.wrap(data["status"], TITLE_WIDTH)), fontsize=9)
+
+
+def plot_load_deflection(data: dict, path: Path) -> None:
+    """Live load (kN) against the downward deflection under the load (mm) at every converged step, the limit-load
+    bracket (a band, widened to stay visible) and the rigid-block LP's collapse load."""
+    pts = sorted((h["load"], h["deflection"]) for h in data["history"] if h["converged"])
+    lim = data["limit_load"]
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    if pts:
+        load, defl = np.array(pts).T
+        ax.plot(defl * 1e3, load / 1e3, "o-", ms=3, label="converged load steps (FE)")
+    else:
+        ax.text(0.5, 0.5, "no converged load step", transform=ax.transAxes, ha="center", va="center")
+    lp = data.get("lp")
+    if lp and lp.get("load"):
+        ax.axhline(lp["load"] / 1e3, color="k", ls="--", lw=1,
+                   label=f"rigid-block LP, {lp['model']}: {lp['load'] / 1e3:.2f} kN")
+    bounds = data.get("fill_bounds") or {}
+    for key, style in (("lower", ":"), ("upper", "-.")):
+        if bounds.get(key):
+            ax.axhline(bounds[key] / 1e3, color="tab:green", ls=style, lw=1,
+                       label=f"{key} bound, rigid-plastic fill (conic): {bounds[key] / 1e3:.1f} kN")
+    if Status.of(data["status"]) is Status.LIMIT:
+        low, high = ax.get_ylim()
+        half = max(lim["upper"] - lim["lower"], BAND_MIN * (high - low) * 1e3) / 2e3
+        mid = (lim["lower"] + lim["upper"]) / 2e3
+        ax.axhspan(mid - half, mid + half, color="tab:red", alpha=0.3,
+                   label=f"limit load {format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+                         f"(tolerance {lim['tolerance']:g}; band at least {BAND_MIN:.1%} of the axis)")
+    ax.set_xlabel("deflection under the load (mm, down)")
+    ax.set_ylabel(f"live load (kN, for a width of {lim['width']:g} m)")
+    _title(ax, data)
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower right", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _hinge_point(ring: ArchRing, joint: int, where: str) -> np.ndarray:
+    jt = ring.joints[joint]
+    return jt.extrados if where == "extrados" else jt.intrados
+
+
+def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Path,
+                   fill: np.ndarray | None = None) -> None:
+    """The collapse mechanism: the ring and elastic abutments (grey outline), the fill (``fill``: its region,
+    m), the blocks moved by ``mode`` (their rigid motion over the last converged load increment: rows ux m, uy m,
+    rotation rad; amplified to be seen), FE hinges (red dots), sliding joints (blue) and the rigid-block LP's
+    hinges (black rings), with the live loads as arrows."""
+    fig, ax = plt.subplots(figsize=(8, 5))
+    if fill is not None:
+        ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.15, lw=0)
+        ax.plot(*np.vstack([fill, fill[:1]]).T, color="olivedrab", lw=0.6)
+    blocks = ring.voussoirs + ring.abutments
+    for v in blocks:
+        p = np.vstack([v.polygon, v.polygon[:1]])
+        ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.8)
+    scale = 0.0
+    if mode is not None:
+        reach = np.abs(mode[:len(blocks), :2]).max() + np.abs(mode[:len(blocks), 2]).max() * ring.span
+        scale = MODE_SIZE * ring.span / reach if reach > 0 else 0.0
+        for v, (mx, my, th) in zip(blocks, mode):
+            p = np.vstack([v.polygon, v.polygon[:1]])
+            q = p + scale * (np.array([mx, my]) + th * np.column_stack([-p[:, 1], p[:, 0]]))
+            ax.fill(q[:, 0], q[:, 1], color="tan", alpha=0.6, lw=0)
+            ax.plot(q[:, 0], q[:, 1], color="saddlebrown", lw=0.7)
+    mech = data["mechanism"]
+    for jid, where in mech["hinge_positions"].items():
+        ax.plot(*_hinge_point(ring, int(jid), where), "o", color="red", ms=8, zorder=5)
+    for jid in mech["sliding"]:
+        jt = ring.joints[jid]
+        ax.plot(*np.array([jt.intrados, jt.extrados]).T, color="tab:blue", lw=3, zorder=5)
+    lp = data.get("lp")
+    if lp and lp.get("mechanism"):
+        for jid, where in lp["mechanism"].get("hinge_positions", {}).items():
+            ax.plot(*_hinge_point(ring, int(jid), where), "o", mfc="none", mec="k", ms=13, mew=1.5, zorder=6)
+    top = fill[:, 1].max() if fill is not None else None
+    for ld in data.get("loads", []):
+        half = (ld.get("length") or 0.0) / 2
+        xs = np.linspace(ld["x"] - half, ld["x"] + half, 5 if half else 1)
+        tips = [np.array([x, top]) if top is not None else ring.extrados_point(x) for x in xs]
+        for tip in tips:
+            ax.annotate("", xy=tip, xytext=tip + np.array([0, 0.15 * ring.span]),
+                        arrowprops=dict(arrowstyle="-|>", color="k", lw=1.2))
+        if half:
+            ax.plot(xs, [t[1] + 0.15 * ring.span for t in tips], color="k", lw=1.2)
+    handles = [plt.Line2D([], [], color="saddlebrown", lw=2,
+                          label=f"blocks moved by the last converged load increment x {scale:.3g}"),
+               plt.Line2D([], [], marker="o", color="red", ls="", label="FE hinge"),
+               plt.Line2D([], [], color="tab:blue", lw=3, label="FE sliding joint")]
+    if lp:
+        handles.append(plt.Line2D([], [], marker="o", mfc="none", mec="k", ls="", ms=10,
+                                  label=f"rigid-block LP hinge ({lp.get('model', 'bare ring')})"))
+    ax.legend(handles=handles, loc="upper right", fontsize=7)
+    ax.set_aspect("equal")
+    ax.margins(0.05, 0.25)
+    _title(ax, data)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

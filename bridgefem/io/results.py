@@ -1,0 +1,305 @@
+"""Results of a run written to files: results.json, XDMF fields for ParaView and PNG plots, written atomically.
+Everything here formats what :mod:`bridgefem.analysis.runner` computed.
+
+Everything goes to a temporary folder beside the target, which replaces the target only when complete
+(:func:`bridgefem.io.output.results_folder`), so an interrupted run never leaves a half-written folder.
+Loads are in N (for the scene's width), lengths in m.
+"""
+from __future__ import annotations
+
+import json
+import platform
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
+from ..geometry.ring import fill_outline
+from ..laws.coulomb import OPEN, SLIP, STICK
+from .output import results_folder, version
+
+JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
+
+
+def versions() -> dict:
+    """Versions of the software that produced a result."""
+    import dolfinx
+    import gmsh
+    import scipy
+
+    out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
+           "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
+           "numpy": np.__version__, "scipy": scipy.__version__, "bridgefem": version()}
+    return out
+
+
+UNITS = {
+    "force": "N (forces, loads, weights, reactions: for the scene's width)",
+    "length": "m (coordinates, deflections, openings, eccentricities, element size, width)",
+    "stress": "Pa (fill cohesion)",
+    "time": "s (timings, seconds)",
+    "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
+                     "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
+    "counts": "pairs: joint node pairs open / stick / slip at the end of the step; elements_through_thickness "
+              "(model, mesh_refinements)",
+}
+CONVENTIONS = {
+    "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
+    "joints": "numbered from the left springing (0) to the right springing (N voussoirs: joint N); voussoir i lies "
+              "between joints i and i+1; elastic abutments: blocks N, N+1, their base joints N+1, N+2",
+    "normal_force": "compression positive",
+    "shear_force": "along the joint's tangent (intrados -> extrados end turned -90 degrees)",
+    "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
+    "deflection": "downward displacement under the live load (mean over the loaded nodes), positive down",
+    "mesh_refinements": "the other runs of an automatic mesh refinement, coarsest first: their elements through "
+                        "the thickness, status, seconds and linear solves (the runs a finer mesh replaced; a finer run that failed "
+                        "after a confirmed one, which the results then are; otherwise the results are the last "
+                        "run's, model)",
+    "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
+                           "to the right, vertical positive up",
+    "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",
+    "joint_state (fields.xdmf)": "0 no joint, 1 stick, 2 slip, 3 open; time value = live load (N)",
+}
+
+
+def summary(an: Analysis, extra: dict | None = None) -> dict:
+    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
+    collective: the ring check is an LP on rank 0)."""
+    s, total = an.search, an.load_total
+    hinges = [j for j in an.joints if j.hinge]
+    steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
+              "newton_iterations": st.iterations, "factorisations": st.factorisations,
+              "residual": st.residual if np.isfinite(st.residual) else None,
+              "deflection": st.deflection, "pairs": st.counts, "support_movement": st.movement,
+              "fill_cohesion": st.cohesion, "seconds": st.seconds} for st in s.steps]
+    return {
+        "scene": an.scene.name,
+        "status": s.status,
+        "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
+                       "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
+        "failure_reason": s.failure,
+        "evidence": an.verdict.evidence if an.verdict else "",
+        "units": UNITS,
+        "conventions": CONVENTIONS,
+        "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
+                      "sliding": [j.id for j in an.joints if j.sliding]},
+        "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
+                    **({"normal_force": js.normal_force, "shear_force": js.shear_force,
+                        "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
+                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding} if js else {})}
+                   for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
+        "self_weight": an.model.dead_weight,
+        "fill_weight": an.model.fill_weight,
+        "springing_reactions": _reactions(an),
+        "ring_under_transmitted_loads": ring_check_summary(an),
+        **lp_entries(an),
+        "history": steps,
+        "model": {"dofs": an.n_dofs, "displacement_dofs": int(an.model.K.getSize()[0]),
+                  "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
+                  "element_size": an.block_mesh.element_size, "degree": an.scene.mesh.degree,
+                  "elements_through_thickness": an.scene.mesh.elements_through_thickness,
+                  "plane": an.scene.model.plane},
+        "mesh_refinements": [asdict(r) for r in an.refinements],
+        "solver": {**an.solver.stats, "load_steps": len(s.steps),
+                   "newton_iterations": sum(st.iterations for st in s.steps),
+                   "petsc_options": an.solver.system.petsc_options},
+        "timings": an.timings,
+        "mpi_ranks": an.solver.comm.size,
+        "versions": versions(),
+        **(extra or {}),
+    }
+
+
+def _reactions(an: Analysis) -> list[dict]:
+    """``springing_reactions``: one labelled entry per joint on the ground (N, ground on the structure)."""
+    if not an.joints:
+        return []
+    ring = an.ring
+    on_ground = [js.id for js in an.joints if ring.joints[js.id].left is None or ring.joints[js.id].right is None]
+    names = {ring.joints[0].id: "left springing", ring.joints[ring.n_voussoirs].id: "right springing"}
+    if an.scene.abutments.elastic:
+        names = {j.id: f"{side} abutment base" for j, side in zip(ring.bases, ("left", "right"))}
+    return [{"joint": jid, "at": names.get(jid, "ground"), "horizontal": float(h), "vertical": float(v)}
+            for jid, (h, v) in zip(on_ground, springing_reactions(an.joints, ring))]
+
+
+RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by the forces the fill transmits across "
+                    "the arch-fill interface: dead load = ring weight + interface forces after self-weight, live load = "
+                    "their change up to the FE's last converged load, scaled with it; a lower-bound check: ratio >= 1, "
+                    "close to 1 when the FE limit is a mechanism of the ring, above 1 when the fill restrains it")
+
+
+def ring_check_summary(an: Analysis) -> dict | None:
+    """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
+    ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
+    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
+    check = an.ring_check
+    if check is None:
+        return None
+    lp, total = check.lp, an.load_total
+    return {"model": RING_CHECK_MODEL, "fe_load": check.fe_level * total,
+            "load": None if check.lp_level is None else check.lp_level * total, "unit": "N",
+            "ratio": check.ratio, "status": lp.status, "mechanism": _mechanism(lp)}
+
+
+LP_FILL_LABEL = "fill as dead load only"
+
+
+def _mechanism(lp) -> dict:
+    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
+            "sliding": sorted(lp.sliding)}
+
+
+def lp_summary(lp) -> dict:
+    """The JSON form of a rigid-block result: load (N), status, friction model, mechanism, seconds."""
+    return {"load": lp.load, "unit": "N", "status": lp.status, "friction_model": lp.friction_model,
+            "mechanism": _mechanism(lp), "seconds": lp.time_s}
+
+
+def lp_label(scene) -> str:
+    """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
+    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
+    label = LP_FILL_LABEL if scene.fill else "bare ring"
+    if scene.abutments.elastic:
+        label += ", abutments as rigid blocks"
+    if scene.abutments.moves:
+        label += ", support movement not modelled (no effect on the rigid-block collapse load)"
+    return label
+
+
+def lp_entries(an: Analysis) -> dict:
+    """The ``lp``, ``fe_lp_ratio``, ``static_bound``, ``warnings`` and ``fill_bounds`` entries of results.json
+    (:attr:`Analysis.lp`, :attr:`Analysis.fe_lp_ratio`, :func:`static_summary`, :attr:`Analysis.warnings`,
+    :attr:`Analysis.fill_bounds`)."""
+    return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
+            "static_bound": static_summary(an), "warnings": an.warnings, "fill_bounds": an.fill_bounds}
+
+
+def static_summary(an: Analysis) -> dict | None:
+    """The ``static_bound`` entry of results.json (None without one: a fill, or an LP that failed): the rigid-block
+    LP on the same joints under the FE's own loads (:class:`bridgefem.analysis.evidence.StaticBound`), its collapse ``load``
+    (N; None without one) and ``status``, the ``deficit`` (N) of joint tension and cohesion its blocks need under the
+    FE's self-weight, the ``margin`` (N) a converged FE state's tolerances can hide, and ``closed``: the search ended
+    on the bound."""
+    b = an.static
+    if b is None:
+        return None
+    return {"load": None if b.level is None else b.level * an.load_total, "status": b.status, "deficit": b.deficit,
+            "margin": b.margin, "closed": an.search.static}
+
+
+def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
+    """Write results.json, fields.xdmf and the PNGs into ``out`` atomically, under the output policy of
+    :mod:`bridgefem.io.output` (collective); returns the summary."""
+    comm = an.solver.comm
+    with results_folder(Path(out), comm) as tmp:
+        data = summary(an, extra)
+        if an.converged:
+            with quiet_compiler():
+                _write_fields(an, tmp / "fields.xdmf")
+        motion = an.collapse_mode()
+        if comm.rank == 0:
+            (tmp / "results.json").write_text(json.dumps(data, indent=2))
+            from .plots import plot_load_deflection, plot_mechanism
+
+            plot_load_deflection(data, tmp / "load_deflection.png")
+            plot_mechanism(an.ring, data, motion, tmp / "mechanism.png", _fill_polygon(an))
+    return data
+
+
+XDMF_CELL = {3: ("Triangle", [0, 1, 2]), 6: ("Triangle_6", [0, 1, 2, 5, 3, 4])}  # DOLFINx's triangle dofs (P1,
+# P2) in XDMF's node order
+
+
+class _XdmfSeries:
+    """An XDMF 3 temporal collection on one mesh (rank 0): the points and cells once, then per time value the point
+    fields, each in the HDF5 file beside the XDMF file."""
+
+    def __init__(self, path: Path, points: np.ndarray, cells: np.ndarray):
+        import h5py
+
+        self.path, self.h5 = path, h5py.File(path.with_suffix(".h5"), "w")
+        self.h5["mesh/geometry"], self.h5["mesh/topology"] = points, cells
+        kind, _ = XDMF_CELL[cells.shape[1]]
+        self.mesh = (f'<Geometry GeometryType="XYZ">{self._item("mesh/geometry")}</Geometry>'
+                     f'<Topology TopologyType="{kind}" NumberOfElements="{len(cells)}">'
+                     f'{self._item("mesh/topology")}</Topology>')
+        self.grids: list[str] = []
+
+    def _item(self, name: str) -> str:
+        data = self.h5[name]
+        kind = "Int" if data.dtype.kind == "i" else "Float"
+        dims = " ".join(map(str, data.shape))
+        return (f'<DataItem DataType="{kind}" Precision="{data.dtype.itemsize}" Dimensions="{dims}" Format="HDF">'
+                f'{self.path.with_suffix(".h5").name}:/{name}</DataItem>')
+
+    def write(self, time: float, fields: dict[str, np.ndarray]) -> None:
+        k = len(self.grids)
+        attributes = ""
+        for name, values in fields.items():
+            self.h5[f"{name}/{k}"] = values
+            kind = "Vector" if values.ndim == 2 else "Scalar"
+            attributes += (f'<Attribute Name="{name}" AttributeType="{kind}" Center="Node">'
+                           f'{self._item(f"{name}/{k}")}</Attribute>')
+        self.grids.append(f'<Grid Name="step {k}" GridType="Uniform">{self.mesh}<Time Value="{time!r}"/>'
+                          f'{attributes}</Grid>')
+
+    def close(self) -> None:
+        self.h5.close()
+        self.path.write_text('<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>'
+                             '<Grid Name="load steps" GridType="Collection" CollectionType="Temporal">\n'
+                             + "\n".join(self.grids) + "\n</Grid></Domain></Xdmf>\n")
+
+
+def _write_fields(an: Analysis, path: Path) -> None:
+    """Displacement (m, x y 0) and joint state (:data:`JOINT_STATE_CODES`, exact integers) at every converged
+    load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as one XDMF time series whose
+    time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``. Gathered to and written by
+    rank 0. Collective."""
+    V, pairs = an.model.V, an.pairs
+    comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    dofs = dofs[:V.mesh.topology.index_map(2).size_local]
+    owned = imap.local_to_global(np.arange(n_owned, dtype=np.int32))
+    points = comm.gather((owned, V.tabulate_dof_coordinates()[:n_owned]), root=0)
+    cells = comm.gather(imap.local_to_global(dofs.ravel()).reshape(dofs.shape), root=0)
+    codes = np.zeros(3, dtype=np.int32)
+    codes[[OPEN, STICK, SLIP]] = [JOINT_STATE_CODES[k] for k in ("open", "stick", "slip")]
+    ends = np.concatenate([pairs.left, pairs.right])
+    series = None
+    if comm.rank == 0:
+        xyz = np.zeros((sum(len(g) for g, _ in points), 3))
+        for g, x in points:
+            xyz[g] = x
+        cells = np.vstack(cells)
+        series = _XdmfSeries(path, xyz, cells[:, XDMF_CELL[cells.shape[1]][1]])
+    for cs in an.converged:
+        u = comm.gather((owned, cs.u.reshape(-1, 2)), root=0)
+        state = comm.gather((ends, np.concatenate([codes[cs.pair_state]] * 2)), root=0)
+        if series is not None:
+            disp, joint_state = np.zeros_like(xyz), np.zeros(len(xyz), dtype=np.int32)
+            for g, v in u:
+                disp[g, :2] = v
+            for g, c in state:
+                joint_state[g[g >= 0]] = c[g >= 0]
+            series.write(cs.load, {"displacement": disp, "joint_state": joint_state})
+    if series is not None:
+        series.close()
+
+
+def _fill_polygon(an: Analysis) -> np.ndarray | None:
+    """The fill's region (m): its ends, road and base, then the ring's extrados from right to left; None without
+    a fill."""
+    fill = an.scene.fill
+    if fill is None:
+        return None
+    box = fill_outline(an.ring, fill.depth, fill.extension)
+    extrados = np.vstack([v.extrados for v in an.ring.voussoirs])
+    extrados = extrados[np.argsort(-extrados[:, 0])]
+    corners = [[box.x_left, box.y_base], [box.x_left, box.y_road], [box.x_right, box.y_road],
+               [box.x_right, box.y_base]]
+    return np.vstack([corners, extrados])

@@ -1,0 +1,1 @@
+"""Constitutive laws: the joint laws (contact, friction) and the fill's soil, as objects on numpy arrays."""

@@ -1,0 +1,135 @@
+"""Lower and upper collapse bounds of a bridge with its fill, by conic optimisation (an independent check).
+
+The rigid-plastic model of :mod:`bridgefem.limit.bounds_model` (rigid voussoirs and abutment blocks with
+no-tension Coulomb joints as in the rigid-block LP; the fill a plane-strain Mohr-Coulomb continuum with
+associated flow on a triangle mesh; no-tension Coulomb arch-fill interface; fixed fill base, roller ends; dead
+load = voussoirs' and fill's weight; the scene's live-load pattern on the road) has a collapse load factor
+between the static bound of :mod:`bridgefem.limit.bounds_lower` and the kinematic bound of
+:mod:`bridgefem.limit.bounds_upper`. Without a fill both equal the rigid-block LP. Loads in N for the arch's width.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..scene.schema import Scene, SceneError
+from .bounds_lower import lower_bound
+from .bounds_model import LimitProblem, bridge_problem
+from .bounds_upper import upper_bound
+from .rigid_block import _MECH_TOL, _relative_motion
+
+BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
+                "Mohr-Coulomb continuum (associated flow; cut-off on the in-plane mean stress), no-tension Coulomb "
+                "arch-fill interface, fixed fill base, roller ends")
+
+
+@dataclass
+class Bound:
+    """One bound: status ("optimal", "optimal (reduced accuracy)", "infeasible" = the dead load cannot be
+    carried, "unbounded" = no collapse, or "solver failure: ..."), load (N; None unless optimal), level,
+    Clarabel iterations, seconds, sizes (unknowns, equalities, inequalities, cones)."""
+
+    status: str
+    load: float | None
+    level: float | None
+    iterations: int
+    seconds: float
+    sizes: dict
+
+
+@dataclass
+class Bounds:
+    """Lower and upper bounds of a scene, the mesh (triangles, size near the ring in m; None without fill),
+    wall time per phase (s), and the fields: fill stresses (ne, 3 vertices, sx sy txy; Pa) of the lower bound,
+    block velocities (nb, 3: u, v, omega; live-load power 1; voussoirs, abutment blocks, then the loading
+    beams) and soil node velocities (n, 2) of the upper bound (for plots)."""
+
+    lower: Bound
+    upper: Bound
+    mesh: dict | None
+    timings: dict
+    stress: np.ndarray | None = None
+    block_velocities: np.ndarray | None = None
+    soil_velocities: np.ndarray | None = None
+    problem: LimitProblem | None = field(default=None, repr=False)
+
+
+def _bound(problem: LimitProblem, solve) -> tuple[Bound, object, dict]:
+    sol, layout = solve(problem)
+    lam = sol.x[layout["factor"]] if sol.status.startswith("optimal") else None
+    load = None if lam is None else float(lam * problem.live_total)
+    return Bound(sol.status, load, None if lam is None else float(lam), sol.iterations, sol.seconds,
+                 sol.sizes), sol, layout
+
+
+def problem_bounds(problem: LimitProblem) -> Bounds:
+    """Both bounds of a :class:`LimitProblem`."""
+    start = time.perf_counter()
+    lower, sol_lo, lay_lo = _bound(problem, lower_bound)
+    t_lower = time.perf_counter() - start
+    upper, sol_up, lay_up = _bound(problem, upper_bound)
+    t_upper = time.perf_counter() - start - t_lower
+    mesh = problem.mesh
+    out = Bounds(lower, upper, None if mesh is None else {"triangles": mesh.n_triangles, "size": problem.size},
+                 {"lower": t_lower, "upper": t_upper}, problem=problem)
+    if lower.load is not None and mesh is not None:
+        out.stress = sol_lo.x[lay_lo["stress"]].reshape(-1, 3, 3)
+    if upper.load is not None:
+        z = lay_up["velocities"] @ sol_up.z["zero"]
+        n_free = len(lay_up["free"])
+        out.block_velocities = z[n_free:].reshape(-1, 3)
+        if mesh is not None:
+            v = np.zeros(2 * (len(mesh.x) + len(mesh.edges)))
+            v[lay_up["free"]] = z[:n_free]
+            out.soil_velocities = v.reshape(-1, 2)
+    return out
+
+
+def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
+    """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) / refine`` near the ring)."""
+    start = time.perf_counter()
+    problem = bridge_problem(scene, refine)
+    t_mesh = time.perf_counter() - start
+    out = problem_bounds(problem)
+    out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
+    return out
+
+
+def upper_mechanism(b: Bounds) -> dict | None:
+    """The upper bound's mechanism of the blocks: joints with a relative rotation (hinges) or slip (sliding),
+    as the rigid-block LP reports them, relative to the largest block or fill speed (a local failure of the fill
+    moves no joint; None without an upper bound)."""
+    if b.block_velocities is None or not b.problem.blocks.n_joints:
+        return None
+    model = b.problem.blocks
+    rot, slip = _relative_motion(model, b.block_velocities)
+    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()
+    fill = 0.0 if b.soil_velocities is None else float(np.linalg.norm(b.soil_velocities, axis=1).max())
+    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), fill, 1e-300)
+    return {"hinges": [int(j) for j in np.nonzero(np.abs(rot) * size > _MECH_TOL * scale)[0]],
+            "sliding": [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]}
+
+
+def bounds_summary(b: Bounds) -> dict:
+    """The JSON form: lower, upper (N), unit, model, mesh, time (s), the upper bound's mechanism, and per bound
+    its status, sizes, iterations and seconds."""
+    return {"lower": b.lower.load, "upper": b.upper.load, "unit": "N", "model": BOUNDS_MODEL, "mesh": b.mesh,
+            "time": b.timings["total"], "mechanism": upper_mechanism(b),
+            "programmes": {name: {"status": x.status, "level": x.level, "iterations": x.iterations,
+                                  "seconds": x.seconds, **x.sizes} for name, x in (("lower", b.lower),
+                                                                                    ("upper", b.upper))}}
+
+
+def fill_bounds(scene: Scene) -> dict | None:
+    """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
+    cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``."""
+    if scene.fill is None:
+        return None
+    try:
+        return bounds_summary(collapse_bounds(scene))
+    except SceneError as err:
+        return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
+
+

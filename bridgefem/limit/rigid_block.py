@@ -1,0 +1,729 @@
+"""Rigid-block limit analysis by linear programming (Gilbert & Melbourne / LimitState:RING style).
+
+The structure is an assembly of rigid blocks in contact through plane joints; the ground is a block without an
+equilibrium equation. Units are SI throughout: m, N, N·m; velocities are virtual and dimensionless in scale.
+
+**Joints.** Joint ``j`` is the segment from its start point ``a_j`` to its end point ``b_j`` (for a ring: intrados
+to extrados), with length ``t_j``, centre ``c_j``, unit tangent ``T_j = (b_j - a_j)/t_j`` and unit normal
+``N_j = (T_y, -T_x)``, which must point from the joint's *left* block into its *right* block. Its statics are
+
+* ``n_j >= 0`` the normal (compressive) force, N;
+* ``s_j`` the shear force, N;
+* ``m_j = n_j e_j`` the moment of the normal force about ``c_j``, N·m, where ``e_j`` is the position of the thrust
+  along ``T_j`` measured from ``c_j`` (``m > 0``: thrust on the extrados/``b`` side).
+
+The left block pushes the right block with the force ``n N + s T`` acting at ``c + e T``, i.e. with moment ``-m``
+about ``c`` (because ``T x N = -1``); the left block receives the opposite.
+
+**Equilibrium** of every block ``k`` (forces x, y and moment about its reference point ``r_k``)::
+
+    sum_j (joint contributions) + d_k + lambda l_k = 0        (A q + lambda l = -d)
+
+with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k``). **Yield** (per joint)::
+
+    |m_j| <= n_j t_j / 2          no tension: the thrust lies within the joint
+    |s_j| <= mu_j n_j + c_j       Coulomb friction (associative: c_j = 0)
+
+The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
+programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
+decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
+admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
+FE); otherwise :class:`LPFailure` (campaign seed 5, #162, an elliptical ring of 185 voussoirs at mu = 0.3: every
+HiGHS method, with or without presolve, gives no status for the load programme and a deficit of 2675 N).
+
+**Mechanism.** The equilibrium duals are the block virtual velocities ``(u, v, omega)`` at ``r_k`` (the velocity
+is ``minus`` HiGHS' marginals, normalised so that the live load does unit work). At a joint the relative motion of
+the right block with respect to the left one is described by the relative rotation ``[omega]``, the slip
+``T . [v]`` and the opening ``N . [v](e) = N . [v](c) - e [omega]``. Since the opening is nonnegative along the
+joint, a hinge with ``[omega] > 0`` is at the end ``b`` (extrados) and one with ``[omega] < 0`` at ``a`` (intrados).
+Virtual work: ``d . u + lambda l . u = D`` where ``D = sum c_j |z_j|`` is the cohesive dissipation (zero for the
+associative programme, hence ``d . u = -lambda``).
+
+**Non-associative friction** (Gilbert, Casapulla & Ahmed 2006, Computers & Structures 84:873): associative
+friction lets sliding joints dilate and overestimates the collapse load. The *Tresca fixed point* replaces the
+Coulomb line of every joint by a fixed shear capacity ``|s| <= mu n~`` (no ``n`` term: the LP's flow rule then
+slides without opening, no dilatancy) with the normal forces ``n~`` of a seed (given, e.g. an FE state's joint
+forces, or the associative solution's), solves the LP, relaxes ``n~ <- n~ + beta (n - n~)`` and repeats until
+the load factor is steady *and* the LP's own state obeys ``|s| <= mu n`` (:func:`_solve`). That state and the
+LP's mechanism form a non-associative collapse state: equilibrium with no tension and Coulomb friction, and a
+mechanism of hinges and slips without dilatancy on which the loads' work equals the friction dissipation
+``mu n~ |slip|`` at the sliding joints, where ``|s| = mu n~`` and ``n ~ n~``. Its load factor never exceeds the
+associative one (its state is admissible there). Non-associative collapse states are not unique (they depend on
+the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
+never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
+freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
+in tests/test_nonassociative.py. A single Tresca LP (:func:`frozen_capacity_collapse`, capacities frozen at given
+normal forces) is itself a standard problem with bound theorems (a shear limit independent of the normal force:
+Livesley 1978, Int. J. Numer. Meth. Eng. 12:1853, part I); how the FE uses both: :mod:`bridgefem.analysis.evidence`,
+docs/joints-and-lp.md.
+
+**Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
+
+**Dead load only** (least thickness): the *deficit* programme minimises ``tau >= 0``, a uniform tensile strength
+at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``). The
+blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load work > 0).
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
+from ..scene.schema import Scene
+from ..structure.ring import scene_ring
+
+FRICTION_MODELS = ("associative", "non-associative")
+LEAST_FAVOURABLE = "least-favourable"
+_EXHAUSTIVE = 8  # point loads on joints up to which every allocation is tried (2^8 = 256 LPs)
+_TIE = 1e-7  # relative: a load on one block must lower the collapse load by more than this to replace the split
+_MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
+_DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
+_WINDOW = 6  # non-associative iterations: converged when lambda is steady over this many LPs
+RELAXATION = 0.6  # Tresca fixed point: n~ <- n~ + RELAXATION (n - n~) between LPs
+FIXED_POINT_RTOL = 1e-6  # Tresca fixed point: tolerance on lambda and on the Coulomb condition
+FIXED_POINT_LPS = 200  # Tresca fixed point: LPs at most
+_THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
+_LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
+
+
+@dataclass(frozen=True)
+class BlockModel:
+    """Generic rigid-block data; ``nb`` blocks, ``nj`` joints, ground = block id -1.
+
+    ref: (nb, 2) reference point of each block (m), about which ``dead``/``live`` moments are taken;
+    dead, live: (nb, 3) generalised loads (Fx, Fy in N; M in N·m, counter-clockwise), live for unit load factor;
+    joint_a, joint_b: (nj, 2) joint start and end points (m); the normal (T_y, -T_x) must point left -> right;
+    joint_left, joint_right: (nj,) block ids (-1: ground); friction: (nj,) Coulomb coefficients.
+    """
+
+    ref: np.ndarray
+    dead: np.ndarray
+    live: np.ndarray
+    joint_a: np.ndarray
+    joint_b: np.ndarray
+    joint_left: np.ndarray
+    joint_right: np.ndarray
+    friction: np.ndarray
+
+    @property
+    def n_blocks(self) -> int:
+        return len(self.ref)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_a)
+
+    def frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Joint lengths t (m), centres c, unit tangents T and unit normals N (arrays over joints)."""
+        d = self.joint_b - self.joint_a
+        t = np.linalg.norm(d, axis=1)
+        tang = d / t[:, None]
+        return t, 0.5 * (self.joint_a + self.joint_b), tang, np.column_stack([tang[:, 1], -tang[:, 0]])
+
+
+def generalised_loads(ref: np.ndarray, blocks, points, forces) -> np.ndarray:
+    """(nb, 3) loads (Fx, Fy, M about ``ref``) from forces (k, 2) in N applied at points (k, 2) on given blocks."""
+    blocks = np.asarray(blocks, int)
+    points, forces = np.atleast_2d(points).astype(float), np.atleast_2d(forces).astype(float)
+    arm = points - ref[blocks]
+    out = np.zeros((len(ref), 3))
+    np.add.at(out, blocks, np.column_stack([forces, arm[:, 0] * forces[:, 1] - arm[:, 1] * forces[:, 0]]))
+    return out
+
+
+@dataclass
+class LPResult:
+    """Outcome of a rigid-block analysis (all arrays over joints/blocks in model order).
+
+    load: total live load at collapse, N (level x sum of live forces; None without live load);
+    level: multiplier of the live-load pattern (for scenes the pattern is ``factor`` N per load, so this is
+    the load level in N); level_associative: the associative value (differs only for non-associative runs);
+    level_seeded: non-associative runs, the level of the first Tresca LP (shear capacities mu x the seed's normal
+    forces; None without an optimum);
+    status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
+    hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
+    "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
+    block_velocities: (nb, 3) u, v (m/s-like) and omega (rad) at the reference points, live-load work = 1
+    (dead-load-only problems: largest block speed = 1); joint_rotation, joint_slip: relative motions;
+    work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
+    iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s);
+    load_sides: per scene load, the block ("left" | "right" | "split") that carries it when it lies on a joint,
+    else None (:func:`collapse_load`).
+    """
+
+    load: float | None
+    level: float | None
+    status: str
+    friction_model: str = "associative"
+    level_associative: float | None = None
+    level_seeded: float | None = None
+    hinges: list[int] = field(default_factory=list)
+    hinge_positions: dict[int, str] = field(default_factory=dict)
+    sliding: list[int] = field(default_factory=list)
+    joint_forces: dict[str, np.ndarray] = field(default_factory=dict)
+    block_velocities: np.ndarray | None = None
+    joint_rotation: np.ndarray | None = None
+    joint_slip: np.ndarray | None = None
+    work_dead: float | None = None
+    work_live: float | None = None
+    dissipation: float = 0.0
+    iterations: int = 0
+    converged: bool = True
+    time_s: float = 0.0
+    load_sides: list[str | None] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable copy (arrays become lists, joint ids stay ints)."""
+        def conv(v):
+            if isinstance(v, np.ndarray):
+                return v.tolist()
+            if isinstance(v, dict):
+                return {(int(k) if isinstance(k, (int, np.integer)) else k): conv(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple)):
+                return [conv(x) for x in v]
+            if isinstance(v, np.generic):
+                return v.item()
+            return v
+        return {k: conv(v) for k, v in self.__dict__.items()}
+
+
+class _Programme:
+    """Sparse LP data of a block model.
+
+    Unknowns ``x = (n_0, s_0, m_0, n_1, ..., extra)`` with one extra scalar (the load factor or the deficit).
+    Forces are scaled by ``fref`` (the total dead weight) so that the unknowns are O(1).
+    """
+
+    def __init__(self, model: BlockModel):
+        self.model = model
+        nb, nj = model.n_blocks, model.n_joints
+        t, c, tang, nrm = model.frames()
+        self.t = t
+        self.fref = float(np.abs(model.dead[:, :2]).sum()) or 1.0
+        rows, cols, vals = [], [], []
+        for blocks, sign in ((model.joint_right, 1.0), (model.joint_left, -1.0)):
+            j = np.nonzero(blocks >= 0)[0]
+            k = blocks[j]
+            arm = c[j] - model.ref[k]
+            rows.append(3 * k[:, None] + np.array([0, 0, 1, 1, 2, 2, 2]))
+            cols.append(3 * j[:, None] + np.array([0, 1, 0, 1, 0, 1, 2]))
+            vals.append(sign * np.column_stack([
+                nrm[j, 0], tang[j, 0], nrm[j, 1], tang[j, 1],
+                arm[:, 0] * nrm[j, 1] - arm[:, 1] * nrm[j, 0],    # moment of n N about r_k
+                arm[:, 0] * tang[j, 1] - arm[:, 1] * tang[j, 0],  # moment of s T about r_k
+                -np.ones(len(j))]))
+        self.A = sp.csr_matrix((np.concatenate(vals).ravel(),
+                                (np.concatenate(rows).ravel(), np.concatenate(cols).ravel())),
+                               shape=(3 * nb, 3 * nj))
+        self.b_eq = -model.dead.ravel() / self.fref
+        lo = np.append(np.tile([0.0, -np.inf, -np.inf], nj), 0.0)
+        self.bounds = np.column_stack([lo, np.full(3 * nj + 1, np.inf)])
+
+    def yield_rows(self, mu: np.ndarray, extra: np.ndarray) -> sp.csr_matrix:
+        """Rows ``+-m - n t/2`` and ``+-s - mu n`` of every joint (4 per joint), then column ``extra`` (4 nj,)."""
+        nj = self.model.n_joints
+        j = np.arange(nj)[:, None]
+        rows = 4 * j + np.array([0, 0, 1, 1, 2, 2, 3, 3])
+        cols = 3 * j + np.array([2, 0, 2, 0, 1, 0, 1, 0])
+        one, half = np.ones(nj), self.t / 2
+        vals = np.column_stack([one, -half, -one, -half, one, -mu, -one, -mu])
+        g = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(4 * nj, 3 * nj))
+        return sp.hstack([g, sp.csr_matrix(extra[:, None])], format="csr")
+
+    def rhs(self, cohesion: np.ndarray) -> np.ndarray:
+        h = np.zeros((self.model.n_joints, 4))
+        h[:, 2] = h[:, 3] = cohesion / self.fref
+        return h.ravel()
+
+    def solve(self, mu: np.ndarray, cohesion: np.ndarray, deficit: bool):
+        """One LP; the extra unknown is lambda (maximised) or, if ``deficit``, tau (minimised).
+
+        load:    max lambda   s.t. A q + lambda l = -d,  |m| <= n t/2,  |s| <= mu n + c
+        deficit: min tau >= 0 s.t. A q = -d,  |m| <= (n + tau) t/2,  |s| <= mu n + c + tau
+        ``tau`` is the smallest tensile strength at the joint edges and cohesion (a force, uniform over the
+        joints) that equilibrium under the dead load needs: zero when the dead load alone can be carried.
+        """
+        nj = self.model.n_joints
+        if deficit:
+            extra_col = sp.csr_matrix((self.A.shape[0], 1))
+            extra_ub = -np.column_stack([self.t / 2, self.t / 2, np.ones(nj), np.ones(nj)]).ravel()
+            cost_extra = 1.0
+        else:
+            extra_col = sp.csr_matrix(self.model.live.ravel()[:, None])
+            extra_ub = np.zeros(4 * nj)
+            cost_extra = -1.0
+        cost = np.zeros(3 * nj + 1)
+        cost[-1] = cost_extra
+        return linprog(cost, A_ub=self.yield_rows(mu, extra_ub), b_ub=self.rhs(cohesion),
+                       A_eq=sp.hstack([self.A, extra_col], format="csr"), b_eq=self.b_eq,
+                       bounds=self.bounds, method=_LP_METHOD)
+
+
+def _relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative rotation [omega] and slip T.[v] of the right block with respect to the left one at each joint."""
+    _, c, tang, _ = model.frames()
+    padded = np.vstack([vel, np.zeros(3)])  # index -1: the ground, at rest
+    ref = np.vstack([model.ref, np.zeros(2)])
+
+    def at_centre(blocks):
+        u = padded[blocks]
+        arm = c - ref[blocks]
+        return np.column_stack([u[:, 0] - u[:, 2] * arm[:, 1], u[:, 1] + u[:, 2] * arm[:, 0]]), u[:, 2]
+
+    v_r, w_r = at_centre(model.joint_right)
+    v_l, w_l = at_centre(model.joint_left)
+    return w_r - w_l, np.einsum("ij,ij->i", v_r - v_l, tang)
+
+
+def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesion: np.ndarray) -> None:
+    """Joint forces, mechanism (from the equilibrium duals) and work terms of an optimal LP."""
+    nj = model.n_joints
+    q = sol.x[:3 * nj].reshape(nj, 3) * prog.fref
+    res.joint_forces = {"n": q[:, 0], "s": q[:, 1], "m": q[:, 2]}
+    vel = -np.asarray(sol.eqlin.marginals).reshape(-1, 3)
+    if res.level is None:  # dead load only: largest block speed = 1
+        speed = np.hypot(vel[:, 0], vel[:, 1]).max()
+        vel = vel / speed if speed > 0 else vel
+    rot, slip = _relative_motion(model, vel)
+    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()  # extent of the model, m
+    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), 1e-300)
+    hinge = np.abs(rot) * size > _MECH_TOL * scale
+    res.block_velocities, res.joint_rotation, res.joint_slip = vel, rot, slip
+    res.hinges = [int(j) for j in np.nonzero(hinge)[0]]
+    res.hinge_positions = {j: ("extrados" if rot[j] > 0 else "intrados") for j in res.hinges}
+    res.sliding = [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]
+    res.work_dead = float(model.dead.ravel() @ vel.ravel())
+    res.work_live = float(model.live.ravel() @ vel.ravel())
+    z = np.asarray(sol.ineqlin.marginals)
+    res.dissipation = float(-(prog.rhs(cohesion) @ z) * prog.fref) if res.level is not None else 0.0
+
+
+class LPFailure(RuntimeError):
+    """HiGHS gave no answer for a programme (its message says why)."""
+
+
+def _status(sol, model: BlockModel, prog: _Programme, friction_model: str) -> LPResult:
+    """An LPResult carrying the outcome of a load-factor LP (forces and mechanism still empty)."""
+    if sol.status == 2:
+        return LPResult(None, None, "unstable under self-weight", friction_model)
+    if sol.status == 3 or not np.any(model.live):
+        return LPResult(None, None, "no collapse (unbounded)", friction_model)
+    if sol.status != 0:
+        raise LPFailure(f"rigid-block LP failed: {sol.message}")
+    lam = float(sol.x[-1] * prog.fref)
+    total_live = float(np.hypot(model.live[:, 0], model.live[:, 1]).sum())
+    return LPResult(lam * total_live, lam, "limit load found", friction_model)
+
+
+def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rtol: float, max_iterations: int,
+           seed: np.ndarray | None = None):
+    """Solve the associative LP, then (non-associative) the Tresca fixed point of the module docstring.
+
+    Returns the last solution, its shear capacities (N, the ``cohesion`` of the Tresca rows; zero for the
+    associative LP), the number of LPs, whether the iteration reached a fixed point, and the values of the extra
+    unknown (unscaled; None without an optimum) of the associative LP and of the first Tresca LP (capacities
+    ``mu`` x the seed; None for the associative programme).
+
+    Iteration k solves the LP with ``|s| <= mu n~`` (capacities fixed, no ``n`` term) and relaxes
+    ``n~ <- n~ + beta (n - n~)``, from ``n~`` = ``seed`` (N, per joint) or the associative normal forces. It stops
+    at a fixed point: the extra unknown (lambda or tau, scaled by the dead weight) steady to ``rtol`` over the last
+    ``_WINDOW`` LPs *and* the LP's own state Coulomb-admissible, ``|s| <= mu n`` on every joint to ``rtol`` x the
+    largest normal force (:func:`_coulomb_excess`). An iteration LP without optimum ends the iteration.
+    """
+    if friction_model not in FRICTION_MODELS:
+        raise ValueError(f"friction_model = {friction_model!r}: allowed are {', '.join(FRICTION_MODELS)}")
+    mu = np.asarray(prog.model.friction, float)
+    cohesion = np.zeros(prog.model.n_joints)
+    sol = prog.solve(mu, cohesion, deficit)
+    iterations = 1
+    first = sol.x[-1] * prog.fref if sol.status == 0 else None
+    if friction_model == "associative" or (sol.status != 0 and seed is None):
+        return sol, cohesion, iterations, True, (first, None)
+    n_tilde = np.asarray(seed, float) / prog.fref if seed is not None else sol.x[0:-1:3].copy()
+    history, seeded = [], None
+    for _ in range(max_iterations):
+        cohesion = mu * n_tilde * prog.fref
+        sol = prog.solve(np.zeros_like(mu), cohesion, deficit)
+        iterations += 1
+        if sol.status != 0:
+            break
+        n = sol.x[0:-1:3]
+        history.append(sol.x[-1])
+        seeded = history[0] * prog.fref
+        last = history[-_WINDOW:]
+        steady = len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0)
+        if steady and _coulomb_excess(sol.x, mu) <= rtol:
+            return sol, cohesion, iterations, True, (first, seeded)
+        n_tilde = n_tilde + beta * (n - n_tilde)
+    return sol, cohesion, iterations, False, (first, seeded)
+
+
+def _coulomb_excess(x: np.ndarray, mu: np.ndarray) -> float:
+    """Largest excess of a state's shear over its own Coulomb limit, ``max(|s| - mu n)`` / the largest ``n``."""
+    q = x[:-1].reshape(-1, 3)
+    return float(np.max(np.abs(q[:, 1]) - mu * q[:, 0]) / max(q[:, 0].max(), 1e-300))
+
+
+def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed: np.ndarray | None = None,
+                 beta: float = RELAXATION, rtol: float = FIXED_POINT_RTOL,
+                 max_iterations: int = FIXED_POINT_LPS) -> LPResult:
+    """Collapse load factor of a block model (see the module docstring for the programme).
+
+    friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the Tresca fixed
+    point of Gilbert, Casapulla & Ahmed 2006: ``seed`` the starting normal forces, N per joint, default the
+    associative ones; ``beta`` the under-relaxation of the normal forces, ``rtol`` the tolerance on lambda and on
+    the Coulomb condition, ``max_iterations`` the number of Tresca LPs). ``converged`` says whether a fixed point
+    (a non-associative collapse state) was reached.
+    """
+    start = time.perf_counter()
+    prog = _Programme(model)
+    sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
+                                                          seed)
+    if sol.status not in (0, 2, 3) and np.any(model.live):  # no status: the deficit programme decides
+        _, dead = dead_load_deficit(model)  # statics alone: a deficit rules out every flow rule's equilibrium
+        if dead.status == "unstable under self-weight":
+            dead.friction_model, dead.time_s = friction_model, time.perf_counter() - start
+            return dead
+    res = _status(sol, model, prog, friction_model)
+    res.level_associative, res.level_seeded = levels
+    if res.level is not None:
+        _fill_result(res, model, prog, sol, cohesion)
+    res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
+    return res
+
+
+@dataclass(frozen=True)
+class Statics:
+    """How far given joint forces are from the programme's constraints at a load level (:func:`statics`):
+    ``equilibrium`` (nb, 3), the residual ``A q + level l + d`` of every block (Fx, Fy in N; M in N·m about its
+    reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n (N) and
+    ``eccentricity`` = |m| - n t/2 (N·m), each <= 0 where the yield conditions hold."""
+
+    equilibrium: np.ndarray
+    tension: np.ndarray
+    friction: np.ndarray
+    eccentricity: np.ndarray
+
+
+def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
+    """The programme's equality and yield rows (module docstring) evaluated at joint forces ``forces`` (nj, 3: n, s
+    in N, m in N·m about the joint centre) and load level ``level``: whether a state, e.g. an FE state's joint
+    resultants, is statically admissible for these blocks (then ``level`` is at most their collapse load factor,
+    the static theorem)."""
+    prog = _Programme(model)
+    n, s, m = np.asarray(forces, float).T
+    residual = prog.A @ np.asarray(forces, float).ravel() + level * model.live.ravel() + model.dead.ravel()
+    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n, np.abs(m) - n * prog.t / 2)
+
+
+def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
+               live: bool = True) -> BlockModel:
+    """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
+
+    Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
+    vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
+    uniform per horizontal metre over its x-range. A point load exactly above a joint acts at the joint's extrados
+    corner and is carried as :func:`bridgefem.geometry.ring.point_load_blocks` says for its side: ``load_at_joint`` is
+    one side ("left" | "right" | "split") for every load, or one per scene load (patches ignore theirs).
+    ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
+    only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
+    centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
+    (it does not change the collapse load of rigid blocks).
+    """
+    a = scene.arch
+    sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
+    if len(sides) != len(scene.loads):
+        raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
+    ring = scene_ring(scene, thickness)
+    blocks = ring.voussoirs + ring.abutments
+    area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
+    ref = np.array(centroid)
+    nb = len(ref)
+    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
+                           + [scene.abutments.unit_weight] * len(ring.abutments))
+    weight = unit_weight * a.width * np.array(area)
+    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
+    if scene.fill is not None:
+        dead = dead + _overburden(ring, scene, ref)
+    live_loads = _live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
+    friction = np.full(len(ring.joints), scene.joints.friction)
+    if ring.bases:
+        friction[[j.id for j in ring.bases]] = scene.abutments.friction
+    return BlockModel(
+        ref=ref, dead=dead, live=live_loads,
+        joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
+        joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
+        joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
+        friction=friction)
+
+
+def _live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
+    """(nb, 3) generalised live loads of a scene's loads for unit load factor (see :func:`ring_model`)."""
+    ext = np.vstack([v.extrados for v in ring.voussoirs])
+    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
+    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
+    on, xs, fy = [], [], []
+    for ld, side in zip(scene.loads, sides):
+        lo, hi = ld.x_range(scene.arch.span)
+        if ld.kind == "point":
+            carriers = point_load_blocks(ring, lo, side)
+            j = joint_under(ring, lo)
+            on.append(np.array(carriers))
+            xs.append(np.full(len(carriers), lo if j is None else ring.joints[j].extrados[0]))
+            fy.append(np.full(len(carriers), -ld.factor / len(carriers)))
+        else:
+            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
+            k = np.nonzero(right > left)[0]
+            on.append(k)
+            xs.append(0.5 * (left[k] + right[k]))
+            fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
+    if not on:
+        return np.zeros((len(ref), 3))
+    x, f = np.concatenate(xs), np.concatenate(fy)
+    return generalised_loads(ref, np.concatenate(on), np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
+                             np.column_stack([np.zeros(len(f)), f]))
+
+
+def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:
+    """The scene's ring (the joints and blocks of :func:`ring_model`, its self-weight; without the fill's overburden
+    and without the scene's live loads) loaded by given nodal forces instead of a fill.
+
+    ``blocks`` (k,): the voussoir each force acts on; ``points`` (k, 2): where (m); ``dead_forces`` (k, 2): forces
+    (N, x and y, whole width) added to the dead load; ``live_forces`` (k, 2): the live load for a unit load factor
+    (N per unit factor). With the forces a fill transmits across the arch-fill interface at two states of an FE
+    analysis (:func:`bridgefem.analysis.runner.transmitted_load_check`) this is the ring as the FE sees it: the fill then
+    needs no model of its own, whatever its stiffness or strength.
+    """
+    model = ring_model(dataclasses.replace(scene, fill=None), live=False)
+    blocks = np.asarray(blocks, int)
+    return dataclasses.replace(model, dead=model.dead + generalised_loads(model.ref, blocks, points, dead_forces),
+                               live=generalised_loads(model.ref, blocks, points, live_forces))
+
+
+def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> BlockModel:
+    """The blocks and joints of ``model`` (e.g. :func:`ring_model`) under given block loads instead of its own:
+    ``dead``, ``live`` (nb, 3) Fx, Fy (N) and M (N·m, counter-clockwise) about ``model.ref``, ``live`` for a unit
+    load level, e.g. the FE's assembled self-weight and live load (:func:`bridgefem.analysis.static_bound.block_loads`): the
+    rigid blocks loaded as the FE's meshed voussoirs are."""
+    return dataclasses.replace(model, dead=np.asarray(dead, float), live=np.asarray(live, float))
+
+
+def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
+    """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
+    the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
+    spreading are ignored (live loads still act on the extrados below them)."""
+    road = ring.crown_extrados + scene.fill.depth
+    w = scene.fill.unit_weight * scene.arch.width
+    points, forces = [], []
+    for v in ring.voussoirs:
+        x, h = v.extrados[:, 0], road - v.extrados[:, 1]
+        area = np.trapz(h, x)
+        xc = np.trapz(x * h, x) / area
+        points.append(ring.extrados_point(xc))
+        forces.append((0.0, -w * area))
+    return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
+
+
+def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
+                  **options) -> LPResult:
+    """Rigid-block collapse load of a scene's ring; ``options`` go to :func:`solve_blocks`.
+
+    ``load_at_joint``: the block that carries a point load lying on a joint (:func:`ring_model`), or
+    "least-favourable" (the default): the allocation with the least collapse load (:func:`_least_favourable`).
+    The result's ``load_sides`` says which was taken.
+    """
+    ring = scene_ring(scene)
+    span = scene.arch.span
+    on_joint = [i for i, ld in enumerate(scene.loads)
+                if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
+    model = ring_model(scene, load_at_joint="split")
+
+    def solve(choice: dict[int, str]) -> LPResult:
+        sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))
+        res = solve_blocks(dataclasses.replace(model, live=_live_loads(scene, ring, model.ref, sides)),
+                           friction_model, **options)
+        res.load_sides = [choice.get(i) for i in range(len(scene.loads))]
+        return res
+
+    if load_at_joint != LEAST_FAVOURABLE:
+        return solve({i: load_at_joint for i in on_joint})
+    return _least_favourable(solve, on_joint)
+
+
+def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LPResult:
+    """The collapse of the blocks with every joint's shear capacity frozen at ``mu n~`` (``normal_forces`` n~, N
+    per joint): the first Tresca LP of :func:`solve_blocks` (``level``, mechanism, joint forces).
+
+    Its yield rows ``|m| <= n t/2``, ``|s| <= mu n~`` are convex and its mechanism obeys their normality (slips
+    without opening, rotations about a joint's edge), so the bound theorems of limit analysis hold (Livesley 1978,
+    part I, module docstring): ``level`` is *the* collapse load factor of these
+    blocks, at least that of any statically admissible state, and the LP duality makes every optimal state do
+    exactly the mechanism's dissipation ``mu n~ |slip|`` (complementary slackness)."""
+    return solve_blocks(model, "non-associative", seed=normal_forces, max_iterations=1)
+
+
+def collapse_state_from(scene: Scene, normal_forces: np.ndarray, load_sides: list[str | None] | None = None,
+                        **options) -> LPResult:
+    """The non-associative rigid-block collapse state of a scene's ring reached from given joint normal forces.
+
+    ``normal_forces`` (N, one per joint of :func:`ring_model`, e.g. an FE state's joint resultants) seed the Tresca
+    fixed point (:func:`solve_blocks`, ``friction_model="non-associative"``); ``load_sides``: the block carrying
+    each point load on a joint (:func:`collapse_load`'s ``load_sides``; None entries and None: shared). The
+    result's ``converged`` says whether a fixed point was reached; ``options`` go to :func:`solve_blocks`.
+    """
+    sides = tuple(side or "split" for side in (load_sides or [None] * len(scene.loads)))
+    res = solve_blocks(ring_model(scene, load_at_joint=sides), "non-associative", seed=normal_forces, **options)
+    res.load_sides = list(load_sides or [None] * len(scene.loads))
+    return res
+
+
+def _level(res: LPResult) -> float:
+    """The collapse load factor as a number to compare (an unbounded load is +inf)."""
+    return np.inf if res.level is None and res.status == "no collapse (unbounded)" else (res.level or 0.0)
+
+
+def _least_favourable(solve, on_joint: list[int]) -> LPResult:
+    """The least collapse load over the allocations of the point loads on joints (load index -> side).
+
+    With associative friction the load factors ``(lambda_1, ..., lambda_k)`` the blocks can carry form a convex
+    set, so its gauge is convex along the (affine) allocation and its maximum over the box of allocations (the
+    least load factor) sits at a corner: every load wholly on one block. Up to ``_EXHAUSTIVE`` such loads every
+    corner is tried (2^k LPs); beyond, one load at a time is moved to its other block while that lowers the load
+    (a local search, not a proof). The split allocation is kept unless a corner is lower by more than ``_TIE``
+    (relative): where the allocation does not matter (no joint slides) the load stays shared by both faces.
+    """
+    split = solve({})
+    if not on_joint:
+        return split
+    if len(on_joint) <= _EXHAUSTIVE:
+        results = [solve(dict(zip(on_joint, c))) for c in itertools.product(("left", "right"), repeat=len(on_joint))]
+        best = min(results, key=_level)
+    else:
+        choice = dict.fromkeys(on_joint, "left")
+        best = solve(choice)
+        improved = True
+        while improved:
+            improved = False
+            for i in on_joint:
+                trial = {**choice, i: "right" if choice[i] == "left" else "left"}
+                res = solve(trial)
+                if _level(res) < _level(best):
+                    best, choice, improved = res, trial, True
+    if _level(best) < _level(split) * (1 - _TIE):
+        return best
+    split.load_sides = ["split" if i in on_joint else None for i in range(len(split.load_sides))]
+    return split
+
+
+class NoStableThickness(ValueError):
+    """No ring thickness in the searched range carries the self-weight (e.g. too little friction: a semicircle
+    needs mu >= 0.3092, Cocchetti & Rizzi 2020)."""
+
+
+@dataclass
+class ThicknessResult:
+    """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
+    shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
+    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed."""
+
+    thickness: float
+    ratio: float | None
+    radius: float | None
+    mechanism: LPResult
+    bracket: tuple[float, float]
+    evaluations: int
+
+    def to_dict(self) -> dict:
+        return {"thickness": self.thickness, "ratio": self.ratio, "radius": self.radius,
+                "mechanism": self.mechanism.to_dict(), "bracket": list(self.bracket),
+                "evaluations": self.evaluations}
+
+
+def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, beta: float = RELAXATION,
+                      rtol: float = FIXED_POINT_RTOL, max_iterations: int = FIXED_POINT_LPS) -> tuple[float, LPResult]:
+    """Smallest uniform joint tensile strength and cohesion ``tau`` (N) that the dead load needs, and the LP outcome.
+
+    ``tau = 0``: the blocks carry their dead load ("stable under self-weight"); ``tau > 0``: they do not
+    ("unstable under self-weight"), and the mechanism (equilibrium duals, dead-load work > 0, largest block speed
+    1) is how they fail. Options as in :func:`solve_blocks`.
+    """
+    start = time.perf_counter()
+    prog = _Programme(model)
+    sol, cohesion, iterations, converged, _ = _solve(prog, True, friction_model, beta, rtol, max_iterations)
+    if sol.status != 0:
+        raise LPFailure(f"rigid-block deficit LP failed: {sol.message}")
+    tau = float(sol.x[-1] * prog.fref)
+    res = LPResult(None, None, "unstable under self-weight" if sol.x[-1] > _DEFICIT_TOL else "stable under self-weight",
+                   friction_model)
+    _fill_result(res, model, prog, sol, cohesion)
+    res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
+    return tau, res
+
+
+def standing_deficit(model: BlockModel) -> float:
+    """The least uniform joint tension and cohesion tau (N) with which the blocks carry their dead load when every
+    joint may also carry a net tension of tau (0: they stand):
+
+        min tau >= 0  s.t.  A q = -d,  n >= -tau,  |m| <= (n + tau) t/2,  |s| <= mu n + tau
+
+    the deficit programme of :func:`dead_load_deficit` with its ``n >= 0`` relaxed to ``n >= -tau``, solved in
+    ``nu = n + tau >= 0``. Any state that violates no tension, the thrust's place and Coulomb's law by at most those
+    amounts is a point of it, so a deficit above them proves that no such state exists (the static theorem under
+    dead load; :class:`bridgefem.analysis.evidence.StaticBound`). Raises :class:`LPFailure` when the LP fails."""
+    prog = _Programme(model)
+    nj = model.n_joints
+    mu = np.asarray(model.friction, float)
+    extra = np.column_stack([np.zeros(nj), np.zeros(nj), mu - 1.0, mu - 1.0]).ravel()  # n = nu - tau in the rows
+    shift = -np.asarray(prog.A[:, 0::3].sum(axis=1)).ravel()  # ... and in equilibrium
+    cost = np.zeros(3 * nj + 1)
+    cost[-1] = 1.0
+    sol = linprog(cost, A_ub=prog.yield_rows(mu, extra), b_ub=np.zeros(4 * nj),
+                  A_eq=sp.hstack([prog.A, sp.csr_matrix(shift[:, None])], format="csr"), b_eq=prog.b_eq,
+                  bounds=prog.bounds, method=_LP_METHOD)
+    if sol.status != 0:
+        raise LPFailure(f"rigid-block deficit LP failed: {sol.message}")
+    return float(sol.x[-1] * prog.fref)
+
+
+def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",
+                  **options) -> ThicknessResult:
+    """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.
+
+    A thickness is stable when :func:`dead_load_deficit` is zero; the bracket starts at ``_THICKNESS_RANGE`` x span
+    and is halved until its width is below ``rtol`` x thickness. Raises :class:`NoStableThickness` when even the
+    thickest ring of the range falls. For circular shapes the centreline radius is
+    ``R = R_intrados + t/2`` and ``ratio = t/R``.
+    """
+    span = scene.arch.span
+    evals = 0
+
+    def analyse(t) -> LPResult:
+        nonlocal evals
+        evals += 1
+        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)[1]
+
+    lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
+    thickest = analyse(hi)
+    if thickest.status != "stable under self-weight":
+        how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
+        raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
+                                f"self-weight with friction {scene.joints.friction:g} ({friction_model}): {how}")
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        if analyse(mid).status == "stable under self-weight":
+            hi = mid
+        else:
+            lo = mid
+    mechanism = analyse(lo)
+    radius = ratio = None
+    if scene.arch.shape in ("semicircular", "segmental"):
+        a = scene.arch
+        radius = (a.span ** 2 / 4 + a.rise ** 2) / (2 * a.rise) + hi / 2
+        ratio = hi / radius
+    return ThicknessResult(hi, ratio, radius, mechanism, (lo, hi), evals)

@@ -1,0 +1,170 @@
+"""The self-weight state: the start of every limit search (:mod:`bridgefem.search.pathfollow`).
+
+1. The whole self-weight in one step from the unloaded state (every joint closed and sticking), with the whole
+   iteration budget: on campaign seeds 1 and 2 converged one steps took up to 29 Newton iterations and failed ones
+   showed the mechanism of an arch unstable under self-weight after up to 49. A ring whose springings both slide
+   (its thrust mu W / 2 at each: seed 1 #76, #193, #297) translates freely once every pair of both springings
+   slides; the repair stuck a whole springing, chosen by rounding, whose pairs then slid again one at a time, and the
+   one step spent its budget or ended cycling, as did a continuation step. Stuck where the translation's forces
+   say (:mod:`bridgefem.solver.mechanism`, step 1), or with the last pair on its cone frozen (:mod:`bridgefem.solver.newton`,
+   *Pairs on the cone*), the one step converges: #76 in 21 iterations, #297 in 20 (their coarse runs 183 -> 38 and
+   134 -> 35 solves).
+2. When that step fails without proof of a mechanism, a *continuation* reaches the same self-weight through a
+   strengthened structure whose strength is then lowered back to the scene's, every step solved from the last
+   converged state (incremental friction: a converged state of the path is an equilibrium of the scene's laws):
+
+   - a plastic fill whose cohesion is below its overburden stress (unit weight x fill height): the *cohesion
+     continuation*, the fill's cohesion first raised to the overburden stress (which keeps the fill nearly elastic);
+   - a ring without a plastic fill: the *friction continuation*, every joint's Coulomb coefficient first raised to
+     ``FRICTION_RAISE`` times the scene's. The one-step Newton iteration starts from bonded joints, whose elastic
+     thrust can exceed the friction of the springings (a thick semicircle at mu = 0.35); it then proposes slip and
+     opening at many joints at once and wanders into mechanisms. Lowering the friction lets the springings slip and
+     the joints crack gradually, as the thrust falls to what friction can carry.
+
+   When the continuation fails without showing a mechanism where the one step did, the one step's outcome is the
+   answer (its mechanism, proved or confirmed by the LP, or not: :mod:`bridgefem.analysis.evidence`). Each continuation step
+   keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
+   ``RAMP_STEPS`` steps; a failed step is halved (at most ``RAMP_HALVINGS`` times in all). A mechanism at a raised
+   strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver
+   failure that names the strength it failed at. Fewer, larger steps (``RAMP_RATIO`` 0.25, 4 steps) saved 3 to 83
+   solves per scene on five of the seven continuation scenes of campaign seeds 1 and 2 (seed 1 #76 318 -> 235),
+   but seed 1 #197's last step then failed after 60 iterations four times (240 -> 519 solves).
+
+   The continuation's last state has the pairs that slid as the friction was lowered sliding; a first live-load
+   trial that would slide them backwards proposes them sticking (:mod:`bridgefem.solver.newton`, *Reversed slips*).
+
+3. When the static theorem shows that no equilibrium under self-weight exists (``falls``: the rigid blocks under the
+   FE's own dead loads need joint tension or cohesion beyond what any converged FE state's tolerances can hide,
+   :class:`bridgefem.analysis.evidence.StaticBound`), a failed one step is the answer, a mechanism: no continuation or retry
+   can converge where no equilibrium exists.
+4. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation
+   that converged some of its steps resumes from its last converged state at the strength it failed at (a converged
+   state of the path is an equilibrium of the scene's laws at its strength, whatever setting found it), else the one
+   step and the continuation run again from the start.
+
+A fraction of the self-weight would not help: elasticity, unilateral contact, Coulomb friction and a cohesionless
+fill are positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
+problem scaled and fails alike. A raised strength at the whole self-weight is what a self-weight fraction is for a
+cohesive material (stresses scale with the load, so the weight g with cohesion c is the weight 1 with cohesion c / g).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+from mpi4py import MPI
+
+from ..solver.newton import RETRIES, ContactSolver, Iterate, StepOutcome, retried
+
+RAMP_RATIO = 0.5  # a continuation step keeps this fraction of the raised strength's excess over the scene's
+RAMP_STEPS = 7  # steps with a raised strength (the last keeps RAMP_RATIO ** (RAMP_STEPS - 1) of the excess)
+RAMP_END = 1.5  # an excess below this multiple of the last raised step's goes to 0 next (between that step's
+# excess and the one before it, so that rounding adds no step)
+RAMP_HALVINGS = 6  # failed continuation steps halved at most this many times in all
+FRICTION_RAISE = 8.0  # the friction continuation starts at this multiple of the joints' Coulomb coefficients
+# (mu = 0.3 -> 2.4: the bonded thrust of a thick ring is well inside that cone)
+
+SELF_WEIGHT_RETRIES = tuple(s for s in RETRIES if not s.fresh)  # the self-weight starts all closed and sticking
+Attempt = Callable[[float, Iterate], StepOutcome]
+
+
+@dataclass
+class Progress:
+    """Where the self-weight stands: the one step's outcome (None: not solved yet) and the continuation's last
+    converged state ``state`` at strength excess ``done`` (None: no step converged; ``state`` the unloaded one),
+    the excess to solve next and the halvings spent (module docstring)."""
+
+    state: Iterate
+    first: StepOutcome | None = None
+    done: float | None = None
+    excess: float = 1.0
+    halvings: int = 0
+
+
+def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = False) -> StepOutcome:
+    """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
+    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``; ``falls``: the static
+    theorem shows that no equilibrium exists (step 3: the one step's failure is the answer, as a mechanism).
+    ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
+    progress = Progress(solver.initial_iterate())
+    out = _carry(solver, attempt, progress, falls)
+    if out.converged or out.proved or falls:
+        return out
+    return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
+
+
+def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: bool = False) -> StepOutcome:
+    """One step, else (unless ``falls``) the continuation that fits the structure; a continuation with a converged
+    step resumes."""
+    if progress.done is None:
+        progress.first = attempt(0.0, solver.initial_iterate())
+    first = progress.first
+    if first.converged or first.proved:
+        return first
+    if falls:
+        return replace(first, mechanism=True, reason=f"{first.reason}; no equilibrium exists (static theorem: the "
+                                                     "rigid blocks under the FE's self-weight cannot stand)")
+    fill = solver.material
+    if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
+        out = friction_continuation(solver, attempt, progress)
+        return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
+    if fill is not None and not first.mechanism and fill.cohesion < fill.overburden:
+        return cohesion_continuation(solver, attempt, progress)
+    return first
+
+
+def cohesion_continuation(solver: ContactSolver, attempt: Attempt, progress: Progress | None = None
+                          ) -> StepOutcome:
+    """The self-weight with the fill's cohesion raised to its overburden stress, then lowered to the scene's
+    (from ``progress``, by default from the unloaded state)."""
+    fill = solver.material
+    target, raised = fill.cohesion, fill.overburden
+
+    def describe() -> str:
+        return f"self-weight with the fill's cohesion raised to {fill.material.cohesion:.4g} Pa (continuation to " \
+               f"{target:.4g} Pa)"
+
+    try:
+        return _ramp(solver, attempt, lambda excess: fill.set_cohesion(target + excess * (raised - target)), describe,
+                     progress)
+    finally:
+        fill.set_cohesion(target)
+
+
+def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Progress | None = None
+                          ) -> StepOutcome:
+    """The self-weight with every joint's friction raised to ``FRICTION_RAISE`` x the scene's, then lowered to it
+    (from ``progress``, by default from the unloaded state)."""
+    scene = solver.friction
+
+    def describe() -> str:
+        return f"self-weight with the joints' friction raised to {solver.friction_factor:.4g} x the scene's " \
+               "(continuation to 1)"
+
+    try:
+        return _ramp(solver, attempt, lambda excess: solver.set_friction(scene, 1.0 + excess * (FRICTION_RAISE - 1.0)),
+                     describe, progress)
+    finally:
+        solver.set_friction(scene, 1.0)
+
+
+def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None], describe: Callable[[], str],
+          progress: Progress | None) -> StepOutcome:
+    """Solve the self-weight with the strength's excess lowered from ``progress.excess`` to 0 in steps (module
+    docstring; ``strengthen(excess)`` sets it), each from the last converged state, ``progress`` kept up to date:
+    the outcome of the last step, at the scene's strength when it converged, else the failure with the strength it
+    failed at (``describe()``)."""
+    p = progress or Progress(solver.initial_iterate())
+    while True:
+        strengthen(p.excess)
+        out = attempt(0.0, p.state)
+        if out.converged and p.excess == 0.0:
+            return out
+        if out.converged:
+            p.state, p.done = solver.converged_slip_reference(out.iterate), p.excess
+            p.excess = p.excess * RAMP_RATIO if p.excess > RAMP_END * RAMP_RATIO ** (RAMP_STEPS - 1) else 0.0
+            continue
+        if p.done is None or out.proved or p.halvings == RAMP_HALVINGS:
+            return replace(out, reason=f"{describe()}: {out.reason}")
+        p.excess, p.halvings = 0.5 * (p.done + p.excess), p.halvings + 1

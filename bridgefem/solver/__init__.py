@@ -1,0 +1,1 @@
+"""One load step of the FE model with its joint laws: the semismooth Newton (active-set) method."""

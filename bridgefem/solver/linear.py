@@ -1,0 +1,209 @@
+"""The linear solve of a load step: a PETSc KSP (by default MUMPS LU) whose factorisation is reused while the matrix
+does not change, and a check of every solve before its result is used.
+
+A solve fails (:class:`SolveFailure`) when PETSc raises, when the KSP reports divergence, when the solution holds
+NaN, or when its normwise backward error |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf) is above ``BACKWARD_TOL``: a
+solver that did not solve the system (e.g. ``pc_type = none``) is a failure, never a mechanism. Only MUMPS finding
+the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``. The solve after any failure uses a
+new KSP: after a PETSc error inside KSPSolve, PCPreSolve's nesting count stays raised (two such errors and every
+later solve fails with PETSc error 56); after a singular factorisation, MUMPS refused the next solve of the same KSP
+with INFOG(1) = -3 (campaign scene 161, seed 1).
+
+A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis.runner`): the
+solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a Newton
+iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
+"""
+from __future__ import annotations
+
+import math
+import time
+from contextlib import contextmanager
+from typing import Iterator, NamedTuple
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..scene.schema import PETSC_PREFIX, SceneError
+
+DEFAULT_PETSC_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 200,  # % of workspace above MUMPS's estimate: the zero diagonal of the contact laws' rows
+}                               # forces delayed pivots that outgrow the default 20 % (INFOG(1) = -9)
+BACKWARD_TOL = 1e-9  # a linear solve whose normwise backward error is above this did not solve (LU gives ~1e-16)
+
+
+class SolveFailure(NamedTuple):
+    """Why a solve failed; ``singular``: MUMPS found the matrix numerically singular."""
+
+    message: str
+    singular: bool
+
+
+class SolveBudgetSpent(Exception):
+    """A solve asked for beyond the bound of :meth:`CheckedSolve.limited` (``budget``: that bound's solves); nothing
+    was solved."""
+
+    def __init__(self, budget: float):
+        super().__init__(f"its budget of {budget:g} linear solves is spent")
+        self.budget = budget
+
+
+class CheckedSolve:
+    """The KSP of a matrix ``A`` (options: the defaults overridden by ``options``, given without the prefix) and
+    counters ``stats`` (factorisations, solves, seconds factorising and solving)."""
+
+    def __init__(self, A: PETSc.Mat, options: dict):
+        self.A = A
+        self.comm = A.getComm().tompi4py()
+        self.options = {k: str(v) for k, v in {**DEFAULT_PETSC_OPTIONS, **options}.items()}
+        self.ksp = self._new_ksp()
+        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
+        self._r = A.createVecLeft()
+        self._residual, self._correction = A.createVecLeft(), A.createVecRight()
+        self._broken = False
+        self._bound = (math.inf, math.inf)  # the count of solves the next may not pass, and the budget that set it
+
+    @contextmanager
+    def limited(self, budget: float | None) -> Iterator[None]:
+        """Within: at most ``budget`` more solves (None: no bound; an enclosing bound still holds); the next one
+        raises :class:`SolveBudgetSpent` before it solves. Every solve is collective, so every rank counts the same
+        solves and raises at the same one."""
+        outer = self._bound
+        if budget is not None and self.stats["solves"] + budget < outer[0]:
+            self._bound = (self.stats["solves"] + budget, budget)
+        try:
+            yield
+        finally:
+            self._bound = outer
+
+    def _new_ksp(self) -> PETSc.KSP:
+        """A KSP of ``A`` with ``options`` under the prefix, set up (the factorisation reads its options, e.g. MUMPS
+        ICNTL, now; they are then removed from the global options database)."""
+        opts = PETSc.Options()
+        for key, value in self.options.items():
+            opts[PETSC_PREFIX + key] = value
+        ksp = PETSc.KSP().create(self.comm)
+        try:
+            ksp.setOptionsPrefix(PETSC_PREFIX)
+            ksp.setOperators(self.A)
+            ksp.setFromOptions()
+            ksp.setUp()
+        finally:
+            for key in self.options:
+                opts.delValue(PETSC_PREFIX + key)
+        return ksp
+
+    def matrix_changed(self) -> None:
+        """The matrix's values changed: the next solve refactorises."""
+        self.ksp.setOperators(self.A)
+        self.stats["factorisations"] += 1
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
+        """Solve A x = b; None when the solve is good (module docstring). After a failure the caller must not reuse
+        the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective; raises
+        :class:`SolveBudgetSpent`, solving nothing, beyond the bound of :meth:`limited`."""
+        if self.stats["solves"] + 1 > self._bound[0]:
+            raise SolveBudgetSpent(self._bound[1])
+        t0 = time.perf_counter()
+        try:
+            if self._broken:
+                self.ksp.destroy()
+                self.ksp, self._broken = self._new_ksp(), False
+            self.ksp.solve(b, x)
+        except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
+            # an error inside KSPSolve leaves the KSP unusable (PCPreSolve's nesting count is never reset: after two
+            # such errors every solve fails with PETSc error 56): the next solve builds a new one
+            self._broken = True
+            failure = self._failure(f"PETSc error code {err.ierr}")
+            return failure if failure.singular else \
+                SolveFailure(f"linear solver error: PETSc error code {err.ierr} (not a proof of a mechanism)", False)
+        finally:
+            self.stats["time_factorise_solve"] += time.perf_counter() - t0
+            self.stats["solves"] += 1
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            self._broken = True  # module docstring: a new KSP for the next solve
+            return self._failure(reason)
+        if self.comm.allreduce(int(not np.all(np.isfinite(x.array))), op=MPI.MAX):
+            return SolveFailure("NaN in the solution", False)
+        error = self.backward_error(b, x)
+        if not error <= BACKWARD_TOL:
+            return SolveFailure(f"linear solve inaccurate: backward error {error:.2e} above {BACKWARD_TOL:g} (the "
+                                f"{self.ksp.getType()}/{self.ksp.getPC().getType()} solver did not solve the system; "
+                                "not a proof of a mechanism)", False)
+        return None
+
+    def correction(self, b: PETSc.Vec, x: PETSc.Vec) -> "PETSc.Vec | SolveFailure":
+        """One step of iterative refinement of a solve of A x = b: the correction dx = A^-1 (b - A x) with the same
+        factorisation (one more solve, counted and checked as any other; Higham 2002, *Accuracy and Stability of
+        Numerical Algorithms*, ch. 12). It estimates x's forward error to within a modest factor (the residual's own
+        rounding is of the order of the backward error's) whenever that error is below |x|; a correction as large as
+        x says that x is rounding (a nearly singular A). Returns dx (a work vector, overwritten by the next call) or
+        the failure. Collective."""
+        self.A.mult(x, self._residual)
+        self._residual.aypx(-1.0, b)
+        failure = self.solve(self._residual, self._correction)
+        return self._correction if failure is None else failure
+
+    def backward_error(self, b: PETSc.Vec, x: PETSc.Vec) -> float:
+        """Normwise backward error of a solve, |A x - b|_inf / (|A|_inf |x|_inf + |b|_inf): about the machine
+        precision times a modest growth factor for a backward-stable direct solve, even of a nearly singular system
+        (then x is large, not the residual). Collective."""
+        self.A.mult(x, self._r)
+        self._r.axpy(-1.0, b)
+        inf = PETSc.NormType.INFINITY
+        scale = self.A.norm(inf) * x.norm(inf) + b.norm(inf)
+        return self._r.norm(inf) / scale if scale > 0 else 0.0
+
+    def _failure(self, reason: int | str) -> SolveFailure:
+        """Describe a failed solve (a KSP reason or an error's text); singular only when MUMPS says so."""
+        names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
+        pc = self.ksp.getPC()
+        text = f"linear solver failed: {names.get(reason, reason)}"
+        if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
+            infog = pc.getFactorMatrix().getMumpsInfog(1)
+            detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
+                      "(raise mat_mumps_icntl_14)", -8: "MUMPS workspace too small", -13: "out of memory"}
+            return SolveFailure(f"{text}, MUMPS INFOG(1) = {infog}: {detail.get(infog, 'see the MUMPS manual')}",
+                                infog == -10)
+        return SolveFailure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)
+
+
+def check_petsc_options(options: dict, comm) -> None:
+    """Set each PETSc option (the scene's and the command line's) on a throw-away solver of a tiny matrix, so that a
+    value PETSc rejects (an unknown type, a malformed number, a solver package not installed) stops the run before
+    anything is written (collective)."""
+    if not options:
+        return
+    prefix = "bridgefem_check_"
+    A = PETSc.Mat().createAIJ([(2, None), (2, None)], nnz=1, comm=comm)
+    first, last = A.getOwnershipRange()
+    for i in range(first, last):
+        A.setValue(i, i, 1.0)
+    A.assemble()
+    opts = PETSc.Options()
+    PETSc.Sys.pushErrorHandler("python")  # raise, without PETSc's own error print
+    try:
+        for key, value in options.items():
+            merged = {**DEFAULT_PETSC_OPTIONS, key: value}
+            for k, v in merged.items():
+                opts[prefix + k] = v
+            ksp = PETSc.KSP().create(comm)
+            try:
+                ksp.setOptionsPrefix(prefix)
+                ksp.setOperators(A)
+                ksp.setFromOptions()
+                ksp.setUp()
+            except PETSc.Error as err:
+                reason = str(err).strip().splitlines()[-1].split("] ", 1)[-1].strip()
+                raise SceneError(f"PETSc option {key} = {value!r}: rejected by PETSc ({reason})") from None
+            finally:
+                ksp.destroy()
+                for k in merged:
+                    opts.delValue(prefix + k)
+    finally:
+        PETSc.Sys.popErrorHandler()
+        A.destroy()

@@ -1,0 +1,1 @@
+"""The structure a scene describes: its blocks and joints, supports and their movements."""

@@ -1,0 +1,90 @@
+"""The package's layers: every import of a bridgefem module, lazy ones inside functions and TYPE_CHECKING ones
+included, points down the data flow, and no two modules import each other, directly or round a circle.
+
+The layers, lowest first: the data flows scene -> structure -> FE model -> joint laws -> solver -> search ->
+analysis -> results. ``limit`` (the rigid-block LP and the conic bounds) sits below ``fe``: it is the FE's
+independent check, so it never imports the FE, the solver or anything above them.
+"""
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "bridgefem"
+LAYERS = ("status", "geometry", "scene", "structure", "laws", "limit", "fe", "solver", "search", "analysis", "io",
+          "")
+"""Subpackages (and the top-level module ``status``) from the bottom up; "" is the package itself (its public API
+in ``__init__``/``api``, and ``__main__``), which may import anything."""
+
+
+def _module(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Every bridgefem module that ``path`` imports, wherever the import statement stands."""
+    here = _module(path).split(".")
+    package = here if path.name == "__init__.py" else here[:-1]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name.split(".")[0] == "bridgefem"}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module.split(".") if node.level == 0 else (
+                package[:len(package) - node.level + 1] + (node.module.split(".") if node.module else []))
+            if base[0] != "bridgefem":
+                continue
+            for alias in node.names:  # ``from pkg import module`` imports the module
+                sub = ".".join(base + [alias.name])
+                found.add(sub if (PACKAGE.parent / (sub.replace(".", "/") + ".py")).exists()
+                          or (PACKAGE.parent / sub.replace(".", "/")).is_dir() else ".".join(base))
+    return found
+
+
+def _layer(module: str) -> int:
+    parts = module.split(".")
+    return LAYERS.index(parts[1] if len(parts) > 1 and parts[1] in LAYERS else "")
+
+
+GRAPH = {_module(p): _imports(p) - {_module(p)} for p in PACKAGE.rglob("*.py")}
+
+
+@pytest.mark.parametrize("module", sorted(GRAPH))
+def test_imports_point_down(module):
+    """A module imports only from its own layer's package or the layers below it."""
+    upward = sorted(m for m in GRAPH[module] if _layer(m) > _layer(module))
+    sideways = sorted(m for m in GRAPH[module] if _layer(m) == _layer(module) != len(LAYERS) - 1
+                      and m.split(".")[:2] != module.split(".")[:2])
+    assert not upward, f"{module} imports from a higher layer: {upward}"
+    assert not sideways, f"{module} imports from another package of its layer: {sideways}"
+
+
+def test_no_import_circles():
+    """The module graph (lazy imports included) has no cycle: no module can reach itself."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m: str) -> None:
+        state[m] = 1
+        stack.append(m)
+        for n in sorted(GRAPH.get(m, ())):
+            if n not in GRAPH:
+                continue
+            if state.get(n) == 1:
+                pytest.fail("import circle: " + " -> ".join(stack[stack.index(n):] + [n]))
+            if n not in state:
+                visit(n)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(GRAPH):
+        if m not in state:
+            visit(m)
+
+
+def test_limit_is_independent_of_the_fe():
+    """The rigid-block LP and the conic bounds import nothing of the FE (nor DOLFINx or PETSc)."""
+    for path in (PACKAGE / "limit").rglob("*.py"):
+        text = path.read_text()
+        assert "dolfinx" not in text and "petsc4py" not in text, path.name
