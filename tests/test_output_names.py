@@ -1,4 +1,4 @@
-"""Names bridgefem prints and creates (bridgefem/output.py ``check_names``, bridgefem/scene.py ``check_name``):
+"""Names bridgefem prints and creates (bridgefem/io/output.py ``check_names``, bridgefem/scene/schema.py ``check_name``):
 refused before the analysis, with one line that shows the offending character escaped or names the component
 that is too long, exit 2, nothing written.
 
@@ -14,11 +14,11 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from bridgefem.output import OutputError, claim, failed_target, results_folder
 from conftest import scene_dict, write_toml
 
-from bridgefem import cli, output
-from bridgefem.scene import MAX_NAME, MAX_NAME_BYTES, unsafe_character
+from bridgefem.io import cli, output
+from bridgefem.io.output import OutputError, claim, failed_target, results_folder
+from bridgefem.scene.schema import MAX_NAME, MAX_NAME_BYTES, unsafe_character
 
 UNSAFE = [*range(0x00, 0x20), 0x7F, *range(0x80, 0xA0), 0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F),
           *range(0x2066, 0x206A), 0x2028, 0x2029]
@@ -34,12 +34,12 @@ class Reached(Exception):
 @pytest.fixture
 def work(tmp_path, monkeypatch):
     """An empty working folder as the cwd, and the analysis replaced by a trap that raises :class:`Reached`."""
-    import bridgefem.analysis
+    import bridgefem.analysis.runner
 
     def reached(*args, **kwargs):
         raise Reached()
 
-    monkeypatch.setattr(bridgefem.analysis, "run_analysis", reached)
+    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
     folder = tmp_path / "work"
     folder.mkdir()
     monkeypatch.chdir(folder)

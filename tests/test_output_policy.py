@@ -1,4 +1,4 @@
-"""The output policy (bridgefem/output.py, docs/output-policy.md): a user's files are never touched.
+"""The output policy (bridgefem/io/output.py, docs/output-policy.md): a user's files are never touched.
 
 bridgefem writes only into a new folder, an empty one or an earlier bridgefem results folder that it may remove
 (a write-protected one is refused: as the running user, and for root by its mode bits), checked before the
@@ -243,7 +243,7 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(tmp_path):
 RACE = """
 import os, sys, time
 from pathlib import Path
-from bridgefem.output import OutputError, claim
+from bridgefem.io.output import OutputError, claim
 target = Path(sys.argv[1])
 inside, taken, refused = target.parent / "inside", 0, 0
 print("ready", flush=True)
@@ -484,7 +484,7 @@ def shared_dir():
 AS_USER = """
 import json, os, sys
 from pathlib import Path
-from bridgefem.output import OutputError, results_folder
+from bridgefem.io.output import OutputError, results_folder
 root, seen = Path(sys.argv[1]), {}
 def attempt(name, target):
     try:
@@ -594,8 +594,9 @@ def test_the_cli_writes_the_longest_name_and_refuses_bad_outs_before_the_analysi
     """End to end: a run writes every file under an --out name at the file system's limit; made read-only, that
     folder is refused before the analysis (no progress line, one error line), as are a name one byte longer and a
     name holding a bidi override; nothing changes."""
-    from bridgefem.results import FILES
     from test_output_names import LIMIT as limit
+
+    from bridgefem.io.results import FILES
 
     scene = write_toml(tmp_path / "s.toml", scene_dict(**COARSE))
     out = tmp_path / ("n" * limit)
@@ -623,7 +624,7 @@ def test_the_cli_as_a_user_whom_permission_bits_bind_refuses_a_write_protected_f
             os.chown(p, NOBODY, NOBODY)
     protect(out, *out.iterdir())
     before = snapshot(shared_dir)
-    proc = subprocess.run([*as_normal_user(), sys.executable, "-m", "bridgefem.cli", "run", str(scene), "--out",
+    proc = subprocess.run([*as_normal_user(), sys.executable, "-m", "bridgefem.io.cli", "run", str(scene), "--out",
                            str(out)], capture_output=True, text=True, timeout=120,
                           env={**ENV, "PYTHONDONTWRITEBYTECODE": "1"}, cwd=ROOT)
     assert proc.returncode == 2 and proc.stdout == "" and len(proc.stderr.splitlines()) == 1, proc.stderr

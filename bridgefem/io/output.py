@@ -7,7 +7,7 @@
    replacement; so is a target whose replacement would need a write permission that is missing
    (:func:`_write_protected`: the folder that holds it, the target, every folder and file in it).
 2. Names are checked before anything is created (:func:`check_names`): no component of the given path may hold a
-   control or bidi character or bytes that are not UTF-8 (:func:`bridgefem.scene.unsafe_character`), and every
+   control or bidi character or bytes that are not UTF-8 (:func:`bridgefem.scene.schema.unsafe_character`), and every
    name bridgefem creates (its hidden names add up to 25 bytes to the target's, a failed run's folder 7 more) must
    fit the file system's ``NAME_MAX``, every path its ``PATH_MAX``.
 3. One run at a time per target: a lock (``flock`` on bridgefem's own file ``.<name>.bridgefem-lock`` beside the
@@ -131,7 +131,7 @@ def _limit(path: Path, name: str, default: int) -> int:
 def check_names(target: Path, files: Iterable[str] = (), also: Iterable[Path] = ()) -> None:
     """Raise OutputError, before anything is created, unless every name bridgefem would create for ``target`` (and
     the folders in ``also``) can be shown and created: no component of ``target`` as given holds an
-    :func:`~bridgefem.scene.unsafe_character`; the folders to create and the names of :func:`_created_beside` fit
+    :func:`~bridgefem.scene.schema.unsafe_character`; the folders to create and the names of :func:`_created_beside` fit
     the file system's NAME_MAX; the deepest path (a file of ``files`` or the marker in a temporary folder) fits its
     PATH_MAX. The hidden names are longer than the target's, so without this check a long name fails only when the
     results are written, after the analysis."""
