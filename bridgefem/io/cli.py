@@ -123,13 +123,13 @@ def _run(args, petsc: dict) -> int:
 
     from ..analysis.runner import run_analysis
     from ..solver.linear import check_petsc_options
-    from .results import write_results
+    from .results import FILES, write_results
 
     comm = MPI.COMM_WORLD
     check_petsc_options({**scene.solver.petsc, **petsc}, comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
-    with claim(out, comm, also=(failed_target(out),)):
+    with claim(out, comm, also=(failed_target(out),), files=FILES):
         if announce:
             print(f"{scene.name}: {size.describe()}", flush=True)
         an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
