@@ -100,7 +100,8 @@ def hand_cases() -> list[tuple[str, dict, str]]:
     cases = [with_(f"[solver.petsc] {k if re.fullmatch(r'[a-z0-9_]+', k) else repr(k)}", solver={"petsc": {k: v}})
              for k, v in petsc.items()]
     names = [".", "..", "/", "../../x", "/tmp/abs", "a/b/c", "a\\b", "x\x00y", "line\nbreak", "\x1b[31m", "",
-             "   ", " lead", ".hidden", "a" * 101, "a" * 100_000]
+             "   ", " lead", ".hidden", "a" * 101, "a" * 100_000, "arch\u202egpj.exe", "\x9b31m", "a\u2066b",
+             "の" * 67]  # 67 characters, 201 bytes
     cases += [with_("[scene] name", scene={"name": n}) for n in names]
     cases += [
         with_("[scene] gravity", scene={"gravity": 1e308}),

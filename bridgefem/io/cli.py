@@ -155,7 +155,7 @@ def _run(args, petsc: dict) -> int:
 
     from ..analysis.runner import run_analysis
     from ..solver.linear import check_petsc_options
-    from .results import write_results
+    from .results import FILES, write_results
 
     comm = MPI.COMM_WORLD
     check_petsc_options({**scene.solver.petsc, **petsc}, comm)
@@ -163,7 +163,7 @@ def _run(args, petsc: dict) -> int:
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
     # with --json, stdout holds the JSON object alone: what the run prints on its way goes to stderr
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
-        with claim(out, comm, also=(failed_target(out),)):
+        with claim(out, comm, also=(failed_target(out),), files=FILES):
             if announce:
                 print(f"{scene.name}: {size.describe()}", flush=True)
             an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),

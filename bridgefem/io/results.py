@@ -23,6 +23,9 @@ from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
+FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png")
+"""The files :func:`write_results` writes: the command line has their paths' lengths checked before the analysis
+(:func:`bridgefem.io.output.check_names`)."""
 
 
 def versions() -> dict:

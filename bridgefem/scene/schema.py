@@ -136,6 +136,7 @@ MOVING_SPRINGINGS = ("left", "right", "both")
 MAX_LENGTH = 1000.0  # m: no masonry arch, fill or abutment is larger
 MAX_LOADS = 100  # [[load]] tables in one scene
 MAX_NAME = 100  # characters of a scene name (a file name)
+MAX_NAME_BYTES = 200  # in UTF-8: results/<name> and the names a run makes beside it (up to 32 bytes longer) fit 255
 MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
 _MC = ("material", "mohr-coulomb")
 _ELASTIC = ("model", "elastic")
@@ -163,8 +164,9 @@ def _preset(section: str, key: str) -> Any:
 
 SCHEMA: dict[str, dict[str, Key]] = {
     "scene": {
-        "name": Key(str, f"output folder results/<name>/; a file name, not a path: 1 to {MAX_NAME} characters, no "
-                    "/, \\ or control characters, not starting with \".\"", None,
+        "name": Key(str, f"output folder results/<name>/; a file name, not a path: 1 to {MAX_NAME} characters "
+                    f"({MAX_NAME_BYTES} bytes in UTF-8), no /, \\, control or bidi characters, not starting with \".\"",
+                    None,
                     derived="the scene file's name without .toml"),
         "gravity": Key(float, "acceleration of gravity", 9.81, "m/s^2", low=0.0, low_open=True, high=100.0),
     },
@@ -498,14 +500,43 @@ class Scene:
         return xs
 
 
+_BIDI = frozenset([0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F), *range(0x2066, 0x206A)])
+
+
+def unsafe_character(text: str) -> str | None:
+    """The first character of ``text`` that must not be in a name bridgefem prints and creates, as "U+202E (...)",
+    or None: C0 and C1 control characters and DEL (a terminal acts on them: ESC and CSI sequences), the Unicode
+    bidirectional-text controls (they reorder how the name is shown: ``arch\\u202egpj.exe`` shows as
+    ``archexe.jpg``), line and paragraph separators (a name in a one-line message) and bytes that are not UTF-8
+    (decoded as lone surrogates, which cannot be printed)."""
+    for c in text:
+        code = ord(c)
+        if code < 0x20 or 0x7F <= code <= 0x9F:
+            what = "a control character"
+        elif code in _BIDI:
+            what = "a bidirectional-text control, which reorders how the name is shown"
+        elif code in (0x2028, 0x2029):
+            what = "a line or paragraph separator"
+        elif 0xD800 <= code <= 0xDFFF:
+            return f"byte 0x{code & 0xFF:02X} (not UTF-8)"
+        else:
+            continue
+        return f"U+{code:04X} ({what})"
+    return None
+
+
 def check_name(name: str, where: str) -> str:
-    """A scene name is a file name: 1 to MAX_NAME characters, no path separator, no control character, not
+    """A scene name is a file name: 1 to MAX_NAME characters and MAX_NAME_BYTES bytes, no path separator, no
+    control or bidi character (:func:`unsafe_character`: it is printed and names a folder), not
     starting with "." (so neither "." nor ".." nor a hidden folder)."""
-    bad = (not name or len(name) > MAX_NAME or name.startswith(".") or "/" in name or "\\" in name
-           or name != name.strip() or any(ord(c) < 32 or ord(c) == 127 for c in name))
+    unsafe = unsafe_character(name)
+    bad = (unsafe or not name or len(name) > MAX_NAME or len(name.encode()) > MAX_NAME_BYTES or name.startswith(".")
+           or "/" in name or "\\" in name or name != name.strip())
     if bad:
-        raise SceneError(f"{where} = {_show(name)}: allowed is a file name of 1 to {MAX_NAME} characters without "
-                         "/, \\, control characters or surrounding spaces, not starting with \".\"")
+        held = f" (it holds {unsafe})" if unsafe else ""
+        raise SceneError(f"{where} = {_show(name)}{held}: allowed is a file name of 1 to {MAX_NAME} characters "
+                         f"({MAX_NAME_BYTES} bytes in UTF-8) without /, \\, control or bidi characters or surrounding "
+                         "spaces, not starting with \".\"")
     return name
 
 
