@@ -10,6 +10,8 @@ the scene's ``[solver.petsc]`` table, which may set only allow-listed solver set
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
 import json
 import logging
 import math
@@ -19,7 +21,8 @@ import traceback
 from pathlib import Path
 
 from ..fe.sizing import LARGE_DOFS, MAX_DOFS, check_size
-from ..scene.schema import PETSC_PREFIX, SceneError, load_scene, resolved_toml
+from ..scene.document import key_units, resolved_document
+from ..scene.schema import PETSC_PREFIX, SceneError, did_you_mean, load_scene, resolved_toml
 from ..status import Status
 from .output import OutputError, Terminated, claim, failed_target, sigterm_raises, version
 
@@ -34,6 +37,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
                      help="PETSc option for the contact solver, without the prefix (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
+    run.add_argument("--json", action="store_true", help="print the run's summary as one JSON object, the last line "
+                     "of stdout (the progress goes to stderr)")
     run.add_argument("--no-size-limit", action="store_true",
                      help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
     conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
@@ -43,6 +48,8 @@ def _parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
                                           "filled in, with units)")
     check.add_argument("scene", type=Path)
+    check.add_argument("--json", action="store_true", help="print the resolved scene and the size estimate as one "
+                       "JSON object")
     lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
     lp.add_argument("scene", type=Path)
     lp.add_argument("--json", action="store_true", help="print one JSON object")
@@ -56,10 +63,29 @@ def _parser() -> argparse.ArgumentParser:
     bd.add_argument("--json", action="store_true", help="print one JSON object")
     bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
     bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
+    for command in sub.choices.values():  # each command's options, for the hint after an unknown one
+        command.set_defaults(options=[s for a in command._actions for s in a.option_strings if s != "-h"])
     return p
 
 
-def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+def _unknown(arg: str, options: list[str], petsc: bool = False) -> SceneError:
+    """The one-line error for an argument no option of the command takes, with the nearest option (difflib);
+    ``petsc``: the command also takes PETSc options."""
+    shown = arg if arg.isprintable() and len(arg) <= 60 else repr(arg[:60])
+    if not arg.startswith("-"):
+        return SceneError(f"unexpected argument {shown}")
+    names = {option.lstrip("-"): option for option in options}  # the dashes would make every option look close
+    hint = did_you_mean(arg.partition("=")[0].lstrip("-"), names, names.get).strip()
+    if not hint:
+        hint = "the options are " + ", ".join(options)
+        if petsc:
+            hint += f"; PETSc options must start with -{PETSC_PREFIX}"
+    return SceneError(f"unknown option {shown}; {hint}")
+
+
+def _petsc_options(pairs: list[str], raw: list[str], options: list[str]) -> dict:
+    """The PETSc options of ``run``: ``--petsc KEY=VALUE`` pairs and the raw ``-bridgefem_KEY [VALUE]``
+    arguments; anything else in ``raw`` is an unknown option (``options``: the command's own)."""
     prefix = "-" + PETSC_PREFIX
     out = {}
     for item in pairs:
@@ -71,7 +97,7 @@ def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
     while i < len(raw):
         arg = raw[i]
         if not arg.startswith(prefix):
-            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {prefix}")
+            raise _unknown(arg, options, petsc=True)
         has_value = i + 1 < len(raw) and not raw[i + 1].startswith("-")
         out[arg[len(prefix):]] = raw[i + 1] if has_value else ""
         i += 2 if has_value else 1
@@ -114,6 +140,12 @@ def _collapse(reason: str) -> str:
     return "no equilibrium: the voussoirs move as a mechanism"
 
 
+RUN_JSON = ("scene", "status", "limit_load", "failure_reason", "evidence", "mechanism", "lp", "fe_lp_ratio",
+            "static_bound", "ring_under_transmitted_loads", "fill_bounds", "mesh_refinements", "warnings")
+"""The entries of results.json that ``run --json`` prints, with the ``results`` folder: the verdict and its
+checks (the history, the joints and the model's details stay in results.json)."""
+
+
 def _run(args, petsc: dict) -> int:
     scene = load_scene(args.scene)
     max_dofs = math.inf if args.no_size_limit else MAX_DOFS
@@ -129,55 +161,62 @@ def _run(args, petsc: dict) -> int:
     check_petsc_options({**scene.solver.petsc, **petsc}, comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
-    with claim(out, comm, also=(failed_target(out),), files=FILES):
-        if announce:
-            print(f"{scene.name}: {size.describe()}", flush=True)
-        an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
-                          phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
-        extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
-                            "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
-        failed = Status.of(an.search.status) is Status.FAILURE
-        if failed:  # a failed run never replaces earlier results
-            kept, out = out, failed_target(out)
-        data = write_results(an, out, extra)
-    if comm.rank == 0 and failed:
-        print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
-    if comm.rank == 0:
-        from .plots import format_bracket
-
-        lim = data["limit_load"]
-        limit = Status.of(data["status"]) is Status.LIMIT
-        if limit:
-            print(f"{scene.name}: {data['status']}; limit load in "
-                  f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
-                  f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
-        else:
-            print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
-                  f"width {scene.arch.width:g} m)")
-        if data["evidence"]:
-            print(f"  evidence: {data['evidence']}")
-        if limit:
-            print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
-        elif data["failure_reason"]:
-            print(f"  last failed step: {data['failure_reason']}")
-        print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
-        lp = data["lp"]
-        if lp["load"]:
-            ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
-            print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
-                  f"{lp['mechanism']['hinges']}{ratio}")
-        ring = data["ring_under_transmitted_loads"]
-        if ring and ring["load"]:
-            print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
-                  f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
-        refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
-        if refined:
-            print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
-                  f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
-        for warning in data["warnings"]:
-            print(f"  WARNING: {warning}")
-        print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
+    # with --json, stdout holds the JSON object alone: what the run prints on its way goes to stderr
+    with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
+        with claim(out, comm, also=(failed_target(out),), files=FILES):
+            if announce:
+                print(f"{scene.name}: {size.describe()}", flush=True)
+            an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
+                              phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
+            failed = Status.of(an.search.status) is Status.FAILURE
+            if failed:  # a failed run never replaces earlier results
+                kept, out = out, failed_target(out)
+            data = write_results(an, out)
+        if comm.rank == 0 and failed:
+            print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
+    if comm.rank == 0 and args.json:
+        print(json.dumps({**{key: data[key] for key in RUN_JSON}, "results": str(out)}))
+    elif comm.rank == 0:
+        _print_run(scene, data, out)
     return Status.of(data["status"]).exit_code
+
+
+def _print_run(scene, data: dict, out: Path) -> None:
+    """The text summary of a run: its verdict, evidence, mechanism, LP check, mesh refinements and warnings."""
+    from .plots import format_bracket
+
+    lim = data["limit_load"]
+    limit = Status.of(data["status"]) is Status.LIMIT
+    if limit:
+        print(f"{scene.name}: {data['status']}; limit load in "
+              f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+    else:
+        print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
+              f"width {scene.arch.width:g} m)")
+    if data["evidence"]:
+        print(f"  evidence: {data['evidence']}")
+    if limit:
+        print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
+    elif data["failure_reason"]:
+        print(f"  last failed step: {data['failure_reason']}")
+    print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+    lp = data["lp"]
+    if lp["load"]:
+        ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
+        print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
+              f"{lp['mechanism']['hinges']}{ratio}")
+    ring = data["ring_under_transmitted_loads"]
+    if ring and ring["load"]:
+        print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
+              f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
+    refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
+    if refined:
+        print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
+              f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
+    for warning in data["warnings"]:
+        print(f"  WARNING: {warning}")
+    print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
 
 
 def _notice(line: str) -> None:
@@ -207,21 +246,19 @@ def _levels(text: str) -> list[int]:
 def _check(args) -> int:
     scene = load_scene(args.scene)
     size = check_size(scene)
-    print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
+    if args.json:
+        print(json.dumps({"scene": resolved_document(scene), "units": key_units(),
+                          "size": {**dataclasses.asdict(size), "memory_unit": "bytes", "estimate": True}}))
+    else:
+        print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
     return 0
 
 
 def _lp(args) -> int:
-    from ..limit.rigid_block import LPFailure, LPResult, collapse_load
+    from .lp_report import lp_summary, rigid_block_result
 
-    scene = load_scene(args.scene)
-    try:
-        res = collapse_load(scene, friction_model=args.friction_model)
-    except LPFailure as err:  # reported like any result, with no load and no mechanism
-        res = LPResult(None, None, f"solver failure: {err}", args.friction_model)
+    res = rigid_block_result(load_scene(args.scene), args.friction_model)
     if args.json:
-        from .results import lp_summary
-
         print(json.dumps(lp_summary(res)))
     else:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
@@ -263,9 +300,9 @@ def main(argv: list[str] | None = None) -> int:
     args, raw = _parser().parse_known_args(argv)
     try:
         with sigterm_raises():
-            petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
+            petsc = _petsc_options(args.petsc, raw, args.options) if args.command == "run" else {}
             if raw and args.command != "run":
-                raise SceneError(f"unknown argument {raw[0]!r}")
+                raise _unknown(raw[0], args.options)
             if args.command == "run":
                 return _run(args, petsc)
             if args.command == "check":

@@ -18,6 +18,8 @@ from petsc4py import PETSc
 from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
 from ..geometry.ring import fill_outline
 from ..laws.coulomb import OPEN, SLIP, STICK
+from ..scene.schema import Scene
+from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
 JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
@@ -67,7 +69,7 @@ CONVENTIONS = {
 }
 
 
-def summary(an: Analysis, extra: dict | None = None) -> dict:
+def summary(an: Analysis) -> dict:
     """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
     collective: the ring check is an LP on rank 0)."""
     s, total = an.search, an.load_total
@@ -111,8 +113,15 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "timings": an.timings,
         "mpi_ranks": an.solver.comm.size,
         "versions": versions(),
-        **(extra or {}),
+        "loads": load_entries(an.scene),
     }
+
+
+def load_entries(scene: Scene) -> list[dict]:
+    """The ``loads`` entry of results.json: each [[load]] table's kind, position (fraction of the span), centre
+    ``x`` (m), length (m) and factor."""
+    return [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+             "length": ld.length, "factor": ld.factor} for ld in scene.loads]
 
 
 def _reactions(an: Analysis) -> list[dict]:
@@ -144,39 +153,14 @@ def ring_check_summary(an: Analysis) -> dict | None:
     lp, total = check.lp, an.load_total
     return {"model": RING_CHECK_MODEL, "fe_load": check.fe_level * total,
             "load": None if check.lp_level is None else check.lp_level * total, "unit": "N",
-            "ratio": check.ratio, "status": lp.status, "mechanism": _mechanism(lp)}
-
-
-LP_FILL_LABEL = "fill as dead load only"
-
-
-def _mechanism(lp) -> dict:
-    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-            "sliding": sorted(lp.sliding)}
-
-
-def lp_summary(lp) -> dict:
-    """The JSON form of a rigid-block result: load (N), status, friction model, mechanism, seconds."""
-    return {"load": lp.load, "unit": "N", "status": lp.status, "friction_model": lp.friction_model,
-            "mechanism": _mechanism(lp), "seconds": lp.time_s}
-
-
-def lp_label(scene) -> str:
-    """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
-    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
-    label = LP_FILL_LABEL if scene.fill else "bare ring"
-    if scene.abutments.elastic:
-        label += ", abutments as rigid blocks"
-    if scene.abutments.moves:
-        label += ", support movement not modelled (no effect on the rigid-block collapse load)"
-    return label
+            "ratio": check.ratio, "status": lp.status, "mechanism": mechanism_summary(lp)}
 
 
 def lp_entries(an: Analysis) -> dict:
     """The ``lp``, ``fe_lp_ratio``, ``static_bound``, ``warnings`` and ``fill_bounds`` entries of results.json
     (:attr:`Analysis.lp`, :attr:`Analysis.fe_lp_ratio`, :func:`static_summary`, :attr:`Analysis.warnings`,
     :attr:`Analysis.fill_bounds`)."""
-    return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
+    return {"lp": lp_entry(an.lp, an.scene), "fe_lp_ratio": an.fe_lp_ratio,
             "static_bound": static_summary(an), "warnings": an.warnings, "fill_bounds": an.fill_bounds}
 
 
@@ -193,12 +177,12 @@ def static_summary(an: Analysis) -> dict | None:
             "margin": b.margin, "closed": an.search.static}
 
 
-def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
+def write_results(an: Analysis, out: Path) -> dict:
     """Write results.json, fields.xdmf and the PNGs into ``out`` atomically, under the output policy of
     :mod:`bridgefem.io.output` (collective); returns the summary."""
     comm = an.solver.comm
     with results_folder(Path(out), comm) as tmp:
-        data = summary(an, extra)
+        data = summary(an)
         if an.converged:
             with quiet_compiler():
                 _write_fields(an, tmp / "fields.xdmf")

@@ -12,7 +12,9 @@ turns it into exit code 2 before anything is written.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
+import difflib
 import math
 import os
 import re
@@ -98,6 +100,13 @@ def _show(value: Any, limit: int = 60) -> str:
     """A value for a one-line message: its repr, cut to ``limit`` characters."""
     text = repr(value)
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
+def did_you_mean(name: str, allowed, show=repr) -> str:
+    """The hint after an unknown name in a one-line message: ``"did you mean 'span'? "`` when an allowed name is
+    close to ``name`` (:func:`difflib.get_close_matches`; ``show`` writes it), else ``""``."""
+    close = difflib.get_close_matches(name, list(allowed), n=1) if isinstance(name, str) else []
+    return f"did you mean {show(close[0])}? " if close else ""
 
 
 PRESETS: dict[str, dict[tuple[str, str], Any]] = {
@@ -465,7 +474,9 @@ class SolverOptions:
 
 @dataclass(frozen=True)
 class Scene:
-    """A validated scene; ``gravity`` in m/s^2."""
+    """A validated scene; ``gravity`` in m/s^2. ``document``: the dictionary it was validated from (the TOML
+    document as given, before defaults), which an edit re-validates with its changes
+    (:mod:`bridgefem.scene.document`); not part of the scene's value."""
 
     name: str
     arch: Arch
@@ -478,6 +489,7 @@ class Scene:
     mesh: MeshOptions = MeshOptions()
     model: ModelOptions = ModelOptions()
     solver: SolverOptions = SolverOptions()
+    document: dict | None = field(default=None, compare=False, repr=False)
 
     def load_edges_x(self) -> list[float]:
         """Horizontal positions (m) of point loads and patch edges: where joints go by default."""
@@ -536,7 +548,8 @@ def _section(data: Any, name: str, label: str) -> dict[str, Any]:
     schema = SCHEMA[name]
     unknown = sorted(set(data) - set(schema))
     if unknown:
-        raise SceneError(f"{label}: unknown key {_show(unknown[0])}; allowed keys are {', '.join(schema)}")
+        raise SceneError(f"{label}: unknown key {_show(unknown[0])}; {did_you_mean(unknown[0], schema)}allowed keys "
+                         f"are {', '.join(schema)}")
     out = {}
     for k, key in schema.items():
         where = f"{label} {k}"
@@ -589,7 +602,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     """Validate a parsed TOML document and build a :class:`Scene`."""
     unknown = sorted(set(data) - set(SCHEMA) - {"load"})
     if unknown:
-        raise SceneError(f"[{_show(unknown[0])[1:-1]}]: unknown section; allowed sections are "
+        hint = did_you_mean(unknown[0], SCHEMA, lambda s: "[[load]]" if s == "load" else f"[{s}]")
+        raise SceneError(f"[{_show(unknown[0])[1:-1]}]: unknown section; {hint}allowed sections are "
                          + ", ".join(f"[{s}]" for s in SCHEMA if s != "load") + ", [[load]]")
     for name in _REQUIRED_SECTIONS:
         if name not in data:
@@ -644,7 +658,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
-                 solver=SolverOptions(**solver))
+                 solver=SolverOptions(**solver), document=copy.deepcopy(data))
 
 
 def _beams_apart(loads: list[Load], span: float) -> None:
