@@ -1,19 +1,23 @@
 """PETSc starts without the option files of the folder bridgefem runs in and of the home folder, and without a
 petsc.cfg there (bridgefem/petsc_start.py); the user's PETSC_OPTIONS are used, and a bad one stops bridgefem with one
-line and exit code 2, nothing written.
+line and exit code 2, nothing written; Ctrl-C under `./run mpirun` exits 130 as a serial run does.
 
 Every hostile file here harms a bridgefem that reads it, each in its own way: the log written over the victim file,
 the script run as PETSc's debug terminal (it creates the marker file), the secret's first word printed in PETSc's
 error report.
 """
 import json
+import os
+import signal
 import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
 from bridgefem.linsolve import CheckedSolve
-from conftest import bridgefem, scene_dict, write_toml
-from test_output_policy import COARSE, snapshot
+from conftest import ROOT, bridgefem, scene_dict, write_toml
+from test_output_policy import COARSE, earlier_results, snapshot, strays
 
 SECRET = "TOPSECRET-3f9c"  # the first word of a file that is not an options file
 VICTIM = "a line the user wrote\n"
@@ -196,3 +200,28 @@ def test_a_contact_solver_option_in_petsc_options_is_used(folder):
     assert proc.returncode == 1, proc.stderr
     failed = json.loads((folder / "out-failed" / "results.json").read_text())
     assert failed["solver"]["petsc_options"]["pc_factor_mat_solver_type"] == "petsc"
+
+
+# ------------------------------------------------------------------ Ctrl-C under mpirun
+@pytest.mark.mpi
+def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_path):
+    """Open MPI's mpirun ends the job on SIGINT and exits 1 whatever the ranks return; ./run runs it so that the
+    run exits 130, as a serial one does. The ranks are stopped (no final report) and the target keeps the earlier
+    results."""
+    out = earlier_results(tmp_path / "out")
+    before = snapshot(out)
+    scene = ROOT / "demos" / "bare_arch.toml"  # load steps for several seconds on two ranks
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.cli", "run",
+                             str(scene), "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=env, cwd=tmp_path)
+    while (line := proc.stdout.readline()) and not line.startswith("step   1"):
+        pass
+    assert line, proc.communicate()[1]
+    proc.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    rest, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert time.monotonic() - t0 < 10 and "results in" not in rest, rest
+    assert snapshot(out) == before
+    assert [name for name in strays(tmp_path) if "bridgefem-tmp" in name] == []

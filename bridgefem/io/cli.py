@@ -2,9 +2,10 @@
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
-output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
-earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad
-option in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
+output folder (one line on stderr, nothing written; checked before the analysis), 130 interrupted (Ctrl-C) and 143
+terminated by SIGTERM (the earlier results kept, nothing half-written; under ``mpirun``, which exits 1 after either,
+``./run mpirun`` gives these codes). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad option
+in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
 the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
 """
