@@ -124,6 +124,19 @@ def test_a_petsc_cfg_in_the_folder_chooses_no_petsc(folder, clean_check):
     assert (proc.returncode, proc.stdout, proc.stderr) == (0, clean_check.stdout, "")
 
 
+@pytest.mark.parametrize("first", ["bridgefem", "dolfinx"])
+def test_a_program_that_starts_petsc_first_is_warned_of_the_rc_files_read(folder, first):
+    """A library user who imports bridgefem first gets PETSc without rc files; one who imports DOLFINx first gets
+    PETSc with them, which bridgefem cannot undo: it says so."""
+    plant(folder, ("log_view",), ["petscrc"])
+    code = f"import {first}, bridgefem, dolfinx; from petsc4py import PETSc; print(PETSc.Options().hasName('log_view'))"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=folder, timeout=120,
+                          env={**os.environ, "HOME": str(folder / "home"), "PETSC_OPTIONS": ""})
+    assert proc.returncode == 0, proc.stderr
+    read = first == "dolfinx"
+    assert proc.stdout == f"{read}\n" and ("read the option files ['petscrc']" in proc.stderr) == read, proc.stderr
+
+
 # ------------------------------------------------------------------ the user's PETSC_OPTIONS
 MISSING = "/nonexistent-folder-3f9c"
 BAD_OPTIONS = {  # PETSC_OPTIONS -> the option the error line names
