@@ -7,7 +7,8 @@ terminated by SIGTERM (the earlier results kept, nothing half-written; under ``m
 ``./run mpirun`` gives these codes). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad option
 in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
-the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, the user's PETSC_OPTIONS and
+the defaults).
 """
 from __future__ import annotations
 
