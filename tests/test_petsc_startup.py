@@ -15,9 +15,10 @@ import time
 from pathlib import Path
 
 import pytest
-from bridgefem.linsolve import CheckedSolve
 from conftest import ROOT, bridgefem, scene_dict, write_toml
 from test_output_policy import COARSE, earlier_results, snapshot, strays
+
+from bridgefem.solver.linear import CheckedSolve
 
 SECRET = "TOPSECRET-3f9c"  # the first word of a file that is not an options file
 VICTIM = "a line the user wrote\n"
@@ -124,17 +125,35 @@ def test_a_petsc_cfg_in_the_folder_chooses_no_petsc(folder, clean_check):
     assert (proc.returncode, proc.stdout, proc.stderr) == (0, clean_check.stdout, "")
 
 
-@pytest.mark.parametrize("first", ["bridgefem", "dolfinx"])
+@pytest.mark.parametrize("first", ["bridgefem.fe", "dolfinx"])
 def test_a_program_that_starts_petsc_first_is_warned_of_the_rc_files_read(folder, first):
-    """A library user who imports bridgefem first gets PETSc without rc files; one who imports DOLFINx first gets
-    PETSc with them, which bridgefem cannot undo: it says so."""
+    """A library user whose program loads bridgefem's FE (``bridgefem.analyse`` does) before DOLFINx gets PETSc
+    without rc files; one who imports DOLFINx first gets PETSc with them, which bridgefem cannot undo: it says so."""
     plant(folder, ("log_view",), ["petscrc"])
-    code = f"import {first}, bridgefem, dolfinx; from petsc4py import PETSc; print(PETSc.Options().hasName('log_view'))"
+    code = (f"import {first}, bridgefem.fe, dolfinx; from petsc4py import PETSc; "
+            "print(PETSc.Options().hasName('log_view'))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=folder, timeout=120,
                           env={**os.environ, "HOME": str(folder / "home"), "PETSC_OPTIONS": ""})
     assert proc.returncode == 0, proc.stderr
     read = first == "dolfinx"
     assert proc.stdout == f"{read}\n" and ("read the option files ['petscrc']" in proc.stderr) == read, proc.stderr
+
+
+@pytest.mark.slow
+def test_the_compilers_read_no_parameter_file_of_the_folder(folder):
+    """DOLFINx's and FFCx's parameter files in the folder would give the C compiler a folder of programs of the
+    scene's (``-B``: the compiler runs the assembler ``as`` found there, here the marking script); with an empty
+    compilation cache (a new home folder) every form is compiled, and none with them."""
+    programs = folder / "programs"
+    programs.mkdir()
+    (programs / "as").symlink_to(folder / "evil.sh")
+    flags = {"cffi_extra_compile_args": [f"-B{programs}/"], "cffi_verbose": True}
+    (folder / "dolfinx_jit_parameters.json").write_text(json.dumps(flags))
+    (folder / "ffcx_parameters.json").write_text(json.dumps({"scalar_type": "float"}))  # a type that fails to compile
+    proc = in_folder(folder, "run", "s.toml", "--out", "out", "--quiet", XDG_CACHE_HOME=str(folder / "cache"))
+    assert_unharmed(folder, proc)
+    assert proc.returncode == 0, proc.stderr
+    assert any((folder / "cache").rglob("*.c")), "no form was compiled: the test did not reach the compiler"
 
 
 # ------------------------------------------------------------------ the user's PETSC_OPTIONS
@@ -225,7 +244,7 @@ def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_pat
     before = snapshot(out)
     scene = ROOT / "demos" / "bare_arch.toml"  # load steps for several seconds on two ranks
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.cli", "run",
+    proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.io.cli", "run",
                              str(scene), "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=env, cwd=tmp_path)
     while (line := proc.stdout.readline()) and not line.startswith("step   1"):
