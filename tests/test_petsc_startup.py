@@ -140,16 +140,19 @@ def test_a_program_that_starts_petsc_first_is_warned_of_the_rc_files_read(folder
 
 
 @pytest.mark.slow
-def test_the_compilers_read_no_parameter_file_of_the_folder(folder):
+def test_the_compilers_and_the_plots_read_no_settings_file_of_the_folder(folder):
     """DOLFINx's and FFCx's parameter files in the folder would give the C compiler a folder of programs of the
     scene's (``-B``: the compiler runs the assembler ``as`` found there, here the marking script); with an empty
-    compilation cache (a new home folder) every form is compiled, and none with them."""
+    compilation cache (a new home folder) every form is compiled, and none with them. A ``matplotlibrc`` there
+    would choose a backend module of the folder's (which marks its import) and typeset with LaTeX."""
     programs = folder / "programs"
     programs.mkdir()
     (programs / "as").symlink_to(folder / "evil.sh")
     flags = {"cffi_extra_compile_args": [f"-B{programs}/"], "cffi_verbose": True}
     (folder / "dolfinx_jit_parameters.json").write_text(json.dumps(flags))
     (folder / "ffcx_parameters.json").write_text(json.dumps({"scalar_type": "float"}))  # a type that fails to compile
+    (folder / "evil_backend.py").write_text(f"open({str(folder / 'MARKER')!r}, 'w')\n")
+    (folder / "matplotlibrc").write_text("backend: module://evil_backend\ntext.usetex: True\n")
     proc = in_folder(folder, "run", "s.toml", "--out", "out", "--quiet", XDG_CACHE_HOME=str(folder / "cache"))
     assert_unharmed(folder, proc)
     assert proc.returncode == 0, proc.stderr
