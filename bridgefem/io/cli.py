@@ -2,10 +2,13 @@
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
-output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
-earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md).
+output folder (one line on stderr, nothing written; checked before the analysis), 130 interrupted (Ctrl-C) and 143
+terminated by SIGTERM (the earlier results kept, nothing half-written; under ``mpirun``, which exits 1 after either,
+``./run mpirun`` gives these codes). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad option
+in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
-the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, the user's PETSC_OPTIONS and
+the defaults).
 """
 from __future__ import annotations
 
@@ -15,12 +18,12 @@ import dataclasses
 import json
 import logging
 import math
-import os
 import sys
 import traceback
 from pathlib import Path
 
 from ..fe.sizing import LARGE_DOFS, MAX_DOFS, check_size
+from ..petsc_start import launcher_rank
 from ..scene.document import key_units, resolved_document
 from ..scene.schema import PETSC_PREFIX, SceneError, did_you_mean, load_scene, resolved_toml
 from ..status import Status
@@ -154,10 +157,11 @@ def _run(args, petsc: dict) -> int:
     from mpi4py import MPI
 
     from ..analysis.runner import run_analysis
-    from ..solver.linear import check_petsc_options
+    from ..solver.linear import check_environment_options, check_petsc_options
     from .results import FILES, write_results
 
     comm = MPI.COMM_WORLD
+    check_environment_options(comm)
     check_petsc_options({**scene.solver.petsc, **petsc}, comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
@@ -332,16 +336,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _error(message: str) -> None:
     """One line on stderr, from one MPI rank (every rank meets the same error)."""
-    if _launcher_rank() == 0:
+    if launcher_rank() == 0:
         print(f"bridgefem: error: {' '.join(message.split())}", file=sys.stderr, flush=True)
-
-
-def _launcher_rank() -> int:
-    """This process's MPI rank as mpirun tells it (no MPI start-up needed for a bad input)."""
-    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-        if os.environ.get(name, "").isdigit():
-            return int(os.environ[name])
-    return 0
 
 
 def _abort_if_parallel() -> None:

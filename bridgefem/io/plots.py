@@ -1,4 +1,8 @@
-"""PNG plots: the load-deflection path with the limit-load bracket, and the collapse mechanism."""
+"""PNG plots: the load-deflection path with the limit-load bracket, and the collapse mechanism.
+
+The pictures are drawn with matplotlib's own defaults and the Agg backend: a ``matplotlibrc`` in the current folder
+(which matplotlib reads as it is imported) could otherwise choose a backend module, or have every label typeset by
+an external LaTeX program, and the same run would draw different pictures in different folders."""
 from __future__ import annotations
 
 import math
@@ -7,6 +11,7 @@ from pathlib import Path
 
 import matplotlib
 
+matplotlib.rcdefaults()  # no rc file's settings: the module docstring
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402

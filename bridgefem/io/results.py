@@ -13,7 +13,6 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-from petsc4py import PETSc
 
 from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
 from ..geometry.ring import fill_outline
@@ -33,6 +32,7 @@ def versions() -> dict:
     import dolfinx
     import gmsh
     import scipy
+    from petsc4py import PETSc
 
     out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
            "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
