@@ -190,9 +190,15 @@ def thickness_of(choice: dict) -> tuple[float, float | None]:
         least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
     except (RuntimeError, ValueError):  # no thickness stands at this mu
         least = None
+    return thickness_above(choice, least), least
+
+
+def thickness_above(choice: dict, least: float | None) -> float:
+    """The scene's thickness (m) given the least thickness that stands (m; None when none does): the draw's fraction
+    of the range from it to 0.4 x :func:`reference_length` (from 0.05 x that length when none stands)."""
     top = 0.4 * reference_length(choice, 0.0)
     bottom = 0.05 * top / 0.4 if least is None or least >= top else least
-    return bottom + choice["thickness_fraction"] * (top - bottom), least
+    return bottom + choice["thickness_fraction"] * (top - bottom)
 
 
 def to_toml(d: dict) -> str:
