@@ -202,7 +202,8 @@ def near_joint_4(offset: float, joint_at_loads: bool = False) -> dict:
 def test_load_moved_onto_a_joint_is_reported_by_check(capsys, tmp_path):
     """A point load 0.59 mm from a joint (within 1e-4 x span = 0.9 mm) acts at the joint's corner: check says so in
     one comment line naming the load, its position, the joint and the distance (m); results.json's ``loads``
-    entry has the joint and the distance. 1 mm away, or with the joint moved under the load, nothing is moved."""
+    entry has the joint and the distance. 1 mm away, with the joint moved under the load, or over a fill (the load
+    on the road), nothing is moved."""
     from bridgefem.io.results import load_entries
 
     write_toml(tmp_path / "near.toml", near_joint_4(0.00059))
@@ -226,6 +227,10 @@ def test_load_moved_onto_a_joint_is_reported_by_check(capsys, tmp_path):
         (entry,) = load_entries(sc, scene_ring(sc), [None])
         assert entry["snapped_to_joint"] is None and entry["moved_by"] == 0.0
     assert 0.00059 < AT_JOINT_TOL * 9.0 < 0.001
+    filled = scene_from_dict({**near_joint_4(0.00059), "fill": {"unit_weight": 18e3, "young": 50e6, "depth": 0.5,
+                                                                "extension": 2.0}})
+    (entry,) = load_entries(filled, scene_ring(filled), ["right"])  # over a fill the load acts on the road
+    assert entry["snapped_to_joint"] is None and entry["side"] is None
 
 
 @pytest.mark.slow
