@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
-from ..geometry.ring import fill_outline, snapped_loads
+from ..geometry.ring import fill_outline
 from ..laws.coulomb import OPEN, SLIP, STICK
+from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
