@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import tomllib
 from dataclasses import asdict
 
 import numpy as np
@@ -21,7 +22,15 @@ from conftest import REFERENCE_ARCH, campaign_module, scene_dict, write_toml
 
 from bridgefem.io import cli
 from bridgefem.limit.rigid_block import collapse_load, min_thickness
-from bridgefem.scene.schema import SCHEMA, SceneError, scene_from_dict, scene_scales, springing_reach
+from bridgefem.scene.schema import (
+    SCALES,
+    SCHEMA,
+    SceneError,
+    resolved_toml,
+    scene_from_dict,
+    scene_scales,
+    springing_reach,
+)
 
 FILL = {"unit_weight": 18000.0, "young": 1e8, "depth": 0.5, "extension": 2.0}
 MOHR_COULOMB = {**FILL, "material": "mohr-coulomb", "friction_angle": 60.0, "cohesion": 5e3}  # every angle allowed
@@ -30,6 +39,7 @@ STEP = 1e-6  # "just outside": this fraction of the bound (of the range's width 
 
 
 def numeric_keys() -> list[tuple[str, str]]:
+    """(section, key) of every number of a scene (integers and floats, not the choices of a few)."""
     return [(s, k) for s, keys in SCHEMA.items() for k, key in keys.items() if key.kind in (int, float)
             and not key.choices]
 
@@ -119,11 +129,13 @@ def assert_refused(capsys, argv: list[str], must_hold: list[str], work) -> str:
 
 
 def test_every_number_has_a_range_and_its_reason():
+    """Both ends, a reason (docs/scene-keys.md shows it), a known scale for a relative range, and the default
+    inside the range."""
     for section, name in numeric_keys():
         key = SCHEMA[section][name]
         assert key.low is not None and key.high is not None and key.low < key.high, (section, name)
         assert key.why, f"[{section}] {name}: no reason for its range"
-        assert key.per in ("", "span", "ring weight"), key.per
+        assert key.per in ("", *SCALES), key.per
         if isinstance(key.default, (int, float)) and key.default != 0:
             assert key.within(key.default, scene_scales(scene_from_dict(base_scene(section, name)))[key.per]
                               if key.per else 1.0), (section, name, key.default)
@@ -142,6 +154,17 @@ def test_the_ends_of_each_range_are_accepted_and_just_outside_refused(tmp_path, 
                              trapped)
         if SCHEMA[section][name].per and "the springing joint's horizontal reach" not in err:
             assert "in this scene)" in err, err  # the bounds of a relative range in metres or newtons
+
+
+@pytest.mark.parametrize("density", [SCHEMA["masonry"]["density"].low, SCHEMA["masonry"]["density"].high])
+@pytest.mark.parametrize("gravity", [SCHEMA["scene"]["gravity"].low, SCHEMA["scene"]["gravity"].high])
+def test_a_derived_default_lies_in_its_range(density, gravity):
+    """Elastic abutments weigh the masonry's density x gravity by default: at every corner of those two ranges the
+    resolved scene (what check prints, its derived values written out) reads back as the same scene."""
+    scene = scene_from_dict(scene_dict(scene={"gravity": gravity}, masonry={"density": density},
+                                       abutments={"model": "elastic", "height": 2.0}))
+    assert scene.abutments.unit_weight == density * gravity
+    assert scene_from_dict(tomllib.loads(resolved_toml(scene))) == scene
 
 
 def scaled(d: dict, s: float) -> dict:
@@ -297,6 +320,9 @@ SCALED_SCENES = {
     "semicircle, point load on a joint": scene_dict(),
     "segmental, patch": scene_dict(arch={"shape": "segmental", "rise": 2.5, "thickness": 0.6, "voussoirs": 20},
                                    load=[{"kind": "patch", "position": 0.3, "length": 1.5}]),
+    "flattest segmental, a ring of 3e-4 x span": scene_dict(
+        arch={"shape": "segmental", "rise": 0.45, "thickness": 0.0027, "voussoirs": 8},
+        load=[{"kind": "point", "position": 0.3}]),
     "pointed, two loads off the joints": scene_dict(
         arch={"shape": "pointed", "rise": 7.0, "thickness": 0.8, "voussoirs": 24, "joint_at_loads": False},
         joints={"friction": 0.4}, load=[{"kind": "point", "position": 0.3}, {"kind": "point", "position": 0.7,
