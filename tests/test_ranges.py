@@ -174,7 +174,8 @@ def scaled(d: dict, s: float) -> dict:
 OUTSIDE = {  # one value outside its range per kind of range: absolute, x span, x ring weight
     "span": {"arch": {"span": 0.0999, "rise": 0.04995, "thickness": 0.01}},
     "thickness": {"arch": {"thickness": 8.9e-4}},
-    "max_load": {"solver": {"max_load": 1e-12 * 0.9 * 2000 * 9.81 * math.pi / 2 * (5.5 ** 2 - 4.5 ** 2)}},
+    "max_load": {"solver": {"max_load": 0.9 * SCHEMA["solver"]["max_load"].low
+                            * scene_scales(scene_from_dict(scene_dict()))["ring weight"]}},
 }
 
 
