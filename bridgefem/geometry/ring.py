@@ -37,6 +37,7 @@ LOAD_SIDES = ("left", "right", "split")
 # corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
 AT_JOINT_TOL = 1e-4
 KINK_NUDGE = 1e-6  # a chord's end at a kink is moved this fraction of it back onto its own arc
+ROUND_OFF = 1e-12  # of the span: two coordinates closer than this are one (their difference is round-off)
 _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
 # points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
 # holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
@@ -535,8 +536,9 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         inner, outer = joint.intrados, joint.extrados
         x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
         base = (np.array([inner[0], -height]), np.array([x_out, -height]))
-        # a corner above the outer base corner unless it is the springing's extrados corner (1e-12 m: round-off)
-        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
+        # a corner above the outer base corner unless it is the springing's extrados corner (up to round-off)
+        apart = abs(x_out - outer[0]) > ROUND_OFF * ring.span
+        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if apart else [])
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:
             polygon = polygon[::-1]

@@ -75,7 +75,7 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 
 from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
-from ..scene.schema import Scene
+from ..scene.schema import SCHEMA, Scene
 from ..structure.ring import scene_ring
 
 FRICTION_MODELS = ("associative", "non-associative")
@@ -88,7 +88,9 @@ _WINDOW = 6  # non-associative iterations: converged when lambda is steady over 
 RELAXATION = 0.6  # Tresca fixed point: n~ <- n~ + RELAXATION (n - n~) between LPs
 FIXED_POINT_RTOL = 1e-6  # Tresca fixed point: tolerance on lambda and on the Coulomb condition
 FIXED_POINT_LPS = 200  # Tresca fixed point: LPs at most
-_THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
+# least-thickness search, x span: from the scene's least thickness (a sliver) to (almost) a solid half-disc (the
+# scene's range ends below the span)
+_THICKNESS_RANGE = (SCHEMA["arch"]["thickness"].low, 0.999)
 _LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
 
 
