@@ -22,7 +22,7 @@ from ..limit.rigid_block import (
     statics,
 )
 from ..scene.schema import Scene
-from ..search.pathfollow import LoadStep, StaticCap
+from ..search.records import LoadStep, StaticCap
 from ..solver.newton import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
 from ..status import Status
 from .evidence import StaticBound, admissible
