@@ -12,7 +12,8 @@ from bridgefem.fe.model import build_elastic_model
 from bridgefem.fe.pairs import build_pairs
 from bridgefem.geometry.ring import ArchRing, Joint, Voussoir
 from bridgefem.scene.schema import scene_from_dict
-from bridgefem.search.pathfollow import LIMIT_FOUND, SearchSettings, find_limit_load
+from bridgefem.search.pathfollow import LIMIT_FOUND, find_limit_load
+from bridgefem.search.records import SearchSettings
 from bridgefem.solver.newton import ContactSolver
 
 B, H, RHO, G = 1.0, 2.0, 2000.0, 9.81

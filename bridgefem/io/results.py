@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
+from ..analysis.mechanism import springing_reactions
+from ..analysis.result import Analysis
+from ..analysis.runner import quiet_compiler
 from ..geometry.ring import fill_outline
 from ..laws.coulomb import OPEN, SLIP, STICK
 from ..structure.ring import snapped_loads
@@ -70,8 +72,8 @@ CONVENTIONS = {
 
 
 def summary(an: Analysis) -> dict:
-    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
-    collective: the ring check is an LP on rank 0)."""
+    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank; local: the
+    analysis holds its checks as plain data)."""
     s, total = an.search, an.load_total
     hinges = [j for j in an.joints if j.hinge]
     steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
@@ -156,7 +158,7 @@ RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by 
 def ring_check_summary(an: Analysis) -> dict | None:
     """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
     ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
-    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
+    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism."""
     check = an.ring_check
     if check is None:
         return None
@@ -196,7 +198,7 @@ def write_results(an: Analysis, out: Path) -> dict:
         if an.converged:
             with quiet_compiler():
                 _write_fields(an, tmp / "fields.xdmf")
-        motion = an.collapse_mode()
+        motion = an.collapse_mode
         if comm.rank == 0:
             (tmp / "results.json").write_text(json.dumps(data, indent=2))
             from .plots import plot_load_deflection, plot_mechanism

@@ -152,6 +152,8 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     f = scene.fill
     if f.material != "mohr-coulomb":
         raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')
+    if not scene.loads:
+        raise SceneError("no [[load]]: the collapse bounds need a live load")
     ring = scene_ring(scene)
     size = min(scene.arch.thickness / 2, f.depth) / refine
     blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)
