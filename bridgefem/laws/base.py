@@ -30,6 +30,9 @@ one method per stage of the active-set Newton method, as deal.II's step-42 asks 
 
 :class:`bridgefem.laws.coulomb.CoulombJoints` (unilateral contact, Coulomb friction) is the first law; a new law
 (crushing, a tensile strength: ``tests/test_joint_law_seam.py``) is one more subclass and touches no other module.
+Still Coulomb's, whatever law the solver is given: the analysis's evidence (the rigid-block LP check and the static
+bound are built with :data:`bridgefem.analysis.runner.DEFAULT_JOINT_LAW`; the static theorem's admissibility check,
+the deficit programmes and the Tresca fixed point read the LP's rows as Coulomb's) and the Tresca predictor.
 """
 from __future__ import annotations
 

@@ -11,13 +11,14 @@ friction, :class:`bridgefem.laws.coulomb.CoulombJoints`; the seed paper, eqs. 1-
 and is the only place that knows the pairs' states. Written with the complementarity functions of Alart & Curnier
 (1991, CMAME 92) the law is a semismooth equation; its Newton method is the primal-dual active-set method
 (Hintermüller, Ito & Kunisch 2002, SIAM J. Optim. 13; for contact Hüeber & Wohlmuth 2005, CMAME 194; with Coulomb
-friction Hüeber, Stadler & Wohlmuth 2008, SIAM J. Sci. Comput. 30): guess which pairs are open, holding or sliding (the *active set*), solve the
-problem that is linear for that guess, classify the solution again, until the guess no longer changes. With a
-Mohr-Coulomb fill the stiffness block is the fill's consistent tangent (:meth:`bridgefem.solver.system.ContactSystem.
-linearise`): each iteration is then a Newton step for the fill and an active-set step for the joints at once.
+friction Hüeber, Stadler & Wohlmuth 2008, SIAM J. Sci. Comput. 30): guess which pairs are open, holding or sliding
+(the *active set*), solve the problem that is linear for that guess, classify the solution again, until the guess no
+longer changes. With a Mohr-Coulomb fill the stiffness block is the fill's consistent tangent
+(:meth:`bridgefem.solver.system.ContactSystem.linearise`): each iteration is then a Newton step for the fill and an
+active-set step for the joints at once.
 
-**The algorithm** (:meth:`ContactSolver.solve_step`), from a converged state, one iteration (:meth:`ContactSolver.
-_iteration`) being steps 2-6:
+**The algorithm** (:meth:`ContactSolver.solve_step`), from a converged state, one iteration
+(:meth:`ContactSolver._iteration`) being steps 2-6:
 
 1. *Start* with the converged start's active set, or the set a predicted solution proposes (*Predictor*), or every
    pair closed and holding (the retry setting ``fresh``).
@@ -47,15 +48,31 @@ exists, with the scenes that showed the need: ``docs/robustness.md``, *Why each 
   prediction, a coarser run's path: :class:`PairPrediction`). A failure before any set of the step solved is then no
   proof of a mechanism, and a return to the start's set is no cycle (it was solved at another load).
 - *Mechanism verdicts*: a singular system, an unchanged set whose solve stays inaccurate, or a solve diverging along
-  an admissible mode is a mechanism; a proof needs an admissible rigid-block hinge mode on which the loads do
-  positive work (:func:`bridgefem.solver.mechanism.judge`). A mechanism without proof needs the rigid-block LP's
-  agreement (:mod:`bridgefem.analysis.evidence`).
-- *Proximal solves*, *damping chains*, *repairs* (the first contact of an inadmissible mode) and *pairs on the cone*:
-  the recovery from a failed solve (:mod:`bridgefem.solver.recovery`).
-- *Reversed slips*, *opposed slips* and *leaps*: cut-backs of a proposal (:mod:`bridgefem.solver.proposals`).
-- *Cycles*: condensed exactly on a few pairs, else damped, frozen or bonded (:mod:`bridgefem.solver.cycle_breaking`).
-- *Refinement*: one step of iterative refinement before an unchanged set is called singular
-  (:mod:`bridgefem.solver.convergence`).
+  an admissible mode is a mechanism; a proof needs an admissible rigid-block hinge mode on which the loads do more
+  work than the joints can dissipate (:func:`bridgefem.solver.mechanism.judge`). A mechanism without proof needs the
+  rigid-block LP's agreement (:mod:`bridgefem.analysis.evidence`).
+- *Proximal solves*: the system of a wrong active set can be exactly singular along a rigid slide; its first diverging
+  solve is repeated with a weak spring against each free direction's motion from the last iterate, which bounds the
+  step and vanishes at a fixed point (:mod:`bridgefem.solver.recovery`).
+- *Damping chains*: after a failed solve, the half of the last good set's proposed changes farthest from the law
+  they leave is applied, until a set solves; a step the search can retry smaller ends when that fails again.
+- *Repairs*: an inadmissible diverging mode names the pairs it pushes into each other; the ones that touch first
+  along the mode are closed (:func:`bridgefem.solver.mechanism.first_contact`).
+- *Pairs on the cone*: a last change left that is a friction flip within the waived residual is frozen, rather than
+  the whole joint held.
+- *Reversed slips*: a slip proposed against the pair's last slip holds first, since the stick branch lies between
+  the two slip branches (:mod:`bridgefem.solver.proposals`).
+- *Opposed slips*: a joint proposed to slide both ways at once (its friction forces cancelling) keeps its new slips
+  only.
+- *Leaps*: a solution that moves the structure far beyond the last iterate and the start is nearly a mechanism; it is
+  not classified, and the proposal that led to it is damped.
+- *Cycles*: a return to a visited set is solved exactly on the condensed compliance of its few pairs, else damped,
+  its friction flips frozen and its open / closed toggles bonded, the law they waive bounded
+  (:mod:`bridgefem.solver.cycle_breaking`).
+- *Refinement*: one step of iterative refinement before an unchanged set is called singular, so that rounding
+  under large support-movement forces is not taken for a mechanism (:mod:`bridgefem.solver.convergence`).
+- *Line search*: with a plastic fill every step is backtracked on the residual's Euclidean norm (Armijo), since full
+  steps overshoot where fill points yield and unload (:mod:`bridgefem.solver.line_search`).
 - *Retries*: the Alart-Curnier constants x 10 and x 0.1 (they weigh forces against displacements only in the
   classification), a fresh start, the line search, unlimited damping chains (:mod:`bridgefem.solver.settings`). The
   first that converges or proves its mechanism is taken, judged like any other outcome.
