@@ -23,15 +23,16 @@ one method per stage of the active-set Newton method, as deal.II's step-42 asks 
    law as a complementarity problem (:meth:`complementarity`) and the law at a subset of the pairs
    (:meth:`gathered`, :meth:`tiled`).
 6. **Verdicts.** What a diverging mode may not do at each pair (:meth:`mode_rules`: which pairs a closing mode
-   penetrates, which slips run against the friction force) and the forces of the sliding rows
-   (:meth:`sliding_forces`), for :mod:`bridgefem.solver.mechanism`.
+   penetrates, which slips run against the friction force, and the tension an open pair still carries, which a
+   proof's load work must exceed) and the forces of the sliding rows (:meth:`sliding_forces`), for
+   :mod:`bridgefem.solver.mechanism`.
 7. **Limit analysis.** The law's yield conditions on a rigid-block joint's resultants (:meth:`block_yield`), the
    rows of the rigid-block LP and of the conic bounds (:mod:`bridgefem.limit`).
 
 :class:`bridgefem.laws.coulomb.CoulombJoints` (unilateral contact, Coulomb friction) is the first law; a new law
 (crushing, a tensile strength: ``tests/test_joint_law_seam.py``) is one more subclass and touches no other module.
-Still Coulomb's, whatever law the solver is given: the analysis's evidence (the rigid-block LP check and the static
-bound are built with :data:`bridgefem.analysis.runner.DEFAULT_JOINT_LAW`; the static theorem's admissibility check,
+Still Coulomb's, whatever law the solver is given: the analysis's evidence (its rigid-block LP check and static
+bound use :class:`bridgefem.limit.rigid_block.BlockModel`'s default law; the static theorem's admissibility check,
 the deficit programmes and the Tresca fixed point read the LP's rows as Coulomb's) and the Tresca predictor.
 """
 from __future__ import annotations
