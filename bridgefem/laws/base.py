@@ -40,10 +40,12 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Callable, ClassVar, NamedTuple, TypeVar
+from typing import TYPE_CHECKING, Callable, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
-from mpi4py import MPI
+
+if TYPE_CHECKING:  # the laws run on numpy arrays; only their collective helpers are given a communicator
+    from mpi4py import MPI
 
 Law = TypeVar("Law", bound="JointLaw")
 
@@ -119,7 +121,7 @@ def joint_counts(joint: np.ndarray, masks: tuple[np.ndarray, ...], comm: MPI.Com
     """For each local pair mask, the number of its pairs per ring joint over all ranks ((masks, joints); ids
     ``joint``, the arch-fill interface's negative id left out). Collective."""
     ring = joint >= 0
-    n = comm.allreduce(int(joint.max(initial=-1)) + 1, op=MPI.MAX)
+    n = max(comm.allgather(int(joint.max(initial=-1)))) + 1
     return comm.allreduce(np.stack([np.bincount(joint[ring & m], minlength=n) for m in masks]))
 
 

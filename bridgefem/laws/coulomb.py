@@ -35,10 +35,12 @@ tension, its thrust lies within it and it obeys Coulomb's law: |m| <= n t / 2, |
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-from mpi4py import MPI
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules, joint_counts
 
