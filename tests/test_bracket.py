@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.laws.coulomb import ContactState
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.search.pathfollow import FUTILE_PREDICTIONS, find_limit_load
 from bridgefem.search.records import CollapseCheck, SearchGuides, SearchSettings, StaticCap
 from bridgefem.search.selfweight import SELF_WEIGHT_RETRIES
@@ -37,7 +37,7 @@ class OneDof:
     def _iterate(self, level):
         x = PETSc.Vec().createSeq(1, comm=PETSc.COMM_SELF)
         x.array[0] = level
-        return Iterate(x, ContactState.all_stick(0), np.zeros(0))
+        return Iterate(x, CoulombJoints.bonded(0), np.zeros(0))
 
     def initial_iterate(self):
         return self._iterate(0.0)

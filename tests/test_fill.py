@@ -23,7 +23,7 @@ from bridgefem.limit.rigid_block import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND
 from bridgefem.search.selfweight import cohesion_continuation
-from bridgefem.solver.newton import DIVERGED_OUT_OF_BALANCE
+from bridgefem.solver.convergence import DIVERGED_OUT_OF_BALANCE
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.5, "extension": 2.0, "interface_friction": 0.5}
 

@@ -30,7 +30,7 @@ class RingSolver:
     def __init__(self):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING
 
-    def set_friction(self, mu, factor):
+    def set_friction_factor(self, factor):
         self.friction_factor = factor
 
     def use(self, setting):

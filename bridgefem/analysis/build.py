@@ -43,6 +43,8 @@ from ..fe.mesh import BlockMesh, build_block_mesh
 from ..fe.model import ElasticModel, build_elastic_model
 from ..fe.pairs import ARCH_FILL, JointPairs, build_pairs, ground_offsets
 from ..geometry.ring import ArchRing, fill_outline
+from ..laws.base import JointLaw
+from ..laws.coulomb import CoulombJoints
 from ..limit.rigid_block import LPResult
 from ..scene.schema import Scene
 from ..solver.newton import ContactSolver
@@ -52,6 +54,12 @@ from .checks import rigid_block_check
 
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
 RING_JOINT_SCALE = 0.1  # Alart-Curnier constant of the ring's joints, of E w L / h (module docstring)
+
+
+JointLawFactory = Callable[[JointPairs, np.ndarray, np.ndarray, float], JointLaw]
+"""Builds the joint law of a run from its pairs, their Coulomb coefficients, Alart-Curnier constants (N/m) and the
+hysteresis (N) (:class:`bridgefem.laws.base.JointLaw`)."""
+DEFAULT_JOINT_LAW = CoulombJoints  # the joints' law of a scene (its ``for_pairs`` builds it)
 
 
 @dataclass
@@ -83,9 +91,10 @@ class BridgeModel:
 
 
 def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase: Callable[[str], None],
-                clock: Clock) -> BridgeModel:
+                clock: Clock, joint_law: JointLawFactory | None = None) -> BridgeModel:
     """The FE model of ``scene`` (module docstring, steps 1-6) on ``comm``, with the ``petsc_options`` over the
-    scene's; ``phase(name)`` announces each phase, ``clock`` times it. Raises SceneError for voussoirs the ring
+    scene's and the joints' law that ``joint_law`` builds (:data:`DEFAULT_JOINT_LAW` when None); ``phase(name)``
+    announces each phase, ``clock`` times it. Raises SceneError for voussoirs the ring
     cannot have. Collective."""
     a = scene.arch
     ring = scene_ring(scene)  # SceneError naming the loads when they cannot have their joints
@@ -110,8 +119,8 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
     motion = support_motion(scene, ring)
     phase("setting up the solver (first factorisation)")
-    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, friction, c,
-                           FORCE_TOL * model.dead_weight, scene.solver.max_iterations,
+    law = (joint_law or DEFAULT_JOINT_LAW.for_pairs)(pairs, friction, c, FORCE_TOL * model.dead_weight)
+    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, law, scene.solver.max_iterations,
                            {**scene.solver.petsc, **(petsc_options or {})}, material, ground_offsets(pairs, motion))
     clock.lap("solver setup")
     return BridgeModel(ring, bm, lp, model, pairs, solver)

@@ -33,7 +33,6 @@ from ..fe.mesh import BlockMesh
 from ..fe.model import ElasticModel, node_blocks
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
-from ..laws.coulomb import OPEN, SLIP
 from ..solver.newton import ContactSolver, Iterate
 
 HINGE_OPEN_FRACTION = 0.5  # a hinge joint is open over at least this fraction of its length,
@@ -61,18 +60,19 @@ class JointState:
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
     """Per-joint resultants, hinges and sliding at a converged iterate (identical on every rank)."""
     _, lam, d = solver.system.split(it.x)
-    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, it.active.state, it.active.sign,
-                             d[:, 0]])
+    law = solver.law
+    local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, law.closed(it.active),
+                             law.sliding(it.active), it.active.sign, d[:, 0]])
     table = np.vstack(solver.comm.allgather(local))
     states = []
     for jt in (j for j in ring.joints if not j.free):
         rows = table[table[:, 0] == jt.id]
-        lam_n, lam_t, pos, length, st, sign, gap = rows[:, 1:8].T
+        lam_n, lam_t, pos, length, closed, slips, sign, gap = rows[:, 1:9].T
         n_force = lam_n.sum()
         ecc = float((lam_n * (pos - jt.length / 2)).sum() / n_force) if n_force > 0 else 0.0
-        closed = st != OPEN
-        slip_signs = set(sign[closed & (st == SLIP)])
-        sliding = int(slip_signs.pop()) if closed.any() and np.all(st[closed] == SLIP) and len(slip_signs) == 1 else 0
+        closed, slips = closed.astype(bool), slips.astype(bool)
+        slip_signs = set(sign[closed & slips])
+        sliding = int(slip_signs.pop()) if closed.any() and np.all(slips[closed]) and len(slip_signs) == 1 else 0
         states.append(JointState(jt.id, float(n_force), float(lam_t.sum()), ecc,
                                  float(length[~closed].sum() / length.sum()), float(gap[~closed].max(initial=0.0)),
                                  sliding))

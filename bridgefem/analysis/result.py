@@ -46,9 +46,9 @@ SMALL_DISPLACEMENT = 0.01  # deflections beyond this fraction of the span void t
 @dataclass
 class ConvergedState:
     """One converged load step kept for the output time series and a re-run's coarser path: ``step`` its index in the
-    history, ``load`` the live load (N), ``u`` the owned displacement dofs (m), ``pair_state`` OPEN/STICK/SLIP of the
-    local joint pairs, ``lam`` their forces (N) and ``d`` their relative displacements (m), each (pairs, 2) as (normal,
-    tangential)."""
+    history, ``load`` the live load (N), ``u`` the owned displacement dofs (m), ``pair_state`` the joint law's state
+    codes of the local joint pairs, ``lam`` their forces (N) and ``d`` their relative displacements (m), each (pairs, 2)
+    as (normal, tangential)."""
 
     step: int
     load: float

@@ -35,7 +35,8 @@ from ..limit.rigid_block import (
 )
 from ..scene.schema import Scene
 from ..search.records import LoadStep, StaticCap
-from ..solver.newton import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
+from ..solver.convergence import BOND_RTOL, EQUILIBRIUM_RTOL
+from ..solver.newton import ContactSolver, Iterate
 from ..status import Status
 from .evidence import StaticBound, admissible
 

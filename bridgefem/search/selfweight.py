@@ -142,17 +142,15 @@ def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Pro
                           ) -> StepOutcome:
     """The self-weight with every joint's friction raised to ``FRICTION_RAISE`` x the scene's, then lowered to it
     (from ``progress``, by default from the unloaded state)."""
-    scene = solver.friction
-
     def describe() -> str:
         return f"self-weight with the joints' friction raised to {solver.friction_factor:.4g} x the scene's " \
                "(continuation to 1)"
 
     try:
-        return _ramp(solver, attempt, lambda excess: solver.set_friction(scene, 1.0 + excess * (FRICTION_RAISE - 1.0)),
+        return _ramp(solver, attempt, lambda excess: solver.set_friction_factor(1.0 + excess * (FRICTION_RAISE - 1.0)),
                      describe, progress)
     finally:
-        solver.set_friction(scene, 1.0)
+        solver.set_friction_factor(1.0)
 
 
 def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None], describe: Callable[[], str],
