@@ -44,7 +44,7 @@ mechanism (theta_j its hinge rotations; the support functions differ by at most 
 The FE's pairs are this same polygon: p + 1 evenly spaced pairs per joint with trapezoidal tributary lengths (ends
 t/(2p)), filled at C from one edge, give the joint resultants (n, m) whose hull is exactly the tangent polygon with
 K = p (its vertices sit where one more pair has crushed, delta above the parabola). The static theorem's LP on the
-FE's own joints therefore takes K = the FE's pair intervals (:func:`fe_tangents`): the FE's equilibria obey its rows
+FE's own joints therefore takes the FE's stations (:func:`fe_stations`; for degree 2, Simpson's weights): the FE's equilibria obey its rows
 exactly, and the FE converges to the parabola as the mesh is refined.
 """
 from __future__ import annotations
@@ -72,12 +72,14 @@ TANGENTS = 128
 class CrushingJoints(CoulombJoints):
     """Coulomb friction and the compressive ``strength`` f_c (Pa) over the joints' ``width`` w (m) (module
     docstring); ``capacity``: each pair's crushing force C = f_c w l (N); ``tangents``: the tangent intervals K of the
-    rigid-block rows."""
+    rigid-block rows, or ``stations``: the (position, weight) fractions of the depth whose polygon they are
+    (:meth:`polygon`)."""
 
     strength: float = math.inf
     width: float = 1.0
     capacity: np.ndarray | None = None
     tangents: int = TANGENTS
+    stations: tuple[tuple[float, float], ...] | None = None
 
     CRUSHED: ClassVar[int] = 3
     CRUSHED_SLIP: ClassVar[int] = 4
@@ -99,11 +101,12 @@ class CrushingJoints(CoulombJoints):
         return law
 
     @classmethod
-    def blocks(cls, strength: float, width: float, tangents: int = TANGENTS) -> "CrushingJoints":
+    def blocks(cls, strength: float, width: float, tangents: int = TANGENTS,
+               stations: tuple[tuple[float, float], ...] | None = None) -> "CrushingJoints":
         """The law for rigid-block joints only (:attr:`bridgefem.limit.rigid_block.BlockModel.law`): no pairs."""
         empty = np.zeros(0)
         return cls(empty, empty, 0.0, strength=float(strength), width=float(width), capacity=empty,
-                   tangents=int(tangents))
+                   tangents=int(tangents), stations=stations)
 
     # ----------------------------------------------------------------- vocabulary
     def crushed(self, active: ContactState) -> np.ndarray:
@@ -209,21 +212,37 @@ class CrushingJoints(CoulombJoints):
         return np.where(self.sliding(active), active.sign * self.mu * lam_n, 0.0)
 
     # ----------------------------------------------------------------- limit analysis
+    def polygon(self) -> tuple[np.ndarray, np.ndarray]:
+        """The moment rows of a joint of unit depth and unit crushing force: per row the slope a_k and intercept
+        b_k of |m| <= t a_k n + f_c w t^2 b_k (module docstring). The joint's stations (``stations``, default K + 1
+        evenly spaced ones with trapezoidal weights) are filled at f_c from the extrados edge one after another:
+        station k at s_k (fraction of t from the intrados) fills along a_k = s_k - 1/2 from the corner (N_k, M_k) of
+        the stations before it, so b_k = sum_{i<k} w_i a_i - a_k sum_{i<k} w_i. For a layout symmetric about the
+        middle the intrados' rows are the same."""
+        s, w = (np.array(self.stations, float).T if self.stations is not None else uniform_stations(self.tangents))
+        order = np.argsort(-s, kind="stable")
+        s, w = s[order], w[order] / w.sum()
+        a = s - 0.5
+        before_w = np.concatenate([[0.0], np.cumsum(w)[:-1]])
+        before_m = np.concatenate([[0.0], np.cumsum(w * a)[:-1]])
+        return a, before_m - a * before_w
+
     def block_yield(self, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
-        """Per joint the K + 1 tangent rows +-m - g'(n_i) n <= f_c w t^2 i^2 / (2 K^2) (module docstring) and
-        Coulomb's shear rows +-s - mu n <= capacity, and n >= 0."""
+        """Per joint the rows +-m - t a_k n <= f_c w t^2 b_k (:meth:`polygon`; for K tangents a_k = 1/2 - k/K,
+        b_k = k^2 / (2 K^2), the tangents of the module docstring) and Coulomb's shear rows +-s - mu n <=
+        capacity, and n >= 0."""
         t = np.asarray(length, float)
-        k = self.tangents
-        i = np.arange(k + 1)
-        slope = t[:, None] * (0.5 - i / k)  # g'(n_i), m
-        intercept = self.strength * self.width * t[:, None] ** 2 * i ** 2 / (2.0 * k * k)  # N m
+        a, b = self.polygon()
+        k = len(a)
+        slope = t[:, None] * a  # m
+        intercept = self.strength * self.width * t[:, None] ** 2 * b  # N m
         n = len(t)
         one = np.ones((n, 1))
-        moment_rows = np.repeat(np.arange(2 * (k + 1)), 2)
-        moment_cols = np.tile([2, 0], 2 * (k + 1))
-        moment_vals = np.stack([np.broadcast_to(one, (n, k + 1)), -slope, -np.broadcast_to(one, (n, k + 1)), -slope],
+        moment_rows = np.repeat(np.arange(2 * k), 2)
+        moment_cols = np.tile([2, 0], 2 * k)
+        moment_vals = np.stack([np.broadcast_to(one, (n, k)), -slope, -np.broadcast_to(one, (n, k)), -slope],
                                axis=2).reshape(n, -1)
-        shear = 2 * (k + 1)
+        shear = 2 * k
         rows = np.concatenate([moment_rows, [shear, shear, shear + 1, shear + 1]])
         cols = np.concatenate([moment_cols, [1, 0, 1, 0]])
         vals = np.hstack([moment_vals, np.column_stack([one[:, 0], -mu, -one[:, 0], -mu])])
@@ -231,13 +250,11 @@ class CrushingJoints(CoulombJoints):
         return BlockYield(rows, cols, vals, rhs, np.zeros(n))
 
     def moment_capacity(self, length: np.ndarray, n: np.ndarray) -> np.ndarray:
-        """The largest |m| (N m) of the rows at normal forces ``n`` (N): the tangent polygon, min_i g(n_i) + g'(n_i)
-        (n - n_i); negative beyond N_c."""
+        """The largest |m| (N m) of the rows at normal forces ``n`` (N): min_k t a_k n + f_c w t^2 b_k; negative
+        beyond N_c."""
         t = np.asarray(length, float)[:, None]
-        i = np.arange(self.tangents + 1)
-        k = self.tangents
-        return np.min(self.strength * self.width * t ** 2 * i ** 2 / (2.0 * k * k)
-                      + t * (0.5 - i / k) * np.asarray(n, float)[:, None], axis=1)
+        a, b = self.polygon()
+        return np.min(self.strength * self.width * t ** 2 * b + t * a * np.asarray(n, float)[:, None], axis=1)
 
     def largest_moment(self, length: np.ndarray, n: np.ndarray) -> np.ndarray:
         """The exact parabola g(n) = n (t - n / (f_c w)) / 2 (N m), the limit of the rows as K grows."""
@@ -245,19 +262,37 @@ class CrushingJoints(CoulombJoints):
         return n * (np.asarray(length, float) - n / (self.strength * self.width)) / 2
 
 
-def fe_tangents(scene: Scene) -> int:
-    """The tangent intervals K whose rows are the FE's joint (module docstring): the pair intervals through the
-    thickness, elements x degree."""
-    return scene.mesh.elements_through_thickness * scene.mesh.degree
+def uniform_stations(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """K + 1 evenly spaced stations (fractions of the depth) with trapezoidal weights: the K tangents' polygon."""
+    w = np.full(k + 1, 1.0 / k)
+    w[[0, -1]] = 0.5 / k
+    return np.linspace(0.0, 1.0, k + 1), w
 
 
-def scene_law(scene: Scene, tangents: int = TANGENTS) -> type[JointLaw] | JointLaw:
+def fe_stations(scene: Scene) -> tuple[tuple[float, float], ...]:
+    """The FE's pairs through a joint (module docstring) as (position, weight) fractions of the depth: the nodes of
+    ``elements_through_thickness`` even elements of ``degree`` 1 (trapezoidal weights) or 2 (Simpson's: 1/6, 2/3,
+    1/6 of an element)."""
+    e, degree = scene.mesh.elements_through_thickness, scene.mesh.degree
+    if degree == 1:
+        s, w = uniform_stations(e)
+    else:
+        s = np.linspace(0.0, 1.0, 2 * e + 1)
+        w = np.zeros(2 * e + 1)
+        w[0:-1:2] += 1.0 / (6 * e)
+        w[2::2] += 1.0 / (6 * e)
+        w[1::2] = 4.0 / (6 * e)
+    return tuple(zip(s.tolist(), w.tolist()))
+
+
+def scene_law(scene: Scene, fe: bool = False) -> type[JointLaw] | JointLaw:
     """The rigid-block joints' law of a scene: Coulomb's (a class) without ``[masonry] compressive_strength``,
-    else :class:`CrushingJoints` with that strength over the arch's width and ``tangents`` intervals."""
+    else :class:`CrushingJoints` with that strength over the arch's width, with ``TANGENTS`` tangents or (``fe``)
+    the FE's stations (:func:`fe_stations`: the FE's own joints, the static theorem's rows)."""
     strength = scene.masonry.compressive_strength
     if strength is None:
         return CoulombJoints
-    return CrushingJoints.blocks(strength, scene.arch.width, tangents)
+    return CrushingJoints.blocks(strength, scene.arch.width, stations=fe_stations(scene) if fe else None)
 
 
 def scene_law_factory(scene: Scene):

@@ -443,7 +443,7 @@ def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
 
 
 def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
-               live: bool = True) -> BlockModel:
+               live: bool = True, law: type[JointLaw] | JointLaw | None = None) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
 
     Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
@@ -454,7 +454,8 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
     only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
     centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
-    (it does not change the collapse load of rigid blocks).
+    (it does not change the collapse load of rigid blocks). ``law``: the joints' law (default the scene's,
+    :func:`bridgefem.laws.crushing.scene_law`).
     """
     a = scene.arch
     sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
@@ -480,7 +481,7 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
-        friction=friction, law=scene_law(scene))
+        friction=friction, law=scene_law(scene) if law is None else law)
 
 
 def _live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
@@ -551,8 +552,9 @@ def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
 
 
 def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
-                  **options) -> LPResult:
-    """Rigid-block collapse load of a scene's ring; ``options`` go to :func:`solve_blocks`.
+                  law: type[JointLaw] | JointLaw | None = None, **options) -> LPResult:
+    """Rigid-block collapse load of a scene's ring; ``law`` the joints' (default the scene's, :func:`ring_model`);
+    ``options`` go to :func:`solve_blocks`.
 
     ``load_at_joint``: the block that carries a point load lying on a joint (:func:`ring_model`), or
     "least-favourable" (the default): the allocation with the least collapse load (:func:`_least_favourable`).
@@ -562,7 +564,7 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     span = scene.arch.span
     on_joint = [i for i, ld in enumerate(scene.loads)
                 if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
-    model = ring_model(scene, load_at_joint="split")
+    model = ring_model(scene, load_at_joint="split", law=law)
 
     def solve(choice: dict[int, str]) -> LPResult:
         sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))
