@@ -71,7 +71,7 @@ from .checks import collapse_check, slip_check
 from .evidence import confirm
 from .interface import transmitted_load_check
 from .mechanism import collapse_mode, joint_states
-from .refinement import MAX_REFINEMENTS, refine
+from .refinement import MAX_REFINEMENTS, coarse_stress_block, refine
 from .result import Analysis, ConvergedState, user_warnings
 from .static_bound import fe_blocks, static_cap
 
@@ -119,7 +119,9 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
     an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene) if solver_comm.rank == 0 else None, root=0)
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
-    an.warnings = user_warnings(an)
+    coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs
+    an.warnings = user_warnings(an) + ([f"{coarse}: the limit load is the mesh's stress block's, above the "
+                                        "strength's; raise [mesh] elements_through_thickness"] if coarse else [])
     clock.lap("checks")
     an.timings.update(clock.timings)
 
