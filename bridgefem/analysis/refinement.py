@@ -157,7 +157,8 @@ def coarse_stress_block(an: Analysis) -> str:
     pairs through a joint crush one at a time, a polygon around the rectangular stress block's parabola
     (:mod:`bridgefem.laws.crushing`); the rigid-block LP on the FE's joints (``an.lp``) and on the parabola (within
     1/K^2 of it) differ by more than ``AGREEMENT`` where the FE's answer is set by its mesh, not by f_c. On rank 0."""
-    if an.scene.masonry.compressive_strength is None or an.lp.status != Status.LIMIT:
+    masonry = getattr(an.scene, "masonry", None)  # (a scene's stand-in without one: no strength)
+    if getattr(masonry, "compressive_strength", None) is None or an.lp.status != Status.LIMIT:
         return ""
     try:
         block = collapse_load(an.scene)
