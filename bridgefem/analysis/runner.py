@@ -206,6 +206,11 @@ class Analysis:
         if bounds.get("upper") and self.search.lower * self.load_total > (1 + FILL_BOUND_TOL) * bounds["upper"]:
             out.append(f"FE limit above the conic upper bound of the bridge with its fill ({bounds['upper'] / 1e3:.6g} "
                        "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
+        upper = self.search.upper
+        if bounds.get("lower") and upper is not None and upper * self.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
+            out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
+                       "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, or its "
+                       "fill's flow rule); read the bracket with the bounds")
         return out + (list(self.verdict.warnings) if self.verdict else [])
 
     @property

@@ -30,8 +30,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-import numpy as np
-
 from ..scene.schema import Scene
 from ..status import Status
 from .vehicle import Placement, place, positions

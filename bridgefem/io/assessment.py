@@ -145,7 +145,7 @@ def assess_command(paths: list[Path], step: float | None, out: Path | None, as_j
             _print(data, folder)
     if comm.rank == 0 and as_json:
         print(json.dumps(summaries[0] if len(summaries) == 1 else summaries))
-    return 1 if any(Status.of(a.status) is Status.FAILURE for a in results) else 0
+    return 1 if any(a.status.startswith(Status.FAILURE) for a in results) else 0
 
 
 def _print(data: dict, folder: Path) -> None:
