@@ -153,7 +153,7 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
     if lp:
         handles.append(plt.Line2D([], [], marker="o", mfc="none", mec="k", ls="", ms=10,
                                   label=f"rigid-block LP hinge ({lp.get('model', 'bare ring')})"))
-    ax.legend(handles=handles, loc="upper right", fontsize=7)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.25)
     _title(ax, data)
