@@ -112,8 +112,8 @@ def run_report(data: dict, pictures: dict) -> str:
     body = (f"<h1>{_esc(data['scene'])}</h1><p class='verdict'>{verdict}</p>"
             f"<p>Hinges at joints {_esc(data['mechanism']['hinges'])}, sliding joints "
             f"{_esc(data['mechanism']['sliding'])}; the line of thrust touches the intrados at joints "
-            f"{_esc(thrust.get('touches_intrados', []))} and the extrados at {_esc(thrust.get('touches_extrados', []))}."
-            f"</p><p>Evidence: {_esc(data['evidence'])}</p>"
+            f"{_esc(thrust.get('touches_intrados', []))} and the extrados at "
+            f"{_esc(thrust.get('touches_extrados', []))}.</p><p>Evidence: {_esc(data['evidence'])}</p>"
             + _figure("mechanism", pictures.get("mechanism"), "collapse mechanism, joints numbered from the left "
                       "springing, line of thrust of the last converged state")
             + _figure("load_deflection", pictures.get("load_deflection"), "load-deflection curve")
