@@ -39,7 +39,7 @@ from mpi4py import MPI
 
 from bridgefem.io.output import OutputError, results_folder
 from bridgefem.io.results import write_results
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 
 TEST_LOAD_KN = 228.0  # TRRL RR110: maximum load of the collapse test
 PUBLISHED = {"nonlinear FE, Mohr-Coulomb fill (Simoncello et al. 2020, Front. Built Environ. 6:7)": 245.0,

@@ -154,7 +154,7 @@ def lp_kn(scene_dict: dict, voussoirs: int | None = None) -> float | None:
     """The rigid-block LP collapse load (kN) of a scene dictionary, optionally with another number of voussoirs."""
     from bridgefem.scene.schema.schema import scene_from_dict
 
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     lp = collapse_load(scene_from_dict(scene_variant(scene_dict, voussoirs=voussoirs)))
     return None if lp.load is None else lp.load / 1e3

@@ -18,7 +18,7 @@ from scipy.optimize import linprog
 
 from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions
 from bridgefem.geometry.ring import ArchRing
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import SceneError, scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 

@@ -23,7 +23,8 @@ from conftest import bridgefem, scene_dict, write_toml
 
 from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions, transmitted_load_check
 from bridgefem.io.results import summary
-from bridgefem.limit.rigid_block import collapse_load, min_thickness
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.thickness import min_thickness
 from bridgefem.scene.schema import Scene, scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
 

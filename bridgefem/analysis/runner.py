@@ -39,15 +39,9 @@ from ..fe.sizing import MAX_DOFS, check_size
 from ..geometry.ring import ArchRing, fill_outline
 from ..laws.coulomb import OPEN, SLIP
 from ..limit.bounds import fill_bounds
-from ..limit.rigid_block import (
-    BlockModel,
-    LPResult,
-    collapse_load,
-    collapse_state_from,
-    frozen_capacity_collapse,
-    ring_under_forces,
-    solve_blocks,
-)
+from ..limit.collapse import collapse_load, collapse_state_from
+from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
+from ..limit.ring_blocks import ring_under_forces
 from ..scene.schema import Scene, SceneError, with_mesh
 from ..search.coarser_path import CoarserPath
 from ..search.pathfollow import (
@@ -520,7 +514,7 @@ def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> 
 
 
 def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
-    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.rigid_block.collapse_load`,
+    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.collapse.collapse_load`,
     associative friction), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
     LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
     lp = None
@@ -551,7 +545,7 @@ def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointSta
     (:func:`bridgefem.analysis.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x normal
     force (:func:`frozen_collapse`) and, with ``fixed_point``, the Tresca fixed point from them (its LPs are the
     check's dearest; none of evidence 3's rules asks for it), and the frozen LP under the scene's own block loads
-    (:func:`bridgefem.limit.rigid_block.collapse_state_from`).
+    (:func:`bridgefem.limit.collapse.collapse_state_from`).
     The LPs on rank 0, broadcast (collective)."""
     sliding = tuple(j.id for j in joints if j.sliding)
     out = None
@@ -714,7 +708,7 @@ def transmitted_load_check(an: Analysis, friction_model: str = "associative") ->
 
     The FE state at the last converged level P_L balances every voussoir (self-weight, the interface forces, the
     joint forces) with joint forces that obey no tension and Coulomb friction pair by pair, so it is statically
-    admissible for the ring's rigid-block LP (:func:`bridgefem.limit.rigid_block.ring_under_forces`) with the dead load
+    admissible for the ring's rigid-block LP (:func:`bridgefem.limit.ring_blocks.ring_under_forces`) with the dead load
     F_S (interface forces after self-weight) and the live load (F_L - F_S) / P_L: the LP's lambda >= P_L (up to
     the LP's polygonal voussoirs against the mesh). When the FE limit is a mechanism of the ring (the fill only
     passes loads on), the ring under F_L is itself at collapse and lambda ~ P_L; lambda well above P_L means the
