@@ -38,7 +38,7 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   apart;
 - *crash*: a traceback, a signal, another exit code, or the timeout;
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
-  leave a voussoir of zero length; not counted in the success rate.
+  leave a voussoir of (almost) no length; not counted in the success rate.
 
 Prints one row per scene, the success rate, the classes, solves per limit (median, max; a scene's linear solves
 summed over all its runs, the coarser meshes an automatic refinement replaced included) and the worst cases; writes
@@ -46,6 +46,9 @@ summed over all its runs, the coarser meshes an automatic refinement replaced in
 
     ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
     ./run nice python benchmarks/campaign.py --count 150 --seed 1 --jobs 2 --options --out /tmp/campaign-options
+
+``--check-only`` writes the scenes and runs ``bridgefem check`` on each instead (no analysis; the LP still sets each
+thickness): the scenes a campaign would reject as bad input, in a few minutes.
 """
 from __future__ import annotations
 
@@ -190,9 +193,15 @@ def thickness_of(choice: dict) -> tuple[float, float | None]:
         least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
     except (RuntimeError, ValueError):  # no thickness stands at this mu
         least = None
+    return thickness_above(choice, least), least
+
+
+def thickness_above(choice: dict, least: float | None) -> float:
+    """The scene's thickness (m) given the least thickness that stands (m; None when none does): the draw's fraction
+    of the range from it to 0.4 x :func:`reference_length` (from 0.05 x that length when none stands)."""
     top = 0.4 * reference_length(choice, 0.0)
     bottom = 0.05 * top / 0.4 if least is None or least >= top else least
-    return bottom + choice["thickness_fraction"] * (top - bottom), least
+    return bottom + choice["thickness_fraction"] * (top - bottom)
 
 
 def to_toml(d: dict) -> str:
@@ -209,15 +218,30 @@ def to_toml(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
-    """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
-    and judge the outcome."""
+def write_scene(choice: dict, out: Path) -> tuple[Path, dict]:
+    """Write the scene of a draw (its thickness from :func:`thickness_of`) to ``out``/scene_NNNN/scene.toml; returns
+    the folder and the row of the draw with its thickness and least thickness."""
     thickness, least = thickness_of(choice)
     scene = scene_dict(choice, thickness)
     folder = out.resolve() / f"scene_{choice['index']:04d}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
-    row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+    return folder, {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+
+
+def check_scene(choice: dict, out: Path) -> str:
+    """Write the scene and run ``bridgefem check`` on it (every check ``run`` makes before its analysis, no analysis):
+    "valid", or the line it was refused with."""
+    folder, _ = write_scene(choice, out)
+    proc = subprocess.run([sys.executable, "-m", "bridgefem.io.cli", "check", str(folder / "scene.toml")],
+                          capture_output=True, text=True, cwd=folder)
+    return "valid" if proc.returncode == 0 else proc.stderr.strip() or f"exit {proc.returncode}"
+
+
+def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
+    """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
+    and judge the outcome."""
+    folder, row = write_scene(choice, out)
     command = [sys.executable, "-m", "bridgefem.io.cli", "run", str(folder / "scene.toml"), "--out",
                str(folder / "results"), "--quiet"]
     t0 = time.perf_counter()
@@ -377,6 +401,9 @@ def main(argv: list[str] | None = None) -> int:
                         "support movement, a preset, quadratic elements, plane stress)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
+    p.add_argument("--check-only", action="store_true",
+                   help="write the scenes and run bridgefem check on each instead of run (no analysis): which scenes "
+                        "a campaign would reject as bad input")
     args = p.parse_args(argv)
     if args.report:
         rows = json.loads((args.out / "campaign.json").read_text())["rows"]
@@ -388,6 +415,18 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     indices = args.only if args.only else range(args.count)
     rows = []
+    if args.check_only:
+        def checked(i):
+            choice = draw(args.seed, i)
+            verdict = check_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out)
+            print(f"scene {i}: {verdict}", flush=True)
+            return verdict
+
+        with ThreadPoolExecutor(args.jobs) as pool:
+            verdicts = list(pool.map(checked, indices))
+        valid = verdicts.count("valid")
+        print(f"scenes {len(verdicts)}: valid {valid}, rejected {len(verdicts) - valid}")
+        return 0
 
     def one(i):
         choice = draw(args.seed, i)

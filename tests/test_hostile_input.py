@@ -18,7 +18,7 @@ import pytest
 from conftest import bridgefem, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.scene.schema import SCHEMA, scene_from_dict
+from bridgefem.scene.schema import SCHEMA, scene_from_dict, scene_scales
 
 
 def valid_scene() -> dict:
@@ -47,11 +47,17 @@ def bad_values(key) -> list:
         out += [float("nan"), float("inf"), -float("inf")]
     if key.choices:
         out.append(max(key.choices) + 1)
+    scale = scale_of(key)
     if key.low is not None:
-        out.append(key.low - 1 if key.kind is int else key.low - max(1.0, abs(key.low)))
+        out.append(key.low - 1 if key.kind is int else key.low * scale - max(1.0, abs(key.low * scale)))
     if key.high is not None:
-        out.append(key.high * 10 + 1)
+        out.append(key.high * scale * 10 + 1)
     return [v for v in out if v is not None]
+
+
+def scale_of(key) -> float:
+    """What the key's range is a multiple of in the valid scene (1 for an absolute range)."""
+    return scene_scales(scene_from_dict(valid_scene()))[key.per] if key.per else 1.0
 
 
 def generated_cases() -> list[tuple[str, dict, str]]:

@@ -414,10 +414,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
         t = now
 
     a = scene.arch
-    try:
-        ring = scene_ring(scene)
-    except ValueError as err:
-        raise SceneError(f"[arch] voussoirs = {a.voussoirs}: {err}") from None
+    ring = scene_ring(scene)  # SceneError naming the loads when they cannot have their joints
     fill = scene.fill
     outline = (fill_outline(ring, fill.depth, fill.extension, scene.load_edges_x()) if fill is not None else None)
     lap("geometry")

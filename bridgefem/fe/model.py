@@ -37,7 +37,8 @@ from ..geometry.ring import ArchRing, joint_under, point_load_blocks
 from ..scene.schema import Fill, Scene
 from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 
-POINT_TOL = 1e-6  # m: a mesh node closer than this to a load point carries the load
+POINT_RTOL = 1e-7  # of the span: a mesh node closer than this to a load point carries the load (the nodes at the
+# point coincide up to round-off, 1e-16 of the span, and the mesh has no other node within 1e-5 of the span)
 BEAM_STIFFNESS = 1000.0  # Young's modulus of a loading beam / the fill's: rigid against the fill (docs/fill.md)
 
 
@@ -192,7 +193,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     for ld, side in zip(scene.loads, point_load_sides):
         if ld.kind == "point":
             point, carriers = load_point(ring, scene, ld.x_range(scene.arch.span)[0], side or "split")
-            nodes = _owned_nodes_at(V, point, POINT_TOL)
+            nodes = _owned_nodes_at(V, point, POINT_RTOL * scene.arch.span)
             nodes = nodes[np.isin(blocks[nodes], carriers)]
             count = comm.allreduce(len(nodes))
             if count == 0:
@@ -205,7 +206,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     ring_nodes = _ring_nodes(V, bm)
     point = ring.extrados_point(x_mon)
     d = _owned_distances(V, point)[ring_nodes]
-    tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_TOL
+    tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_RTOL * scene.arch.span
     monitor = ring_nodes[d < tol]
     return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight - abutment_weight, live, fill_weight,
                         bcs, abutment_weight)

@@ -92,13 +92,27 @@ def check_size(scene: Scene, memory: float | None = None, max_dofs: float = MAX_
     exceeds 80 % of ``memory`` (default: this machine's) or its unknowns ``max_dofs``."""
     size = estimate_size(scene)
     memory = machine_memory() if memory is None else memory
-    a, m = scene.arch, scene.mesh
-    keys = (f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
-            f"degree = {m.degree}")
+    keys, advice = _size_keys(scene)
     if size.memory > 0.8 * memory:
         raise SceneError(f"{keys}: {size.describe()}, more than the allowed 80 % of this "
-                         f"machine's {memory / 1e9:.1f} GB; use fewer voussoirs or elements")
+                         f"machine's {memory / 1e9:.1f} GB; use {advice}")
     if size.dofs > max_dofs:
         raise SceneError(f"{keys}: {size.describe()}, more than the {max_dofs:,.0f} unknowns allowed "
-                         "(hours per limit search); use fewer voussoirs or elements, or --no-size-limit")
+                         f"(hours per limit search); use {advice}, or --no-size-limit")
     return size
+
+
+def _size_keys(scene: Scene) -> tuple[str, str]:
+    """The keys that set the model's size, with their values, and what to change: the ring's mesh, and the fill's
+    or the abutments' when the scene has them (a fine fill mesh can outgrow the ring's)."""
+    a, m, f, ab = scene.arch, scene.mesh, scene.fill, scene.abutments
+    keys = [f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
+            f"degree = {m.degree}"]
+    advice = "fewer voussoirs or elements"
+    if f is not None:
+        keys.append(f"[fill] element_size = {f.element_size:g}, depth = {f.depth:g}, extension = {f.extension:g}")
+        advice += ", a coarser fill mesh or a smaller fill"
+    if ab.elastic:
+        keys.append(f"[abutments] height = {ab.height:g}, length = {ab.length:g}")
+        advice += ", smaller abutments"
+    return "; ".join(keys), advice

@@ -6,16 +6,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.tri import Triangulation
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.tri import Triangulation  # noqa: E402
-
-from ..limit.bounds import Bounds  # noqa: E402
-from ..scene.schema import Scene  # noqa: E402
-from ..structure.ring import scene_ring  # noqa: E402
+from ..limit.bounds import Bounds
+from ..scene.schema import Scene
+from ..structure.ring import scene_ring
+from .plots import plt  # matplotlib with its own defaults and the Agg backend
 
 
 def plot_bounds(scene: Scene, b: Bounds, path: Path, amplitude: float = 0.05) -> None:

@@ -2,10 +2,13 @@
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
-output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
-earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md).
+output folder (one line on stderr, nothing written; checked before the analysis), 130 interrupted (Ctrl-C) and 143
+terminated by SIGTERM (the earlier results kept, nothing half-written; under ``mpirun``, which exits 1 after either,
+``./run mpirun`` gives these codes). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad option
+in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
-the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, the user's PETSC_OPTIONS and
+the defaults).
 """
 from __future__ import annotations
 
@@ -15,14 +18,14 @@ import dataclasses
 import json
 import logging
 import math
-import os
 import sys
 import traceback
 from pathlib import Path
 
-from ..fe.sizing import LARGE_DOFS, MAX_DOFS, check_size
+from ..fe.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
+from ..petsc_start import launcher_rank
 from ..scene.document import key_units, resolved_document
-from ..scene.schema import PETSC_PREFIX, SceneError, did_you_mean, load_scene, resolved_toml
+from ..scene.schema import PETSC_PREFIX, Scene, SceneError, did_you_mean, load_scene, resolved_toml
 from ..status import Status
 from .output import OutputError, Terminated, claim, failed_target, sigterm_raises, version
 
@@ -34,20 +37,18 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
     run.add_argument("scene", type=Path)
     run.add_argument("--out", type=Path, help="output folder (default results/<scene name>)")
-    run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
-                     help="PETSc option for the contact solver, without the prefix (repeatable)")
+    _run_options(run)
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
     run.add_argument("--json", action="store_true", help="print the run's summary as one JSON object, the last line "
                      "of stdout (the progress goes to stderr)")
-    run.add_argument("--no-size-limit", action="store_true",
-                     help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
     conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
     conv.add_argument("scene", type=Path)
     conv.add_argument("--levels", default="2,4,8", help="elements through the ring, each twice the previous")
     conv.add_argument("--out", type=Path, help="folder for convergence.json (default: none written)")
-    check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
-                                          "filled in, with units)")
+    check = sub.add_parser("check", help="validate a scene file as run does before its analysis (the same "
+                                          "options) and print it resolved (every key, defaults filled in, with units)")
     check.add_argument("scene", type=Path)
+    _run_options(check)
     check.add_argument("--json", action="store_true", help="print the resolved scene and the size estimate as one "
                        "JSON object")
     lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
@@ -66,6 +67,15 @@ def _parser() -> argparse.ArgumentParser:
     for command in sub.choices.values():  # each command's options, for the hint after an unknown one
         command.set_defaults(options=[s for a in command._actions for s in a.option_strings if s != "-h"])
     return p
+
+
+def _run_options(parser: argparse.ArgumentParser) -> None:
+    """The options that decide what ``run`` accepts before its analysis; ``check`` takes them too, so that it
+    validates exactly what the same ``run`` would."""
+    parser.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
+                        help="PETSc option for the contact solver, without the prefix (repeatable)")
+    parser.add_argument("--no-size-limit", action="store_true",
+                        help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
 
 
 def _unknown(arg: str, options: list[str], petsc: bool = False) -> SceneError:
@@ -140,6 +150,40 @@ def _collapse(reason: str) -> str:
     return "no equilibrium: the voussoirs move as a mechanism"
 
 
+@dataclasses.dataclass(frozen=True)
+class Validated:
+    """A scene that passed every check ``run`` makes before its analysis (:func:`validate`): its size estimate, the
+    unknowns allowed, and a line for each point load moved onto a joint (:func:`bridgefem.structure.ring.snapped_loads`)."""
+
+    scene: Scene
+    size: SizeEstimate
+    max_dofs: float
+    notices: list[str]
+
+
+def validate(args, petsc: dict) -> Validated:
+    """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check``
+    calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.schema.load_scene`),
+    its size (:func:`bridgefem.fe.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
+    one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's and
+    ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
+    ``--out``)."""
+    from ..structure.ring import scene_ring, snapped_loads
+
+    scene = load_scene(args.scene)
+    max_dofs = math.inf if args.no_size_limit else MAX_DOFS
+    size = check_size(scene, max_dofs=max_dofs)
+    ring = scene_ring(scene)
+    options = {**scene.solver.petsc, **petsc}
+    if options:  # PETSc started only to check options
+        from mpi4py import MPI
+
+        from ..solver.linear import check_petsc_options
+
+        check_petsc_options(options, MPI.COMM_WORLD)
+    return Validated(scene, size, max_dofs, [s.notice(scene.arch.span) for s in snapped_loads(scene, ring)])
+
+
 RUN_JSON = ("scene", "status", "limit_load", "failure_reason", "evidence", "mechanism", "lp", "fe_lp_ratio",
             "static_bound", "ring_under_transmitted_loads", "fill_bounds", "mesh_refinements", "warnings")
 """The entries of results.json that ``run --json`` prints, with the ``results`` folder: the verdict and its
@@ -147,23 +191,24 @@ checks (the history, the joints and the model's details stay in results.json).""
 
 
 def _run(args, petsc: dict) -> int:
-    scene = load_scene(args.scene)
-    max_dofs = math.inf if args.no_size_limit else MAX_DOFS
-    size = check_size(scene, max_dofs=max_dofs)
+    valid = validate(args, petsc)
+    scene, size, max_dofs = valid.scene, valid.size, valid.max_dofs
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
     from ..analysis.runner import run_analysis
-    from ..solver.linear import check_petsc_options
+    from ..solver.linear import check_environment_options
     from .results import FILES, write_results
 
     comm = MPI.COMM_WORLD
-    check_petsc_options({**scene.solver.petsc, **petsc}, comm)
+    check_environment_options(comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
     # with --json, stdout holds the JSON object alone: what the run prints on its way goes to stderr
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
         with claim(out, comm, also=(failed_target(out),), files=FILES):
+            for line in valid.notices:
+                _notice(line)
             if announce:
                 print(f"{scene.name}: {size.describe()}", flush=True)
             an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
@@ -243,14 +288,17 @@ def _levels(text: str) -> list[int]:
 
 
 
-def _check(args) -> int:
-    scene = load_scene(args.scene)
-    size = check_size(scene)
+def _check(args, petsc: dict) -> int:
+    """``bridgefem check``: :func:`validate`, as ``run`` with the same options, then the resolved scene (TOML, with
+    the size estimate and the notices as comments; or one JSON object)."""
+    valid = validate(args, petsc)
+    scene, size = valid.scene, valid.size
     if args.json:
-        print(json.dumps({"scene": resolved_document(scene), "units": key_units(),
+        print(json.dumps({"scene": resolved_document(scene), "units": key_units(), "notices": valid.notices,
                           "size": {**dataclasses.asdict(size), "memory_unit": "bytes", "estimate": True}}))
     else:
-        print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
+        notes = "".join(f"# note: {line}\n" for line in valid.notices)
+        print(f"# {scene.name}: valid; {size.describe()}\n{notes}{resolved_toml(scene)}", end="")
     return 0
 
 
@@ -301,13 +349,14 @@ def main(argv: list[str] | None = None) -> int:
     args, raw = _parser().parse_known_args(argv)
     try:
         with sigterm_raises():
-            petsc = _petsc_options(args.petsc, raw, args.options) if args.command == "run" else {}
-            if raw and args.command != "run":
+            takes_petsc = args.command in ("run", "check")
+            petsc = _petsc_options(args.petsc, raw, args.options) if takes_petsc else {}
+            if raw and not takes_petsc:
                 raise _unknown(raw[0], args.options)
             if args.command == "run":
                 return _run(args, petsc)
             if args.command == "check":
-                return _check(args)
+                return _check(args, petsc)
             if args.command == "converge":
                 from .commands import converge_command
 
@@ -333,16 +382,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _error(message: str) -> None:
     """One line on stderr, from one MPI rank (every rank meets the same error)."""
-    if _launcher_rank() == 0:
+    if launcher_rank() == 0:
         print(f"bridgefem: error: {' '.join(message.split())}", file=sys.stderr, flush=True)
-
-
-def _launcher_rank() -> int:
-    """This process's MPI rank as mpirun tells it (no MPI start-up needed for a bad input)."""
-    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-        if os.environ.get(name, "").isdigit():
-            return int(os.environ[name])
-    return 0
 
 
 def _abort_if_parallel() -> None:

@@ -13,12 +13,11 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-from petsc4py import PETSc
 
 from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
 from ..geometry.ring import fill_outline
 from ..laws.coulomb import OPEN, SLIP, STICK
-from ..scene.schema import Scene
+from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
@@ -33,6 +32,7 @@ def versions() -> dict:
     import dolfinx
     import gmsh
     import scipy
+    from petsc4py import PETSc
 
     out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
            "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
@@ -113,15 +113,25 @@ def summary(an: Analysis) -> dict:
         "timings": an.timings,
         "mpi_ranks": an.solver.comm.size,
         "versions": versions(),
-        "loads": load_entries(an.scene),
+        "loads": load_entries(an.scene, an.ring, an.lp.load_sides),
     }
 
 
-def load_entries(scene: Scene) -> list[dict]:
-    """The ``loads`` entry of results.json: each [[load]] table's kind, position (fraction of the span), centre
-    ``x`` (m), length (m) and factor."""
-    return [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
-             "length": ld.length, "factor": ld.factor} for ld in scene.loads]
+def load_entries(scene, ring, sides: list[str | None]) -> list[dict]:
+    """The ``loads`` entry of results.json: each [[load]] table with its centre ``x`` (m); ``side``: the voussoir
+    that carries a point load on a joint ("left" | "right" of the joint, "split": both; ``sides``, the rigid-block
+    LP's least favourable choice; None off the joints, and over a fill, where the loads act on the road);
+    ``snapped_to_joint`` and ``moved_by`` (m): the joint a point load was moved onto and how far
+    (:func:`bridgefem.structure.ring.snapped_loads`; None and 0 for a load that acts where it was given)."""
+    snapped = {s.index: s for s in snapped_loads(scene, ring)}
+    out = []
+    for i, ld in enumerate(scene.loads):
+        s = snapped.get(i)
+        side = sides[i] if scene.fill is None and i < len(sides) else None
+        out.append({"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+                    "length": ld.length, "factor": ld.factor, "side": side,
+                    "snapped_to_joint": s.joint if s else None, "moved_by": s.moved_by if s else 0.0})
+    return out
 
 
 def _reactions(an: Analysis) -> list[dict]:

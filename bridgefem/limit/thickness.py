@@ -24,11 +24,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..scene.schema import Scene
+from ..scene.schema import SCHEMA, Scene
 from .rigid_block import LPResult, dead_load_deficit
 from .ring_blocks import ring_model
 
-_THICKNESS_RANGE = (1e-4, 0.999)  # least-thickness search, x span: from a sliver to (almost) a solid half-disc
+# least-thickness search, x span: from the scene's least thickness (a sliver) to (almost) a solid half-disc (the
+# scene's range ends below the span)
+_THICKNESS_RANGE = (SCHEMA["arch"]["thickness"].low, 0.999)
 
 
 class NoStableThickness(ValueError):
