@@ -1,8 +1,5 @@
-"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
-
-Pure numpy: the ring of a scene is built from its keys by :func:`bridgefem.structure.ring.scene_ring`, then meshed
-by :mod:`bridgefem.fe.mesh` and cut into rigid blocks by :mod:`bridgefem.limit.ring_blocks`, so the FE and the
-rigid-block LP see the same joints.
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP (pure
+numpy; a scene's ring is built by :func:`bridgefem.structure.ring.scene_ring`).
 
 Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
 x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
@@ -25,11 +22,8 @@ semi-ellipse, parabolic ``y = rise (1 - (2x/span)^2)``. :func:`build_ring` then
    their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
    load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
 4. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
-   kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines).
-
-``AT_JOINT_TOL`` (a fraction of the span) is the one tolerance for "a load on a joint": closer than that to a
-joint's extrados corner, a load acts at the corner and gets no vertex of its own, because a sliver of an edge would
-need a sliver of a mesh.
+   kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines); a load within
+   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own.
 
 Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
 joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
