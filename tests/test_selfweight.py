@@ -1,5 +1,5 @@
 """The self-weight state (bridgefem.search.selfweight) and the re-run of a failure without proof on a finer mesh
-(bridgefem.analysis.runner.refinement_reason), issue 12."""
+(bridgefem.analysis.refinement.refinement_reason), issue 12."""
 from types import SimpleNamespace
 
 import numpy as np
@@ -7,7 +7,8 @@ import pytest
 from conftest import campaign_scene
 from mpi4py import MPI
 
-from bridgefem.analysis.runner import refinement_reason, run_analysis
+from bridgefem.analysis.refinement import refinement_reason
+from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
@@ -29,7 +30,7 @@ class RingSolver:
     def __init__(self):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING
 
-    def set_friction(self, mu, factor):
+    def set_friction_factor(self, factor):
         self.friction_factor = factor
 
     def use(self, setting):

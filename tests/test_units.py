@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from bridgefem.analysis.runner import JointState, _mark_hinges, springing_reactions
+from bridgefem.analysis.mechanism import JointState, _mark_hinges, springing_reactions
 from bridgefem.geometry.ring import build_ring
 from bridgefem.io.cli import _collapse
 from bridgefem.io.plots import bracket_decimals, format_bracket, plot_load_deflection, plot_mechanism

@@ -92,16 +92,19 @@ def block_rows(blocks: BlockModel, block, point, fx_cols, fx_vals, fy_cols, fy_v
 
 
 def joint_rows(prog: ConicProgramme, blocks: BlockModel) -> np.ndarray:
-    """The joints' yield conditions on the forces ``q = (n, s, m)`` at columns 0 .. 3 nj - 1 (the rigid-block
-    LP's): ``|m| <= n t/2``, ``|s| <= mu n``, ``n >= 0``; returns the equilibrium matrix of the blocks
-    (3 nb, 3 nj): the generalised forces the joints exert on the blocks."""
+    """The joints' yield conditions on the forces ``q = (n, s, m)`` at columns 0 .. 3 nj - 1 (the rigid-block LP's,
+    their law's :meth:`bridgefem.laws.base.JointLaw.block_yield`; for Coulomb ``|m| <= n t/2``, ``|s| <= mu n``,
+    ``n >= 0``); returns the equilibrium matrix of the blocks (3 nb, 3 nj): the generalised forces the joints exert
+    on the blocks."""
     lp = _Programme(blocks)
     nj = blocks.n_joints
     if nj:
-        g = lp.yield_rows(np.asarray(blocks.friction, float), np.zeros(4 * nj)).tocoo()
+        mu = np.asarray(blocks.friction, float)
+        rules = lp.joint_yield(mu)
+        g = lp.yield_rows(mu, np.zeros(rules.per_joint * nj)).tocoo()
         keep = g.col < 3 * nj
-        prog.add(NONNEG, g.row[keep], g.col[keep], g.data[keep], np.zeros(4 * nj))
-        prog.add(NONNEG, np.arange(nj), 3 * np.arange(nj), -np.ones(nj), np.zeros(nj))
+        prog.add(NONNEG, g.row[keep], g.col[keep], g.data[keep], rules.rhs.ravel())
+        prog.add(NONNEG, np.arange(nj), 3 * np.arange(nj), -np.ones(nj), 0.0 - rules.n_min)
     return lp.A
 
 
@@ -152,6 +155,8 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     f = scene.fill
     if f.material != "mohr-coulomb":
         raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')
+    if not scene.loads:
+        raise SceneError("no [[load]]: the collapse bounds need a live load")
     ring = scene_ring(scene)
     size = min(scene.arch.thickness / 2, f.depth) / refine
     blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)

@@ -25,10 +25,13 @@ about ``c`` (because ``T x N = -1``); the left block receives the opposite.
 
     sum_j (joint contributions) + d_k + lambda l_k = 0        (A q + lambda l = -d)
 
-with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k``). **Yield** (per joint)::
+with ``d_k``, ``l_k`` the generalised dead and live loads (Fx, Fy, M about ``r_k``). **Yield** (per joint, the rows of
+the joints' law, :meth:`bridgefem.laws.base.JointLaw.block_yield`; for :class:`bridgefem.laws.coulomb.CoulombJoints`)::
 
     |m_j| <= n_j t_j / 2          no tension: the thrust lies within the joint
     |s_j| <= mu_j n_j + c_j       Coulomb friction (associative: c_j = 0)
+
+The deficit programmes, :func:`statics` and the Tresca fixed point's admissibility test read those rows as Coulomb's.
 
 The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
@@ -101,6 +104,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
+from ..laws.base import BlockYield, JointLaw
+from ..laws.coulomb import CoulombJoints
+
 FRICTION_MODELS = ("associative", "non-associative")
 MECHANISM_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
 _DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
@@ -118,7 +124,8 @@ class BlockModel:
     ref: (nb, 2) reference point of each block (m), about which ``dead``/``live`` moments are taken;
     dead, live: (nb, 3) generalised loads (Fx, Fy in N; M in N·m, counter-clockwise), live for unit load factor;
     joint_a, joint_b: (nj, 2) joint start and end points (m); the normal (T_y, -T_x) must point left -> right;
-    joint_left, joint_right: (nj,) block ids (-1: ground); friction: (nj,) Coulomb coefficients.
+    joint_left, joint_right: (nj,) block ids (-1: ground); friction: (nj,) Coulomb coefficients;
+    law: the joints' law, whose :meth:`bridgefem.laws.base.JointLaw.block_yield` gives their yield rows.
     """
 
     ref: np.ndarray
@@ -129,6 +136,7 @@ class BlockModel:
     joint_left: np.ndarray
     joint_right: np.ndarray
     friction: np.ndarray
+    law: type[JointLaw] | JointLaw = CoulombJoints
 
     @property
     def n_blocks(self) -> int:
@@ -241,24 +249,29 @@ class _Programme:
                                 (np.concatenate(rows).ravel(), np.concatenate(cols).ravel())),
                                shape=(3 * nb, 3 * nj))
         self.b_eq = -model.dead.ravel() / self.fref
-        lo = np.append(np.tile([0.0, -np.inf, -np.inf], nj), 0.0)
+        n_min = self.joint_yield(np.asarray(model.friction, float)).n_min / self.fref
+        lo = np.append(np.column_stack([n_min, np.full((nj, 2), -np.inf)]).ravel(), 0.0)
         self.bounds = np.column_stack([lo, np.full(3 * nj + 1, np.inf)])
 
-    def yield_rows(self, mu: np.ndarray, extra: np.ndarray) -> sp.csr_matrix:
-        """Rows ``+-m - n t/2`` and ``+-s - mu n`` of every joint (4 per joint), then column ``extra`` (4 nj,)."""
+    def joint_yield(self, mu: np.ndarray, capacity: np.ndarray | None = None) -> BlockYield:
+        """The joints' yield rows (their law's, :meth:`bridgefem.laws.base.JointLaw.block_yield`) with the Coulomb
+        coefficients ``mu`` and the added shear ``capacity`` (N; default none)."""
         nj = self.model.n_joints
-        j = np.arange(nj)[:, None]
-        rows = 4 * j + np.array([0, 0, 1, 1, 2, 2, 3, 3])
-        cols = 3 * j + np.array([2, 0, 2, 0, 1, 0, 1, 0])
-        one, half = np.ones(nj), self.t / 2
-        vals = np.column_stack([one, -half, -one, -half, one, -mu, -one, -mu])
-        g = sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(4 * nj, 3 * nj))
+        return self.model.law.block_yield(self.t, mu, np.zeros(nj) if capacity is None else capacity)
+
+    def yield_rows(self, mu: np.ndarray, extra: np.ndarray) -> sp.csr_matrix:
+        """The yield rows of every joint (for Coulomb ``+-m - n t/2`` and ``+-s - mu n``, 4 per joint), then
+        column ``extra`` (4 nj,)."""
+        nj = self.model.n_joints
+        rules = self.joint_yield(mu)
+        k, j = rules.per_joint, np.arange(nj)[:, None]
+        rows, cols = k * j + rules.rows, 3 * j + rules.cols
+        g = sp.csr_matrix((rules.vals.ravel(), (rows.ravel(), cols.ravel())), shape=(k * nj, 3 * nj))
         return sp.hstack([g, sp.csr_matrix(extra[:, None])], format="csr")
 
     def rhs(self, cohesion: np.ndarray) -> np.ndarray:
-        h = np.zeros((self.model.n_joints, 4))
-        h[:, 2] = h[:, 3] = cohesion / self.fref
-        return h.ravel()
+        """The right-hand sides of the yield rows with the shear ``cohesion`` (N per joint), scaled."""
+        return self.joint_yield(np.asarray(self.model.friction, float), cohesion).rhs.ravel() / self.fref
 
     def solve(self, mu: np.ndarray, cohesion: np.ndarray, deficit: bool):
         """One LP; the extra unknown is lambda (maximised) or, if ``deficit``, tau (minimised).

@@ -114,7 +114,7 @@ def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) ->
     ``blocks`` (k,): the voussoir each force acts on; ``points`` (k, 2): where (m); ``dead_forces`` (k, 2): forces
     (N, x and y, whole width) added to the dead load; ``live_forces`` (k, 2): the live load for a unit load factor
     (N per unit factor). With the forces a fill transmits across the arch-fill interface at two states of an FE
-    analysis (:func:`bridgefem.analysis.runner.transmitted_load_check`) this is the ring as the FE sees it: the fill
+    analysis (:func:`bridgefem.analysis.interface.transmitted_load_check`) this is the ring as the FE sees it: the fill
     then needs no model of its own, whatever its stiffness or strength.
     """
     model = ring_model(dataclasses.replace(scene, fill=None), live=False)
