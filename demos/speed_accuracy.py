@@ -153,7 +153,7 @@ def measure_case(jobs: list[dict], quick: bool) -> list[dict]:
 # ------------------------------------------------------------------------------------------------ errors
 def lp_kn(scene_dict: dict, voussoirs: int | None = None) -> float | None:
     """The rigid-block LP collapse load (kN) of a scene dictionary, optionally with another number of voussoirs."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
     from bridgefem.scene.schema import scene_from_dict
 
     lp = collapse_load(scene_from_dict(scene_variant(scene_dict, voussoirs=voussoirs)))

@@ -19,7 +19,7 @@ from bridgefem.analysis.runner import run_analysis
 from bridgefem.fe.mesh import FILL_BASE_TAG
 from bridgefem.fe.model import beam_lame, cell_constant, lame, strain
 from bridgefem.limit.bounds import fill_bounds
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND
 from bridgefem.search.selfweight import cohesion_continuation

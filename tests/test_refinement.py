@@ -263,7 +263,7 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     weights, a failure; the re-run with 8 elements is within 0.5 % of the LP (computed here independently) and
     confirmed by it; results.json names the mesh used and the run it replaced."""
     from bridgefem.io.results import write_results
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict({**SCENE_45, "mesh": {"elements_through_thickness": 4}})
     lp = collapse_load(scene).load
@@ -286,7 +286,7 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
     LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves (no floor) the re-run stops
     unsettled, the confirmed run is the answer (below the LP, computed here independently) and the stopped run is
     listed, having spent its budget exactly: the solve past it is never made, whatever asks for it."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     monkeypatch.setattr(refinement, "REFINEMENT_BUDGET", 0.1)
     monkeypatch.setattr(refinement, "REFINEMENT_FLOOR", 0)
@@ -309,7 +309,7 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve
     level whose width touches the static bound (the rigid-block LP under the FE's loads) and stands, within 0.1 % of
     the LP on the same joints (computed here independently); the three runs spend at most the issue's 150 linear
     solves."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(193, 1.8177))
     an = run_analysis(scene)
@@ -328,7 +328,7 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
     more than elastic blocks stop below it; both runs within the issue's 150 linear solves (153 when the re-run's
     trials started from the coarser run's path only up to 0.98 of its last level)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
     lines = []
@@ -356,7 +356,7 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     the issue's 150 linear solves (#166: 195 when they started from the re-run's own secant; #146: 176 when the path
     stopped at 0.98 of its last level, and its target failed from 12 % below), and it agrees with the rigid-block
     Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
     an = run_analysis(scene)

@@ -130,7 +130,8 @@ def test_a_ring_near_its_least_thickness_stands():
     through the thickness, or after a re-run with 8 where the self-weight fails without proof on 4, as it did before
     predicted steps could return to their start's active set) and brackets the LP's collapse load (computed
     independently) within 0.5 %."""
-    from bridgefem.limit.rigid_block import collapse_load, min_thickness
+    from bridgefem.limit.collapse import collapse_load
+    from bridgefem.limit.thickness import min_thickness
 
     scene = scene_from_dict(SCENE_251)
     assert 1.0 < scene.arch.thickness / min_thickness(scene).thickness < 1.005

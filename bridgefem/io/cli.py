@@ -327,7 +327,8 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from ..limit.rigid_block import LPFailure, NoStableThickness, min_thickness
+    from ..limit.rigid_block import LPFailure
+    from ..limit.thickness import NoStableThickness, min_thickness
 
     scene = load_scene(args.scene)
     try:
@@ -360,9 +361,9 @@ def main(argv: list[str] | None = None) -> int:
             if args.command == "check":
                 return _check(args, petsc)
             if args.command == "converge":
-                from .commands import command
+                from .commands import converge_command
 
-                return command(load_scene(args.scene), _levels(args.levels), args.out)
+                return converge_command(load_scene(args.scene), _levels(args.levels), args.out)
             if args.command == "bounds":
                 from .commands import bounds_command
 
