@@ -3,7 +3,7 @@
 Each scene is drawn from the seed and its index alone (so one scene can be re-run with ``--only``):
 
 - shape: all five; span 3-30 m; rise/span 0.15-0.5 (segmental 0.1-0.45, pointed 0.55-1.0);
-- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.rigid_block.
+- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.thickness.
   min_thickness`, at the scene's mu) to 0.4 of the centreline radius (circular shapes) or of the rise (others); when
   no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
 - voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
@@ -198,7 +198,7 @@ def reference_length(choice: dict, thickness: float) -> float:
 
 def thickness_of(choice: dict) -> tuple[float, float | None]:
     """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
-    from bridgefem.limit.rigid_block import min_thickness
+    from bridgefem.limit.thickness import min_thickness
     from bridgefem.scene.schema import scene_from_dict
 
     try:

@@ -15,7 +15,7 @@ import bridgefem
 from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.assess.vehicle import axle_loads, place
 from bridgefem.io.cli import main
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 
 ROOT = Path(__file__).resolve().parents[1]
 BARE = ROOT / "demos" / "bare_arch.toml"

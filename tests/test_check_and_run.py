@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import bridgefem, campaign_module, scene_dict, write_toml
 
-from bridgefem.analysis import runner as analysis
+from bridgefem.analysis import build as analysis
 from bridgefem.geometry.ring import (
     AT_JOINT_TOL,
     _centreline_length,

@@ -45,7 +45,7 @@ def test_a_copied_checkout_runs_its_own_code(tmp_path):
     (["run", str(DEMO), "--outt", "X"], "unknown option --outt; did you mean --out?"),
     (["run", str(DEMO), "--quite"], "unknown option --quite; did you mean --quiet?"),
     (["lp", str(DEMO), "--jsn"], "unknown option --jsn; did you mean --json?"),
-    (["check", str(DEMO), "--frobnicate"], "unknown option --frobnicate; the options are --help, --json"),
+    (["check", str(DEMO), "--frobnicate"], "unknown option --frobnicate; the options are --help, --petsc, --no-size-limit, --json"),
     (["run", str(DEMO), "-bridgefm_ksp_type", "preonly"], "PETSc options must start with -bridgefem_"),
     (["run", str(DEMO), "second.toml"], "unexpected argument second.toml"),
 ])

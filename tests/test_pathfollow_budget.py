@@ -1,10 +1,10 @@
-"""Newton iteration budgets of the limit search's trials (bridgefem.search.pathfollow, *Failures without proof*) on the
+"""Newton iteration budgets of the limit search's trials (bridgefem.search.schedule, *Trial budgets*) on the
 one-degree-of-freedom fake solver of test_bracket, whose limit is known exactly."""
 from dataclasses import replace
 
 from test_bracket import LIMIT, OneDof, assert_bracket, search
 
-from bridgefem.search.pathfollow import BUDGET, BUDGET_FLOOR, RETRY_FLOOR
+from bridgefem.search.schedule import BUDGET, BUDGET_FLOOR, RETRY_FLOOR
 from bridgefem.solver.newton import StepOutcome
 
 MAX_ITERATIONS = 60  # the solver's own budget when a trial is given none (bridgefem.scene.schema, solver.max_iterations)

@@ -21,7 +21,8 @@ import pytest
 from conftest import REFERENCE_ARCH, campaign_module, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.limit.rigid_block import collapse_load, min_thickness
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.thickness import min_thickness
 from bridgefem.scene.schema import (
     SCALES,
     SCHEMA,

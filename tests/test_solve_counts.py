@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 from test_block import W, block_solver
 
-from bridgefem.laws.coulomb import OPEN
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.solver import cycles as cycles_module
 from bridgefem.solver import newton as solver_module
+
+OPEN = CoulombJoints.OPEN
 
 
 def settled_block():
@@ -81,7 +83,7 @@ def test_a_changed_law_computes_the_compliance_again(change):
     solver, start, pairs, level = settled_block()
     solver.cycles.pair_response(level, start.active, pairs, start.slip_ref)
     if change == "friction":
-        solver.set_friction(solver.friction, 2.0)
+        solver.set_friction_factor(2.0)
     else:
         solver.use(solver_module.Setting(scale=10.0))
     solves = solver.stats["solves"]

@@ -31,7 +31,8 @@ import math
 
 import numpy as np
 
-from ..limit.rigid_block import generalised_loads, ring_model, solve_blocks  # the LP's public functions
+from ..limit.rigid_block import generalised_loads, solve_blocks  # the LP's public functions
+from ..limit.ring_blocks import ring_model
 from ..scene.schema import Scene
 from ..structure.ring import scene_ring
 

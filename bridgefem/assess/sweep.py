@@ -6,7 +6,7 @@ least over all positions (LimitState:RING's adequacy factor). Method:
 
 1. **Screen** (rigid-block LP, milliseconds a position): the first axle at every ``step`` m from where the last
    axle enters the span to where the first leaves it; on a bare ring the LP of the scene with the axles as its loads
-   (:func:`bridgefem.limit.rigid_block.collapse_load`: joints under the axles as the FE has them, a point axle on a
+   (:func:`bridgefem.limit.collapse.collapse_load`: joints under the axles as the FE has them, a point axle on a
    joint carried by the least favourable voussoir), with a fill the ring's LP with the fill as dead load and each
    axle spread through it (:mod:`bridgefem.assess.dispersion`, ``[vehicle] dispersion``).
 2. **Refine** around each local minimum of the screen: :data:`REFINE_POINTS` positions across two steps on each

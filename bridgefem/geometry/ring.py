@@ -1,4 +1,5 @@
-"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP (pure
+numpy; a scene's ring is built by :func:`bridgefem.structure.ring.scene_ring`).
 
 Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
 x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
@@ -8,7 +9,21 @@ The ring is the band swept by the joint segments ``intrados(p) -> intrados(p) + 
 the unit normal of the intrados pointing towards the extrados. Offset curves share their normals, so
 every joint is perpendicular to the intrados, the centreline (offset t/2) and the extrados (offset t);
 for circular shapes the joints are radial. Joints are spaced evenly along the centreline arc length,
-except that by default the nearest joint is moved under each concentrated load.
+except that by default a joint is moved under each concentrated load.
+
+The intrados of each shape (:data:`SHAPES`) passes through both springings and the crown: semicircular and segmental
+a circular arc, pointed two circular arcs centred on the springing line meeting at the apex (a kink), elliptical a
+semi-ellipse, parabolic ``y = rise (1 - (2x/span)^2)``. :func:`build_ring` then
+
+1. measures the centreline's arc length on fine samples of ``p`` (a chord ending at a kink ends on its own arc, so
+   the pointed crown's jump between the two arcs' offsets counts no length);
+2. places N + 1 joints at equal centreline lengths, the springings at p = 0 and 1;
+3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge, keeping the joints in
+   their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
+   load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
+4. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
+   kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines); a load within
+   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own.
 
 Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
 joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit

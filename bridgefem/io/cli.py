@@ -122,20 +122,22 @@ def _petsc_options(pairs: list[str], raw: list[str], options: list[str]) -> dict
     return out
 
 
-def _progress(total: float):
+def _progress(total: float, states: tuple[str, ...]):
     """Print one line per load step (rank 0): the live load, the outcome, Newton iterations, the residual and how
-    many joint node pairs are open, sticking and slipping."""
+    many joint node pairs are in each of the joint law's ``states`` (e.g. open, sticking and slipping)."""
     from mpi4py import MPI
+
+    names = "/".join(states)
 
     def report(step) -> None:
         if MPI.COMM_WORLD.rank != 0:
             return
         if step.index == 0:
-            print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+            print(f"load steps: live load, outcome, Newton iterations, residual, joint node pairs {names}",
                   flush=True)
         c = step.counts
         if step.converged:
-            what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""
+            what = f"pairs {names} {'/'.join(str(c[s]) for s in states)}" if c else ""
             outcome = "converged"
         else:
             what = _collapse(step.reason) if step.mechanism else step.reason
@@ -204,7 +206,7 @@ def _run(args, petsc: dict) -> int:
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
-    from ..analysis.runner import run_analysis
+    from ..analysis.runner import DEFAULT_JOINT_LAW, run_analysis
     from ..solver.linear import check_environment_options
     from .results import FILES, write_results
 
@@ -219,7 +221,8 @@ def _run(args, petsc: dict) -> int:
                 _notice(line)
             if announce:
                 print(f"{scene.name}: {size.describe()}", flush=True)
-            an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
+            report = (lambda s: None) if args.quiet else _progress(total, DEFAULT_JOINT_LAW.STATES)
+            an = run_analysis(scene, comm, petsc, report=report,
                               phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
             failed = Status.of(an.search.status) is Status.FAILURE
             if failed:  # a failed run never replaces earlier results
@@ -332,7 +335,8 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from ..limit.rigid_block import LPFailure, NoStableThickness, min_thickness
+    from ..limit.rigid_block import LPFailure
+    from ..limit.thickness import NoStableThickness, min_thickness
 
     scene = load_scene(args.scene)
     try:
@@ -365,9 +369,9 @@ def main(argv: list[str] | None = None) -> int:
             if args.command == "check":
                 return _check(args, petsc)
             if args.command == "converge":
-                from .commands import command
+                from .commands import converge_command
 
-                return command(load_scene(args.scene), _levels(args.levels), args.out)
+                return converge_command(load_scene(args.scene), _levels(args.levels), args.out)
             if args.command == "assess":
                 from .assessment import assess_command
 

@@ -1,8 +1,15 @@
-"""PNG plots: the load-deflection path with the limit-load bracket, and the collapse mechanism.
+"""PNG plots of a run (matplotlib, Agg): the load-deflection path with the limit-load bracket, and the collapse
+mechanism.
+
+Loads are drawn in kN, deflections in mm (positive down), lengths in m. The bracket is a band between its ends,
+at least ``BAND_MIN`` of the load axis high so that a tight bracket stays visible; the mechanism draws the
+voussoirs displaced by the collapse mode, amplified until its largest block motion is ``MODE_SIZE`` x the span,
+with the hinges and sliding joints marked.
 
 The pictures are drawn with matplotlib's own defaults and the Agg backend: a ``matplotlibrc`` in the current folder
 (which matplotlib reads as it is imported) could otherwise choose a backend module, or have every label typeset by
-an external LaTeX program, and the same run would draw different pictures in different folders."""
+an external LaTeX program, and the same run would draw different pictures in different folders.
+"""
 from __future__ import annotations
 
 import math

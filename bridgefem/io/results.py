@@ -14,15 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
+from ..analysis.mechanism import springing_reactions
+from ..analysis.result import Analysis
+from ..analysis.runner import quiet_compiler
 from ..analysis.thrust import line_of_thrust, thrust_summary
 from ..geometry.ring import fill_outline
-from ..laws.coulomb import OPEN, SLIP, STICK
+from ..laws.base import JointLaw
 from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
-JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
+NO_JOINT = 0  # the joint_state of a node on no joint pair (fields.xdmf); a pair's is its law's output code
 FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png", "report.html")
 """The files :func:`write_results` writes: the command line has their paths' lengths checked before the analysis
 (:func:`bridgefem.io.output.check_names`)."""
@@ -48,8 +50,6 @@ UNITS = {
     "time": "s (timings, seconds)",
     "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
                      "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
-    "counts": "pairs: joint node pairs open / stick / slip at the end of the step; elements_through_thickness "
-              "(model, mesh_refinements)",
 }
 CONVENTIONS = {
     "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
@@ -66,15 +66,25 @@ CONVENTIONS = {
     "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
                            "to the right, vertical positive up",
     "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",
-    "joint_state (fields.xdmf)": "0 no joint, 1 stick, 2 slip, 3 open; time value = live load (N)",
 }
 
 
+def state_vocabulary(law: JointLaw) -> tuple[dict, dict]:
+    """The entries of results.json's ``units`` and ``conventions`` that name the joint law's states: the pair counts
+    of each step and the codes of the field ``joint_state``."""
+    codes = sorted((code, name) for name, code in law.OUTPUT_CODES.items())
+    return ({"counts": f"pairs: joint node pairs {' / '.join(law.STATES)} at the end of the step; "
+                       "elements_through_thickness (model, mesh_refinements)"},
+            {"joint_state (fields.xdmf)": f"{NO_JOINT} no joint, {', '.join(f'{c} {n}' for c, n in codes)}; time "
+                                          "value = live load (N)"})
+
+
 def summary(an: Analysis) -> dict:
-    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
-    collective: the ring check is an LP on rank 0)."""
+    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank; local: the
+    analysis holds its checks as plain data)."""
     s, total = an.search, an.load_total
     hinges = [j for j in an.joints if j.hinge]
+    units, conventions = state_vocabulary(an.solver.law)
     steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
               "newton_iterations": st.iterations, "factorisations": st.factorisations,
               "residual": st.residual if np.isfinite(st.residual) else None,
@@ -87,8 +97,8 @@ def summary(an: Analysis) -> dict:
                        "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
         "failure_reason": s.failure,
         "evidence": an.verdict.evidence if an.verdict else "",
-        "units": UNITS,
-        "conventions": CONVENTIONS,
+        "units": {**UNITS, **units},
+        "conventions": {**CONVENTIONS, **conventions},
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
                       "sliding": [j.id for j in an.joints if j.sliding]},
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
@@ -158,7 +168,7 @@ RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by 
 def ring_check_summary(an: Analysis) -> dict | None:
     """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
     ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
-    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
+    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism."""
     check = an.ring_check
     if check is None:
         return None
@@ -198,7 +208,7 @@ def write_results(an: Analysis, out: Path) -> dict:
         if an.converged:
             with quiet_compiler():
                 _write_fields(an, tmp / "fields.xdmf")
-        motion = an.collapse_mode()
+        motion = an.collapse_mode
         if comm.rank == 0:
             (tmp / "results.json").write_text(json.dumps(data, indent=2))
             from .plots import plot_load_deflection, plot_mechanism
@@ -257,10 +267,10 @@ class _XdmfSeries:
 
 
 def _write_fields(an: Analysis, path: Path) -> None:
-    """Displacement (m, x y 0) and joint state (:data:`JOINT_STATE_CODES`, exact integers) at every converged
-    load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as one XDMF time series whose
-    time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``. Gathered to and written by
-    rank 0. Collective."""
+    """Displacement (m, x y 0) and joint state (the joint law's output codes, :data:`NO_JOINT` off the joints; exact
+    integers) at every converged load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as
+    one XDMF time series whose time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``.
+    Gathered to and written by rank 0. Collective."""
     V, pairs = an.model.V, an.pairs
     comm = V.mesh.comm
     imap = V.dofmap.index_map
@@ -270,8 +280,7 @@ def _write_fields(an: Analysis, path: Path) -> None:
     owned = imap.local_to_global(np.arange(n_owned, dtype=np.int32))
     points = comm.gather((owned, V.tabulate_dof_coordinates()[:n_owned]), root=0)
     cells = comm.gather(imap.local_to_global(dofs.ravel()).reshape(dofs.shape), root=0)
-    codes = np.zeros(3, dtype=np.int32)
-    codes[[OPEN, STICK, SLIP]] = [JOINT_STATE_CODES[k] for k in ("open", "stick", "slip")]
+    codes = an.solver.law.output_codes()
     ends = np.concatenate([pairs.left, pairs.right])
     series = None
     if comm.rank == 0:
@@ -284,7 +293,7 @@ def _write_fields(an: Analysis, path: Path) -> None:
         u = comm.gather((owned, cs.u.reshape(-1, 2)), root=0)
         state = comm.gather((ends, np.concatenate([codes[cs.pair_state]] * 2)), root=0)
         if series is not None:
-            disp, joint_state = np.zeros_like(xyz), np.zeros(len(xyz), dtype=np.int32)
+            disp, joint_state = np.zeros_like(xyz), np.full(len(xyz), NO_JOINT, dtype=np.int32)
             for g, v in u:
                 disp[g, :2] = v
             for g, c in state:
@@ -300,7 +309,7 @@ def pictures(an: Analysis, data: dict, level: float | None = None) -> dict[str, 
     collapse mode; drawn on rank 0, empty elsewhere)."""
     import io
 
-    motion = an.collapse_mode()
+    motion = an.collapse_mode
     if an.solver.comm.rank != 0:
         return {}
     from .plots import plot_elevation, plot_load_deflection, plot_mechanism

@@ -7,11 +7,11 @@ solver that did not solve the system (e.g. ``pc_type = none``) is a failure, nev
 the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``. The solve after any failure uses a
 new KSP: after a PETSc error inside KSPSolve, PCPreSolve's nesting count stays raised (two such errors and every
 later solve fails with PETSc error 56); after a singular factorisation, MUMPS refused the next solve of the same KSP
-with INFOG(1) = -3 (campaign scene 161, seed 1).
+with INFOG(1) = -3.
 
-A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis.runner`): the
-solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a Newton
-iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
+A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis.runner`):
+the solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a
+Newton iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
 """
 from __future__ import annotations
 
