@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "bridgefem"
-LAYERS = ("status petsc_start", "geometry", "scene", "structure", "laws", "limit", "fe", "solver", "search", "analysis", "io",
+LAYERS = ("status petsc_start", "geometry", "scene", "structure", "laws", "limit", "fe", "solver", "search", "analysis", "assess", "io",
           "")
 """Subpackages (and the top-level modules ``status`` and ``petsc_start``, the bottom layer) from the bottom up; "" is
 the package itself (its public API in ``__init__``/``api``, and ``__main__``), which may import anything."""

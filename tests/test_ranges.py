@@ -57,8 +57,11 @@ def base_scene(section: str, name: str) -> dict:
     if section == "abutments":
         return scene_dict(abutments={"model": "elastic", "height": 2.0, "movement_springing": "right"})
     if section == "load":
+        first = {"kind": "point", "x": 2.0} if name == "x" else {"kind": "point", "position": 0.22222}
         return scene_dict(load=copy.deepcopy(PATCH) if name == "length" else
-                          [{"kind": "point", "position": 0.22222}, {"kind": "point", "position": 0.6}])
+                          [first, {"kind": "point", "position": 0.6}])
+    if section == "vehicle":
+        return scene_dict(vehicle={"axles": [1e5]})
     if (section, name) == ("arch", "rise"):
         return scene_dict(arch={"shape": "elliptical"})  # the whole range of rise/span, 0.05 to 2
     if (section, name) == ("arch", "thickness"):

@@ -1,4 +1,4 @@
-"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check SCENE.toml``.
+"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check | assess SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
@@ -64,6 +64,14 @@ def _parser() -> argparse.ArgumentParser:
     bd.add_argument("--json", action="store_true", help="print one JSON object")
     bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
     bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
+    asm = sub.add_parser("assess", help="roll the scene's [vehicle] across the bridge: critical position, adequacy "
+                                         "factor (FE, with the rigid-block LP's), report.html")
+    asm.add_argument("scene", type=Path, nargs="+", help="one or more scenes, each with a [vehicle]")
+    asm.add_argument("--step", type=float, help="screening step of the first axle's position, m (default span/40)")
+    asm.add_argument("--out", type=Path, help="output folder (default results/<scene name>-assessment; several "
+                     "scenes: DIR/<scene name>-assessment)")
+    asm.add_argument("--json", action="store_true", help="print the verdict as one JSON object, the last line of "
+                     "stdout")
     for command in sub.choices.values():  # each command's options, for the hint after an unknown one
         command.set_defaults(options=[s for a in command._actions for s in a.option_strings if s != "-h"])
     return p
@@ -364,6 +372,10 @@ def main(argv: list[str] | None = None) -> int:
                 from .commands import converge_command
 
                 return converge_command(load_scene(args.scene), _levels(args.levels), args.out)
+            if args.command == "assess":
+                from .assessment import assess_command
+
+                return assess_command(args.scene, args.step, args.out, args.json)
             if args.command == "bounds":
                 from .commands import bounds_command
 

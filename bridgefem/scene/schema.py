@@ -75,7 +75,7 @@ class Key:
         if self.choices:
             return " or ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in self.choices)
         if self.kind is not int and self.kind is not float:
-            return {bool: "true or false", str: "a string", dict: "a table"}[self.kind]
+            return {bool: "true or false", str: "a string", dict: "a table", list: "a list"}[self.kind]
         noun = "integer" if self.kind is int else "number"
         article = "an" if noun == "integer" else "a"
         lo, hi, unit = self.low, self.high, f" in {self.unit}" if self.unit else ""
@@ -101,7 +101,8 @@ class Key:
         if self.kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         if not isinstance(value, self.kind) or (self.kind is not bool and isinstance(value, bool)):
-            kind = {float: "number", int: "integer", str: "string", bool: "true or false", dict: "table"}[self.kind]
+            kind = {float: "number", int: "integer", str: "string", bool: "true or false", dict: "table",
+                    list: "list"}[self.kind]
             raise SceneError(f"{where} = {_show(value)}: expected {kind} ({self.allowed(scale)})")
         ok = True
         if isinstance(value, float) and not math.isfinite(value):
@@ -165,6 +166,23 @@ FILL_MATERIALS = ("elastic", "mohr-coulomb")
 ABUTMENT_MODELS = ("rigid", "elastic")
 MOVING_SPRINGINGS = ("left", "right", "both")
 MAX_LOADS = 100  # [[load]] tables in one scene
+MAX_AXLES = 20  # axles of one vehicle
+VEHICLES: dict[str, dict[str, Any]] = {
+    "EN1991-2-LM2": {"axles": (400e3,), "spacing": (), "contact_length": 0.0,
+                     "source": "EN 1991-2:2003, 4.3.3(1): Load Model 2, a single axle of beta_Q x 400 kN (beta_Q = "
+                               "alpha_Q1 = 1 unless the National Annex says otherwise), dynamic amplification "
+                               "included"},
+    "EN1991-2-LM1-single-axle": {"axles": (600e3,), "spacing": (), "contact_length": 0.0,
+                                 "source": "EN 1991-2:2003, 4.3.2(6)b: for spans above 10 m, the tandem system of "
+                                           "Lane 1 replaced by one axle of the two axles' weight, 600 alpha_Q1 kN "
+                                           "(alpha_Q1 = 1 unless specified)"},
+}
+"""Published assessment vehicles and load models (``[vehicle] standard``): axle loads (N, the whole vehicle's: the
+scene's width is the ring width that carries it), spacings (m) and the tyre contact along the road (m; 0 where the
+source read did not give it). Each has the source it was read from (docs/assessment.md); a vehicle whose source
+could not be read is not here."""
+DISPERSIONS = ("boussinesq", "spread-2:1", "spread-30", "none")
+"""How the rigid-block LP carries an axle through a fill to the extrados (:mod:`bridgefem.assess.dispersion`)."""
 MAX_NAME = 100  # characters of a scene name (a file name)
 MAX_NAME_BYTES = 200  # in UTF-8: results/<name> and the names a run makes beside it (up to 32 bytes longer) fit 255
 MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
@@ -278,14 +296,34 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "load": {
         "kind": Key(str, "a point load or a patch (uniform per horizontal metre)", choices=("point", "patch")),
-        "position": Key(float, "fraction of the span from the left springing (a patch: its centre)", low=0.0,
-                        high=1.0, why="the span, from the left springing to the right one"),
+        "position": Key(float, "fraction of the span from the left springing (a patch: its centre)", None, low=0.0,
+                        high=1.0, derived="x / span (give position or x)",
+                        why="the span, from the left springing to the right one"),
+        "x": _length("metres from the left springing (a patch: its centre); instead of position", 0.0, 1.0, None,
+                     derived="position x span (give position or x)",
+                     why="the span, from the left springing to the right one"),
         "length": _length("length along the span (patch loads only; 0: a point load)", 1e-3, 1.0, 0.0, zero=True,
                           why="a patch shorter than 1e-3 x span is a point load (kind = \"point\"), one longer "
                               "than the span is off the arch"),
         "factor": Key(float, "share of the load pattern: this load is factor x the load level (N)", 1.0, low=1e-3,
                       high=1e3, why="shares of one pattern (the axles of a vehicle): a load 1e6 times smaller "
                                     "than another is no load"),
+    },
+    "vehicle": {
+        "standard": Key(str, "a published vehicle or load model of the library (docs/assessment.md, with its "
+                        "source); instead of axles and spacing", "", choices=tuple(VEHICLES),
+                        derived="none (axles and spacing given)"),
+        "axles": Key(list, "axle loads in N for the scene's width, first (leftmost) axle first", None,
+                     derived="the standard vehicle's",
+                     why=f"1 to {MAX_AXLES} axles, each a load from 1e-6 to 1e6 x the ring's weight"),
+        "spacing": Key(list, "distances in m between consecutive axles (one fewer than axles)", None,
+                       derived="the standard vehicle's; none for one axle",
+                       why="each longer than the tyre contact and at most 10 x span"),
+        "contact_length": _length("tyre contact along the road (0: point loads; a patch of this length per axle)",
+                                  1e-3, 1.0, None, zero=True, derived="the standard vehicle's, else 0",
+                                  why="a patch shorter than 1e-3 x span is a point load"),
+        "dispersion": Key(str, "how the rigid-block LP spreads an axle through a fill onto the extrados (the FE "
+                          "carries it through the fill itself)", "boussinesq", choices=DISPERSIONS),
     },
     "fill": {
         "unit_weight": _unit_weight("weight density of the fill"),
@@ -362,7 +400,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
 }
 """Every scene key, by section ("load": the keys of each [[load]] table)."""
 _REQUIRED_SECTIONS = ("arch", "masonry", "joints")
-_OPTIONAL_SECTIONS = ("fill", "abutments")
+_OPTIONAL_SECTIONS = ("fill", "abutments", "vehicle")
 
 _KSP_TOLERANCE = dict(unit="", low=0.0, low_open=True, high=1.0)
 PETSC_SCENE_OPTIONS: dict[str, Key] = {
@@ -520,11 +558,36 @@ class Load:
     position: float
     length: float = _default("load", "length")
     factor: float = _default("load", "factor")
+    x: float | None = _default("load", "x")
 
     def x_range(self, span: float) -> tuple[float, float]:
         """Horizontal extent on the extrados (m); a point load has zero length."""
         x = -span / 2 + self.position * span
         return x - self.length / 2, x + self.length / 2
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A vehicle rolled across the bridge (``bridgefem assess``): ``axles`` loads (N, for the scene's width), first
+    (leftmost) axle first, ``spacing`` (m) between consecutive axles, ``contact_length`` (m) of each tyre patch
+    along the road (0: point loads), ``dispersion``: how the rigid-block LP spreads an axle through a fill,
+    ``standard``: the library vehicle (:data:`VEHICLES`) it was taken from, or ""."""
+
+    axles: tuple[float, ...]
+    spacing: tuple[float, ...]
+    contact_length: float
+    dispersion: str = _default("vehicle", "dispersion")
+    standard: str = _default("vehicle", "standard")
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """Each axle's distance (m) behind the first (leftmost) one."""
+        return np.concatenate([[0.0], np.cumsum(self.spacing)])
+
+    @property
+    def length(self) -> float:
+        """From the first axle to the last (m)."""
+        return float(sum(self.spacing))
 
 
 @dataclass(frozen=True)
@@ -581,6 +644,7 @@ class Scene:
     gravity: float = _default("scene", "gravity")
     fill: Fill | None = None
     abutments: Abutments = RIGID_ABUTMENTS
+    vehicle: Vehicle | None = None
     mesh: MeshOptions = MeshOptions()
     model: ModelOptions = ModelOptions()
     solver: SolverOptions = SolverOptions()
@@ -732,7 +796,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     loads = []
     for i, raw in enumerate(raw_loads):
         label = f"[[load]] #{i + 1}"
-        ld = Load(**_section(raw, "load", label, scales))
+        ld = Load(**_placed(_section(raw, "load", label, scales), label, a["span"]))
         if ld.kind == "point" and ld.length:
             raise SceneError(f"{label} length = {ld.length!r}: a point load has no length (use kind = \"patch\")")
         if ld.kind == "patch" and ld.length == 0:
@@ -759,10 +823,66 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     if fill is not None and fill.loading_beam:
         _beams_apart(loads, a["span"])
     abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
-    return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
+    vehicle = _vehicle(sec["vehicle"], scales, fill) if "vehicle" in sec else None
+    return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments, vehicle=vehicle,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
                  solver=SolverOptions(**solver), document=copy.deepcopy(data))
+
+
+def _placed(ld: dict[str, Any], label: str, span: float) -> dict[str, Any]:
+    """A load's place from ``position`` (fraction of the span) or ``x`` (m from the left springing): one of them,
+    or both when they agree (as ``bridgefem check`` prints them); both are kept."""
+    if ld["position"] is None and ld["x"] is None:
+        raise SceneError(f"{label} position: missing; expected position ({SCHEMA['load']['position'].allowed()}) "
+                         f"or x ({SCHEMA['load']['x'].allowed(span)})")
+    if ld["x"] is None:
+        return {**ld, "x": ld["position"] * span}
+    if ld["position"] is not None and abs(ld["position"] * span - ld["x"]) > 1e-9 * span:
+        raise SceneError(f"{label} x = {ld['x']!r}: position = {ld['position']!r} places the load at "
+                         f"x = {ld['position'] * span:.9g} m; allowed is one of them, or both agreeing")
+    return {**ld, "position": ld["x"] / span}
+
+
+def _vehicle(v: dict[str, Any], scales: dict[str, float], fill: Fill | None) -> Vehicle:
+    """The [vehicle] table checked: a library vehicle (``standard``) or ``axles`` and ``spacing`` (each load from
+    1e-6 to 1e6 x the ring's weight, each spacing longer than the tyre contact, at most 10 x span)."""
+    span, weight = scales["span"], scales["ring weight"]
+    if v["standard"]:
+        if v["axles"] is not None or v["spacing"] is not None:
+            given = "axles" if v["axles"] is not None else "spacing"
+            raise SceneError(f"[vehicle] {given} = {_show(v[given])}: standard = \"{v['standard']}\" sets the axles "
+                             "and their spacing; allowed is standard or axles and spacing, not both")
+        lib = VEHICLES[v["standard"]]
+        axles, spacing = list(lib["axles"]), list(lib["spacing"])
+        contact = lib["contact_length"] if v["contact_length"] is None else v["contact_length"]
+    else:
+        if v["axles"] is None:
+            raise SceneError("[vehicle] axles: missing; expected a list of axle loads in N (or standard = one of "
+                             + ", ".join(f'"{n}"' for n in VEHICLES) + ")")
+        axles, spacing = v["axles"], v["spacing"] if v["spacing"] is not None else []
+        contact = v["contact_length"] or 0.0
+    if not 1 <= len(axles) <= MAX_AXLES:
+        raise SceneError(f"[vehicle] axles = {_show(axles)}: allowed is a list of 1 to {MAX_AXLES} axle loads in N")
+    for a in axles:
+        if isinstance(a, bool) or not isinstance(a, (int, float)) or not math.isfinite(a) \
+                or not 1e-6 * weight <= a <= 1e6 * weight:
+            raise SceneError(f"[vehicle] axles = {_show(axles)}: allowed are axle loads in N from 1e-6 to 1e6 x the "
+                             f"ring's weight ({1e-6 * weight:.4g} to {1e6 * weight:.4g} N in this scene)")
+    if len(spacing) != len(axles) - 1:
+        raise SceneError(f"[vehicle] spacing = {_show(spacing)}: allowed is a list of {len(axles) - 1} distances "
+                         f"in m (one between each two consecutive axles of the {len(axles)})")
+    for d in spacing:
+        if isinstance(d, bool) or not isinstance(d, (int, float)) or not math.isfinite(d) \
+                or not contact < d <= 10 * span:
+            raise SceneError(f"[vehicle] spacing = {_show(spacing)}: allowed are distances in m longer than the "
+                             f"contact length ({contact:g} m) and at most 10 x span ({10 * span:g} m)")
+    if fill is not None and fill.material == "mohr-coulomb" and contact == 0:
+        raise SceneError("[vehicle] contact_length = 0: a point axle on a Mohr-Coulomb fill has no finite collapse "
+                         f"load; allowed is {SCHEMA['vehicle']['contact_length'].allowed(span)}, the tyre patch "
+                         "along the road")
+    return Vehicle(tuple(float(a) for a in axles), tuple(float(d) for d in spacing), float(contact),
+                   v["dispersion"], v["standard"])
 
 
 def _beams_apart(loads: list[Load], span: float) -> None:
@@ -887,6 +1007,8 @@ def _toml_value(value: Any) -> str:
         return "true" if value else "false"
     if isinstance(value, str):
         return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, float) and len(repr(value)) > 12 and float(f"{value:g}") == value:
         return f"{value:g}"  # 1e+10, not 10000000000.0
     return repr(value)
@@ -897,14 +1019,15 @@ def resolved_toml(scene: Scene) -> str:
     key's unit: what ``bridgefem check`` prints. Reading it back gives the same scene."""
     objects = {"scene": scene, "arch": scene.arch, "masonry": scene.masonry, "joints": scene.joints,
                "fill": scene.fill, "abutments": scene.abutments, "mesh": scene.mesh, "model": scene.model,
-               "solver": scene.solver}
+               "solver": scene.solver, "vehicle": scene.vehicle}
     lines: list[str] = []
 
     def table(header: str, section: str, obj: Any) -> None:
         lines.append(header)
         for k, key in SCHEMA[section].items():
             value = getattr(obj, k)
-            if k == "petsc" or value is None or value == "" or (key.only and getattr(obj, key.only[0]) != key.only[1]):
+            if k == "petsc" or value is None or value == "" or (key.only and getattr(obj, key.only[0]) != key.only[1]) \
+                    or (section == "vehicle" and k in ("axles", "spacing") and obj.standard):
                 continue
             note = "  # " + key.unit if key.unit else ""
             lines.append(f"{k} = {_toml_value(value)}{note}")
