@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..status import Status
 from .vehicle import Placement, place, positions
 
