@@ -16,12 +16,13 @@ Two groups of rows:
   come again, only the normal columns up to a pair that declines it) and how the solver counts its solves apart.
 - *campaign* (minutes): scenes of benchmarks/campaign.py whose linear solves per limit load (every run of the scene,
   the coarser meshes an automatic re-run replaced included, as the campaign counts them) are held to the 150 that
-  issue 12 allows (80 for one), and a scene whose collapse-state check spares the retries of its closing trial. The
-  tests named in each row check the same scene's answer.
+  issue 12 allows (80 for one), a scene whose self-weight the static theorem rules out in one load step, and a scene
+  whose collapse-state check spares the retries of its closing trial. The tests named in each row check the same
+  scene's answer.
 
 Run:
 
-    ./run python benchmarks/solve_budgets.py               # every row (about 6 min on one core)
+    ./run python benchmarks/solve_budgets.py               # every row (about 2 min on one core)
     ./run python benchmarks/solve_budgets.py --quick       # the unit rows only (about 10 s)
     ./run python benchmarks/solve_budgets.py --only "#146"  # the rows whose name contains TEXT
 """
@@ -253,6 +254,8 @@ CASES = (
     Case(6, 146, 4.1524, 150, "test_refinement.py"),
     Case(4, 38, 3.2503, 150, "test_refinement.py"),
     Case(7, 166, 5.9455, 150, "test_refinement.py"),
+    Case(1, 193, 1.8177, 150, "test_refinement.py"),
+    Case(9, 159, 0.5711, 150, "test_tresca_predictor.py"),
 )
 
 
@@ -279,6 +282,20 @@ def campaign_row(case: Case) -> Row:
     total = final + sum(coarser)
     shown = f"{total}" + (f" ({' + '.join(map(str, coarser))} + {final})" if coarser else "")
     return Row(case_name(case), f"{shown}; {an.search.status}", f"<= {case.budget}", total <= case.budget)
+
+
+UNSTABLE_NAME = "seed 1 #111 (answer: tests/test_static_bound.py): load steps to 'unstable under self-weight'"
+
+
+def unstable_row() -> Row:
+    """Campaign seed 1, scene 111: the static theorem rules its self-weight out, so the failed self-weight step is
+    the answer (the continuation and the retries cost 259 solves before the bound)."""
+    from bridgefem.analysis.runner import run_analysis
+
+    an = run_analysis(scene_of(1, 111, 1.5887))
+    row = check(UNSTABLE_NAME, len(an.search.steps), "==", 1, "the failed self-weight step")
+    row.count += f"; {an.search.status}"
+    return row
 
 
 RETRIES_NAME = "seed 1 #220, 4 elements (answer: tests/test_nonassociative.py): with the collapse-state check"
@@ -321,6 +338,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = [r for group in UNIT for r in group()]
     if not args.quick:
         rows += [campaign_row(c) for c in CASES if args.only in case_name(c)]
+        if args.only in UNSTABLE_NAME:
+            rows.append(unstable_row())
         if args.only in RETRIES_NAME:
             rows += spared_retries_rows()
     rows = [r for r in rows if args.only in r.name]
