@@ -16,11 +16,11 @@ the tolerance. So the knobs are measured apart, against references the seed cann
 
 Per run: ``err_lp`` = |midpoint - LP| / LP, ``err_ref`` = |midpoint - FE reference| / FE reference, ``half`` =
 half the bracket width / midpoint, ``err_bound``, and for the voussoir sweep ``err_inf`` = |midpoint - LP(N = 4096)|
-/ LP(N = 4096). Cost: CPU and wall time of :func:`bridgefem.analysis.runner.runner.run_analysis` after a warm-up (fastest of up to
+/ LP(N = 4096). Cost: CPU and wall time of :func:`bridgefem.analysis.runner.run_analysis` after a warm-up (fastest of up to
 5 runs within 2 s), peak resident memory above the level before the run, linear solves. The Pareto front is on
 (CPU time, err_bound), errors compared to two significant digits. Presets (:func:`recommend_presets`): on the
 front of the worst err_bound and the summed CPU time over the cases; the table marks the presets in
-:data:`bridgefem.scene.schema.schema.PRESETS` next to the picks, so a preset that has fallen off the front shows.
+:data:`bridgefem.scene.schema.PRESETS` next to the picks, so a preset that has fallen off the front shows.
 
 Cases: ``semicircular`` (demos/bare_arch.toml) and ``segmental`` (rise/span = 1/4; benchmarks/harness.py).
 The fill case (``--fill``): the Prestwood bridge with its Mohr-Coulomb fill (demos/prestwood.toml) on P1/P2 meshes,
@@ -111,7 +111,7 @@ def solver_jobs(base: dict) -> list[dict]:
 def voussoir_jobs(base: dict) -> list[dict]:
     """The number of voussoirs at DISCRETISATION_TOLERANCE, P1, at least 4 elements through the thickness and
     at least one element along each voussoir."""
-    from bridgefem.scene.schema.schema import scene_from_dict
+    from bridgefem.scene.schema import scene_from_dict
 
     jobs = []
     for n in VOUSSOIRS:
@@ -124,7 +124,8 @@ def voussoir_jobs(base: dict) -> list[dict]:
 def elements_for_voussoirs(scene) -> int:
     """Elements through the thickness that make the shortest voussoir at least one element long."""
     import numpy as np
-    from bridgefem.geometry.ring.ring import build_ring
+
+    from bridgefem.geometry.ring import build_ring
 
     a = scene.arch
     ring = build_ring(a.shape, a.span, a.rise, a.thickness, a.voussoirs, scene.load_edges_x(), a.joint_at_loads)
@@ -152,9 +153,8 @@ def measure_case(jobs: list[dict], quick: bool) -> list[dict]:
 # ------------------------------------------------------------------------------------------------ errors
 def lp_kn(scene_dict: dict, voussoirs: int | None = None) -> float | None:
     """The rigid-block LP collapse load (kN) of a scene dictionary, optionally with another number of voussoirs."""
-    from bridgefem.scene.schema.schema import scene_from_dict
-
     from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.scene.schema import scene_from_dict
 
     lp = collapse_load(scene_from_dict(scene_variant(scene_dict, voussoirs=voussoirs)))
     return None if lp.load is None else lp.load / 1e3
@@ -168,7 +168,7 @@ def relative(value: float | None, ref: float | None) -> float | None:
 def make_row(case: str, j: dict, rec: dict, lp_cache: dict) -> dict:
     """A table row: the job's knobs, the LP on the same joints and the measurement (loads in kN). The errors
     against the references are added by :func:`add_errors`."""
-    from bridgefem.scene.schema.schema import scene_from_dict
+    from bridgefem.scene.schema import scene_from_dict
 
     sc = scene_from_dict(j["scene"])
     n = sc.arch.voussoirs
@@ -400,7 +400,7 @@ def plot_voussoirs(ax, rows: list[dict], cases: list[str]) -> None:
 
 def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: float) -> str:
     """The markdown of the study: references, every run, the configurations on every case with the presets."""
-    from bridgefem.scene.schema.schema import PRESETS, scene_from_dict
+    from bridgefem.scene.schema import PRESETS, scene_from_dict
 
     cases = list(case_dicts)
     configs = configurations(rows, cases)
@@ -423,7 +423,7 @@ def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: 
 
 def study(case_dicts: dict[str, dict], quick: bool) -> list[dict]:
     """Run every case and return the table rows with their errors, front and preset marks."""
-    from bridgefem.scene.schema.schema import PRESETS
+    from bridgefem.scene.schema import PRESETS
 
     named = {preset_config(v): name for name, v in PRESETS.items()}
     rows = []
@@ -457,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
         rows, lines = fill_table(list(DEFAULT_CASES))
         write_outputs(args.out, "speed_accuracy_fill", rows, "\n".join(lines) + "\n", None, args.figures)
         return 0
-    from bridgefem.scene.schema.schema import PRESETS
+    from bridgefem.scene.schema import PRESETS
 
     builtin = builtin_cases()
     names = args.cases or list(builtin)
