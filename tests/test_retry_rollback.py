@@ -26,6 +26,15 @@ def settled():
     return solver, solver.converged_slip_reference(out.iterate)
 
 
+def failed_step():
+    """The block's solver at its self-weight state, that state, its law's constants, and its step to LEVEL ended
+    after one Newton iteration: a failure without proof, as ``retried`` takes it."""
+    solver, start = settled()
+    failed = solver.solve_step(LEVEL, start, iterations=1)
+    assert not failed.converged and not failed.proved, failed.reason
+    return solver, start, solver.law.c.copy(), failed
+
+
 def assert_as_never_retried(solver, start, constants):
     """``solver`` has the default setting and its ``constants`` (to rounding), and its next step from ``start``
     is the step of a solver that was never retried: the same Newton iterations, active set and state."""
@@ -40,10 +49,7 @@ def assert_as_never_retried(solver, start, constants):
 
 
 def test_a_retry_that_converges_with_scaled_constants_leaves_the_solver_as_it_was():
-    solver, start = settled()
-    constants = solver.law.c.copy()
-    failed = solver.solve_step(LEVEL, start, iterations=1)
-    assert not failed.converged and not failed.proved, failed.reason
+    solver, start, constants, failed = failed_step()
     seen = []
 
     def solve():
@@ -60,9 +66,7 @@ def test_a_retry_that_converges_with_scaled_constants_leaves_the_solver_as_it_wa
 
 def test_every_retry_failing_leaves_the_solver_as_it_was():
     """Each of the settings is tried (one Newton iteration each: all fail) and the failure stays a failure."""
-    solver, start = settled()
-    constants = solver.law.c.copy()
-    failed = solver.solve_step(LEVEL, start, iterations=1)
+    solver, start, constants, failed = failed_step()
     seen = []
 
     def solve():
@@ -76,9 +80,7 @@ def test_every_retry_failing_leaves_the_solver_as_it_was():
 
 def test_a_retry_that_raises_leaves_the_solver_as_it_was():
     """An error inside a retried solve (e.g. PETSc's) reaches the caller, and the solver is restored first."""
-    solver, start = settled()
-    constants = solver.law.c.copy()
-    failed = solver.solve_step(LEVEL, start, iterations=1)
+    solver, start, constants, failed = failed_step()
     seen = []
 
     def solve():
