@@ -3,7 +3,7 @@
 Each scene is drawn from the seed and its index alone (so one scene can be re-run with ``--only``):
 
 - shape: all five; span 3-30 m; rise/span 0.15-0.5 (segmental 0.1-0.45, pointed 0.55-1.0);
-- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.rigid_block.
+- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.thickness.
   min_thickness`, at the scene's mu) to 0.4 of the centreline radius (circular shapes) or of the rise (others); when
   no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
 - voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
@@ -38,7 +38,7 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   apart;
 - *crash*: a traceback, a signal, another exit code, or the timeout;
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
-  leave a voussoir of zero length; not counted in the success rate.
+  leave a voussoir of (almost) no length; not counted in the success rate.
 
 Prints one row per scene, the success rate, the classes, solves per limit (median, max; a scene's linear solves
 summed over all its runs, the coarser meshes an automatic refinement replaced included) and the worst cases; writes
@@ -46,6 +46,9 @@ summed over all its runs, the coarser meshes an automatic refinement replaced in
 
     ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
     ./run nice python benchmarks/campaign.py --count 150 --seed 1 --jobs 2 --options --out /tmp/campaign-options
+
+``--check-only`` writes the scenes and runs ``bridgefem check`` on each instead (no analysis; the LP still sets each
+thickness): the scenes a campaign would reject as bad input, in a few minutes.
 """
 from __future__ import annotations
 
@@ -101,6 +104,17 @@ def draw(seed: int, index: int) -> dict:
     edge = choice["patch"] / 2 / span  # a patch lies on the span
     choice["position"] = round(edge + (1 - 2 * edge) * choice["position"], 4)
     return choice
+
+
+def draw_vehicle(seed: int, index: int, span: float, fill: str | None) -> dict:
+    """Scene ``index``'s vehicle in a ``--vehicles`` campaign (its own stream): 1-3 axles of 20-200 kN, spaced
+    0.1-0.5 of the span; point axles, or tyre patches of 0.02-0.1 of the span over a fill."""
+    rng = np.random.default_rng([seed, index, 40])
+    n = int(rng.integers(1, 4))
+    contact = round(float(rng.uniform(0.02, 0.1)) * span, 3) if fill else 0.0
+    spacing = [round(max(float(rng.uniform(0.1, 0.5)) * span, 1.5 * contact + 1e-3), 3) for _ in range(n - 1)]
+    return {"axles": [round(float(rng.uniform(20e3, 200e3)), -2) for _ in range(n)], "spacing": spacing,
+            "contact_length": contact}
 
 
 def draw_option(seed: int, index: int) -> dict:
@@ -169,6 +183,8 @@ def scene_dict(choice: dict, thickness: float) -> dict:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
                      "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
                      **({"cohesion": 5e3} if choice["fill"] == "mohr-coulomb" else {})}
+    if choice.get("vehicle"):  # an assessment: the vehicle instead of the loads
+        d["load"], d["vehicle"] = [], choice["vehicle"]
     return with_option(d, choice) if choice.get("option") else d
 
 
@@ -182,7 +198,7 @@ def reference_length(choice: dict, thickness: float) -> float:
 
 def thickness_of(choice: dict) -> tuple[float, float | None]:
     """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
-    from bridgefem.limit.rigid_block import min_thickness
+    from bridgefem.limit.thickness import min_thickness
     from bridgefem.scene.schema import scene_from_dict
 
     try:
@@ -190,9 +206,15 @@ def thickness_of(choice: dict) -> tuple[float, float | None]:
         least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
     except (RuntimeError, ValueError):  # no thickness stands at this mu
         least = None
+    return thickness_above(choice, least), least
+
+
+def thickness_above(choice: dict, least: float | None) -> float:
+    """The scene's thickness (m) given the least thickness that stands (m; None when none does): the draw's fraction
+    of the range from it to 0.4 x :func:`reference_length` (from 0.05 x that length when none stands)."""
     top = 0.4 * reference_length(choice, 0.0)
     bottom = 0.05 * top / 0.4 if least is None or least >= top else least
-    return bottom + choice["thickness_fraction"] * (top - bottom), least
+    return bottom + choice["thickness_fraction"] * (top - bottom)
 
 
 def to_toml(d: dict) -> str:
@@ -209,17 +231,35 @@ def to_toml(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
-    """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
-    and judge the outcome."""
+def write_scene(choice: dict, out: Path) -> tuple[Path, dict]:
+    """Write the scene of a draw (its thickness from :func:`thickness_of`) to ``out``/scene_NNNN/scene.toml; returns
+    the folder and the row of the draw with its thickness and least thickness."""
     thickness, least = thickness_of(choice)
     scene = scene_dict(choice, thickness)
     folder = out.resolve() / f"scene_{choice['index']:04d}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
-    row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+    return folder, {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+
+
+def check_scene(choice: dict, out: Path) -> str:
+    """Write the scene and run ``bridgefem check`` on it (every check ``run`` makes before its analysis, no analysis):
+    "valid", or the line it was refused with."""
+    folder, _ = write_scene(choice, out)
+    proc = subprocess.run([sys.executable, "-m", "bridgefem.io.cli", "check", str(folder / "scene.toml")],
+                          capture_output=True, text=True, cwd=folder)
+    return "valid" if proc.returncode == 0 else proc.stderr.strip() or f"exit {proc.returncode}"
+
+
+def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
+    """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
+    and judge the outcome."""
+    folder, row = write_scene(choice, out)
     command = [sys.executable, "-m", "bridgefem.io.cli", "run", str(folder / "scene.toml"), "--out",
                str(folder / "results"), "--quiet"]
+    if choice.get("vehicle"):
+        command = [sys.executable, "-m", "bridgefem.io.cli", "assess", str(folder / "scene.toml"), "--out",
+                   str(folder / "results"), "--json"]
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command, capture_output=True,
@@ -230,8 +270,32 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
         code, stderr = None, f"timeout after {timeout:g} s"
     row["seconds"] = time.perf_counter() - t0
     row["exit"] = code
+    if choice.get("vehicle"):
+        row.update(judge_assessment(folder, code, stderr, fill=choice["fill"] is not None))
+        return row
     row.update(judge(results_of(folder), code, stderr, fill=choice["fill"] is not None))
     return row
+
+
+def judge_assessment(folder: Path, code: int | None, stderr: str, fill: bool) -> dict:
+    """An assessment (``--vehicles``) judged by :func:`judge` on the FE run at its critical position (results.json's
+    entries in assessment.json), and its LP adequacy factor against the LP of that run (the same scene, the same
+    loads: they must agree to 1e-6). Locked or unstable by the LP screen alone (no FE run): "lp only"."""
+    path = folder / "results" / "assessment.json"
+    data = json.loads(path.read_text()) if path.exists() else None
+    if data is None or data["critical"] is None:
+        if data is not None and code == 0 and data["status"] in ("locked", "unstable under self-weight"):
+            return {"class": "lp only", "status": data["status"], "fe": None, "lp": None, "ratio": None,
+                    "solves": None}
+        return judge(None, code, stderr, fill)
+    crit = data["critical"]
+    out = judge(crit["results"], code, stderr, fill)
+    confirmation = next(c for c in data["confirmations"] if c["x0"] == crit["x0"])
+    lp_run = crit["results"]["lp"]["load"]
+    if not fill and lp_run and confirmation["lp_factor"] is not None \
+            and abs(lp_run / crit["load"] - confirmation["lp_factor"]) > 1e-6 * confirmation["lp_factor"]:
+        out = {**out, "class": "wrong", "status": "the screen's LP factor differs from the run's LP"}
+    return {**out, "adequacy": data["adequacy_factor"], "lp_adequacy": data["lp_adequacy_factor"]}
 
 
 def results_of(folder: Path) -> dict | None:
@@ -375,8 +439,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--options", action="store_true",
                    help="each scene with one scene option drawn from OPTIONS (a second load, elastic abutments, a "
                         "support movement, a preset, quadratic elements, plane stress)")
+    p.add_argument("--vehicles", action="store_true",
+                   help="each scene an assessment (bridgefem assess) of a vehicle drawn by draw_vehicle")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
+    p.add_argument("--check-only", action="store_true",
+                   help="write the scenes and run bridgefem check on each instead of run (no analysis): which scenes "
+                        "a campaign would reject as bad input")
     args = p.parse_args(argv)
     if args.report:
         rows = json.loads((args.out / "campaign.json").read_text())["rows"]
@@ -388,9 +457,23 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     indices = args.only if args.only else range(args.count)
     rows = []
+    if args.check_only:
+        def checked(i):
+            choice = draw(args.seed, i)
+            verdict = check_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out)
+            print(f"scene {i}: {verdict}", flush=True)
+            return verdict
+
+        with ThreadPoolExecutor(args.jobs) as pool:
+            verdicts = list(pool.map(checked, indices))
+        valid = verdicts.count("valid")
+        print(f"scenes {len(verdicts)}: valid {valid}, rejected {len(verdicts) - valid}")
+        return 0
 
     def one(i):
         choice = draw(args.seed, i)
+        if args.vehicles:
+            choice["vehicle"] = draw_vehicle(args.seed, i, choice["span"], choice["fill"])
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
                         args.timeout, args.ranks)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)

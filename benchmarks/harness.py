@@ -25,9 +25,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("geometry", "mesh", "assembly", "pairing", "solver setup", "limit search")
-# run_analysis calls these module-level names of bridgefem.analysis.runner once each, in phase order
-PHASE_CALLS = {"scene_ring": "geometry", "build_block_mesh": "mesh", "build_elastic_model": "assembly",
-               "build_pairs": "pairing", "ContactSolver": "solver setup", "find_limit_load": "limit search"}
+# run_analysis calls these module-level names of bridgefem.analysis.<module> once each, in phase order
+PHASE_CALLS = {("build", "scene_ring"): "geometry", ("build", "build_block_mesh"): "mesh",
+               ("build", "build_elastic_model"): "assembly", ("build", "build_pairs"): "pairing",
+               ("build", "ContactSolver"): "solver setup", ("runner", "find_limit_load"): "limit search"}
 REPEAT_BUDGET_S = 2.0  # repeat a timed run (fastest kept) while the runs so far took less than this
 MAX_RUNS = 5  # ... up to this many runs
 SEGMENTAL = {
@@ -111,23 +112,28 @@ def _reset_peak() -> bool:
         return False
 
 
+def _analysis_module(name: str):
+    """The module bridgefem.analysis.<name>."""
+    import importlib
+
+    return importlib.import_module(f"bridgefem.analysis.{name}")
+
+
 class PhaseMemory:
     """Peak resident memory (MB above the level when entered) of each phase of run_analysis: the phase functions
-    of :mod:`bridgefem.analysis.runner` are wrapped so that VmHWM is reset when a phase starts and read when it ends."""
+    (:data:`PHASE_CALLS`) are wrapped so that VmHWM is reset when a phase starts and read when it ends."""
 
     def __init__(self):
         self.peaks: dict[str, float] = {}
-        self._saved: dict[str, object] = {}
+        self._saved: dict[tuple[str, str], object] = {}
 
     def __enter__(self):
-        from bridgefem.analysis import runner as analysis
-
         self.base_kb = _proc_status_kb("VmRSS")
         self.enabled = self.base_kb is not None and _reset_peak()
         if self.enabled:
-            for name, phase in PHASE_CALLS.items():
-                self._saved[name] = getattr(analysis, name)
-                setattr(analysis, name, self._wrap(self._saved[name], phase))
+            for (module, name), phase in PHASE_CALLS.items():
+                self._saved[module, name] = getattr(_analysis_module(module), name)
+                setattr(_analysis_module(module), name, self._wrap(self._saved[module, name], phase))
         return self
 
     def _wrap(self, fn, phase):
@@ -140,10 +146,8 @@ class PhaseMemory:
         return wrapped
 
     def __exit__(self, *exc):
-        from bridgefem.analysis import runner as analysis
-
-        for name, fn in self._saved.items():
-            setattr(analysis, name, fn)
+        for (module, name), fn in self._saved.items():
+            setattr(_analysis_module(module), name, fn)
         return False
 
     @property

@@ -75,7 +75,8 @@ def search_rows() -> list[Row]:
     from test_bracket import LIMIT, PREDICTED, OneDof, Predicted, search, static_cap
     from test_fill_steps import PlasticFillOneDof
 
-    from bridgefem.search.pathfollow import FUTILE_PREDICTIONS, CollapseCheck
+    from bridgefem.search.pathfollow import FUTILE_PREDICTIONS
+    from bridgefem.search.records import CollapseCheck
     from bridgefem.search.selfweight import SELF_WEIGHT_RETRIES
 
     rows = []
@@ -133,7 +134,7 @@ def trial_budget_rows() -> list[Row]:
     from test_bracket import LIMIT, search
     from test_pathfollow_budget import EASY, Wandering
 
-    from bridgefem.search.pathfollow import BUDGET, BUDGET_FLOOR, RETRY_FLOOR
+    from bridgefem.search.schedule import BUDGET, BUDGET_FLOOR, RETRY_FLOOR
 
     rows = []
     solver = Wandering(reach=100.0, band=1e-3 * LIMIT, slow=30)
@@ -184,7 +185,7 @@ def condensation_rows() -> list[Row]:
         solver, start, pairs, level = settled_block()
         cost(pairs, solver)
         if change == "friction":
-            solver.set_friction(solver.friction, 2.0)
+            solver.set_friction_factor(2.0)
         else:
             solver.use(solver_module.Setting(scale=10.0))
         rows.append(check(f"the same pairs after a changed {change}: solves", cost(pairs, solver), "==", 7,

@@ -27,7 +27,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bridgefem.analysis import runner as analysis
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import Scene, load_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -38,7 +38,7 @@ from mpi4py import MPI
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.io.output import OutputError, results_folder
 from bridgefem.io.results import write_results
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import Scene, load_scene, with_mesh
 
 TEST_LOAD_KN = 228.0  # TRRL RR110: maximum load of the collapse test

@@ -1,6 +1,6 @@
 """Speed-accuracy map of the FE limit analysis: what each knob buys in accuracy and costs in time and memory.
 
-The limit search (bridgefem/pathfollow.py) is seeded with the rigid-block LP value, and at a loose bracket
+The limit search (bridgefem/search/pathfollow.py) is seeded with the rigid-block LP value, and at a loose bracket
 tolerance its bracket is [(1 - tol) LP, LP] whatever the mesh: an error measured against that LP would only show
 the tolerance. So the knobs are measured apart, against references the seed cannot bias:
 
@@ -153,7 +153,7 @@ def measure_case(jobs: list[dict], quick: bool) -> list[dict]:
 # ------------------------------------------------------------------------------------------------ errors
 def lp_kn(scene_dict: dict, voussoirs: int | None = None) -> float | None:
     """The rigid-block LP collapse load (kN) of a scene dictionary, optionally with another number of voussoirs."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
     from bridgefem.scene.schema import scene_from_dict
 
     lp = collapse_load(scene_from_dict(scene_variant(scene_dict, voussoirs=voussoirs)))

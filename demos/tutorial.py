@@ -1,97 +1,92 @@
-# # From a scene to a limit load: bridgefem step by step
+# # From a scene to a limit load: bridgefem's Python API
 #
-# This script walks the library through one analysis of the reference bare arch (a semicircular stone ring,
-# 9 m span, 1 m thick, 16 voussoirs, a point load near quarter span) and prints its limit load beside the
-# rigid-block LP. `bridgefem run` does all of this in one call (`bridgefem.analysis.runner.runner.run_analysis`); here each
-# stage is one call, so that you can see and change what flows from one to the next:
+# This script computes the limit load of the reference bare arch (a semicircular stone ring, 9 m span, 1 m thick,
+# 16 voussoirs, a point load near quarter span), reads the result, compares it with the rigid-block limit analysis
+# and sweeps the joints' friction. It uses only the public API, `import bridgefem`; `bridgefem run` does the same
+# from the command line and also writes the results folder.
 #
-#     scene -> ring geometry -> mesh -> elastic model -> joint pairs -> contact solver -> limit search
-#
-# Run it with `./run python demos/tutorial.py` (about a second; the same answer under `./run mpirun -n 2`).
+# Run it with `./run python demos/tutorial.py` (a few seconds). Under `./run mpirun -n 2 python demos/tutorial.py`
+# each rank computes its part of the same analysis (`analyse` is collective) and gets the same result; rank 0
+# prints.
 
 # +
-from bridgefem.analysis.runner.runner import joint_states, search_settings
-from bridgefem.geometry.ring.ring import build_ring
-from bridgefem.scene.schema.schema import scene_from_dict
-from bridgefem.solver.newton.newton import ContactSolver
 from mpi4py import MPI
 
-from bridgefem.fe.mesh import build_block_mesh
-from bridgefem.fe.model import build_elastic_model
-from bridgefem.fe.pairs import build_pairs
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.search.pathfollow import SearchGuides, find_limit_load, monitor_deflection
+import bridgefem
 
-say = print if MPI.COMM_WORLD.rank == 0 else (lambda *args: None)  # print once under mpirun
+say = print if MPI.COMM_WORLD.rank == 0 else (lambda *args: None)
 # -
 
 # ## 1. The scene
 #
-# A scene is what a TOML file holds, here as a dictionary; `scene_from_dict` checks every value (a bad one
-# raises `SceneError` naming the key) and fills in the defaults (mesh: 4 elements through the thickness,
-# bracket tolerance 1e-4). Units: m, Pa, kg/m^3; a load's `position` is a fraction of the span.
+# A scene is what a TOML file holds (`bridgefem.load_scene("demos/bare_arch.toml")` reads this one), here as a
+# dictionary of the same sections. `scene_from_dict` checks every value and fills in the defaults (4 elements
+# through the thickness, a bracket tolerance of 1e-4). Units: m, Pa, kg/m^3; a load's `position` is a fraction of
+# the span from the left springing. Every key: docs/scene-keys.md.
 
-scene = scene_from_dict({
+scene = bridgefem.scene_from_dict({
     "scene": {"name": "tutorial"},
-    "arch": {"shape": "semicircular", "span": 9.0, "rise": 4.5, "thickness": 1.0, "voussoirs": 16},
+    "arch": {"shape": "semicircular", "span": 9.0, "thickness": 1.0, "voussoirs": 16},
     "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
     "joints": {"friction": 0.6},
     "load": [{"kind": "point", "position": 0.22222}],
 })
-arch = scene.arch
+say(f"{scene.name}: {scene.arch.shape} ring, span {scene.arch.span:g} m, rise {scene.arch.rise:g} m (derived), "
+    f"{scene.mesh.elements_through_thickness} elements through the thickness")
 
-# ## 2. The ring: voussoirs and joints
+# A bad value raises `SceneError` before anything is computed: one line naming the key, the value and what is
+# allowed, the same line `bridgefem run` prints for a scene file. `edit` returns a changed copy of a scene,
+# checked in the same way.
+
+try:
+    bridgefem.edit(scene, arch={"thickness": -1.0})
+except bridgefem.SceneError as err:
+    say(f"refused: {err}")
+
+# ## 2. The limit load
 #
-# The joints are perpendicular to the centreline and evenly spaced, with the nearest one moved under the load.
-# The same polygons feed the FE mesh and the rigid-block LP.
+# `analyse` applies the self-weight, then raises the live load until no equilibrium exists. The limit load lies
+# in the bracket [lower, upper]: the ring carries `lower` (a converged equilibrium) and not `upper`, both in N for
+# the scene's width, at most `tolerance` x `lower` apart. The hinges are read off the last converged state.
 
-ring = build_ring(arch.shape, arch.span, arch.rise, arch.thickness, arch.voussoirs, scene.load_edges_x())
-say(f"{ring.n_voussoirs} voussoirs, {len(ring.joints)} joints (0 and {ring.n_voussoirs} on the springings)")
+result = bridgefem.analyse(scene)
+load = result.limit_load
+say(f"{result.status}: limit load in [{load.lower / 1e3:.3f}, {load.upper / 1e3:.3f}] kN (relative tolerance "
+    f"{load.tolerance:g}, width {load.width:g} m); hinges at joints {list(result.hinges)}, sliding "
+    f"{list(result.sliding)}")
+say(f"evidence: {result.evidence}")
 
-# ## 3. Mesh and elastic model
+# ## 3. The independent check
 #
-# Gmsh meshes each voussoir on its own, so that the nodes on a joint are duplicated, one copy per side. DOLFINx
-# assembles the elastic stiffness K, the self-weight f_dead and the live load per unit load level f_live once.
+# The rigid-block limit analysis (a linear programme on the same joints, rigid voussoirs) gives the classical
+# collapse load; with stiff voussoirs the FE tends to it. `bridgefem.lp(scene)` solves it alone, in milliseconds.
+# A run prints a warning where the two disagree, or where the mesh or the deflections make the bracket doubtful.
 
-block_mesh = build_block_mesh(ring, scene.mesh.elements_through_thickness, MPI.COMM_WORLD)
-model = build_elastic_model(block_mesh, ring, scene)
-say(f"{block_mesh.n_cells} triangles, ring weight {model.dead_weight / 1e3:.1f} kN")
+lp = result.lp
+say(f"rigid-block LP ({lp.model}): {lp.load / 1e3:.3f} kN, hinges {list(lp.hinges)}, sliding {list(lp.sliding)}; "
+    f"FE/LP = {result.fe_lp_ratio:.4f}")
+for warning in result.warnings:
+    say(f"WARNING: {warning}")
 
-# ## 4. Joint pairs: where contact and friction act
+# ## 4. Everything else
 #
-# Each node on a joint is paired with its partner across it (or with the ground on a springing), with its share
-# of the joint's length. A pair is open, sticks or slips: unilateral contact and Coulomb friction.
+# `result.summary` holds all of results.json (joint forces, reactions, the load history, units and sign
+# conventions); `result.to_json()` is its text.
 
-pairs = build_pairs(model.V, block_mesh, ring, match_tol=1e-9 * arch.span)
+history = result.summary["history"]
+say(f"{len(history)} load steps, {sum(step['converged'] for step in history)} converged; forces in "
+    f"{result.summary['units']['force']}")
 
-# ## 5. The contact solver
+# ## 5. A sweep is a loop
 #
-# A semismooth Newton (primal-dual active-set) method solves the elastic voussoirs in contact for a given load
-# level, with MUMPS for the linear systems. The Alart-Curnier constant c scales the joint laws like the
-# masonry's stiffness across one element; contact states change with a hysteresis of 1e-10 x the weight.
+# The joints' friction coefficient from 0.4 to 0.8. With little friction the mechanism slides along the joint
+# under the load (the LP's sliding joints), and the limit load falls with the friction; with enough of it the ring
+# turns about four hinges. The rigid-block LP assumes associative friction (sliding with dilatancy), the FE
+# Coulomb's law without it: where a joint slides the FE may stop below the LP.
 
-c = arch.width * scene.masonry.young * pairs.length / block_mesh.element_size
-solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, scene.joints.friction, c,
-                       1e-10 * model.dead_weight, scene.solver.max_iterations, scene.solver.petsc)
-
-# ## 6. The limit search
-#
-# Self-weight first, then the live load rises until a step finds no equilibrium. The last converged load and the
-# first failed one bracket the limit load, to the relative tolerance. The scene's keys set the search
-# (`search_settings`: the tolerance, the first step, the maximum load, the step budget); the rigid-block LP of the
-# scene only guides it, as its first guess, never a bound.
-
-lp = collapse_load(scene)
-search = find_limit_load(solver, monitor_deflection(solver, model.monitor), search_settings(scene, model.dead_weight),
-                         guides=SearchGuides(guess=lp.level))
-
-# ## 7. The mechanism and the independent check
-#
-# At the last converged step, a joint open over half its length whose thrust is nearest a face is a hinge.
-# The rigid-block LP on the same joints gives the classical collapse load: the FE, with stiff voussoirs, tends to
-# it.
-
-hinges = [j.id for j in joint_states(solver, pairs, ring, search.last) if j.hinge]
-say(f"{search.status}: limit load in [{search.lower / 1e3:.3f}, {search.upper / 1e3:.3f}] kN "
-    f"(tolerance {search.tolerance:g}) after {len(search.steps)} load steps; hinges at joints {hinges}")
-say(f"rigid-block LP: {lp.load / 1e3:.3f} kN, hinges at joints {sorted(lp.hinges)}, sliding {sorted(lp.sliding)}")
+say("friction   rigid-block LP (kN)   LP sliding joints   FE bracket (kN)        FE/LP")
+for friction in (0.4, 0.5, 0.6, 0.8):
+    r = bridgefem.analyse(bridgefem.edit(scene, joints={"friction": friction}))
+    fe = f"[{r.limit_load.lower / 1e3:.2f}, {r.limit_load.upper / 1e3:.2f}]" if r.limit_load.upper else r.status
+    say(f"{friction:8.1f}   {r.lp.load / 1e3:19.2f}   {str(list(r.lp.sliding)):17s}   {fe:20s}   "
+        f"{r.fe_lp_ratio or float('nan'):.4f}")

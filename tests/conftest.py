@@ -12,6 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from bridgefem.petsc_start import start as _start_petsc  # before a test module imports DOLFINx: no rc files
+
+_start_petsc()
+
 ROOT = Path(__file__).resolve().parents[1]
 
 REFERENCE_ARCH = {
@@ -81,14 +85,16 @@ def write_toml(path: Path, d: dict) -> Path:
     return path
 
 
-def bridgefem(*args, ranks: int = 1, timeout: int = 600) -> subprocess.CompletedProcess:
-    """Run the installed command line, optionally under mpirun."""
+def bridgefem(*args, ranks: int = 1, timeout: int = 600, cwd: Path = ROOT, env: dict | None = None
+              ) -> subprocess.CompletedProcess:
+    """Run the installed command line in ``cwd``, optionally under mpirun, with the test's environment updated by
+    ``env``."""
     cmd = [sys.executable, "-m", "bridgefem.io.cli", *map(str, args)]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
+           "OMPI_MCA_rmaps_base_oversubscribe": "1", **(env or {})}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd)
 
 
 def run_campaign_scene(tmp_path: Path, index: int, thickness: float, seed: int = 1) -> dict:

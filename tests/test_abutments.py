@@ -16,9 +16,11 @@ import pytest
 from conftest import bridgefem, scene_dict, write_toml
 from scipy.optimize import linprog
 
-from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions
+from bridgefem.analysis.mechanism import springing_reactions
+from bridgefem.analysis.result import Analysis
+from bridgefem.analysis.runner import run_analysis
 from bridgefem.geometry.ring import ArchRing
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import SceneError, scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 

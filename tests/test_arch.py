@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from bridgefem.analysis.runner import run_analysis, springing_reactions
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.analysis.mechanism import springing_reactions
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 

@@ -11,8 +11,10 @@ from bridgefem.fe.mesh import build_block_mesh
 from bridgefem.fe.model import build_elastic_model
 from bridgefem.fe.pairs import build_pairs
 from bridgefem.geometry.ring import ArchRing, Joint, Voussoir
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.scene.schema import scene_from_dict
-from bridgefem.search.pathfollow import LIMIT_FOUND, SearchSettings, find_limit_load
+from bridgefem.search.pathfollow import LIMIT_FOUND, find_limit_load
+from bridgefem.search.records import SearchSettings
 from bridgefem.solver.newton import ContactSolver
 
 B, H, RHO, G = 1.0, 2.0, 2000.0, 9.81
@@ -48,7 +50,8 @@ def block_solver(mu: float, h: float, elements: int = 8) -> tuple[ContactSolver,
         loc.array[2 * at] += 1.0 / count  # unit push in +x
     pairs = build_pairs(model.V, bm, ring, 1e-9)
     c = scene.masonry.young * pairs.length / bm.element_size
-    return ContactSolver(model.K, model.f_dead, model.f_live, pairs, mu, c, 1e-10 * W, 60, {}), model.dead_weight
+    law = CoulombJoints.for_pairs(pairs, mu, c, 1e-10 * W)
+    return ContactSolver(model.K, model.f_dead, model.f_live, pairs, law, 60, {}), model.dead_weight
 
 
 def limit_push(mu: float, h: float, tolerance: float = 1e-3):

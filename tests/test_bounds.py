@@ -14,7 +14,7 @@ from bridgefem.io.bounds_plot import plot_bounds
 from bridgefem.limit import bounds_model
 from bridgefem.limit.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.limit.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import SceneError, load_scene, scene_from_dict
 
 

@@ -9,14 +9,9 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.laws.coulomb import ContactState
-from bridgefem.search.pathfollow import (
-    CollapseCheck,
-    SearchGuides,
-    SearchSettings,
-    StaticCap,
-    find_limit_load,
-)
+from bridgefem.laws.coulomb import CoulombJoints
+from bridgefem.search.pathfollow import find_limit_load
+from bridgefem.search.records import CollapseCheck, SearchGuides, SearchSettings, StaticCap
 from bridgefem.solver.newton import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
@@ -41,7 +36,7 @@ class OneDof:
     def _iterate(self, level):
         x = PETSc.Vec().createSeq(1, comm=PETSc.COMM_SELF)
         x.array[0] = level
-        return Iterate(x, ContactState.all_stick(0), np.zeros(0))
+        return Iterate(x, CoulombJoints.bonded(0), np.zeros(0))
 
     def initial_iterate(self):
         return self._iterate(0.0)
@@ -195,7 +190,7 @@ class Unprovable(OneDof):
 
 
 def collapse_state(settles):
-    """A collapse check (bridgefem.analysis.runner.collapse_check) that answers ``settles``; records (lower, trial)."""
+    """A collapse check (bridgefem.analysis.checks.collapse_check) that answers ``settles``; records (lower, trial)."""
     asked = []
 
     def collapsed(lower, trial, state):

@@ -133,7 +133,7 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [[], ["--options"], ["--ranks", "2"]])
 def test_readme_campaign_command_runs_and_judges(tmp_path, options):
-    """The README's campaign commands on two scenes: each is run by bridgefem (with --ranks 2 under mpirun), judged
+    """docs/robustness.md's campaign commands on two scenes: each is run by bridgefem (with --ranks 2 under mpirun), judged
     against its own LP and listed with its class; the bare ring scene 0 of seed 1 is confirmed (with --options, with
     the option drawn for it)."""
     import json

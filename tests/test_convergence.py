@@ -74,7 +74,7 @@ def test_converge_command_on_a_bare_arch_extrapolates_to_the_rigid_block_limit(t
 
     from conftest import bridgefem
 
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
     d = scene_dict()
     proc = bridgefem("converge", tmp_scene(d), "--levels", "1,2,4", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stdout + proc.stderr

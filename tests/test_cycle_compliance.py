@@ -6,7 +6,9 @@ benchmarks/solve_budgets.py."""
 import numpy as np
 from test_block import W, block_solver
 
-from bridgefem.laws.coulomb import OPEN
+from bridgefem.laws.coulomb import CoulombJoints
+
+OPEN = CoulombJoints.OPEN
 
 
 def settled_block():

@@ -6,8 +6,10 @@ from types import SimpleNamespace
 import numpy as np
 from mpi4py import MPI
 
-from bridgefem.laws.coulomb import OPEN, STICK, ContactState, CoulombJoints
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.solver.cycles import CycleCondenser
+
+OPEN, STICK = CoulombJoints.OPEN, CoulombJoints.STICK
 
 
 class MadeUpSystem:
@@ -45,7 +47,7 @@ def four_pairs():
 def test_compliance_is_the_pairs_block_and_is_kept_until_forgotten():
     system, pairs = four_pairs()
     cycles = CycleCondenser(system, reuse=True)
-    held = ContactState.all_stick(4)
+    held = CoulombJoints.bonded(4)
     d0, C = cycles.pair_response(0.0, held, pairs, np.full(4, 3e-7))
     rows = [2, 3, 6, 7]
     assert np.array_equal(C, system.S[np.ix_(rows, rows)])
@@ -62,7 +64,7 @@ def test_a_cycle_is_solved_in_the_state_the_law_accepts():
     """Pair 1 closes with lam_n = 1 um / 1 nm/N = 1000 N and pushes pair 3's gap to 1 + 0.2 = 1.2 um: pair 1
     sticks, pair 3 stays open, whatever states the cycle held them in; the others keep theirs."""
     system, pairs = four_pairs()
-    cycling = ContactState.all_stick(4)
+    cycling = CoulombJoints.bonded(4)
     cycling.state[1] = OPEN
     solved = CycleCondenser(system, reuse=False).condensed(0.0, cycling, pairs, np.zeros(4), cycling)
     assert list(solved.state) == [STICK, STICK, STICK, OPEN]

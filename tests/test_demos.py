@@ -58,15 +58,35 @@ def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the
             assert abs(float(r["fe_mid_kN"]) / float(same["fe_mid_kN"]) - 1) <= float(same["tolerance"]), (r, same)
 
 
-def test_tutorial_brackets_the_rigid_block_collapse_load():
-    """demos/tutorial.py walks the pipeline by hand: its bracket lies within 0.1 % of the rigid-block collapse load
-    of this joint layout (129.627 kN, the LP on the same joints, the load on the voussoir right of joint 6), with the
-    LP's hinges among the FE's."""
+def test_tutorial_uses_the_public_api_and_brackets_the_rigid_block_collapse_load():
+    """demos/tutorial.py imports bridgefem's public API alone; its bracket lies within 0.1 % of the rigid-block
+    collapse load of this joint layout (129.627 kN, the LP on the same joints, the load on the voussoir right of
+    joint 6), with the LP's hinges among the FE's; along its friction sweep the LP's collapse load grows with the
+    friction and every FE bracket lies within the evidence rule's 0.5 % of it."""
+    import ast
+    import re
+
+    import bridgefem
+
+    source = (ROOT / "demos" / "tutorial.py").read_text()
+    tree = ast.parse(source)
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert imported == {"bridgefem", "mpi4py"}, imported
+    used = {n.attr for n in ast.walk(tree)
+            if isinstance(n, ast.Attribute) and getattr(n.value, "id", "") == "bridgefem"}
+    assert used <= set(bridgefem.__all__), used
     proc = subprocess.run([sys.executable, "demos/tutorial.py"], cwd=ROOT, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stderr
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("limit load found: limit load in ["))
     lower, upper = (float(v) for v in line.split("[")[1].split("]")[0].split(","))
     assert lower <= 129.627 * 1.001 and upper >= 129.627 * 0.999, line
-    fe_hinges = set(map(int, line.split("hinges at joints [")[1].rstrip("]").split(",")))
+    fe_hinges = set(map(int, line.split("hinges at joints [")[1].split("]")[0].split(",")))
     assert fe_hinges >= {6, 12, 16}, line
+    rows = re.findall(r"^ +([0-9.]+) +([0-9.]+) +\[[0-9, ]*\] +\[([0-9.]+), ([0-9.]+)\]", proc.stdout, re.M)
+    assert [float(r[0]) for r in rows] == [0.4, 0.5, 0.6, 0.8], proc.stdout
+    lp = [float(r[1]) for r in rows]
+    assert lp == sorted(lp)
+    for (_, lp_kn, fe_lower, fe_upper) in rows:
+        assert float(fe_lower) <= 1.005 * float(lp_kn) and float(fe_upper) >= 0.995 * float(lp_kn), rows

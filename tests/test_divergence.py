@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 from test_block import B, W, block_solver
 
-from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
 from bridgefem.solver.divergence import DIVERGENCE_FACTOR
+
+OPEN, STICK = CoulombJoints.OPEN, CoulombJoints.STICK
 
 H_PUSH = 1.5
 TIPPING = W * B / (2 * H_PUSH)

@@ -21,9 +21,13 @@ import numpy as np
 import pytest
 from conftest import bridgefem, scene_dict, write_toml
 
-from bridgefem.analysis.runner import Analysis, run_analysis, springing_reactions, transmitted_load_check
+from bridgefem.analysis.interface import transmitted_load_check
+from bridgefem.analysis.mechanism import springing_reactions
+from bridgefem.analysis.result import Analysis
+from bridgefem.analysis.runner import run_analysis
 from bridgefem.io.results import summary
-from bridgefem.limit.rigid_block import collapse_load, min_thickness
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.thickness import min_thickness
 from bridgefem.scene.schema import Scene, scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
 

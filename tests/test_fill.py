@@ -13,21 +13,17 @@ from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.analysis.runner import (
-    interface_forces,
-    joint_states,
-    run_analysis,
-    springing_reactions,
-    transmitted_load_check,
-)
+from bridgefem.analysis.interface import interface_forces, transmitted_load_check
+from bridgefem.analysis.mechanism import joint_states, springing_reactions
+from bridgefem.analysis.runner import run_analysis
 from bridgefem.fe.mesh import FILL_BASE_TAG
 from bridgefem.fe.model import beam_lame, cell_constant, lame, strain
 from bridgefem.limit.bounds import fill_bounds
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND
 from bridgefem.search.selfweight import cohesion_continuation
-from bridgefem.solver.newton import DIVERGED_OUT_OF_BALANCE
+from bridgefem.solver.convergence import DIVERGED_OUT_OF_BALANCE
 
 FILL = {"unit_weight": 18000.0, "young": 50e6, "depth": 0.5, "extension": 2.0, "interface_friction": 0.5}
 
@@ -480,7 +476,7 @@ def test_fill_reaction_on_the_loading_beam_is_the_patch_load_through_its_centre(
 def test_loading_beams_of_touching_patches_are_refused():
     """Two patches that touch would give two beams sharing a side: the scene refuses them, naming the loads and the
     key; as pressures they are allowed."""
-    from bridgefem.analysis.runner import loading_beams
+    from bridgefem.analysis.build import loading_beams
     from bridgefem.scene.schema import SceneError
     patches = [{"kind": "patch", "position": 0.25, "length": 0.5}, {"kind": "patch", "position": 0.25 + 0.5 / 9.0,
                                                                     "length": 0.5}]

@@ -18,7 +18,9 @@ tests/test_rigid_block.py (Gilbert's mu = 0.375 on its 0.01 grid).
 import pytest
 from conftest import bridgefem
 
-from bridgefem.limit.rigid_block import NoStableThickness, dead_load_deficit, min_thickness, ring_model
+from bridgefem.limit.rigid_block import dead_load_deficit
+from bridgefem.limit.ring_blocks import ring_model
+from bridgefem.limit.thickness import NoStableThickness, min_thickness
 from bridgefem.scene.schema import scene_from_dict
 
 MU_RM, MU_MS, ETA_MS = 0.395832, 0.309215, 0.200637

@@ -18,7 +18,7 @@ import pytest
 from conftest import bridgefem, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.scene.schema import SCHEMA, scene_from_dict
+from bridgefem.scene.schema import SCHEMA, scene_from_dict, scene_scales
 
 
 def valid_scene() -> dict:
@@ -27,6 +27,7 @@ def valid_scene() -> dict:
         scene={"name": "hostile", "gravity": 9.81},
         fill={"unit_weight": 18000.0, "young": 1e8, "depth": 0.5, "extension": 2.0, "material": "elastic"},
         abutments={"model": "elastic", "height": 2.0, "movement_springing": "right", "movement_horizontal": 1e-4},
+        vehicle={"axles": [50e3, 50e3], "spacing": [1.0], "contact_length": 0.2, "dispersion": "boussinesq"},
         mesh={"elements_through_thickness": 2}, model={"plane": "strain"},
         solver={"tolerance": 0.001, "petsc": {"mat_mumps_icntl_14": 100}})
 
@@ -35,6 +36,8 @@ def bad_values(key) -> list:
     """Values the key must refuse: wrong types, out of range, nan and inf."""
     if key.kind is dict:
         return ["text", 3]
+    if key.kind is list:  # lists of numbers: their entries are checked with the section ([vehicle])
+        return ["text", 3, [float("nan")], [-1.0]]
     out = [[1, 2], {"a": 1}]
     if key.kind is str:
         return out + [42, "nonsense" if key.choices else None][:1 + bool(key.choices)]
@@ -47,11 +50,17 @@ def bad_values(key) -> list:
         out += [float("nan"), float("inf"), -float("inf")]
     if key.choices:
         out.append(max(key.choices) + 1)
+    scale = scale_of(key)
     if key.low is not None:
-        out.append(key.low - 1 if key.kind is int else key.low - max(1.0, abs(key.low)))
+        out.append(key.low - 1 if key.kind is int else key.low * scale - max(1.0, abs(key.low * scale)))
     if key.high is not None:
-        out.append(key.high * 10 + 1)
+        out.append(key.high * scale * 10 + 1)
     return [v for v in out if v is not None]
+
+
+def scale_of(key) -> float:
+    """What the key's range is a multiple of in the valid scene (1 for an absolute range)."""
+    return scene_scales(scene_from_dict(valid_scene()))[key.per] if key.per else 1.0
 
 
 def generated_cases() -> list[tuple[str, dict, str]]:
@@ -100,7 +109,8 @@ def hand_cases() -> list[tuple[str, dict, str]]:
     cases = [with_(f"[solver.petsc] {k if re.fullmatch(r'[a-z0-9_]+', k) else repr(k)}", solver={"petsc": {k: v}})
              for k, v in petsc.items()]
     names = [".", "..", "/", "../../x", "/tmp/abs", "a/b/c", "a\\b", "x\x00y", "line\nbreak", "\x1b[31m", "",
-             "   ", " lead", ".hidden", "a" * 101, "a" * 100_000]
+             "   ", " lead", ".hidden", "a" * 101, "a" * 100_000, "arch\u202egpj.exe", "\x9b31m", "a\u2066b",
+             "の" * 67]  # 67 characters, 201 bytes
     cases += [with_("[scene] name", scene={"name": n}) for n in names]
     cases += [
         with_("[scene] gravity", scene={"gravity": 1e308}),

@@ -2,8 +2,10 @@
 import numpy as np
 import pytest
 
-from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
 from bridgefem.solver.condensation import consistent_states, is_p_matrix, lcp_active_set, lemke, opens_when_pulled
+
+OPEN, STICK, SLIP = CoulombJoints.OPEN, CoulombJoints.STICK, CoulombJoints.SLIP
 
 NANO = 1e-9  # m/N
 
@@ -18,7 +20,7 @@ def states(*pairs):
 
 def solve(d0, C, mu=0.3, reference=None):
     p = len(d0)
-    reference = reference or ContactState.all_stick(p)
+    reference = reference or CoulombJoints.bonded(p)
     return consistent_states(law(p, mu), np.array(d0, dtype=float), np.array(C, dtype=float) * NANO, reference,
                              reference)
 
@@ -112,8 +114,8 @@ def test_condensed_compliance_reproduces_the_full_solve():
     with model.f_live.localForm() as loc:
         loc.array[2 * at] += 1.0 / bm.mesh.comm.allreduce(len(at))
     pairs = build_pairs(model.V, bm, ring, 1e-9)
-    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, 2.0, 1e9 * pairs.length / bm.element_size,
-                           1e-10 * W, 60, {})
+    law = CoulombJoints.for_pairs(pairs, 2.0, 1e9 * pairs.length / bm.element_size, 1e-10 * W)
+    solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, law, 60, {})
     level = 0.5 * W * B / (2 * 1.5)
     start = solver.converged_slip_reference(solver.solve_step(0.0, solver.initial_iterate()).iterate)
     out = solver.solve_step(level, start)
@@ -173,7 +175,7 @@ def test_twenty_coupled_pairs():
     stick, beyond mu lam_n = 35.3 N: it slides (slip-) with lam_t = -35.3 N and slip 2 um - 35.3 nm > 0; the others
     stick with lam_t = 0. The normal block is a P-matrix (its symmetric part is positive definite)."""
     d0, C = coupled_ring()
-    active, lam = consistent_states(law(20), d0, C, ContactState.all_stick(20), ContactState.all_stick(20))
+    active, lam = consistent_states(law(20), d0, C, CoulombJoints.bonded(20), CoulombJoints.bonded(20))
     lam_n = 1000.0 / 8.5
     sliding = np.zeros(20, dtype=bool)
     sliding[5::2] = True
@@ -192,7 +194,7 @@ def test_twenty_pairs_one_with_negative_normal_compliance():
     d0, C = coupled_ring()
     C[14, :], C[:, 14] = 0.0, 0.0
     C[14, 14] = -NANO
-    assert consistent_states(law(20), d0, C, ContactState.all_stick(20), ContactState.all_stick(20)) is None
+    assert consistent_states(law(20), d0, C, CoulombJoints.bonded(20), CoulombJoints.bonded(20)) is None
     assert not opens_when_pulled(C)
 
 
@@ -201,5 +203,5 @@ def test_reference_kept_when_consistent_above_enumeration():
     with more pairs than are enumerated, the reference active set (all closed) is kept as it is."""
     C = np.kron(np.eye(5), np.diag([-1.0, 1.0])) * NANO
     d0 = np.tile([1e-6, 0.0], (5, 1))
-    active, lam = consistent_states(law(5), d0, C, ContactState.all_stick(5), ContactState.all_stick(5))
+    active, lam = consistent_states(law(5), d0, C, CoulombJoints.bonded(5), CoulombJoints.bonded(5))
     assert list(active.state) == [STICK] * 5 and lam[:, 0] == pytest.approx(np.full(5, 1000.0))

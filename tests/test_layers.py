@@ -11,10 +11,13 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "bridgefem"
-LAYERS = ("status", "geometry", "scene", "structure", "laws", "limit", "fe", "solver", "search", "analysis", "io",
+LAYERS = ("status petsc_start", "geometry", "scene", "structure", "laws", "limit", "fe", "solver", "search", "analysis", "assess", "io",
           "")
-"""Subpackages (and the top-level module ``status``) from the bottom up; "" is the package itself (its public API
-in ``__init__``/``api``, and ``__main__``), which may import anything."""
+"""Subpackages (and the top-level modules ``status`` and ``petsc_start``, the bottom layer) from the bottom up; "" is
+the package itself (its public API in ``__init__``/``api``, and ``__main__``), which may import anything."""
+STARTS_PETSC = ("fe", "solver", "search", "analysis")
+"""The subpackages whose ``__init__`` starts PETSc without the current folder's option files
+(:func:`bridgefem.petsc_start.start`): the only ones whose modules may import PETSc or DOLFINx as they load."""
 
 
 def _module(path: Path) -> str:
@@ -44,7 +47,8 @@ def _imports(path: Path) -> set[str]:
 
 def _layer(module: str) -> int:
     parts = module.split(".")
-    return LAYERS.index(parts[1] if len(parts) > 1 and parts[1] in LAYERS else "")
+    name = parts[1] if len(parts) > 1 else ""
+    return next((i for i, layer in enumerate(LAYERS) if name in layer.split()), len(LAYERS) - 1)
 
 
 GRAPH = {_module(p): _imports(p) - {_module(p)} for p in PACKAGE.rglob("*.py")}
@@ -54,7 +58,7 @@ GRAPH = {_module(p): _imports(p) - {_module(p)} for p in PACKAGE.rglob("*.py")}
 def test_imports_point_down(module):
     """A module imports only from its own layer's package or the layers below it."""
     upward = sorted(m for m in GRAPH[module] if _layer(m) > _layer(module))
-    sideways = sorted(m for m in GRAPH[module] if _layer(m) == _layer(module) != len(LAYERS) - 1
+    sideways = sorted(m for m in GRAPH[module] if _layer(m) == _layer(module) not in (0, len(LAYERS) - 1)
                       and m.split(".")[:2] != module.split(".")[:2])
     assert not upward, f"{module} imports from a higher layer: {upward}"
     assert not sideways, f"{module} imports from another package of its layer: {sideways}"
@@ -90,3 +94,26 @@ def test_limit_is_independent_of_the_fe():
     for path in paths:
         text = path.read_text()
         assert "dolfinx" not in text and "petsc4py" not in text, path.name
+
+
+@pytest.mark.parametrize("package", STARTS_PETSC)
+def test_packages_using_petsc_start_it_first(package):
+    """Each package that uses PETSc starts it (without rc files) in its ``__init__``, before any of its modules."""
+    tree = ast.parse((PACKAGE / package / "__init__.py").read_text())
+    calls = [n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)]
+    assert "start" in calls, f"bridgefem/{package}/__init__.py does not call petsc_start.start()"
+
+
+@pytest.mark.parametrize("path", sorted(PACKAGE.rglob("*.py")), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_petsc_is_imported_only_where_it_was_started(path):
+    """A module that imports PETSc, DOLFINx or UFL as it loads lies in a package of :data:`STARTS_PETSC` (elsewhere
+    such an import would start PETSc with the current folder's option files); lazy imports inside functions run
+    after the module's own imports, which start PETSc through one of those packages."""
+    module = _module(path).split(".")
+    if len(module) > 1 and module[1] in (*STARTS_PETSC, "petsc_start"):
+        return
+    heavy = ("petsc4py", "dolfinx", "ufl", "basix", "ffcx")
+    for node in ast.parse(path.read_text()).body:
+        names = [a.name for a in node.names] if isinstance(node, ast.Import) else (
+            [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
+        assert not any(n.split(".")[0] in heavy for n in names), f"{path.name} imports {names} as it loads"

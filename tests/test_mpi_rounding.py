@@ -9,10 +9,12 @@ import pytest
 from petsc4py import PETSc
 from test_cycles import MadeUpSystem
 
-from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.solver.condensation import opens_when_pulled, pulled_margin
 from bridgefem.solver.cycles import CycleCondenser
 from bridgefem.solver.linear import CheckedSolve
+
+OPEN, STICK = CoulombJoints.OPEN, CoulombJoints.STICK
 
 
 def test_the_refinement_correction_is_the_error_of_a_perturbed_solution():
@@ -75,7 +77,7 @@ def test_a_normal_entry_within_its_rounding_is_declined(error, solved):
     P-matrix verdict (declined: its sign came out negative on 2 ranks); the same entry measured to 1e-20 m/N is
     used. Either way its amplified column costs one more solve (d0, two columns, the refinement)."""
     system = NearMechanism(error)
-    cycling = ContactState.all_stick(2)
+    cycling = CoulombJoints.bonded(2)
     cycling.state[1] = OPEN
     pairs = np.array([False, True])
     result = CycleCondenser(system, reuse=False).condensed(0.0, cycling, pairs, np.zeros(2), cycling)

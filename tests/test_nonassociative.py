@@ -14,17 +14,16 @@ from test_joint_loads import push_through, three_voussoirs
 from test_rigid_block import THREE_BLOCK_JOINTS, three_blocks
 
 from bridgefem.analysis.evidence import coulomb_limited
+from bridgefem.limit.collapse import collapse_load, collapse_state_from
 from bridgefem.limit.rigid_block import (
     BlockModel,
-    _relative_motion,
-    collapse_load,
-    collapse_state_from,
     frozen_capacity_collapse,
     generalised_loads,
-    ring_model,
+    relative_motion,
     solve_blocks,
     statics,
 )
+from bridgefem.limit.ring_blocks import ring_model
 from bridgefem.scene.schema import scene_from_dict
 
 
@@ -47,7 +46,7 @@ def assert_collapse_state(res, model, rtol=1e-6):
     n, s = res.joint_forces["n"], res.joint_forces["s"]
     scale = n.max()
     assert np.all(np.abs(s) <= model.friction * n + rtol * scale)
-    _, slip = _relative_motion(model, res.block_velocities)
+    _, slip = relative_motion(model, res.block_velocities)
     dissipation = float(np.sum(model.friction * n * np.abs(slip)))
     assert res.work_dead + res.level * res.work_live == pytest.approx(dissipation, rel=1e-5, abs=1e-6 * res.level)
 

@@ -1,4 +1,4 @@
-"""The limit search with a Newton method that wanders (bridgefem.search.pathfollow, *Failures without proof*: each trial
+"""The limit search with a Newton method that wanders (bridgefem.search.schedule, *Trial budgets*: each trial
 is given a budget of Newton iterations) on the one-degree-of-freedom fake solver of test_bracket, whose limit is known
 exactly: the budgets never cost the bracket. The iterations each trial is given are counted against the rule in
 benchmarks/solve_budgets.py."""

@@ -1,33 +1,17 @@
 """The limit search's pieces one rule at a time (bridgefem.search.pathfollow, module docstring): the bracket and its
-backtracking (*Bracket rule*, *Guess*), the step schedule and the trial budget (*Steps*, *Failures without proof*),
-the target and the collapse-state readings (*Guess*, *Collapse state*). Every expected value is worked out by hand
+backtracking (bridgefem.search.bracket: *Bracket rule*, *Suspect failures*), the step schedule and the trial budget
+(bridgefem.search.schedule: *Steps*, *Trial budgets*), the target and the collapse-state readings
+(bridgefem.search.target: *Guess*, *Collapse state*). Every expected value is worked out by hand
 from the rule's words; states are stand-ins (the pieces only store them and hand them to the collapse check)."""
 import math
 
 import numpy as np
 import pytest
 
-from bridgefem.search.pathfollow import (
-    APPROACH,
-    BACKTRACK_STEP,
-    BACKTRACKS,
-    BUDGET,
-    BUDGET_FLOOR,
-    EASY_ITERATIONS,
-    LANDING,
-    PLAUSIBLE,
-    RETRY_FLOOR,
-    RISE,
-    RISINGS,
-    SETTLED,
-    STRADDLE,
-    SUBSTEP,
-    SUSPECT,
-    CollapseCheck,
-    _Bracket,
-    _Schedule,
-    _Target,
-)
+from bridgefem.search.bracket import BACKTRACKS, SETTLED, SUBSTEP, SUSPECT, Bracket
+from bridgefem.search.records import CollapseCheck
+from bridgefem.search.schedule import BACKTRACK_STEP, BUDGET, BUDGET_FLOOR, EASY_ITERATIONS, RETRY_FLOOR, StepSchedule
+from bridgefem.search.target import APPROACH, LANDING, PLAUSIBLE, RISE, RISINGS, STRADDLE, Target
 
 TOLERANCE = 1e-3
 
@@ -35,7 +19,7 @@ TOLERANCE = 1e-3
 def climbed(*levels, soft=math.inf):
     """A bracket that converged at each of ``levels`` in turn (states "S1", "S2", ..., visits 1, 2, ...) from the
     settled state "S0" at 0, with the soft bound ``soft`` above them."""
-    b = _Bracket(TOLERANCE, 250.0, "S0")
+    b = Bracket(TOLERANCE, 250.0, "S0")
     for visit, level in enumerate(levels, start=1):
         b.advance(level, f"S{visit}", visit, iterations=3)
     b.soft = soft
@@ -131,7 +115,7 @@ def test_a_level_failed_from_this_state_and_from_any_state():
 
 
 def test_without_a_fill_every_converged_step_doubles_the_next():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.converged(EASY_ITERATIONS, 100.0)
     assert s.step == 200.0
     s.converged(30, 100.0)  # however many iterations it took: only a failure shortens a ring's step
@@ -139,7 +123,7 @@ def test_without_a_fill_every_converged_step_doubles_the_next():
 
 
 def test_with_an_elastic_fill_only_an_easy_step_doubles():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=True)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=False, flat=True)
     s.converged(EASY_ITERATIONS, 100.0)
     assert s.step == 200.0
     s.converged(EASY_ITERATIONS + 2, 100.0)
@@ -149,21 +133,21 @@ def test_with_an_elastic_fill_only_an_easy_step_doubles():
 
 
 def test_with_a_plastic_fill_an_easy_step_doubles_and_a_hard_one_keeps_its_length():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
     s.converged(EASY_ITERATIONS, 100.0)
     assert s.step == 200.0
     s.converged(EASY_ITERATIONS + 1, 100.0)  # harder than the step before it and than EASY_ITERATIONS
     assert s.step == 100.0
-    slow = _Schedule(250.0, self_weight_iterations=EASY_ITERATIONS + 3, plastic=True, flat=True)
+    slow = StepSchedule(250.0, self_weight_iterations=EASY_ITERATIONS + 3, plastic=True, flat=True)
     slow.converged(EASY_ITERATIONS + 3, 100.0)  # as many as the self-weight step took
     assert slow.step == 200.0
-    unchecked = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=False)  # stiffness_drop = 0
+    unchecked = StepSchedule(250.0, self_weight_iterations=2, plastic=True, flat=False)  # stiffness_drop = 0
     unchecked.converged(EASY_ITERATIONS + 1, 100.0)  # a plastic fill keeps the rule without the flat-curve check
     assert unchecked.step == 100.0
 
 
 def test_with_a_plastic_fill_a_step_no_harder_than_the_one_before_is_easy():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=True, flat=True)
     s.converged(12, 100.0)
     assert s.step == 100.0  # harder than the self-weight step's 2
     s.converged(11, 100.0)
@@ -173,7 +157,7 @@ def test_with_a_plastic_fill_a_step_no_harder_than_the_one_before_is_easy():
 
 
 def test_arrival_at_the_target_sets_the_width_and_a_cleared_soft_bound_keeps_half_its_failed_step():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.converged(2, 100.0, width=0.5)
     assert s.step == 0.5
     s.converged(9, 10.0, failed=80.0)
@@ -183,7 +167,7 @@ def test_arrival_at_the_target_sets_the_width_and_a_cleared_soft_bound_keeps_hal
 
 
 def test_a_soft_failure_halves_the_step_and_a_backtrack_shortens_the_discarded_one():
-    s = _Schedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
+    s = StepSchedule(250.0, self_weight_iterations=2, plastic=False, flat=False)
     s.halve(80.0)
     assert s.step == 40.0
     s.back_off(80.0)
@@ -191,7 +175,7 @@ def test_a_soft_failure_halves_the_step_and_a_backtrack_shortens_the_discarded_o
 
 
 def test_the_trial_budget_follows_the_hardest_step_and_a_retried_level_the_latest():
-    s = _Schedule(250.0, self_weight_iterations=1, plastic=False, flat=False)
+    s = StepSchedule(250.0, self_weight_iterations=1, plastic=False, flat=False)
     assert BUDGET * 1 < BUDGET_FLOOR and s.budget(again=False) == BUDGET_FLOOR
     s.converged(15, 100.0)
     assert BUDGET * 15 > BUDGET_FLOOR and s.budget(again=False) == BUDGET * 15
@@ -202,13 +186,13 @@ def test_the_trial_budget_follows_the_hardest_step_and_a_retried_level_the_lates
 
 
 def test_a_failure_below_the_target_by_more_than_plausible_is_suspect():
-    t = _Target(1000.0, None)
+    t = Target(1000.0, None)
     assert t.plausible((1.0 - PLAUSIBLE) * 1000.0) and not t.plausible((1.0 - PLAUSIBLE) * 1000.0 - 1e-6)
-    assert _Target(math.inf, None).plausible(1.0)
+    assert Target(math.inf, None).plausible(1.0)
 
 
 def test_an_approach_step_leaves_a_fraction_of_the_distance_and_lands_on_the_target_when_near():
-    t = _Target(1000.0, None)
+    t = Target(1000.0, None)
     assert t.approach(0.0, 10000.0, failed_here=False) == pytest.approx(1000.0 - APPROACH * 1000.0)
     assert t.approach(0.0, 100.0, failed_here=False) == 100.0  # the step bounds it
     near = 1000.0 - LANDING * 1000.0 / APPROACH + 1.0  # leaves less than LANDING x T
@@ -234,7 +218,7 @@ def test_a_falling_collapse_level_is_extrapolated_along_the_secant_to_where_it_m
     """F falls from 1040 to 1030 over the step 900 -> 1000: dF/dL = -0.1, so the reserve F - L = 30 vanishes at
     L + (F - L) / (1 - dF/dL) = 1000 + 30 / 1.1; the target is STRADDLE widths below it."""
     readings = Readings({"S1": 1040.0, "S2": 1030.0})
-    t = _Target(5000.0, readings.check())
+    t = Target(5000.0, readings.check())
     t.read(climbed(900.0, 1000.0, soft=1100.0))
     assert t.foreseen == pytest.approx(1000.0 + 30.0 / 1.1)
     assert t.level == pytest.approx((1000.0 + 30.0 / 1.1) / (1.0 + STRADDLE * TOLERANCE))
@@ -243,10 +227,10 @@ def test_a_falling_collapse_level_is_extrapolated_along_the_secant_to_where_it_m
 def test_a_slowly_rising_collapse_level_is_taken_as_it_is_and_never_raises_the_target():
     readings = Readings({"S1": 1040.0, "S2": 1060.0})  # rose by 20 <= RISE x 100
     assert 20.0 <= RISE * 100.0
-    t = _Target(5000.0, readings.check())
+    t = Target(5000.0, readings.check())
     t.read(climbed(900.0, 1000.0, soft=1100.0))
     assert t.foreseen == 1060.0
-    low = _Target(900.0, readings.check())
+    low = Target(900.0, readings.check())
     low.read(climbed(900.0, 1000.0, soft=1100.0))
     assert low.foreseen == 1060.0 and low.level == 900.0
 
@@ -257,7 +241,7 @@ def test_a_collapse_level_rising_slower_than_the_load_is_extrapolated_to_where_i
     at L + (F - L) / (1 - dF/dL) = 1000 + 110 / 0.3."""
     readings = Readings({"S1": 1040.0, "S2": 1110.0})
     assert RISE < 0.7 < 1.0
-    t = _Target(5000.0, readings.check())
+    t = Target(5000.0, readings.check())
     t.read(climbed(900.0, 1000.0, soft=1100.0))
     assert t.foreseen == pytest.approx(1000.0 + 110.0 / 0.3) and not t.risen
 
@@ -265,7 +249,7 @@ def test_a_collapse_level_rising_slower_than_the_load_is_extrapolated_to_where_i
 def test_a_fast_rising_collapse_level_is_not_settled_and_reading_stops_after_enough_of_them():
     levels = {f"S{i}": 1000.0 + 100.0 * i for i in range(RISINGS + 3)}  # each rises by the whole step
     readings = Readings(levels)
-    t = _Target(5000.0, readings.check())
+    t = Target(5000.0, readings.check())
     b = climbed(soft=math.inf)
     for i in range(1, RISINGS + 3):
         b.advance(100.0 * i, f"S{i}", i, iterations=3)
@@ -278,7 +262,7 @@ def test_a_fast_rising_collapse_level_is_not_settled_and_reading_stops_after_eno
 
 def test_no_collapse_reading_without_a_failure_above():
     readings = Readings({"S1": 1040.0, "S2": 1030.0})
-    t = _Target(5000.0, readings.check())
+    t = Target(5000.0, readings.check())
     t.read(climbed(900.0, 1000.0))
     assert t.foreseen is None and t.level == 5000.0 and not readings.read
 

@@ -6,7 +6,7 @@ and still bracket the known limit. And with a *hard level*: a band of levels tha
 import pytest
 from test_bracket import OneDof, assert_bracket, search
 
-from bridgefem.search.pathfollow import BACKTRACK_STEP
+from bridgefem.search.schedule import BACKTRACK_STEP
 from bridgefem.solver.newton import StepOutcome
 
 

@@ -6,7 +6,9 @@ import pytest
 from conftest import run_campaign_scene
 from test_block import W, block_solver
 
-from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
+
+OPEN, STICK, SLIP = CoulombJoints.OPEN, CoulombJoints.STICK, CoulombJoints.SLIP
 
 
 def test_a_predicted_step_may_return_to_the_start_active_set():

@@ -1,4 +1,4 @@
-"""A limit that depends on the mesh is re-run on finer meshes (bridgefem.analysis.runner.run_analysis, issue 12)."""
+"""A limit that depends on the mesh is re-run on finer meshes (bridgefem.analysis.refinement, issue 12)."""
 import json
 import math
 from types import SimpleNamespace
@@ -9,17 +9,17 @@ from conftest import campaign_scene, scene_dict
 from petsc4py import PETSc
 from test_bracket import LIMIT, OneDof, assert_bracket, search, static_cap
 
+from bridgefem.analysis import refinement
 from bridgefem.analysis import runner as analysis
-from bridgefem.analysis.runner import (
+from bridgefem.analysis.refinement import (
     MAX_REFINEMENTS,
     REFINED_ELEMENTS_MAX,
     REFINEMENT_BUDGET,
     REFINEMENT_FLOOR,
     SETTLED_MOVE,
-    first_step,
     refined_elements,
-    run_analysis,
 )
+from bridgefem.analysis.runner import first_step, run_analysis
 from bridgefem.fe import sizing
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.solver.linear import CheckedSolve, SolveBudgetSpent
@@ -43,11 +43,12 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
     solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser
     run's level each run was given, to ``budgets`` its budget of linear solves and to ``paths`` the coarser run's
-    path it was given (each run has no converged state; its ``pairs`` name its elements through the thickness)."""
+    path it was given (each run has no converged state; its ``pairs`` name its elements through the thickness; the
+    read-outs of the last run, ``_conclude``, are skipped)."""
     meshes, queue, lowers, solves = [], list(outcomes), list(lowers), list(solves)
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
-    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None, path=None):
+    def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None, path=None, joint_law=None):
         meshes.append(scene.mesh.elements_through_thickness)
         if paths is not None:
             paths.append(path)
@@ -65,6 +66,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                                pairs=f"pairs of {scene.mesh.elements_through_thickness}", converged=[])
 
     monkeypatch.setattr(analysis, "_analyse", fake)
+    monkeypatch.setattr(analysis, "_conclude", lambda an, comm: None)
     return meshes
 
 
@@ -261,7 +263,7 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     weights, a failure; the re-run with 8 elements is within 0.5 % of the LP (computed here independently) and
     confirmed by it; results.json names the mesh used and the run it replaced."""
     from bridgefem.io.results import write_results
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict({**SCENE_45, "mesh": {"elements_through_thickness": 4}})
     lp = collapse_load(scene).load
@@ -284,10 +286,10 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
     LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves (no floor) the re-run stops
     unsettled, the confirmed run is the answer (below the LP, computed here independently) and the stopped run is
     listed, having spent its budget exactly: the solve past it is never made, whatever asks for it."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
-    monkeypatch.setattr(analysis, "REFINEMENT_BUDGET", 0.1)
-    monkeypatch.setattr(analysis, "REFINEMENT_FLOOR", 0)
+    monkeypatch.setattr(refinement, "REFINEMENT_BUDGET", 0.1)
+    monkeypatch.setattr(refinement, "REFINEMENT_FLOOR", 0)
     scene = scene_from_dict({**campaign_scene(55, 3.2951, seed=2), "mesh": {"elements_through_thickness": 4}})
     lines = []
     an = run_analysis(scene, notice=lines.append)
@@ -307,7 +309,7 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp():
     level whose width touches the static bound (the rigid-block LP under the FE's loads) and stands, within 0.1 % of
     the LP on the same joints (computed here independently). (The three runs' solves against the issue's 150:
     benchmarks/solve_budgets.py.)"""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(193, 1.8177))
     an = run_analysis(scene)
@@ -325,7 +327,7 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
     more than elastic blocks stop below it (both runs within the issue's 150 linear solves, 153 when the re-run's
     trials started from the coarser run's path only up to 0.98 of its last level: benchmarks/solve_budgets.py)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
     lines = []
@@ -353,7 +355,7 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     Both runs counted, the issue's 150 linear solves are a budget of benchmarks/solve_budgets.py (#166: 195 when the
     trials started from the re-run's own secant; #146: 176 when the path stopped at 0.98 of its last level, and its
     target failed from 12 % below)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
     an = run_analysis(scene)

@@ -9,18 +9,10 @@ from conftest import scene_dict, write_toml
 import bridgefem.limit.rigid_block as rigid_block
 from bridgefem.geometry.ring import build_ring
 from bridgefem.io.cli import main
-from bridgefem.limit.rigid_block import (
-    BlockModel,
-    LPFailure,
-    NoStableThickness,
-    collapse_load,
-    dead_load_deficit,
-    generalised_loads,
-    min_thickness,
-    ring_model,
-    ring_under_forces,
-    solve_blocks,
-)
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.rigid_block import BlockModel, LPFailure, dead_load_deficit, generalised_loads, solve_blocks
+from bridgefem.limit.ring_blocks import ring_model, ring_under_forces
+from bridgefem.limit.thickness import NoStableThickness, min_thickness
 from bridgefem.scene.schema import Fill, scene_from_dict
 
 

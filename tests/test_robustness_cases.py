@@ -3,7 +3,7 @@
 import pytest
 
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.status import Status
 
@@ -78,7 +78,7 @@ def test_a_ring_of_many_voussoirs_grows_its_steps_after_every_converged_one():
     """Campaign seed 5, scene 75 (pointed, 136 voussoirs, t = 5.45 m, mu = 0.783): each converged step took 3 to 18
     Newton iterations, more than the 4 after which the step used to double, so the search crept to the LP's level in
     steps of a few per cent (171 linear solves). A bare ring's step now doubles after every converged step
-    (bridgefem.search.pathfollow, *Steps*): the same bracket at the LP on the same joints (computed here independently)
+    (bridgefem.search.schedule, *Steps*): the same bracket at the LP on the same joints (computed here independently)
     within the issue's 150 solves."""
     assert_first_mesh_brackets_the_lp(index=75, thickness=5.4509, seed=5)
 
@@ -88,7 +88,7 @@ def test_a_sliding_collapse_is_bracketed_where_the_reserve_of_its_states_vanishe
     associative LP, and the collapse level F of each converged state rises by 0.76 of the step that reached it, so a
     search that aimed at F crept up to the limit a share of the reserve F - L at a time (after its state at 2521.8 kN:
     17 more trials, 44 linear solves on 4 elements, 104 in all). F - L now vanishes along its secant
-    (bridgefem.search.pathfollow, *Collapse state*): two trials close the bracket, within 0.5 % of the rigid-block Tresca
+    (bridgefem.search.target, *Collapse state*): two trials close the bracket, within 0.5 % of the rigid-block Tresca
     fixed point (Gilbert, Casapulla & Ahmed 2006, computed here); its budget of 80 solves:
     benchmarks/solve_budgets.py."""
     from conftest import campaign_scene

@@ -8,7 +8,7 @@ from bridgefem.scene.schema import SceneError, keys_markdown, load_scene, resolv
 
 
 @pytest.mark.parametrize("sections,expected", [
-    ({"arch": {"thickness": -1.0}}, ["[arch] thickness", "-1.0", "positive"]),
+    ({"arch": {"thickness": -1.0}}, ["[arch] thickness", "-1.0", "0.0001 x span", "0.0009 to 9 m"]),
     ({"arch": {"voussoirs": 1}}, ["[arch] voussoirs", "1", "2 to 4096"]),
     ({"arch": {"voussoirs": 16.5}}, ["[arch] voussoirs", "16.5", "int"]),
     ({"arch": {"shape": "gothic"}}, ["[arch] shape", "gothic", "semicircular"]),

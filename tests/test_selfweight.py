@@ -1,5 +1,5 @@
 """The self-weight state (bridgefem.search.selfweight) and the re-run of a failure without proof on a finer mesh
-(bridgefem.analysis.runner.refinement_reason), issue 12."""
+(bridgefem.analysis.refinement.refinement_reason), issue 12."""
 from types import SimpleNamespace
 
 import numpy as np
@@ -7,7 +7,8 @@ import pytest
 from conftest import campaign_scene
 from mpi4py import MPI
 
-from bridgefem.analysis.runner import refinement_reason, run_analysis
+from bridgefem.analysis.refinement import refinement_reason
+from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
@@ -29,7 +30,7 @@ class RingSolver:
     def __init__(self):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING
 
-    def set_friction(self, mu, factor):
+    def set_friction_factor(self, factor):
         self.friction_factor = factor
 
     def use(self, setting):
@@ -129,7 +130,8 @@ def test_a_ring_near_its_least_thickness_stands():
     through the thickness, or after a re-run with 8 where the self-weight fails without proof on 4, as it did before
     predicted steps could return to their start's active set) and brackets the LP's collapse load (computed
     independently) within 0.5 %."""
-    from bridgefem.limit.rigid_block import collapse_load, min_thickness
+    from bridgefem.limit.collapse import collapse_load
+    from bridgefem.limit.thickness import min_thickness
 
     scene = scene_from_dict(SCENE_251)
     assert 1.0 < scene.arch.thickness / min_thickness(scene).thickness < 1.005

@@ -35,6 +35,15 @@ def test_a_scene_beyond_the_machine_is_refused_with_the_numbers():
     assert 400 < small.cells < 600 and 0.1e9 < small.memory < 0.5e9
 
 
+def test_a_fill_meshed_too_finely_is_refused_naming_the_fill():
+    """The finest fill mesh the range allows (2e-3 x span) over the deepest and longest fill: the size check
+    refuses it naming the fill's keys (not only the ring's)."""
+    fill = {"unit_weight": 18000.0, "young": 1e8, "depth": 90.0, "extension": 90.0, "element_size": 0.018}
+    with pytest.raises(SceneError, match=r"voussoirs = 16.*\[fill\] element_size = 0.018, depth = 90, extension = 90"
+                                         r".*a coarser fill mesh or a smaller fill"):
+        check_size(scene_from_dict(scene_dict(fill=fill)))
+
+
 @pytest.mark.slow
 def test_a_large_run_prints_its_estimate_and_phases(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(cli, "LARGE_DOFS", 0)

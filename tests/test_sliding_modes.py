@@ -8,15 +8,22 @@ from conftest import run_campaign_scene
 from mpi4py import MPI
 from test_block import W, block_solver
 
-from bridgefem.laws.coulomb import OPEN, SLIP, STICK, ContactState
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
 from bridgefem.solver.mechanism import Mode, judge
 from bridgefem.solver.system import PROXIMAL
+
+OPEN, STICK, SLIP = CoulombJoints.OPEN, CoulombJoints.STICK, CoulombJoints.SLIP
+
+
+def _rules(state, sign, mu=0.5):
+    """What the Coulomb law forbids a mode of the made-up active set (``state``, ``sign``)."""
+    active = ContactState(np.asarray(state, dtype=np.int8), np.asarray(sign, dtype=np.int8))
+    return CoulombJoints.for_pairs(active.state, mu, np.ones(len(active.state)), 0.0).mode_rules(active)
 
 
 def _judged(d, state, sign, works=(1.0, 1.0)):
     n = len(d)
-    return judge(Mode(np.asarray(d, dtype=float), np.asarray(state, dtype=np.int8), np.asarray(sign, dtype=np.int8),
-                      np.full(n, 0.5), np.arange(n), works, (1.0, 1.0)))
+    return judge(Mode(np.asarray(d, dtype=float), _rules(state, sign), np.arange(n), works, (1.0, 1.0)))
 
 
 def test_only_a_slip_against_the_friction_force_marks_a_sliding_mode():
@@ -67,8 +74,7 @@ def test_a_mode_flawed_both_ways_runs_the_way_its_forces_push():
     friction forces push it (their power, here given): positive, pair 0 slips backwards and is the one to stick."""
     d, state, sign = [[0.0, 1.0], [0.0, 1.0]], [SLIP, SLIP], [1, -1]
     for power, repaired in ((1.0, [True, False]), (-1.0, [False, True])):
-        v = judge(Mode(np.asarray(d), np.asarray(state, dtype=np.int8), np.asarray(sign, dtype=np.int8),
-                       np.full(2, 0.5), np.arange(2), (1.0, 1.0), (1.0, 1.0), power=(power, 1.0)))
+        v = judge(Mode(np.asarray(d), _rules(state, sign), np.arange(2), (1.0, 1.0), (1.0, 1.0), power=(power, 1.0)))
         assert v.slides and v.repair.tolist() == repaired
 
 
@@ -78,8 +84,8 @@ def test_a_tie_without_power_is_broken_the_same_way_whichever_sign_the_solve_gav
     is rounding, so the verdict must not depend on it: both signs repair the springing at the lower joint."""
     state, sign, joint = [SLIP] * 4, [-1, -1, 1, 1], [0, 0, 5, 5]
     for d_t in (1.0, -1.0):
-        v = judge(Mode(np.column_stack([np.zeros(4), np.full(4, d_t)]), np.asarray(state, dtype=np.int8),
-                       np.asarray(sign, dtype=np.int8), np.full(4, 0.5), np.asarray(joint), (1.0, 1.0), (1.0, 1.0)))
+        v = judge(Mode(np.column_stack([np.zeros(4), np.full(4, d_t)]), _rules(state, sign), np.asarray(joint),
+                       (1.0, 1.0), (1.0, 1.0)))
         assert v.slides and v.repair.tolist() == [True, True, False, False]
 
 
@@ -144,9 +150,9 @@ def test_a_joint_slides_when_every_closed_pair_outside_the_repair_slips_one_way(
     active = ContactState(np.array([SLIP, SLIP, OPEN, SLIP, STICK, OPEN, OPEN, SLIP, STICK, SLIP], dtype=np.int8),
                           np.array([1, 1, 0, -1, 0, 0, 0, -1, 0, 1], dtype=np.int8))
     held = np.zeros(len(joint), bool)
-    assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0, 0]
+    assert CoulombJoints.sliding_joints(active, joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0, 0]
     held[8] = True
-    assert active.sliding_joints(joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, -1, -1, 0]
+    assert CoulombJoints.sliding_joints(active, joint, held, MPI.COMM_SELF).tolist() == [1, 1, 1, 0, 0, 0, 0, -1, -1, 0]
 
 
 def test_a_joint_proposed_to_slide_both_ways_keeps_its_new_slips_only():
@@ -158,6 +164,6 @@ def test_a_joint_proposed_to_slide_both_ways_keeps_its_new_slips_only():
                             np.array([-1, 0, 0, 0, 0, -1, 0, 0, 0, 0], dtype=np.int8))
     proposal = ContactState(np.array([SLIP, SLIP, SLIP, OPEN, OPEN, SLIP, SLIP, STICK, SLIP, SLIP], dtype=np.int8),
                             np.array([-1, 1, 1, 0, 0, -1, 1, 0, 1, -1], dtype=np.int8))
-    assert proposal.opposed_slips(previous, joint, MPI.COMM_SELF).tolist() == [True] + [False] * 9
+    assert CoulombJoints.opposed_slips(proposal, previous, joint, MPI.COMM_SELF).tolist() == [True] + [False] * 9
     one_way = ContactState(proposal.state.copy(), np.where(np.arange(10) < 3, -1, proposal.sign).astype(np.int8))
-    assert not one_way.opposed_slips(previous, joint, MPI.COMM_SELF).any()
+    assert not CoulombJoints.opposed_slips(one_way, previous, joint, MPI.COMM_SELF).any()

@@ -12,7 +12,9 @@ from bridgefem.analysis.runner import run_analysis
 from bridgefem.analysis.static_bound import block_loads, fe_blocks, static_cap
 from bridgefem.fe.mesh import build_block_mesh
 from bridgefem.fe.model import build_elastic_model
-from bridgefem.limit.rigid_block import BlockModel, Statics, collapse_load, ring_model, standing_deficit
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.rigid_block import BlockModel, Statics, standing_deficit
+from bridgefem.limit.ring_blocks import ring_model
 from bridgefem.scene.schema import scene_from_dict
 from bridgefem.status import Status
 from bridgefem.structure.ring import scene_ring

@@ -9,8 +9,10 @@ from conftest import bridgefem, write_toml
 from test_block import block_solver
 
 from bridgefem.fe.pairs import GROUND
-from bridgefem.laws.coulomb import OPEN, STICK, ContactState
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
 from bridgefem.solver.mechanism import FIRST_CONTACT, first_contact
+
+OPEN, STICK = CoulombJoints.OPEN, CoulombJoints.STICK
 
 
 def _lifted_block(lift: float, tilt: float):
@@ -42,13 +44,13 @@ def test_the_repair_keeps_the_pairs_that_close_first_along_the_mode():
     rate = -(system.split(system._mode)[2][:, 0] - system.ground[:, 0])  # the mode's closing, 1 at every pair
     assert rate == pytest.approx(np.ones(len(solver.pairs)), rel=1e-12)
     everything = np.ones(len(solver.pairs), dtype=bool)
-    first = first_contact(everything, rate, gap, active.state)
+    first = first_contact(everything, rate, gap, active.state == OPEN)
     assert np.flatnonzero(first).tolist() == np.flatnonzero(tilt * solver.pairs.position
                                                             <= FIRST_CONTACT * lift).tolist() == [0, 1, 2]
     last = np.arange(len(solver.pairs)) == len(solver.pairs) - 1
-    assert np.flatnonzero(first_contact(last, rate, gap, active.state)).tolist() == [0, 1, 2]
+    assert np.flatnonzero(first_contact(last, rate, gap, active.state == OPEN)).tolist() == [0, 1, 2]
     active.state[4] = STICK
-    kept = first_contact(np.arange(len(solver.pairs)) == 4, rate, gap, active.state)
+    kept = first_contact(np.arange(len(solver.pairs)) == 4, rate, gap, active.state == OPEN)
     assert np.flatnonzero(kept).tolist() == [4]
 
 

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from conftest import scene_dict
 
-from bridgefem.analysis.runner import JointState, _mark_hinges, springing_reactions
+from bridgefem.analysis.mechanism import JointState, _mark_hinges, springing_reactions
 from bridgefem.geometry.ring import build_ring
 from bridgefem.io.cli import _collapse
 from bridgefem.io.plots import bracket_decimals, format_bracket, plot_load_deflection, plot_mechanism
-from bridgefem.limit.rigid_block import collapse_load
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.schema import scene_from_dict
 
 

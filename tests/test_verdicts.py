@@ -4,16 +4,20 @@ import numpy as np
 import pytest
 
 from bridgefem.analysis.evidence import SlipCheck, confirm, coulomb_limited, needs_slip_check
-from bridgefem.laws.coulomb import OPEN, SLIP, STICK
+from bridgefem.laws.coulomb import ContactState, CoulombJoints
 from bridgefem.solver.mechanism import Mode, judge
 from bridgefem.status import Status
+
+OPEN, STICK, SLIP = CoulombJoints.OPEN, CoulombJoints.STICK, CoulombJoints.SLIP
 
 
 def mode(d, state, sign=None, mu=0.6, works=(1.0, 1.0), scales=(1.0, 1.0)):
     d = np.asarray(d, dtype=float)
     n = len(d)
-    return Mode(d, np.asarray(state, dtype=np.int8), np.zeros(n, np.int8) if sign is None else np.asarray(sign, np.int8),
-                np.full(n, mu), np.arange(n), works, scales)
+    active = ContactState(np.asarray(state, dtype=np.int8),
+                          np.zeros(n, np.int8) if sign is None else np.asarray(sign, np.int8))
+    rules = CoulombJoints.for_pairs(d, mu, np.ones(n), 0.0).mode_rules(active)
+    return Mode(d, rules, np.arange(n), works, scales)
 
 
 def test_a_hinge_that_opens_under_positive_work_proves_collapse():

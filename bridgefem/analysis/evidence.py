@@ -3,65 +3,61 @@
 The search ends a bracket (or calls a ring unstable) on a failed load step that showed a mechanism. That is
 evidence of collapse only when
 
-1. the step's diverging mode *proves* it (:mod:`bridgefem.solver.newton`, *Mechanism verdicts*: an admissible rigid-block
-   hinge mode on which the loads do positive work, so that no equilibrium with compressive joints exists); or
-2. the rigid-block LP on the same joints (:func:`bridgefem.limit.rigid_block.collapse_load`, associative friction) gives
-   the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
-3. for a limit with sliding joints below the associative LP: the FE's last converged state is a *collapse state*
-   of its rigid blocks (:class:`SlipCheck`). Its joint forces balance every voussoir under the FE's own loads at
-   the bracket's lower end (the assembled self-weight and live load, :func:`bridgefem.analysis.static_bound.block_loads`) and
-   obey no tension and Coulomb friction pair by pair, so they are statically admissible for the rigid blocks with
-   each joint's shear capacity frozen at mu x the FE's normal force (:func:`bridgefem.limit.rigid_block.
-   frozen_capacity_collapse`). That *frozen* LP has a shear limit independent of the normal force, hence normality
-   and the bound theorems (Livesley 1978): its level is at least the FE's lower end. When it lies within
-   ``AGREEMENT`` of the bracket, the FE's forces are an optimal state of it to that tolerance: on its mechanism
-   they do the mechanism's dissipation up to (level - lower) x the live load's unit work (virtual work; exactly,
-   by complementary slackness, at equality), i.e. the sliding joints carry mu n_FE against the slip and the
-   thrust sits at the hinges' edges. That mechanism strains no voussoir and its slips do not dilate (the FE's
-   non-associative Coulomb law), so the blocks can move on it with the FE's forces unchanged at the FE's load: the
-   load-deflection curve of the FE's state is flat there. The rule asks for that level within ``AGREEMENT`` of the
-   bracket, a mechanism that slides somewhere and only at joints whose FE forces are at their Coulomb limit against
-   the slip (:func:`coulomb_limited`), the same frozen LP under the scene's exact voussoir weights within
-   ``AGREEMENT`` too (the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a limit that is small
-   against the self-weight by far more; otherwise the limit depends on the mesh and a finer one is tried), and the
-   FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
+1. the step's diverging mode *proves* it (:mod:`bridgefem.solver.newton`, *Mechanism verdicts*: an admissible
+   rigid-block hinge mode on which the loads do positive work, so that no equilibrium with compressive joints
+   exists); or
+2. the rigid-block LP on the same joints (:func:`bridgefem.limit.collapse.collapse_load`, associative friction)
+   gives the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
+3. for a limit with sliding joints below the associative LP: the FE's last converged state is a *collapse state* of its
+   rigid blocks (:class:`SlipCheck`). Its joint forces balance every voussoir under the FE's own loads at the bracket's
+   lower end (the assembled self-weight and live load, :func:`bridgefem.analysis.static_bound.block_loads`) and obey no
+   tension and Coulomb friction pair by pair, so they are statically admissible for the rigid blocks with each joint's
+   shear capacity frozen at mu x the FE's normal force (:func:`bridgefem.limit.rigid_block.frozen_capacity_collapse`).
+   That *frozen* LP has a shear limit independent of the normal force, hence normality and the bound theorems (Livesley
+   1978): its level is at least the FE's lower end. When it lies within ``AGREEMENT`` of the bracket, the FE's forces
+   are an optimal state of it to that tolerance: on its mechanism they do the mechanism's dissipation up to (level -
+   lower) x the live load's unit work (virtual work; exactly, by complementary slackness, at equality), i.e. the sliding
+   joints carry mu n_FE against the slip and the thrust sits at the hinges' edges. That mechanism strains no voussoir
+   and its slips do not dilate (the FE's non-associative Coulomb law), so the blocks can move on it with the FE's forces
+   unchanged at the FE's load: the load-deflection curve of the FE's state is flat there. The rule asks for that level
+   within ``AGREEMENT`` of the bracket, a mechanism that slides somewhere and only at joints whose FE forces are at
+   their Coulomb limit against the slip (:func:`coulomb_limited`), the same frozen LP under the scene's exact voussoir
+   weights within ``AGREEMENT`` too (the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a limit
+   that is small against the self-weight by far more; otherwise the limit depends on the mesh and a finer one is tried),
+   and the FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
    Radenkovic's first theorem).
 
-4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the
-   FE's own assembled block loads (:func:`bridgefem.analysis.static_bound.block_loads`) has the collapse level LP_fe. A
-   converged FE state at level L balances every voussoir under those loads (to the solver's equilibrium residual)
-   with pair forces that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t,
-   m = sum (p - t/2) lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they
-   satisfy the LP's yield rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE
-   equilibrium exists above LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion,
-   and its rows are exactly the resultants of the pairs' laws (no row is stricter than the FE's law), so the bound
-   holds on every bare ring, abutment bases included (the abutments are blocks of both). The search never tries a
-   level above LP_fe and ends when a step converges within the bracket's width of it; the verdict is then a limit
-   in [L, LP_fe] with the evidence "static theorem", after an explicit check (:func:`admissible`) that the
-   converged state's joint resultants satisfy the LP's rows within the FE's own tolerances: a pair's residual is at
-   most 10 x the solver's force tolerance delta, so per joint with k pairs sigma = k delta bounds the net tension,
-   the Coulomb excess by (1 + mu) sigma and the moment's excess by sigma t; a block's equilibrium residual is at most
-   its nodes x the solver's scaled residual (:data:`bridgefem.solver.newton.EQUILIBRIUM_RTOL`) x the largest applied nodal
-   force eps (forces) and that x twice its radius about its reference point (moments). A state that waives the law
-   at some pairs (bonded or frozen: an Alart-Curnier residual up to :data:`bridgefem.solver.newton.BOND_RTOL` x eps each)
-   is refused: a joint tension of eps per waived pair raises the LP's level by 5 to 22 N per N on campaign seed 1
-   (#193, #299, #48, #230), up to 5e-4 of #193's limit, more than the bracket's tolerance. A refused state, like one
-   outside the tolerances, voids the rule for the search (which goes on without the bound). The bound caps every
-   search (no FE equilibrium exists above it, whatever the mesh), but the verdict asks for the bracket within
-   ``AGREEMENT`` of the LP with the exact voussoirs' weights too (as evidence 3 does: the mesh's straight-edged
-   voussoirs weigh O(h^2) differently, which moves a limit that is small against the self-weight by far more);
-   elsewhere the other rules decide (a finer mesh among them). Without the cap where LP_fe and that LP differ by
-   more than ``AGREEMENT``, the searches ended at the same levels by failing trials above LP_fe instead, dearer
-   (campaign seed 1: #193 533 -> 907 linear solves, #297 220 -> 554, #45 40 -> 71; classes and limits unchanged).
-   The bound is the FE's up to those tolerances (k delta per joint moves the LP's level by far less than the
-   bracket's width).
-   Under self-weight the same theorem reads: a converged FE state, with every pair of a joint waived at worst
-   (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <= (n + 2 sigma) t/2 and |s| <= mu
-   n + (1 + mu) sigma, so it is a point of the deficit programme with net tension allowed
-   (:func:`bridgefem.limit.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma (``StaticBound.margin``). When
-   the rigid blocks under the FE's dead loads need more than that, no FE equilibrium exists, so no retry or
-   continuation can find one: "unstable under self-weight" with this evidence (and, as always, only where the
-   rigid-block LP with the exact voussoirs agrees).
+4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the FE's own
+   assembled block loads (:func:`bridgefem.analysis.static_bound.block_loads`) has the collapse level LP_fe. A converged
+   FE state at level L balances every voussoir under those loads (to the solver's equilibrium residual) with pair forces
+   that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t, m = sum (p - t/2)
+   lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they satisfy the LP's yield
+   rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE equilibrium exists above
+   LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion, and its rows are exactly the
+   resultants of the pairs' laws (no row is stricter than the FE's law), so the bound holds on every bare ring, abutment
+   bases included (the abutments are blocks of both). The search never tries a level above LP_fe and ends when a step
+   converges within the bracket's width of it; the verdict is then a limit in [L, LP_fe] with the evidence "static
+   theorem", after an explicit check (:func:`admissible`) that the converged state's joint resultants satisfy the LP's
+   rows within the FE's own tolerances: a pair's residual is at most 10 x the solver's force tolerance delta, so per
+   joint with k pairs sigma = k delta bounds the net tension, the Coulomb excess by (1 + mu) sigma and the moment's
+   excess by sigma t; a block's equilibrium residual is at most its nodes x the solver's scaled residual
+   (:data:`bridgefem.solver.newton.EQUILIBRIUM_RTOL`) x the largest applied nodal force eps (forces) and that x twice
+   its radius about its reference point (moments). A state that waives the law at some pairs (bonded or frozen: an
+   Alart-Curnier residual up to :data:`bridgefem.solver.newton.BOND_RTOL` x eps each) is refused: a joint tension of eps
+   per waived pair can raise the LP's level by more than the bracket's tolerance. A refused state, like one outside the
+   tolerances, voids the rule for the search (which goes on without the bound). The bound caps every search (no FE
+   equilibrium exists above it, whatever the mesh), but the verdict asks for the bracket within ``AGREEMENT`` of the LP
+   with the exact voussoirs' weights too (as evidence 3 does: the mesh's straight-edged voussoirs weigh O(h^2)
+   differently, which moves a limit that is small against the self-weight by far more); elsewhere the other rules decide
+   (a finer mesh among them). Where LP_fe and that LP differ by more than ``AGREEMENT`` the cap still saves the trials
+   above LP_fe, which could only fail. The bound is the FE's up to those tolerances (k delta per joint moves the LP's
+   level by far less than the bracket's width). Under self-weight the same theorem reads: a converged FE state, with
+   every pair of a joint waived at worst (sigma = k (delta + eps)), has per joint a net tension of at most sigma, |m| <=
+   (n + 2 sigma) t/2 and |s| <= mu n + (1 + mu) sigma, so it is a point of the deficit programme with net tension
+   allowed (:func:`bridgefem.limit.rigid_block.standing_deficit`) at tau = max(2, 1 + mu) sigma
+   (``StaticBound.margin``). When the rigid blocks under the FE's dead loads need more than that, no FE equilibrium
+   exists, so no retry or continuation can find one: "unstable under self-weight" with this evidence (and, as always,
+   only where the rigid-block LP with the exact voussoirs agrees).
 
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
@@ -79,12 +75,27 @@ Converged verdicts (stable, locked) are equilibria the search found; a contradic
 
 With a fill the LP carries the fill as dead load only: it ignores the fill's strength and stiffness, which
 usually raise the collapse load, and the fill's own failure under the load (a bearing failure under a patch or a
-point load), which can lower it far below the LP (campaign scene 125: FE 1430 kN, conic upper bound of the bridge
-with its fill 1029 kN, the LP 23 929 kN). So it cannot confirm an FE limit either way: the search's flat
+point load), which can lower it far below the LP, even below the conic upper bound of the bridge with its fill.
+So it cannot confirm an FE limit either way: the search's flat
 load-deflection curve is the FE's evidence, the conic bounds (``fill_bounds``, :mod:`bridgefem.limit.bounds`) the
 independent check, and an FE limit below the LP gets a warning that names the likely cause. Under self-weight
 alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
 as for a bare ring.
+
+Safeguards:
+
+- *No verdict without evidence*: a singular or diverging solve alone proves nothing (a wrong active set, or a linear
+  solver that did not solve, looks the same), so an unproven mechanism needs the LP's agreement or a collapse state.
+- *Exact voussoir weights* (rules 3 and 4): a limit small against the self-weight is moved by the mesh's
+  straight-edged voussoirs by far more than their O(h^2) weight error; such a limit goes to a finer mesh instead.
+- *Waived pairs refused* (rule 4): a state that bends the joint law at some pairs is no premise of the static
+  theorem.
+- *"Unstable" never where the LP stands*: the LP's equilibrium of the same joints certifies that the ring stands.
+
+References: R. K. Livesley (1978), Limit analysis of structures formed from rigid blocks, IJNME 12; M. Gilbert,
+C. Casapulla & H. M. Ahmed (2006), Limit analysis of masonry block structures with non-associative frictional joints
+using linear programming, Computers & Structures 84; D. Radenkovic (1961), the theorems of the limit load for
+non-standard materials (the associative upper bound).
 """
 from __future__ import annotations
 
@@ -95,7 +106,7 @@ import numpy as np
 from ..limit.rigid_block import Statics
 from ..status import Status
 
-AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (issue 12's accuracy target)
+AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (the limit load's accuracy target)
 
 
 @dataclass(frozen=True)
@@ -229,9 +240,9 @@ def admissible(st: Statics, sigma: np.ndarray, friction: np.ndarray, length: np.
                block_moment: np.ndarray) -> tuple[bool, str]:
     """Whether an FE state's joint resultants are statically admissible for the LP (:class:`StaticBound`) within
     the FE's tolerances (module docstring, evidence 4): ``st`` the LP's rows at the state
-    (:func:`bridgefem.limit.rigid_block.statics`), ``sigma`` (nj,) the joint tolerance (N), ``friction`` mu and ``length``
-    t (m) per joint, ``block_force`` (nb,) N and ``block_moment`` (nb,) N·m the blocks' equilibrium tolerances.
-    Returns the answer and the largest violation as a fraction of its tolerance, in words."""
+    (:func:`bridgefem.limit.rigid_block.statics`), ``sigma`` (nj,) the joint tolerance (N), ``friction`` mu and
+    ``length`` t (m) per joint, ``block_force`` (nb,) N and ``block_moment`` (nb,) N·m the blocks' equilibrium
+    tolerances. Returns the answer and the largest violation as a fraction of its tolerance, in words."""
     ratios = {"net tension": st.tension / sigma, "Coulomb excess": st.friction / ((1 + friction) * sigma),
               "thrust outside a joint": st.eccentricity / (sigma * length),
               "block force residual": np.abs(st.equilibrium[:, :2]).max(axis=1) / block_force,
@@ -281,9 +292,9 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
     if kind is Status.LIMIT and fill:
         below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         return Verdict(status, upper, "proof: an admissible rigid-block mode on which the loads do positive work"
-                       if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the conic "
-                       "bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before the "
-                       "ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
+                       if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the "
+                       "conic bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before "
+                       "the ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
     if kind is Status.LIMIT and closed and lp is Status.LIMIT and reaches(lower, upper, lp_level):
         return Verdict(status, upper, f"static theorem: the FE's equilibrium at {lower * unit / 1e3:.6g} kN (its "
                        f"joint resultants checked admissible for the LP) and {static.describe(unit)}; {lp_text} with "

@@ -1,7 +1,19 @@
-"""The static (lower-bound) theorem on a bare ring's FE (:mod:`bridgefem.analysis.evidence`, evidence 4): the FE's loads and
-pair forces as the rigid-block LP's block loads and joint forces on the same joints, the LP's collapse level under
-those loads (an upper bound on every FE equilibrium), and the check of a converged state against the theorem's
-premises. Forces in N, moments in N·m (counter-clockwise), lengths in m."""
+"""The static (lower-bound) theorem on a bare ring's FE (evidence 4 of :mod:`bridgefem.analysis.evidence`): the FE's
+loads and pair forces read as the rigid-block LP's block loads and joint forces on the same joints (Livesley 1978).
+Forces in N, moments in N·m (counter-clockwise), lengths in m; levels in N per unit load factor.
+
+1. *Block loads* (:func:`block_loads`, :func:`fe_blocks`): the FE's assembled self-weight and unit live load summed
+   per block, as resultants about each block's reference point: the LP's ring loaded as the FE loads its voussoirs.
+2. *The bound* (:func:`static_cap`): that LP's collapse level, an upper bound on every FE equilibrium, and under
+   self-weight its blocks' deficit of joint tension and cohesion against the largest one a converged FE state's
+   tolerances can hide (``StaticBound.margin``); solved on rank 0.
+3. *The check* (:func:`static_cap`'s ``admissible``): a converged state's joint resultants (:func:`joint_resultants`)
+   against the LP's rows within the FE's own tolerances (:func:`bridgefem.analysis.evidence.admissible`), run by the
+   search before it ends on the bound.
+
+Safeguard: *waived pairs refused* (step 3): a state with frozen or bonded pairs bends the joint law there and is no
+premise of the theorem, so the check refuses it and the search goes on without the bound.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -11,32 +23,25 @@ from petsc4py import PETSc
 from ..fe.mesh import BlockMesh
 from ..fe.model import ElasticModel, node_blocks
 from ..fe.pairs import JointPairs
-from ..limit.rigid_block import (
-    BlockModel,
-    LPResult,
-    generalised_loads,
-    ring_model,
-    ring_with_loads,
-    solve_blocks,
-    standing_deficit,
-    statics,
-)
+from ..limit.rigid_block import BlockModel, LPResult, generalised_loads, solve_blocks, standing_deficit, statics
+from ..limit.ring_blocks import ring_model, ring_with_loads
 from ..scene.schema import Scene
-from ..search.pathfollow import LoadStep, StaticCap
-from ..solver.newton import BOND_RTOL, EQUILIBRIUM_RTOL, ContactSolver, Iterate
+from ..search.records import LoadStep, StaticCap
+from ..solver.convergence import BOND_RTOL, EQUILIBRIUM_RTOL
+from ..solver.newton import ContactSolver, Iterate
 from ..status import Status
 from .evidence import StaticBound, admissible
 
 
 def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: JointPairs, solver: ContactSolver
                ) -> tuple[StaticBound, StaticCap] | None:
-    """The static theorem's bound on a bare ring's FE (:mod:`bridgefem.analysis.evidence`, evidence 4): the rigid-block LP
-    on the same joints under the FE's own block loads, ``blocks`` (:func:`fe_blocks`), its dead-load deficit against the
+    """The static theorem's bound on a bare ring's FE (module docstring, steps 2 and 3): the rigid-block LP on the
+    same joints under the FE's own block loads, ``blocks`` (:func:`fe_blocks`), its dead-load deficit against the
     largest one a converged FE state's tolerances can hide, and the check of a converged state's joint resultants
-    against the LP's rows (:func:`bridgefem.analysis.evidence.admissible`) that the search runs before it ends on the bound.
-    The bound caps every search (no FE equilibrium exists above it); whether the bracket it closes is also the
-    limit of the exact voussoirs' weights is the evidence rule's question (:mod:`bridgefem.analysis.evidence`, evidence 4).
-    The LP on rank 0, broadcast; None when it fails (no bound). Collective."""
+    against the LP's rows (:func:`bridgefem.analysis.evidence.admissible`) that the search runs before it ends on the
+    bound. The bound caps every search (no FE equilibrium exists above it); whether the bracket it closes is also the
+    limit of the exact voussoirs' weights is the evidence rule's question (:mod:`bridgefem.analysis.evidence`,
+    evidence 4). The LP on rank 0, broadcast; None when it fails (no bound). Collective."""
     comm = solver.comm
     pairs_per_joint = comm.allreduce(np.bincount(pairs.joint[pairs.joint >= 0], minlength=blocks.n_joints))
     nodes, radius = block_extents(model, bm, blocks.ref)
@@ -87,8 +92,8 @@ def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
 def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockModel, it: Iterate) -> np.ndarray:
     """Per joint of ``blocks`` the resultant of the FE's pair forces at an iterate as the LP's joint forces (nj, 3):
     n, s (N) along the joint's normal and tangent, the force on its right block, and m (N·m) = -(moment about the
-    joint's centre), the LP's convention (:mod:`bridgefem.limit.rigid_block`); joints without pairs carry none. Every pair
-    acts at its place on the joint, ``position`` from the intrados. Identical on every rank (collective)."""
+    joint's centre), the LP's convention (:mod:`bridgefem.limit.rigid_block`); joints without pairs carry none. Every
+    pair acts at its place on the joint, ``position`` from the intrados. Identical on every rank (collective)."""
     _, lam, _ = solver.system.split(it.x)
     ring = pairs.joint >= 0
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.normal, pairs.tangent])[ring]

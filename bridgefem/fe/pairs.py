@@ -15,8 +15,8 @@ tau = n rotated +90 degrees:
 
 The laws are written as Alart-Curnier complementarity functions with the constant c (N/m per pair):
 ``sigma_n = lam_n - c d_n`` (contact iff > 0), ``sigma_t = lam_t - c Delta d_t`` (stick iff |sigma_t| <= mu
-sigma_n), in the law object :class:`CoulombJoints`. Their semismooth Newton method is the primal-dual active-set
-method in :mod:`bridgefem.solver.newton`.
+sigma_n), in the law object :class:`bridgefem.laws.coulomb.CoulombJoints`. Their semismooth Newton method is the
+primal-dual active-set method of :mod:`bridgefem.solver.newton`.
 """
 from __future__ import annotations
 
@@ -63,8 +63,8 @@ class JointPairs:
 def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
     """Integral of each basis function over the joint faces: the tributary length per blocked dof (m).
 
-    The faces are marked 1 in a tag of their own (:func:`bridgefem.fe.mesh.marked`), so that the form does not depend on which tags (how many
-    voussoirs) are integrated over: compiled once, not per joint layout."""
+    The faces are marked 1 in a tag of their own (:func:`bridgefem.fe.mesh.marked`), so that the form does not depend
+    on which tags (how many voussoirs) are integrated over: compiled once, not per joint layout."""
     ds = ufl.Measure("ds", domain=bm.mesh, subdomain_data=marked(bm.mesh, bm.facet_tags, tags))
     v = ufl.TestFunction(V)
     vec = assemble_vector(fem.form(v[0] * ds(1)))

@@ -8,9 +8,9 @@ cut into two triangles (more along under a thin fill: one per extrados element s
 unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
 is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
 (MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
-bare arch from 1k to 68k unknowns (185, 208 and 325 MB at 1k, 13k and 68k: 117 to 127 bytes per n log2 n); cells
-and unknowns came within 1 % of the mesher's on bare arches and within 30 % with a fill (cells 12 to 22 % under
-the mesher's on Prestwood and campaign scenes #125, #145, #276, over it by 8 % on #260).
+bare arch from 1k to 68k unknowns (117 to 127 bytes per n log2 n). The estimate comes within 1 % of the mesher's
+cells and unknowns on a bare arch and within 30 % with a fill, whose unstructured mesh it can only approximate:
+close enough to refuse a model beyond the machine, not to predict its exact size.
 """
 from __future__ import annotations
 
@@ -92,13 +92,27 @@ def check_size(scene: Scene, memory: float | None = None, max_dofs: float = MAX_
     exceeds 80 % of ``memory`` (default: this machine's) or its unknowns ``max_dofs``."""
     size = estimate_size(scene)
     memory = machine_memory() if memory is None else memory
-    a, m = scene.arch, scene.mesh
-    keys = (f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
-            f"degree = {m.degree}")
+    keys, advice = _size_keys(scene)
     if size.memory > 0.8 * memory:
         raise SceneError(f"{keys}: {size.describe()}, more than the allowed 80 % of this "
-                         f"machine's {memory / 1e9:.1f} GB; use fewer voussoirs or elements")
+                         f"machine's {memory / 1e9:.1f} GB; use {advice}")
     if size.dofs > max_dofs:
         raise SceneError(f"{keys}: {size.describe()}, more than the {max_dofs:,.0f} unknowns allowed "
-                         "(hours per limit search); use fewer voussoirs or elements, or --no-size-limit")
+                         f"(hours per limit search); use {advice}, or --no-size-limit")
     return size
+
+
+def _size_keys(scene: Scene) -> tuple[str, str]:
+    """The keys that set the model's size, with their values, and what to change: the ring's mesh, and the fill's
+    or the abutments' when the scene has them (a fine fill mesh can outgrow the ring's)."""
+    a, m, f, ab = scene.arch, scene.mesh, scene.fill, scene.abutments
+    keys = [f"[arch] voussoirs = {a.voussoirs}, [mesh] elements_through_thickness = {m.elements_through_thickness}, "
+            f"degree = {m.degree}"]
+    advice = "fewer voussoirs or elements"
+    if f is not None:
+        keys.append(f"[fill] element_size = {f.element_size:g}, depth = {f.depth:g}, extension = {f.extension:g}")
+        advice += ", a coarser fill mesh or a smaller fill"
+    if ab.elastic:
+        keys.append(f"[abutments] height = {ab.height:g}, length = {ab.length:g}")
+        advice += ", smaller abutments"
+    return "; ".join(keys), advice

@@ -1,1 +1,2 @@
-"""Arch geometry: intrados curves of every shape, joints and voussoir polygons (pure numpy)."""
+"""Arch geometry (pure numpy): :mod:`~bridgefem.geometry.ring`, the intrados curves of every shape, the joints, the
+voussoir and abutment polygons and where a load on the extrados acts."""

@@ -1,4 +1,5 @@
-"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP (pure
+numpy; a scene's ring is built by :func:`bridgefem.structure.ring.scene_ring`).
 
 Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
 x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
@@ -8,7 +9,21 @@ The ring is the band swept by the joint segments ``intrados(p) -> intrados(p) + 
 the unit normal of the intrados pointing towards the extrados. Offset curves share their normals, so
 every joint is perpendicular to the intrados, the centreline (offset t/2) and the extrados (offset t);
 for circular shapes the joints are radial. Joints are spaced evenly along the centreline arc length,
-except that by default the nearest joint is moved under each concentrated load.
+except that by default a joint is moved under each concentrated load.
+
+The intrados of each shape (:data:`SHAPES`) passes through both springings and the crown: semicircular and segmental
+a circular arc, pointed two circular arcs centred on the springing line meeting at the apex (a kink), elliptical a
+semi-ellipse, parabolic ``y = rise (1 - (2x/span)^2)``. :func:`build_ring` then
+
+1. measures the centreline's arc length on fine samples of ``p`` (a chord ending at a kink ends on its own arc, so
+   the pointed crown's jump between the two arcs' offsets counts no length);
+2. places N + 1 joints at equal centreline lengths, the springings at p = 0 and 1;
+3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge, keeping the joints in
+   their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
+   load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
+4. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
+   kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines); a load within
+   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own.
 
 Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
 joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
@@ -37,6 +52,7 @@ LOAD_SIDES = ("left", "right", "split")
 # corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
 AT_JOINT_TOL = 1e-4
 KINK_NUDGE = 1e-6  # a chord's end at a kink is moved this fraction of it back onto its own arc
+ROUND_OFF = 1e-12  # of the span: two coordinates closer than this are one (their difference is round-off)
 _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolation errors ~ span / 4000^2
 # points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
 # holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
@@ -237,7 +253,9 @@ class ArchRing:
     """The geometry of a ring of voussoirs on two springings, and its abutments when they are elastic.
 
     ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings); ``joints`` are the ring's
-    joints 0..N followed by the abutments' base joints.
+    joints 0..N followed by the abutments' base joints; ``joints_at_x`` the horizontal positions (m) of the loads and
+    patch edges that a joint was moved under (``joint_at_loads``), so that a load on a joint it did not get can be
+    told from one on its own (:func:`snapped_loads`).
     """
 
     shape: str
@@ -248,6 +266,7 @@ class ArchRing:
     joints: list[Joint] = field(repr=False)
     voussoirs: list[Voussoir] = field(repr=False)
     abutments: list[Abutment] = field(default_factory=list, repr=False)
+    joints_at_x: frozenset[float] = frozenset()
 
     @property
     def n_voussoirs(self) -> int:
@@ -349,33 +368,98 @@ def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, b
     return min(shape.kinks, key=lambda v: abs(v - q)), False
 
 
-def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float]) -> np.ndarray:
-    """Move the nearest interior joint onto each load parameter; springing joints never move."""
-    params = params.copy()
-    taken: set[int] = set()
+def _place_joints_at_loads(params: np.ndarray, s_of_p, load_params: list[float]) -> tuple[np.ndarray, dict[int, float]]:
+    """Move an interior joint onto each load parameter, keeping the joints in their order; springing joints never
+    move. Returns the parameters and, per moved joint, the load parameter it went to. The caller makes sure there
+    are as many interior joints as load parameters.
+
+    Each load, from left to right, takes the nearest joint not yet taken. Where two loads are nearest one joint and
+    the second's nearest free joint lies beyond the first's, that would cross two joints (a voussoir of negative
+    length): then the joints go under the loads in order with the least total movement along the centreline
+    (:func:`_least_movement`). Taking the nearest joint right of the previous load's instead moves a joint more
+    than a voussoir's length where half of one does. Wherever the nearest joints keep the order they are kept:
+    the least-movement layout serves only loads that compete for one joint."""
     s_joints = s_of_p(params)
-    for pl in sorted(set(load_params)):
-        order = np.argsort(np.abs(s_joints - s_of_p(np.array([pl]))[0]))
-        free = [j for j in order if 0 < j < len(params) - 1 and j not in taken]
-        if not free:
-            break
-        j = free[0]
-        params[j] = pl
-        taken.add(j)
-    if np.any(np.diff(s_of_p(params)) <= AT_JOINT_TOL * s_of_p(np.array([1.0]))[0]):
-        raise ValueError("loads are too close together for this number of voussoirs: a voussoir would vanish "
-                         f"(shorter than {AT_JOINT_TOL:g} x the ring's length); use more voussoirs or "
-                         "joint_at_loads = false")
-    return params
+    loads = sorted(set(load_params))
+    s_loads = s_of_p(np.array(loads))
+    chosen: list[int] = []
+    for s_load in s_loads:
+        order = np.argsort(np.abs(s_joints - s_load))
+        chosen.append(int(next(j for j in order if 0 < j < len(params) - 1 and j not in chosen)))
+    if np.any(np.diff(chosen) < 0):
+        chosen = _least_movement(s_joints, s_loads)
+    placed = params.copy()
+    placed[chosen] = loads
+    return placed, dict(zip(chosen, loads))
+
+
+def _least_movement(s_joints: np.ndarray, s_loads: np.ndarray) -> list[int]:
+    """The interior joints, one per load and in the loads' order (``s_loads`` increasing; centreline positions, m),
+    whose total distance from their loads is least. Dynamic programme over the loads: ``best[k]`` is the least
+    total distance of the loads so far with the last one on interior joint k (an unmoved joint between two moved ones
+    then lies between their loads too, or moving a load onto it would cost less)."""
+    inner = s_joints[1:-1]
+    index = np.arange(len(inner))
+    best = np.abs(inner - s_loads[0])
+    came_from = []
+    for s_load in s_loads[1:]:
+        prefix = np.minimum.accumulate(best)  # the least over joints 0..k, and where it is
+        where = np.maximum.accumulate(np.where(best < np.concatenate([[np.inf], prefix[:-1]]), index, 0))
+        best = np.concatenate([[np.inf], prefix[:-1] + np.abs(inner[1:] - s_load)])
+        came_from.append(np.concatenate([[0], where[:-1]]))
+    k = int(np.argmin(best))
+    chosen = [k]
+    for back in reversed(came_from):
+        k = int(back[k])
+        chosen.append(k)
+    return [k + 1 for k in reversed(chosen)]
+
+
+def _load_label(labels: dict[float, list[str]], x: float) -> str:
+    """The loads at horizontal position x (m) in words, e.g. "[[load]] #2 (point at x = -1.5 m)"."""
+    return " and ".join(labels.get(x, [f"the load at x = {x:.9g} m"]))
+
+
+def _check_voussoir_lengths(s_joints: np.ndarray, length: float, at_loads: dict[int, list[float]],
+                            labels: dict[float, list[str]]) -> None:
+    """Raise ValueError, naming the loads, when a joint moved under a load is within ``AT_JOINT_TOL`` x the ring's
+    centreline ``length`` (m) of the next joint (``s_joints``: the joints' centreline positions, m): the voussoir
+    between them would vanish, and the mesh cannot have an edge that short. ``at_loads``: per moved joint the
+    horizontal positions (m) of the loads it went under."""
+    gaps = np.diff(s_joints)
+    tol = AT_JOINT_TOL * length
+    short = [k for k in np.flatnonzero(gaps <= tol) if k in at_loads or k + 1 in at_loads]
+    if not short:
+        return
+    k = min(short, key=lambda i: gaps[i])
+    last = len(s_joints) - 1
+
+    def what(j):
+        if j in at_loads:
+            return " and ".join(_load_label(labels, x) for x in at_loads[j])
+        return "the left springing" if j == 0 else "the right springing" if j == last else f"joint {j} (not moved)"
+
+    both = k in at_loads and k + 1 in at_loads
+    loads, other = (what(k), what(k + 1)) if k in at_loads else (what(k + 1), what(k))
+    where = (f"{loads} and {other}: the joints under them would be" if both
+             else f"{loads}: the joint under it would be")
+    raise ValueError(f"{where} {gaps[k]:.3g} m {'apart' if both else 'from ' + other} along the ring's centreline, "
+                     f"closer than {AT_JOINT_TOL:g} x its length = {tol:.3g} m, and voussoir {k} between them "
+                     f"would vanish; allowed are joints at least that far apart: put the load"
+                     f"{'s further apart or at one position' if both else ' further from it'}, or set "
+                     "[arch] joint_at_loads = false")
 
 
 def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoirs: int,
-               load_x: list[float] = (), joint_at_loads: bool = True) -> ArchRing:
+               load_x: list[float] = (), joint_at_loads: bool = True, load_labels: list[str] | None = None) -> ArchRing:
     """Build joints and voussoirs of a ring (all lengths in m).
 
     ``load_x`` are the horizontal positions of concentrated loads and patch-load edges on the extrados;
-    with ``joint_at_loads`` the nearest interior joint is moved under each (a block straddling a
-    concentrated load overstates the limit load).
+    with ``joint_at_loads`` an interior joint is moved under each (:func:`_place_joints_at_loads`; a block
+    straddling a concentrated load overstates the limit load). ``load_labels`` name the loads of ``load_x`` in the
+    messages (default: their positions). Raises ValueError, naming the loads and what is allowed, when two load
+    positions are closer than the ring can have an edge, when there are more load positions than interior joints
+    to put under them, or when a joint moved under a load would leave a voussoir of (almost) no length.
     """
     curve = make_shape(shape, span, rise)
     p = _samples(curve)
@@ -384,11 +468,14 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def s_of_p(q):
         return np.interp(q, p, s)
 
+    labels: dict[float, list[str]] = {}
+    for x, label in zip(load_x, load_labels or [None] * len(load_x)):
+        labels.setdefault(float(x), []).append(label or f"the load at x = {float(x):.9g} m")
     xs = np.unique(np.asarray(load_x, float))
     gaps = np.diff(xs)
     if np.any(gaps < AT_JOINT_TOL * span):
         k = int(np.argmin(gaps))
-        raise ValueError(f"point loads or patch edges at x = {xs[k]:.9g} and {xs[k + 1]:.9g} m are {gaps[k]:.3g} m "
+        raise ValueError(f"{_load_label(labels, xs[k])} and {_load_label(labels, xs[k + 1])} are {gaps[k]:.3g} m "
                          f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
                          "have an edge that short; put them at one position or further apart")
     located = [_extrados_param(curve, thickness, x) for x in xs]
@@ -397,8 +484,18 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     cap_x = [x for x, (_, on_curve) in zip(xs, located) if not on_curve]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
+    joints_at_x: frozenset[float] = frozenset()
     if joint_at_loads and len(load_params):
-        params = _place_joints_at_loads(params, s_of_p, load_params)
+        wanted = len(set(load_params))
+        if wanted > n_voussoirs - 1:
+            raise ValueError(f"[arch] voussoirs = {n_voussoirs}: the loads need a joint under each of their {wanted} "
+                             f"positions (point loads and patch edges, [arch] joint_at_loads = true), and "
+                             f"{n_voussoirs} voussoirs have {n_voussoirs - 1} joints between the springings; allowed "
+                             f"are at least {wanted + 1} voussoirs, or joint_at_loads = false")
+        params, moved = _place_joints_at_loads(params, s_of_p, load_params)
+        _check_voussoir_lengths(s_of_p(params), s[-1], {j: [x for x, (q, _) in zip(xs, located) if q == pl]
+                                                         for j, pl in moved.items()}, labels)
+        joints_at_x = frozenset(float(x) for x, (q, on_curve) in zip(xs, located) if on_curve)
 
     def extrados_x(q):
         return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
@@ -439,7 +536,7 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
         a = _ring_point(curve, thickness, pj, 0.0)
         b = _ring_point(curve, thickness, pj, 1.0)
         joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
-    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs)
+    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs, joints_at_x=joints_at_x)
 
 
 def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
@@ -454,8 +551,9 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         inner, outer = joint.intrados, joint.extrados
         x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
         base = (np.array([inner[0], -height]), np.array([x_out, -height]))
-        # a corner above the outer base corner unless it is the springing's extrados corner (1e-12 m: round-off)
-        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if abs(x_out - outer[0]) > 1e-12 else [])
+        # a corner above the outer base corner unless it is the springing's extrados corner (up to round-off)
+        apart = abs(x_out - outer[0]) > ROUND_OFF * ring.span
+        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if apart else [])
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:
             polygon = polygon[::-1]
@@ -467,7 +565,7 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         ground_left = base_joint.normal[1] > 0  # the normal points up: from the ground into the block
         joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
     return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
-                    abutments)
+                    abutments, ring.joints_at_x)
 
 
 def joint_under(ring: ArchRing, x: float) -> int | None:

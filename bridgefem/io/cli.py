@@ -1,25 +1,31 @@
-"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check SCENE.toml``.
+"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check | assess SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
-output folder (one line on stderr, nothing written; checked before the analysis), 143 terminated by SIGTERM (the
-earlier results kept, nothing half-written). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md).
+output folder (one line on stderr, nothing written; checked before the analysis), 130 interrupted (Ctrl-C) and 143
+terminated by SIGTERM (the earlier results kept, nothing half-written; under ``mpirun``, which exits 1 after either,
+``./run mpirun`` gives these codes). Where results go: :mod:`bridgefem.io.output` (docs/output-policy.md). A bad option
+in the user's PETSC_OPTIONS ends bridgefem as PETSc starts, with exit code 2: :mod:`bridgefem.petsc_start`.
 PETSc options of the contact solver: ``--petsc KEY=VALUE`` or ``-bridgefem_KEY VALUE`` (any option; they override
-the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, and the defaults).
+the scene's ``[solver.petsc]`` table, which may set only allow-listed solver settings, the user's PETSC_OPTIONS and
+the defaults).
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
 import json
 import logging
 import math
-import os
 import sys
 import traceback
 from pathlib import Path
 
-from ..fe.sizing import LARGE_DOFS, MAX_DOFS, check_size
-from ..scene.schema import PETSC_PREFIX, SceneError, load_scene, resolved_toml
+from ..fe.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
+from ..petsc_start import launcher_rank
+from ..scene.document import key_units, resolved_document
+from ..scene.schema import PETSC_PREFIX, Scene, SceneError, did_you_mean, load_scene, resolved_toml
 from ..status import Status
 from .output import OutputError, Terminated, claim, failed_target, sigterm_raises, version
 
@@ -31,18 +37,20 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="FE limit analysis (and its rigid-block LP check) of a scene")
     run.add_argument("scene", type=Path)
     run.add_argument("--out", type=Path, help="output folder (default results/<scene name>)")
-    run.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
-                     help="PETSc option for the contact solver, without the prefix (repeatable)")
+    _run_options(run)
     run.add_argument("--quiet", action="store_true", help="no per-step progress")
-    run.add_argument("--no-size-limit", action="store_true",
-                     help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
+    run.add_argument("--json", action="store_true", help="print the run's summary as one JSON object, the last line "
+                     "of stdout (the progress goes to stderr)")
     conv = sub.add_parser("converge", help="limit load on successively halved meshes, observed order, extrapolation")
     conv.add_argument("scene", type=Path)
     conv.add_argument("--levels", default="2,4,8", help="elements through the ring, each twice the previous")
     conv.add_argument("--out", type=Path, help="folder for convergence.json (default: none written)")
-    check = sub.add_parser("check", help="validate a scene file and print it resolved (every key, defaults "
-                                          "filled in, with units)")
+    check = sub.add_parser("check", help="validate a scene file as run does before its analysis (the same "
+                                          "options) and print it resolved (every key, defaults filled in, with units)")
     check.add_argument("scene", type=Path)
+    _run_options(check)
+    check.add_argument("--json", action="store_true", help="print the resolved scene and the size estimate as one "
+                       "JSON object")
     lp = sub.add_parser("lp", help="rigid-block limit analysis (linear programme) of a scene")
     lp.add_argument("scene", type=Path)
     lp.add_argument("--json", action="store_true", help="print one JSON object")
@@ -56,10 +64,46 @@ def _parser() -> argparse.ArgumentParser:
     bd.add_argument("--json", action="store_true", help="print one JSON object")
     bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
     bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
+    asm = sub.add_parser("assess", help="roll the scene's [vehicle] across the bridge: critical position, adequacy "
+                                         "factor (FE, with the rigid-block LP's), report.html")
+    asm.add_argument("scene", type=Path, nargs="+", help="one or more scenes, each with a [vehicle]")
+    asm.add_argument("--step", type=float, help="screening step of the first axle's position, m (default span/40)")
+    asm.add_argument("--out", type=Path, help="output folder (default results/<scene name>-assessment; several "
+                     "scenes: DIR/<scene name>-assessment)")
+    asm.add_argument("--json", action="store_true", help="print the verdict as one JSON object, the last line of "
+                     "stdout")
+    for command in sub.choices.values():  # each command's options, for the hint after an unknown one
+        command.set_defaults(options=[s for a in command._actions for s in a.option_strings if s != "-h"])
     return p
 
 
-def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
+def _run_options(parser: argparse.ArgumentParser) -> None:
+    """The options that decide what ``run`` accepts before its analysis; ``check`` takes them too, so that it
+    validates exactly what the same ``run`` would."""
+    parser.add_argument("--petsc", action="append", default=[], metavar="KEY=VALUE",
+                        help="PETSc option for the contact solver, without the prefix (repeatable)")
+    parser.add_argument("--no-size-limit", action="store_true",
+                        help=f"run a model of more than {MAX_DOFS:,} unknowns (the memory limit still applies)")
+
+
+def _unknown(arg: str, options: list[str], petsc: bool = False) -> SceneError:
+    """The one-line error for an argument no option of the command takes, with the nearest option (difflib);
+    ``petsc``: the command also takes PETSc options."""
+    shown = arg if arg.isprintable() and len(arg) <= 60 else repr(arg[:60])
+    if not arg.startswith("-"):
+        return SceneError(f"unexpected argument {shown}")
+    names = {option.lstrip("-"): option for option in options}  # the dashes would make every option look close
+    hint = did_you_mean(arg.partition("=")[0].lstrip("-"), names, names.get).strip()
+    if not hint:
+        hint = "the options are " + ", ".join(options)
+        if petsc:
+            hint += f"; PETSc options must start with -{PETSC_PREFIX}"
+    return SceneError(f"unknown option {shown}; {hint}")
+
+
+def _petsc_options(pairs: list[str], raw: list[str], options: list[str]) -> dict:
+    """The PETSc options of ``run``: ``--petsc KEY=VALUE`` pairs and the raw ``-bridgefem_KEY [VALUE]``
+    arguments; anything else in ``raw`` is an unknown option (``options``: the command's own)."""
     prefix = "-" + PETSC_PREFIX
     out = {}
     for item in pairs:
@@ -71,27 +115,29 @@ def _petsc_options(pairs: list[str], raw: list[str]) -> dict:
     while i < len(raw):
         arg = raw[i]
         if not arg.startswith(prefix):
-            raise SceneError(f"unknown argument {arg!r}; PETSc options must start with {prefix}")
+            raise _unknown(arg, options, petsc=True)
         has_value = i + 1 < len(raw) and not raw[i + 1].startswith("-")
         out[arg[len(prefix):]] = raw[i + 1] if has_value else ""
         i += 2 if has_value else 1
     return out
 
 
-def _progress(total: float):
+def _progress(total: float, states: tuple[str, ...]):
     """Print one line per load step (rank 0): the live load, the outcome, Newton iterations, the residual and how
-    many joint node pairs are open, sticking and slipping."""
+    many joint node pairs are in each of the joint law's ``states`` (e.g. open, sticking and slipping)."""
     from mpi4py import MPI
+
+    names = "/".join(states)
 
     def report(step) -> None:
         if MPI.COMM_WORLD.rank != 0:
             return
         if step.index == 0:
-            print("load steps: live load, outcome, Newton iterations, residual, joint node pairs open/stick/slip",
+            print(f"load steps: live load, outcome, Newton iterations, residual, joint node pairs {names}",
                   flush=True)
         c = step.counts
         if step.converged:
-            what = f"pairs open/stick/slip {c['open']}/{c['stick']}/{c['slip']}" if c else ""
+            what = f"pairs {names} {'/'.join(str(c[s]) for s in states)}" if c else ""
             outcome = "converged"
         else:
             what = _collapse(step.reason) if step.mechanism else step.reason
@@ -114,70 +160,119 @@ def _collapse(reason: str) -> str:
     return "no equilibrium: the voussoirs move as a mechanism"
 
 
-def _run(args, petsc: dict) -> int:
+@dataclasses.dataclass(frozen=True)
+class Validated:
+    """A scene that passed every check ``run`` makes before its analysis (:func:`validate`): its size estimate, the
+    unknowns allowed, and a line for each point load moved onto a joint (:func:`bridgefem.structure.ring.snapped_loads`)."""
+
+    scene: Scene
+    size: SizeEstimate
+    max_dofs: float
+    notices: list[str]
+
+
+def validate(args, petsc: dict) -> Validated:
+    """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check``
+    calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.schema.load_scene`),
+    its size (:func:`bridgefem.fe.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
+    one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's and
+    ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
+    ``--out``)."""
+    from ..structure.ring import scene_ring, snapped_loads
+
     scene = load_scene(args.scene)
     max_dofs = math.inf if args.no_size_limit else MAX_DOFS
     size = check_size(scene, max_dofs=max_dofs)
+    ring = scene_ring(scene)
+    options = {**scene.solver.petsc, **petsc}
+    if options:  # PETSc started only to check options
+        from mpi4py import MPI
+
+        from ..solver.linear import check_petsc_options
+
+        check_petsc_options(options, MPI.COMM_WORLD)
+    return Validated(scene, size, max_dofs, [s.notice(scene.arch.span) for s in snapped_loads(scene, ring)])
+
+
+RUN_JSON = ("scene", "status", "limit_load", "failure_reason", "evidence", "mechanism", "lp", "fe_lp_ratio",
+            "static_bound", "ring_under_transmitted_loads", "fill_bounds", "mesh_refinements", "warnings")
+"""The entries of results.json that ``run --json`` prints, with the ``results`` folder: the verdict and its
+checks (the history, the joints and the model's details stay in results.json)."""
+
+
+def _run(args, petsc: dict) -> int:
+    valid = validate(args, petsc)
+    scene, size, max_dofs = valid.scene, valid.size, valid.max_dofs
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
-    from ..analysis.runner import run_analysis
-    from ..solver.linear import check_petsc_options
-    from .results import write_results
+    from ..analysis.runner import DEFAULT_JOINT_LAW, run_analysis
+    from ..solver.linear import check_environment_options
+    from .results import FILES, write_results
 
     comm = MPI.COMM_WORLD
-    check_petsc_options({**scene.solver.petsc, **petsc}, comm)
+    check_environment_options(comm)
     total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
-    with claim(out, comm, also=(failed_target(out),)):
-        if announce:
-            print(f"{scene.name}: {size.describe()}", flush=True)
-        an = run_analysis(scene, comm, petsc, report=(lambda s: None) if args.quiet else _progress(total),
-                          phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
-        extra = {"loads": [{"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
-                            "length": ld.length, "factor": ld.factor} for ld in scene.loads]}
-        failed = Status.of(an.search.status) is Status.FAILURE
-        if failed:  # a failed run never replaces earlier results
-            kept, out = out, failed_target(out)
-        data = write_results(an, out, extra)
-    if comm.rank == 0 and failed:
-        print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
-    if comm.rank == 0:
-        from .plots import format_bracket
-
-        lim = data["limit_load"]
-        limit = Status.of(data["status"]) is Status.LIMIT
-        if limit:
-            print(f"{scene.name}: {data['status']}; limit load in "
-                  f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
-                  f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
-        else:
-            print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
-                  f"width {scene.arch.width:g} m)")
-        if data["evidence"]:
-            print(f"  evidence: {data['evidence']}")
-        if limit:
-            print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
-        elif data["failure_reason"]:
-            print(f"  last failed step: {data['failure_reason']}")
-        print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
-        lp = data["lp"]
-        if lp["load"]:
-            ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
-            print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
-                  f"{lp['mechanism']['hinges']}{ratio}")
-        ring = data["ring_under_transmitted_loads"]
-        if ring and ring["load"]:
-            print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
-                  f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
-        refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
-        if refined:
-            print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
-                  f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
-        for warning in data["warnings"]:
-            print(f"  WARNING: {warning}")
-        print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
+    # with --json, stdout holds the JSON object alone: what the run prints on its way goes to stderr
+    with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
+        with claim(out, comm, also=(failed_target(out),), files=FILES):
+            for line in valid.notices:
+                _notice(line)
+            if announce:
+                print(f"{scene.name}: {size.describe()}", flush=True)
+            report = (lambda s: None) if args.quiet else _progress(total, DEFAULT_JOINT_LAW.STATES)
+            an = run_analysis(scene, comm, petsc, report=report,
+                              phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
+            failed = Status.of(an.search.status) is Status.FAILURE
+            if failed:  # a failed run never replaces earlier results
+                kept, out = out, failed_target(out)
+            data = write_results(an, out)
+        if comm.rank == 0 and failed:
+            print(f"bridgefem: solver failure: its results are in {out}/; {kept}/ is left as it was", file=sys.stderr)
+    if comm.rank == 0 and args.json:
+        print(json.dumps({**{key: data[key] for key in RUN_JSON}, "results": str(out)}))
+    elif comm.rank == 0:
+        _print_run(scene, data, out)
     return Status.of(data["status"]).exit_code
+
+
+def _print_run(scene, data: dict, out: Path) -> None:
+    """The text summary of a run: its verdict, evidence, mechanism, LP check, mesh refinements and warnings."""
+    from .plots import format_bracket
+
+    lim = data["limit_load"]
+    limit = Status.of(data["status"]) is Status.LIMIT
+    if limit:
+        print(f"{scene.name}: {data['status']}; limit load in "
+              f"{format_bracket(lim['lower'], lim['upper'], lim['tolerance'])} "
+              f"(relative tolerance {lim['tolerance']:g}, width {scene.arch.width:g} m)")
+    else:
+        print(f"{scene.name}: {data['status']}; carried {lim['lower'] / 1e3:.2f} kN (last converged live load, "
+              f"width {scene.arch.width:g} m)")
+    if data["evidence"]:
+        print(f"  evidence: {data['evidence']}")
+    if limit:
+        print(f"  above the bracket: {_collapse(data['failure_reason'] or '')} (results.json: failure_reason)")
+    elif data["failure_reason"]:
+        print(f"  last failed step: {data['failure_reason']}")
+    print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+    lp = data["lp"]
+    if lp["load"]:
+        ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
+        print(f"  rigid-block LP check ({lp['model']}): {lp['load'] / 1e3:.2f} kN, hinges "
+              f"{lp['mechanism']['hinges']}{ratio}")
+    ring = data["ring_under_transmitted_loads"]
+    if ring and ring["load"]:
+        print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
+              f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
+    refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
+    if refined:
+        print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
+              f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
+    for warning in data["warnings"]:
+        print(f"  WARNING: {warning}")
+    print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
 
 
 def _notice(line: str) -> None:
@@ -204,24 +299,25 @@ def _levels(text: str) -> list[int]:
 
 
 
-def _check(args) -> int:
-    scene = load_scene(args.scene)
-    size = check_size(scene)
-    print(f"# {scene.name}: valid; {size.describe()}\n{resolved_toml(scene)}", end="")
+def _check(args, petsc: dict) -> int:
+    """``bridgefem check``: :func:`validate`, as ``run`` with the same options, then the resolved scene (TOML, with
+    the size estimate and the notices as comments; or one JSON object)."""
+    valid = validate(args, petsc)
+    scene, size = valid.scene, valid.size
+    if args.json:
+        print(json.dumps({"scene": resolved_document(scene), "units": key_units(), "notices": valid.notices,
+                          "size": {**dataclasses.asdict(size), "memory_unit": "bytes", "estimate": True}}))
+    else:
+        notes = "".join(f"# note: {line}\n" for line in valid.notices)
+        print(f"# {scene.name}: valid; {size.describe()}\n{notes}{resolved_toml(scene)}", end="")
     return 0
 
 
 def _lp(args) -> int:
-    from ..limit.rigid_block import LPFailure, LPResult, collapse_load
+    from .lp_report import lp_summary, rigid_block_result
 
-    scene = load_scene(args.scene)
-    try:
-        res = collapse_load(scene, friction_model=args.friction_model)
-    except LPFailure as err:  # reported like any result, with no load and no mechanism
-        res = LPResult(None, None, f"solver failure: {err}", args.friction_model)
+    res = rigid_block_result(load_scene(args.scene), args.friction_model)
     if args.json:
-        from .results import lp_summary
-
         print(json.dumps(lp_summary(res)))
     else:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
@@ -239,7 +335,8 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from ..limit.rigid_block import LPFailure, NoStableThickness, min_thickness
+    from ..limit.rigid_block import LPFailure
+    from ..limit.thickness import NoStableThickness, min_thickness
 
     scene = load_scene(args.scene)
     try:
@@ -263,17 +360,22 @@ def main(argv: list[str] | None = None) -> int:
     args, raw = _parser().parse_known_args(argv)
     try:
         with sigterm_raises():
-            petsc = _petsc_options(getattr(args, "petsc", []), raw) if args.command == "run" else {}
-            if raw and args.command != "run":
-                raise SceneError(f"unknown argument {raw[0]!r}")
+            takes_petsc = args.command in ("run", "check")
+            petsc = _petsc_options(args.petsc, raw, args.options) if takes_petsc else {}
+            if raw and not takes_petsc:
+                raise _unknown(raw[0], args.options)
             if args.command == "run":
                 return _run(args, petsc)
             if args.command == "check":
-                return _check(args)
+                return _check(args, petsc)
             if args.command == "converge":
-                from .commands import command
+                from .commands import converge_command
 
-                return command(load_scene(args.scene), _levels(args.levels), args.out)
+                return converge_command(load_scene(args.scene), _levels(args.levels), args.out)
+            if args.command == "assess":
+                from .assessment import assess_command
+
+                return assess_command(args.scene, args.step, args.out, args.json)
             if args.command == "bounds":
                 from .commands import bounds_command
 
@@ -295,16 +397,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _error(message: str) -> None:
     """One line on stderr, from one MPI rank (every rank meets the same error)."""
-    if _launcher_rank() == 0:
+    if launcher_rank() == 0:
         print(f"bridgefem: error: {' '.join(message.split())}", file=sys.stderr, flush=True)
-
-
-def _launcher_rank() -> int:
-    """This process's MPI rank as mpirun tells it (no MPI start-up needed for a bad input)."""
-    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-        if os.environ.get(name, "").isdigit():
-            return int(os.environ[name])
-    return 0
 
 
 def _abort_if_parallel() -> None:

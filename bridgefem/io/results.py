@@ -13,14 +13,21 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-from petsc4py import PETSc
 
-from ..analysis.runner import Analysis, quiet_compiler, springing_reactions
+from ..analysis.mechanism import springing_reactions
+from ..analysis.result import Analysis
+from ..analysis.runner import quiet_compiler
+from ..analysis.thrust import line_of_thrust, thrust_summary
 from ..geometry.ring import fill_outline
-from ..laws.coulomb import OPEN, SLIP, STICK
+from ..laws.base import JointLaw
+from ..structure.ring import snapped_loads
+from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder, version
 
-JOINT_STATE_CODES = {"none": 0, "stick": 1, "slip": 2, "open": 3}
+NO_JOINT = 0  # the joint_state of a node on no joint pair (fields.xdmf); a pair's is its law's output code
+FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png", "report.html")
+"""The files :func:`write_results` writes: the command line has their paths' lengths checked before the analysis
+(:func:`bridgefem.io.output.check_names`)."""
 
 
 def versions() -> dict:
@@ -28,6 +35,7 @@ def versions() -> dict:
     import dolfinx
     import gmsh
     import scipy
+    from petsc4py import PETSc
 
     out = {"python": platform.python_version(), "dolfinx": dolfinx.__version__,
            "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "gmsh": gmsh.__version__,
@@ -42,8 +50,6 @@ UNITS = {
     "time": "s (timings, seconds)",
     "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
                      "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
-    "counts": "pairs: joint node pairs open / stick / slip at the end of the step; elements_through_thickness "
-              "(model, mesh_refinements)",
 }
 CONVENTIONS = {
     "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
@@ -60,15 +66,25 @@ CONVENTIONS = {
     "springing_reactions": "force of the ground on the structure at each joint on the ground: horizontal positive "
                            "to the right, vertical positive up",
     "load": "live load: the sum of the [[load]] tables' forces, each factor x load level",
-    "joint_state (fields.xdmf)": "0 no joint, 1 stick, 2 slip, 3 open; time value = live load (N)",
 }
 
 
-def summary(an: Analysis, extra: dict | None = None) -> dict:
-    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank;
-    collective: the ring check is an LP on rank 0)."""
+def state_vocabulary(law: JointLaw) -> tuple[dict, dict]:
+    """The entries of results.json's ``units`` and ``conventions`` that name the joint law's states: the pair counts
+    of each step and the codes of the field ``joint_state``."""
+    codes = sorted((code, name) for name, code in law.OUTPUT_CODES.items())
+    return ({"counts": f"pairs: joint node pairs {' / '.join(law.STATES)} at the end of the step; "
+                       "elements_through_thickness (model, mesh_refinements)"},
+            {"joint_state (fields.xdmf)": f"{NO_JOINT} no joint, {', '.join(f'{c} {n}' for c, n in codes)}; time "
+                                          "value = live load (N)"})
+
+
+def summary(an: Analysis) -> dict:
+    """The JSON-ready summary of an analysis, with its LP check and warnings (identical on every rank; local: the
+    analysis holds its checks as plain data)."""
     s, total = an.search, an.load_total
     hinges = [j for j in an.joints if j.hinge]
+    units, conventions = state_vocabulary(an.solver.law)
     steps = [{"step": st.index, "load": st.level * total, "converged": st.converged, "reason": st.reason,
               "newton_iterations": st.iterations, "factorisations": st.factorisations,
               "residual": st.residual if np.isfinite(st.residual) else None,
@@ -81,8 +97,8 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
                        "unit": "N", "tolerance": s.tolerance, "width": an.scene.arch.width},
         "failure_reason": s.failure,
         "evidence": an.verdict.evidence if an.verdict else "",
-        "units": UNITS,
-        "conventions": CONVENTIONS,
+        "units": {**UNITS, **units},
+        "conventions": {**CONVENTIONS, **conventions},
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
                       "sliding": [j.id for j in an.joints if j.sliding]},
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
@@ -90,6 +106,7 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
                         "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
                         "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding} if js else {})}
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
+        "line_of_thrust": thrust_summary(line_of_thrust(an.joints, an.ring)),
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
         "springing_reactions": _reactions(an),
@@ -108,8 +125,25 @@ def summary(an: Analysis, extra: dict | None = None) -> dict:
         "timings": an.timings,
         "mpi_ranks": an.solver.comm.size,
         "versions": versions(),
-        **(extra or {}),
+        "loads": load_entries(an.scene, an.ring, an.lp.load_sides),
     }
+
+
+def load_entries(scene, ring, sides: list[str | None]) -> list[dict]:
+    """The ``loads`` entry of results.json: each [[load]] table with its centre ``x`` (m); ``side``: the voussoir
+    that carries a point load on a joint ("left" | "right" of the joint, "split": both; ``sides``, the rigid-block
+    LP's least favourable choice; None off the joints, and over a fill, where the loads act on the road);
+    ``snapped_to_joint`` and ``moved_by`` (m): the joint a point load was moved onto and how far
+    (:func:`bridgefem.structure.ring.snapped_loads`; None and 0 for a load that acts where it was given)."""
+    snapped = {s.index: s for s in snapped_loads(scene, ring)}
+    out = []
+    for i, ld in enumerate(scene.loads):
+        s = snapped.get(i)
+        side = sides[i] if scene.fill is None and i < len(sides) else None
+        out.append({"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+                    "length": ld.length, "factor": ld.factor, "side": side,
+                    "snapped_to_joint": s.joint if s else None, "moved_by": s.moved_by if s else 0.0})
+    return out
 
 
 def _reactions(an: Analysis) -> list[dict]:
@@ -134,46 +168,21 @@ RING_CHECK_MODEL = ("the ring's rigid-block LP (associative friction) loaded by 
 def ring_check_summary(an: Analysis) -> dict | None:
     """The ``ring_under_transmitted_loads`` entry of results.json (None without a fill or a converged live load):
     ``fe_load`` the FE's last converged live load (N), ``load`` the live load at which the ring under the transmitted
-    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism. Collective."""
+    loads collapses (N; None if it does not), ``ratio`` = load / fe_load, the LP's status and mechanism."""
     check = an.ring_check
     if check is None:
         return None
     lp, total = check.lp, an.load_total
     return {"model": RING_CHECK_MODEL, "fe_load": check.fe_level * total,
             "load": None if check.lp_level is None else check.lp_level * total, "unit": "N",
-            "ratio": check.ratio, "status": lp.status, "mechanism": _mechanism(lp)}
-
-
-LP_FILL_LABEL = "fill as dead load only"
-
-
-def _mechanism(lp) -> dict:
-    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-            "sliding": sorted(lp.sliding)}
-
-
-def lp_summary(lp) -> dict:
-    """The JSON form of a rigid-block result: load (N), status, friction model, mechanism, seconds."""
-    return {"load": lp.load, "unit": "N", "status": lp.status, "friction_model": lp.friction_model,
-            "mechanism": _mechanism(lp), "seconds": lp.time_s}
-
-
-def lp_label(scene) -> str:
-    """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
-    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
-    label = LP_FILL_LABEL if scene.fill else "bare ring"
-    if scene.abutments.elastic:
-        label += ", abutments as rigid blocks"
-    if scene.abutments.moves:
-        label += ", support movement not modelled (no effect on the rigid-block collapse load)"
-    return label
+            "ratio": check.ratio, "status": lp.status, "mechanism": mechanism_summary(lp)}
 
 
 def lp_entries(an: Analysis) -> dict:
     """The ``lp``, ``fe_lp_ratio``, ``static_bound``, ``warnings`` and ``fill_bounds`` entries of results.json
     (:attr:`Analysis.lp`, :attr:`Analysis.fe_lp_ratio`, :func:`static_summary`, :attr:`Analysis.warnings`,
     :attr:`Analysis.fill_bounds`)."""
-    return {"lp": {**lp_summary(an.lp), "model": lp_label(an.scene)}, "fe_lp_ratio": an.fe_lp_ratio,
+    return {"lp": lp_entry(an.lp, an.scene), "fe_lp_ratio": an.fe_lp_ratio,
             "static_bound": static_summary(an), "warnings": an.warnings, "fill_bounds": an.fill_bounds}
 
 
@@ -190,22 +199,26 @@ def static_summary(an: Analysis) -> dict | None:
             "margin": b.margin, "closed": an.search.static}
 
 
-def write_results(an: Analysis, out: Path, extra: dict | None = None) -> dict:
+def write_results(an: Analysis, out: Path) -> dict:
     """Write results.json, fields.xdmf and the PNGs into ``out`` atomically, under the output policy of
     :mod:`bridgefem.io.output` (collective); returns the summary."""
     comm = an.solver.comm
     with results_folder(Path(out), comm) as tmp:
-        data = summary(an, extra)
+        data = summary(an)
         if an.converged:
             with quiet_compiler():
                 _write_fields(an, tmp / "fields.xdmf")
-        motion = an.collapse_mode()
+        motion = an.collapse_mode
         if comm.rank == 0:
             (tmp / "results.json").write_text(json.dumps(data, indent=2))
             from .plots import plot_load_deflection, plot_mechanism
 
             plot_load_deflection(data, tmp / "load_deflection.png")
             plot_mechanism(an.ring, data, motion, tmp / "mechanism.png", _fill_polygon(an))
+            from .report import run_report
+
+            (tmp / "report.html").write_text(run_report(data, {"mechanism": tmp / "mechanism.png",
+                                                               "load_deflection": tmp / "load_deflection.png"}))
     return data
 
 
@@ -254,10 +267,10 @@ class _XdmfSeries:
 
 
 def _write_fields(an: Analysis, path: Path) -> None:
-    """Displacement (m, x y 0) and joint state (:data:`JOINT_STATE_CODES`, exact integers) at every converged
-    load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as one XDMF time series whose
-    time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``. Gathered to and written by
-    rank 0. Collective."""
+    """Displacement (m, x y 0) and joint state (the joint law's output codes, :data:`NO_JOINT` off the joints; exact
+    integers) at every converged load step, at the displacement's nodes (P1: triangles, P2: six-node triangles), as
+    one XDMF time series whose time value is the live load (N), for ParaView and meshio's ``TimeSeriesReader``.
+    Gathered to and written by rank 0. Collective."""
     V, pairs = an.model.V, an.pairs
     comm = V.mesh.comm
     imap = V.dofmap.index_map
@@ -267,8 +280,7 @@ def _write_fields(an: Analysis, path: Path) -> None:
     owned = imap.local_to_global(np.arange(n_owned, dtype=np.int32))
     points = comm.gather((owned, V.tabulate_dof_coordinates()[:n_owned]), root=0)
     cells = comm.gather(imap.local_to_global(dofs.ravel()).reshape(dofs.shape), root=0)
-    codes = np.zeros(3, dtype=np.int32)
-    codes[[OPEN, STICK, SLIP]] = [JOINT_STATE_CODES[k] for k in ("open", "stick", "slip")]
+    codes = an.solver.law.output_codes()
     ends = np.concatenate([pairs.left, pairs.right])
     series = None
     if comm.rank == 0:
@@ -281,7 +293,7 @@ def _write_fields(an: Analysis, path: Path) -> None:
         u = comm.gather((owned, cs.u.reshape(-1, 2)), root=0)
         state = comm.gather((ends, np.concatenate([codes[cs.pair_state]] * 2)), root=0)
         if series is not None:
-            disp, joint_state = np.zeros_like(xyz), np.zeros(len(xyz), dtype=np.int32)
+            disp, joint_state = np.zeros_like(xyz), np.full(len(xyz), NO_JOINT, dtype=np.int32)
             for g, v in u:
                 disp[g, :2] = v
             for g, c in state:
@@ -289,6 +301,30 @@ def _write_fields(an: Analysis, path: Path) -> None:
             series.write(cs.load, {"displacement": disp, "joint_state": joint_state})
     if series is not None:
         series.close()
+
+
+def pictures(an: Analysis, data: dict, level: float | None = None) -> dict[str, bytes]:
+    """The mechanism (with the line of thrust), the load-deflection and the elevation (the bridge and its loads at
+    ``level``, N per unit factor; default: the last converged one) PNGs of an analysis, as bytes (collective: the
+    collapse mode; drawn on rank 0, empty elsewhere)."""
+    import io
+
+    motion = an.collapse_mode
+    if an.solver.comm.rank != 0:
+        return {}
+    from .plots import plot_elevation, plot_load_deflection, plot_mechanism
+
+    out = {}
+    level = data["limit_load"]["lower"] / an.load_total if level is None else level
+    loads = [{"x": ld["x"], "load": ld["factor"] * level} for ld in data["loads"]]
+    for name, draw in (("mechanism", lambda f: plot_mechanism(an.ring, data, motion, f, _fill_polygon(an))),
+                       ("load_deflection", lambda f: plot_load_deflection(data, f)),
+                       ("elevation", lambda f: plot_elevation(an.ring, {**data, "loads": loads}, f,
+                                                              _fill_polygon(an)))):
+        buf = io.BytesIO()
+        draw(buf)
+        out[name] = buf.getvalue()
+    return out
 
 
 def _fill_polygon(an: Analysis) -> np.ndarray | None:

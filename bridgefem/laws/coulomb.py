@@ -1,98 +1,82 @@
-"""TODO docstring"""
+"""Unilateral contact with Coulomb friction at every joint pair: the first joint law (:mod:`bridgefem.laws.base`).
+
+Per pair, with d = [d_n, d_t] (m; d_n > 0 opens) and lam = [lam_n, lam_t] (N; lam_n > 0 compression) as in
+:mod:`bridgefem.fe.pairs` (the seed paper, eqs. 1-6):
+
+    d_n >= 0,  lam_n >= 0,  lam_n d_n = 0                          (no penetration, no tension)
+    |lam_t| <= mu lam_n;  Delta d_t = 0 while |lam_t| < mu lam_n;  lam_t = -mu lam_n sign(Delta d_t) when it slips
+
+with Delta d_t the slip since the last converged load step (``slip_ref``: incremental friction, path following).
+
+**States.** ``OPEN`` (lam = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s mu lam_n
+with the slip sign s: the slip goes the other way, -s).
+
+**Classification** (Alart & Curnier 1991, *A mixed formulation for frictional contact problems prone to Newton like
+solution methods*, CMAME 92): with the constant c (N/m per pair)
+
+    sigma_n = lam_n - c d_n,   sigma_t = lam_t - c Delta d_t
+
+a pair is closed iff sigma_n > 0 and slips iff |sigma_t| > mu sigma_n, in the direction s = sign(sigma_t). The law
+holds iff lam_n = max(sigma_n, 0) and lam_t = clip(sigma_t, -mu lam_n, mu lam_n) (:meth:`CoulombJoints.residual`):
+a semismooth equation, whose Newton method is the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002,
+SIAM J. Optim. 13; with Coulomb friction Hüeber, Stadler & Wohlmuth 2008, SIAM J. Sci. Comput. 30). A hysteresis of ``force_tol`` keeps a pair that carries no
+force from chattering between states.
+
+**The safeguards' operations** on the Coulomb states: holding a closed pair is sticking it; a reversed slip passes
+through stick (the incremental law is a monotone graph: slip one way, stick, slip the other way); a joint is
+*sliding* when every closed pair of it outside some held ones slips one way (:meth:`CoulombJoints.sliding_joints`),
+and a repair closes an open pair on a sliding joint sliding with it, others sticking (a new contact on a joint
+that slides slides with it).
+
+**Rigid-block rows** (:meth:`CoulombJoints.block_yield`): a joint of length t with resultants (n, s, m) carries no
+tension, its thrust lies within it and it obeys Coulomb's law: |m| <= n t / 2, |s| <= mu n + capacity, n >= 0
+(the rows of the rigid-block LP, Gilbert & Melbourne 1994, and of the conic bounds).
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-from mpi4py import MPI
 
-OPEN, STICK, SLIP = 0, 1, 2
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules, joint_counts
 
 
 @dataclass
-class ContactState:
-    """Active set of the local pairs: ``state`` in {OPEN, STICK, SLIP} and the slip sign (+1/-1) for SLIP."""
+class CoulombJoints(JointLaw):
+    """Unilateral contact with Coulomb friction at every pair (module docstring), with the Coulomb coefficients
+    ``mu``, the Alart-Curnier constants ``c`` (N/m per pair) and a hysteresis ``force_tol`` (N) against chattering."""
 
-    state: np.ndarray
-    sign: np.ndarray
+    OPEN: ClassVar[int] = 0
+    STICK: ClassVar[int] = 1
+    SLIP: ClassVar[int] = 2
+    STATES: ClassVar[tuple[str, ...]] = ("open", "stick", "slip")
+    OUTPUT_CODES: ClassVar[dict[str, int]] = {"stick": 1, "slip": 2, "open": 3}
+    CANDIDATES: ClassVar[tuple[tuple[int, int], ...]] = ((OPEN, 0), (STICK, 0), (SLIP, 1), (SLIP, -1))
+    """(state, slip sign) each pair may take: open, stick, slip +, slip -."""
 
     @classmethod
-    def all_stick(cls, n: int) -> "ContactState":
-        return cls(np.full(n, STICK, dtype=np.int8), np.zeros(n, dtype=np.int8))
+    def for_pairs(cls, pairs, friction: float | np.ndarray, c: np.ndarray, force_tol: float) -> "CoulombJoints":
+        """The law at ``pairs`` (a :class:`bridgefem.fe.pairs.JointPairs`) with the Coulomb coefficient(s)
+        ``friction`` (one, or one per pair), the Alart-Curnier constants ``c`` and the hysteresis ``force_tol``."""
+        return cls(np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),)).copy(), c, force_tol)
 
-    def copy(self) -> "ContactState":
-        return ContactState(self.state.copy(), self.sign.copy())
+    # ----------------------------------------------------------------- vocabulary
+    def closed(self, active: ContactState) -> np.ndarray:
+        return active.state != self.OPEN
 
-    def key(self) -> bytes:
-        return self.state.tobytes() + self.sign.tobytes()
+    def sliding(self, active: ContactState) -> np.ndarray:
+        return active.state == self.SLIP
 
-    def sliding_joints(self, joint: np.ndarray, held: np.ndarray, comm: MPI.Comm) -> np.ndarray:
-        """Per local pair (ring joint ids ``joint``), the slip sign (+1/-1) of its joint when every closed pair of
-        that joint outside the mask ``held`` (at least one) slips that way, else 0; 0 on the arch-fill interface.
-        Collective: a joint's pairs may lie on several ranks."""
-        ring = joint >= 0
-        closed = ring & (self.state != OPEN) & ~held
-        slips = closed & (self.state == SLIP)
-        counts = joint_counts(joint, (closed, slips & (self.sign > 0), slips & (self.sign < 0)), comm)
-        sliding = counts[0] > 0
-        sign = np.where(sliding & (counts[1] == counts[0]), 1, np.where(sliding & (counts[2] == counts[0]), -1, 0))
-        return np.where(ring, sign[np.maximum(joint, 0)], 0).astype(np.int8)
+    @classmethod
+    def bonded(cls, n: int) -> ContactState:
+        """``n`` pairs closed and sticking."""
+        return ContactState(np.full(n, cls.STICK, dtype=np.int8), np.zeros(n, dtype=np.int8))
 
-    def opposed_slips(self, previous: "ContactState", joint: np.ndarray, comm: MPI.Comm) -> np.ndarray:
-        """The local pairs of this proposed set that still slip as in ``previous`` on a ring joint (ids ``joint``)
-        whose closed pairs all slip, the ones that start slipping (or reverse) one way and these the other way: a
-        joint sliding both ways at once, its friction forces cancelling. Collective."""
-        ring = joint >= 0
-        slips = ring & (self.state == SLIP)
-        kept = slips & (previous.state == SLIP) & (previous.sign == self.sign)
-        closed = ring & (self.state != OPEN)
-        up, down = slips & (self.sign > 0), slips & (self.sign < 0)
-        counts = joint_counts(joint, (closed, up, down, up & ~kept, down & ~kept), comm)
-        total, n_up, n_down, new_up, new_down = counts
-        all_slip = (total > 0) & (n_up + n_down == total)
-        old_down = all_slip & (new_up == n_up) & (new_up > 0) & (new_down == 0) & (n_down > 0)  # new +, old -
-        old_up = all_slip & (new_down == n_down) & (new_down > 0) & (new_up == 0) & (n_up > 0)  # new -, old +
-        at = np.maximum(joint, 0)
-        return ring & kept & ((down & old_down[at]) | (up & old_up[at]))
-
-
-def joint_counts(joint: np.ndarray, masks: tuple[np.ndarray, ...], comm: MPI.Comm) -> np.ndarray:
-    """For each local pair mask, the number of its pairs per ring joint over all ranks ((masks, joints); ids
-    ``joint``, the arch-fill interface's negative id left out). Collective."""
-    ring = joint >= 0
-    n = comm.allreduce(int(joint.max(initial=-1)) + 1, op=MPI.MAX)
-    return comm.allreduce(np.stack([np.bincount(joint[ring & m], minlength=n) for m in masks]))
-
-
-class LawRows(NamedTuple):
-    """The two rows of a pair's law in the linear system of an active set (per local pair), with G the relative
-    displacement operator and c the Alart-Curnier constant:
-
-        normal:     a_n c G_n u + b_n lam_n              = r_n
-        tangential: a_t c G_t u + b_t lam_t + e_t lam_n  = r_t
-    """
-
-    a_n: np.ndarray
-    a_t: np.ndarray
-    b_n: np.ndarray
-    b_t: np.ndarray
-    e_t: np.ndarray
-
-
-@dataclass
-class CoulombJoints:
-    """Unilateral contact with Coulomb friction at every pair (module docstring), with the Alart-Curnier constants
-    ``c`` (N/m per pair), the Coulomb coefficients ``mu`` and a hysteresis ``force_tol`` (N) against chattering.
-
-    A joint law is one object with three jobs: :meth:`classify` (the active set the complementarity functions
-    propose), :meth:`residual` (zero iff the law holds) and :meth:`rows` / :meth:`rhs` (its linear equations for an
-    active set). Another law (e.g. crushing) is another object with the same methods."""
-
-    mu: np.ndarray
-    c: np.ndarray
-    force_tol: float
-
+    # ----------------------------------------------------------------- classify, assemble, converge
     def classify(self, prev: ContactState, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray
                  ) -> tuple[ContactState, np.ndarray]:
         """New active set from the Alart-Curnier functions, with a hysteresis of ``force_tol`` so that pairs carrying
@@ -104,19 +88,19 @@ class CoulombJoints:
         sig_n = lam[:, 0] - self.c * d[:, 0]
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
         tol = self.force_tol
-        was_closed = prev.state != OPEN
+        was_closed = prev.state != self.OPEN
         closed = np.where(was_closed, sig_n >= -tol, sig_n > tol)
         excess = np.abs(sig_t) - self.mu * np.maximum(sig_n, 0.0)
-        was_slip = prev.state == SLIP
+        was_slip = prev.state == self.SLIP
         sign = np.sign(sig_t).astype(np.int8)
         reversed_slip = was_slip & (sign != prev.sign)
         slip = np.where(was_slip & ~reversed_slip, excess > -tol, excess > tol)
-        state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
+        state = np.where(~closed, self.OPEN, np.where(slip, self.SLIP, self.STICK)).astype(np.int8)
         violation = np.where(closed != was_closed, np.abs(sig_n), np.abs(excess))
-        return ContactState(state, np.where(state == SLIP, sign, 0).astype(np.int8)), violation
+        return ContactState(state, np.where(state == self.SLIP, sign, 0).astype(np.int8)), violation
 
     def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:
-        """Alart-Curnier residual (N) per pair: zero iff eqs. (1)-(6) hold."""
+        """Alart-Curnier residual (N) per pair: zero iff the law holds."""
         sig_n = np.maximum(lam[:, 0] - self.c * d[:, 0], 0.0)
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
         return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -self.mu * sig_n, self.mu * sig_n)])
@@ -124,12 +108,149 @@ class CoulombJoints:
     def rows(self, active: ContactState) -> LawRows:
         """The law's rows for an active set: closed pairs keep d_n (open ones carry lam_n = 0), sticking pairs keep
         d_t, sliding pairs carry lam_t = s mu lam_n (open ones lam_t = 0)."""
-        closed, stick = active.state != OPEN, active.state == STICK
+        closed, stick = active.state != self.OPEN, active.state == self.STICK
         return LawRows(closed.astype(float), stick.astype(float), (~closed).astype(float), (~stick).astype(float),
-                       -self.mu * active.sign * (active.state == SLIP))
+                       -self.mu * active.sign * (active.state == self.SLIP))
 
     def rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Right-hand sides (r_n, r_t) of the rows: a closed pair's gap and a sticking pair's slip stay those of the
         last converged step, d = G u + ``ground`` (the imposed ground movement, m, (m, 2))."""
-        return (np.where(active.state != OPEN, -self.c * ground[:, 0], 0.0),
-                np.where(active.state == STICK, self.c * (slip_ref - ground[:, 1]), 0.0))
+        return (np.where(active.state != self.OPEN, -self.c * ground[:, 0], 0.0),
+                np.where(active.state == self.STICK, self.c * (slip_ref - ground[:, 1]), 0.0))
+
+    def free_directions(self, active: ContactState) -> tuple[np.ndarray, np.ndarray]:
+        """Open pairs are free in both directions, sliding ones tangentially."""
+        return active.state == self.OPEN, active.state != self.STICK
+
+    # ----------------------------------------------------------------- the solver's safeguards
+    def hold(self, active: ContactState, pairs: np.ndarray) -> None:
+        """The closed ones of ``pairs`` stick; open ones stay open."""
+        fix = pairs & (active.state != self.OPEN)
+        active.state[fix], active.sign[fix] = self.STICK, 0
+
+    def bond(self, active: ContactState, pairs: np.ndarray) -> None:
+        """``pairs`` closed and sticking."""
+        active.state[pairs], active.sign[pairs] = self.STICK, 0
+
+    def release(self, active: ContactState, pairs: np.ndarray) -> None:
+        active.state[pairs], active.sign[pairs] = self.OPEN, 0
+
+    def hold_reversals(self, new: ContactState, old: ContactState) -> None:
+        """A pair that slid in ``old`` and is proposed to slide the other way sticks instead: the reversal passes
+        through stick, and the next classification proposes the reversed slip if the stick force leaves the cone."""
+        reversed_slip = (old.state == self.SLIP) & (new.state == self.SLIP) & (new.sign != old.sign)
+        new.state[reversed_slip], new.sign[reversed_slip] = self.STICK, 0
+
+    def hold_opposed_slips(self, new: ContactState, old: ContactState, joint: np.ndarray, comm: MPI.Comm) -> None:
+        """The pairs of ``new`` that still slip as in ``old`` on a ring joint whose closed pairs all slip, some
+        starting to slip (or reversing) one way and these the other way, stick (:meth:`opposed_slips`)."""
+        opposed = self.opposed_slips(new, old, joint, comm)
+        new.state[opposed], new.sign[opposed] = self.STICK, 0
+
+    @classmethod
+    def opposed_slips(cls, new: ContactState, old: ContactState, joint: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+        """The local pairs of the proposed set ``new`` that still slip as in ``old`` on a ring joint (ids ``joint``)
+        whose closed pairs all slip, the ones that start slipping (or reverse) one way and these the other way: a
+        joint sliding both ways at once, its friction forces cancelling. Collective."""
+        ring = joint >= 0
+        slips = ring & (new.state == cls.SLIP)
+        kept = slips & (old.state == cls.SLIP) & (old.sign == new.sign)
+        closed = ring & (new.state != cls.OPEN)
+        up, down = slips & (new.sign > 0), slips & (new.sign < 0)
+        counts = joint_counts(joint, (closed, up, down, up & ~kept, down & ~kept), comm)
+        total, n_up, n_down, new_up, new_down = counts
+        all_slip = (total > 0) & (n_up + n_down == total)
+        old_down = all_slip & (new_up == n_up) & (new_up > 0) & (new_down == 0) & (n_down > 0)  # new +, old -
+        old_up = all_slip & (new_down == n_down) & (new_down > 0) & (new_up == 0) & (n_up > 0)  # new -, old +
+        at = np.maximum(joint, 0)
+        return ring & kept & ((down & old_down[at]) | (up & old_up[at]))
+
+    @classmethod
+    def sliding_joints(cls, active: ContactState, joint: np.ndarray, held: np.ndarray, comm: MPI.Comm) -> np.ndarray:
+        """Per local pair (ring joint ids ``joint``), the slip sign (+1/-1) of its joint when every closed pair of
+        that joint outside the mask ``held`` (at least one) slips that way, else 0; 0 on the arch-fill interface.
+        Collective: a joint's pairs may lie on several ranks."""
+        ring = joint >= 0
+        closed = ring & (active.state != cls.OPEN) & ~held
+        slips = closed & (active.state == cls.SLIP)
+        counts = joint_counts(joint, (closed, slips & (active.sign > 0), slips & (active.sign < 0)), comm)
+        sliding = counts[0] > 0
+        sign = np.where(sliding & (counts[1] == counts[0]), 1, np.where(sliding & (counts[2] == counts[0]), -1, 0))
+        return np.where(ring, sign[np.maximum(joint, 0)], 0).astype(np.int8)
+
+    def repaired(self, active: ContactState, repair: np.ndarray, joint: np.ndarray, comm: MPI.Comm
+                 ) -> ContactState:
+        """``active`` with the ``repair`` pairs closed and sticking, except that an open one on a sliding joint
+        (:meth:`sliding_joints`) closes sliding with it. Collective."""
+        fixed = active.copy()
+        fixed.state[repair], fixed.sign[repair] = self.STICK, 0
+        slide = self.sliding_joints(active, joint, repair, comm)
+        closing = repair & (active.state == self.OPEN) & (slide != 0)
+        fixed.state[closing], fixed.sign[closing] = self.SLIP, slide[closing]
+        return fixed
+
+    def candidates(self) -> tuple[tuple[int, int], ...]:
+        return self.CANDIDATES
+
+    def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart &
+        Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta) with
+        lam_t = lam_+ - lam_- and the slip magnitude beta:
+
+            d_n                        >= 0  _|_  lam_n >= 0     (contact)
+            Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
+            -Delta d_t + beta          >= 0  _|_  lam_- >= 0     (lam_t = -mu lam_n only when slipping by +beta)
+            mu lam_n - lam_+ - lam_-   >= 0  _|_  beta  >= 0     (slip only on the friction cone)
+
+        equilibrated: each force component i is measured in units of 1 / sqrt(|C_ii|) N and each displacement in
+        sqrt(|C_ii|) m, so that the compliance has a unit diagonal (a pair that is nearly a mechanism has C_nn a
+        million times C_tt), the friction coefficient becomes mu sqrt(|C_tt| / |C_nn|) per pair, and q is divided by
+        its largest entry (the problem is homogeneous in (q, z)). The solution's zero pattern, hence its active set,
+        is that of the unscaled problem."""
+        p = len(d0)
+        scale = 1.0 / np.sqrt(np.maximum(np.abs(np.diag(C)), 1e-300))  # N per unit force, per pair and direction
+        compliance = scale[:, None] * C * scale[None, :]
+        expand = np.zeros((2 * p, 4 * p))  # lam = expand z
+        k = np.arange(p)
+        expand[2 * k, 4 * k] = 1.0
+        expand[2 * k + 1, 4 * k + 1], expand[2 * k + 1, 4 * k + 2] = 1.0, -1.0
+        A = compliance @ expand
+        M = np.zeros((4 * p, 4 * p))
+        M[0::4], M[1::4], M[2::4] = A[0::2], A[1::2], -A[1::2]
+        M[4 * k + 1, 4 * k + 3] = M[4 * k + 2, 4 * k + 3] = 1.0
+        M[4 * k + 3, 4 * k] = self.mu * scale[0::2] / scale[1::2]
+        M[4 * k + 3, 4 * k + 1] = M[4 * k + 3, 4 * k + 2] = -1.0
+        q = np.zeros(4 * p)
+        gap = scale.reshape(p, 2) * d0
+        q[0::4], q[1::4], q[2::4] = gap[:, 0], gap[:, 1], -gap[:, 1]
+        return M, q / max(np.abs(q).max(), 1e-300)
+
+    def lcp_state(self, z: np.ndarray, tol: float) -> ContactState:
+        """Closed where lam_n > ``tol``, sliding where beta > ``tol`` with the sign of lam_t."""
+        lam_n, lam_t, beta = z[0::4], z[1::4] - z[2::4], z[3::4]
+        closed, slip = lam_n > tol, beta > tol
+        state = np.where(~closed, self.OPEN, np.where(slip, self.SLIP, self.STICK)).astype(np.int8)
+        return ContactState(state, np.where(state == self.SLIP, np.sign(lam_t), 0).astype(np.int8))
+
+    # ----------------------------------------------------------------- verdicts
+    def mode_rules(self, active: ContactState) -> ModeRules:
+        """A mode may not close an open pair, nor slip a sliding pair against its friction force: s d_t > 0 (the
+        slip law assumes a slip of sign -s), measured by mu s d_t, the friction's work per unit normal force (mu = 0
+        pairs slip freely). An open pair carries no tension."""
+        return ModeRules(active.state == self.OPEN, np.where(active.state == self.SLIP, self.mu * active.sign, np.nan),
+                         self.mu > 0, np.zeros(len(active.state)))
+
+    def sliding_forces(self, active: ContactState, lam_n: np.ndarray) -> np.ndarray:
+        """lam_t = s mu lam_n at the sliding pairs."""
+        return np.where(active.state == self.SLIP, active.sign * self.mu * lam_n, 0.0)
+
+    # ----------------------------------------------------------------- limit analysis
+    @classmethod
+    def block_yield(cls, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
+        """Per joint the rows +-m - n t/2 <= 0 and +-s - mu n <= capacity, and n >= 0 (module docstring)."""
+        n = len(length)
+        one, half = np.ones(n), length / 2
+        rhs = np.zeros((n, 4))
+        rhs[:, 2] = rhs[:, 3] = capacity
+        return BlockYield(np.array([0, 0, 1, 1, 2, 2, 3, 3]), np.array([2, 0, 2, 0, 1, 0, 1, 0]),
+                          np.column_stack([one, -half, -one, -half, one, -mu, -one, -mu]), rhs, np.zeros(n))

@@ -167,12 +167,12 @@ def return_map(material: MohrCoulomb, strain: np.ndarray, plastic_strain: np.nda
     """Stress, consistent tangent and plastic strain after one backward-Euler step at n points.
 
     ``strain``: total strain (n, 4) ``[exx, eyy, ezz (= 0 in plane strain), gamma_xy]`` (engineering shear);
-    ``plastic_strain``: (n, 4) converged plastic strain of the last load step, same layout. Returns the
-    stress (n, 4) ``[sxx, syy, szz, sxy]`` (Pa, tension positive), the consistent (algorithmic) tangent
-    (n, 3, 3) ``d[sxx, syy, sxy] / d[exx, eyy, gamma_xy]`` (Pa) and the updated plastic strain (n, 4).
-    The tangent is unsymmetric on the cone if the flow is non-associated, singular off the smooth cone: no bulk stiffness on the cut-off, zero at the apex (a
-    stress held at a fixed vertex of the elastic domain); a global solver needs elastic neighbours or
-    regularisation where whole regions sit there.
+    ``plastic_strain``: (n, 4) converged plastic strain of the last load step, same layout. Returns the stress (n, 4)
+    ``[sxx, syy, szz, sxy]`` (Pa, tension positive), the consistent (algorithmic) tangent (n, 3, 3) ``d[sxx, syy, sxy] /
+    d[exx, eyy, gamma_xy]`` (Pa) and the updated plastic strain (n, 4). The tangent is unsymmetric on the cone if the
+    flow is non-associated, singular off the smooth cone: no bulk stiffness on the cut-off, zero at the apex (a stress
+    held at a fixed vertex of the elastic domain); a global solver needs elastic neighbours or regularisation where
+    whole regions sit there.
     """
     strain = np.asarray(strain, dtype=float)
     plastic_strain = np.asarray(plastic_strain, dtype=float)

@@ -1,30 +1,30 @@
-"""A re-run's trials start from its coarser run's load path (:func:`bridgefem.analysis.runner.run_analysis`, re-runs on a
-finer mesh).
+"""A re-run's trials start from its coarser run's load path (:mod:`bridgefem.analysis.refinement`: re-runs on a
+finer mesh; :mod:`bridgefem.search.pathfollow`, *Predictor*).
 
 A bare ring re-run with twice the elements through the thickness has the same joints, each with twice the node
-pairs, and a limit within a few per cent of the coarser run's (the campaigns' re-runs: within 2 %). Along most of the
-path the joints that open and slide at a level are, joint by joint, where the coarser run's opened and slid at that
-level. :class:`CoarserPath` keeps the coarser run's converged states as joint tractions (N/m) and relative
-displacements (m) along each joint, linear between its converged levels, and proposes the start of a trial at
-``trial`` from the finer run's converged state at ``lower`` (levels in N per unit load factor): that state plus the
-coarser path's increment over the step, interpolated along each joint at the finer pairs,
+pairs, and a limit close to the coarser run's. Along most of the path the joints that open and slide at a level are,
+joint by joint, where the coarser run's opened and slid at that level. Levels are in N per unit load factor.
 
-    lam = lam_f(lower) + [t_c(trial) - t_c(lower)] l_f,    d = d_f(lower) + [d_c(trial) - d_c(lower)],
+1. :class:`CoarserPath` keeps the coarser run's converged states as joint tractions (N/m) and relative
+   displacements (m) along each joint, linear between its converged levels.
+2. For a trial at ``trial`` from the finer run's converged state at ``lower`` it proposes that state plus the
+   coarser path's increment over the step, interpolated along each joint at the finer pairs,
 
-with l_f the finer pairs' tributary lengths (m). The increment, not the coarser state itself: the two meshes' elastic
-joint displacements differ, and a sticking pair would be proposed to slip by that difference. The start is the
-Newton method's first active set (:class:`bridgefem.solver.newton.PairPrediction`), never what counts as converged.
+       lam = lam_f(lower) + [t_c(trial) - t_c(lower)] l_f,    d = d_f(lower) + [d_c(trial) - d_c(lower)],
 
-The whole path starts trials, up to its last converged level (beyond it no start is extrapolated). Near its end
-the coarser run slides on its own collapse mechanism at its own level, which the finer mesh may move; still, that
-mechanism's joints are where the finer run's open and slide. On the 42 bare rings that the campaigns' seeds 1-9
-re-run, the whole path against the path up to 0.98 of its last level: 3450 -> 3320 linear solves, 17 re-runs cheaper
-and 12 dearer (by at most 3), every limit the same (seed 6 #146 176 -> 118: the trial at its target from 12 % below
-converged in 10 Newton iterations instead of failing after 8 and a bisection of 11 steps; seed 4 #38 153 -> 123).
-The path's interior against the finer run's own secant throughout (on seeds 1-7 before): seed 1 #284 205 -> 123 and
-seed 7 #166 241 -> 195 (its 8-element run 101 -> 55: steps of 9 to 14 Newton iterations instead of 12 to 20 from the
-secant). Started from the coarser run's self-weight state too, not kept: seed 1 #297's self-weight spent the re-run's
-budget unconverged.
+   with l_f the finer pairs' tributary lengths (m).
+3. The proposal is the Newton method's first active set (:class:`bridgefem.solver.newton.PairPrediction`), never
+   what counts as converged.
+
+Safeguards:
+
+- *The increment, not the coarser state*: the two meshes' elastic joint displacements differ, and a sticking pair
+  would be proposed to slip by that difference.
+- *The whole path, never beyond it*: near its end the coarser run slides on its own collapse mechanism at its own
+  level, which the finer mesh may move; that mechanism's joints are still where the finer run's open and slide, so
+  the path starts trials up to its last converged level, and beyond it none is extrapolated.
+- *Live load only*: the self-weight starts as on any run; from the coarser run's self-weight state a re-run's
+  self-weight can spend its budget unconverged.
 """
 from __future__ import annotations
 

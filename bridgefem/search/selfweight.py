@@ -1,14 +1,13 @@
-"""The self-weight state: the start of every limit search (:mod:`bridgefem.search.pathfollow`).
+"""The self-weight state: the start of every limit search (:mod:`bridgefem.search.pathfollow`, step 1).
 
-1. The whole self-weight in one step from the unloaded state (every joint closed and sticking), with the whole
-   iteration budget: on campaign seeds 1 and 2 converged one steps took up to 29 Newton iterations and failed ones
-   showed the mechanism of an arch unstable under self-weight after up to 49. A ring whose springings both slide
-   (its thrust mu W / 2 at each: seed 1 #76, #193, #297) translates freely once every pair of both springings
-   slides; the repair stuck a whole springing, chosen by rounding, whose pairs then slid again one at a time, and the
-   one step spent its budget or ended cycling, as did a continuation step. Stuck where the translation's forces
-   say (:mod:`bridgefem.solver.mechanism`, step 1), or with the last pair on its cone frozen (:mod:`bridgefem.solver.newton`,
-   *Pairs on the cone*), the one step converges: #76 in 21 iterations, #297 in 20 (their coarse runs 183 -> 38 and
-   134 -> 35 solves).
+The dead load (the voussoirs', the abutments' and the fill's weight) is applied from the unloaded state, every
+joint closed and sticking:
+
+1. The whole self-weight in one step, with the whole iteration budget. A ring whose springings both slide (its
+   thrust mu W / 2 at each) translates freely once every pair of both springings slides; the solver's repair then
+   sticks the springing that the translation's forces choose, not one chosen by rounding
+   (:mod:`bridgefem.solver.mechanism`, step 1), or freezes the last pair on its cone (:mod:`bridgefem.solver.newton`,
+   *Pairs on the cone*), so that the one step converges.
 2. When that step fails without proof of a mechanism, a *continuation* reaches the same self-weight through a
    strengthened structure whose strength is then lowered back to the scene's, every step solved from the last
    converged state (incremental friction: a converged state of the path is an equilibrium of the scene's laws):
@@ -21,24 +20,20 @@
      opening at many joints at once and wanders into mechanisms. Lowering the friction lets the springings slip and
      the joints crack gradually, as the thrust falls to what friction can carry.
 
-   When the continuation fails without showing a mechanism where the one step did, the one step's outcome is the
-   answer (its mechanism, proved or confirmed by the LP, or not: :mod:`bridgefem.analysis.evidence`). Each continuation step
-   keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
+   Each continuation step keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
    ``RAMP_STEPS`` steps; a failed step is halved (at most ``RAMP_HALVINGS`` times in all). A mechanism at a raised
-   strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver
-   failure that names the strength it failed at. Fewer, larger steps (``RAMP_RATIO`` 0.25, 4 steps) saved 3 to 83
-   solves per scene on five of the seven continuation scenes of campaign seeds 1 and 2 (seed 1 #76 318 -> 235),
-   but seed 1 #197's last step then failed after 60 iterations four times (240 -> 519 solves).
-
-   The continuation's last state has the pairs that slid as the friction was lowered sliding; a first live-load
-   trial that would slide them backwards proposes them sticking (:mod:`bridgefem.solver.newton`, *Reversed slips*).
-
+   strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver failure
+   that names the strength it failed at. When the continuation fails without showing a mechanism where the one step
+   did, the one step's outcome is the answer (its mechanism, proved or confirmed by the LP, or not:
+   :mod:`bridgefem.analysis.evidence`). The continuation's last state has the pairs that slid as the friction was
+   lowered sliding; a first live-load trial that would slide them backwards proposes them sticking
+   (:mod:`bridgefem.solver.newton`, *Reversed slips*).
 3. When the static theorem shows that no equilibrium under self-weight exists (``falls``: the rigid blocks under the
    FE's own dead loads need joint tension or cohesion beyond what any converged FE state's tolerances can hide,
-   :class:`bridgefem.analysis.evidence.StaticBound`), a failed one step is the answer, a mechanism: no continuation or retry
-   can converge where no equilibrium exists.
-4. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation
-   that converged some of its steps resumes from its last converged state at the strength it failed at (a converged
+   :class:`bridgefem.analysis.evidence.StaticBound`), a failed one step is the answer, a mechanism: no continuation
+   or retry can converge where no equilibrium exists.
+4. A self-weight that fails without proof is solved again with each of ``SELF_WEIGHT_RETRIES``: a continuation that
+   converged some of its steps resumes from its last converged state at the strength it failed at (a converged
    state of the path is an equilibrium of the scene's laws at its strength, whatever setting found it), else the one
    step and the continuation run again from the start.
 
@@ -46,6 +41,17 @@ A fraction of the self-weight would not help: elasticity, unilateral contact, Co
 fill are positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
 problem scaled and fails alike. A raised strength at the whole self-weight is what a self-weight fraction is for a
 cohesive material (stresses scale with the load, so the weight g with cohesion c is the weight 1 with cohesion c / g).
+
+Safeguards:
+
+- *Continuation through a stronger structure* (step 2): a one step that wanders into mechanisms from the bonded
+  start reaches the same equilibrium gradually.
+- *The stronger evidence* (step 2): a continuation that fails without a mechanism never replaces the one step's
+  mechanism.
+- *No continuation where no equilibrium exists* (step 3): the static theorem's answer saves the continuation's and
+  the retries' cost.
+- *Ramp steps and halvings* ``RAMP_RATIO``, ``RAMP_STEPS``, ``RAMP_HALVINGS``: larger ramp steps save solves on
+  most rings but leave a last step that fails on some, so the ramp halves the excess and caps the halvings.
 """
 from __future__ import annotations
 
@@ -136,17 +142,15 @@ def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Pro
                           ) -> StepOutcome:
     """The self-weight with every joint's friction raised to ``FRICTION_RAISE`` x the scene's, then lowered to it
     (from ``progress``, by default from the unloaded state)."""
-    scene = solver.friction
-
     def describe() -> str:
         return f"self-weight with the joints' friction raised to {solver.friction_factor:.4g} x the scene's " \
                "(continuation to 1)"
 
     try:
-        return _ramp(solver, attempt, lambda excess: solver.set_friction(scene, 1.0 + excess * (FRICTION_RAISE - 1.0)),
+        return _ramp(solver, attempt, lambda excess: solver.set_friction_factor(1.0 + excess * (FRICTION_RAISE - 1.0)),
                      describe, progress)
     finally:
-        solver.set_friction(scene, 1.0)
+        solver.set_friction_factor(1.0)
 
 
 def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None], describe: Callable[[], str],

@@ -6,44 +6,40 @@ P are an affine function of their joint forces (one load step's Schur complement
     d = d0 + C lam          (d: per pair [d_n, d_t - d_t(ref)], m; lam: per pair [lam_n, lam_t], N)
 
 with d0 their displacements with P open (no force, m) and C (m/N, 2|P| x 2|P|, pairs' rows and columns in the order
-(n, t) per pair) their compliance. C is symmetric positive definite when every other pair is open or sticking; with
+(n, t) per pair) their compliance (for the Coulomb law). C is symmetric positive definite when every other pair is
+open or sticking; with
 sliding pairs elsewhere (lam_t = s mu lam_n, non-associative) it is not symmetric and need not be a P-matrix, so the
 small complementarity problem below can have no solution or several (Klarbring 1990; Alart & Curnier 1991).
 
-:func:`consistent_states` returns an active set of P (open / stick / slip+ / slip- per pair) whose linear equations
-(the rows of the joint law, :meth:`CoulombJoints.rows`) give forces that the law's own classification
-(:meth:`CoulombJoints.classify`, with its hysteresis ``force_tol``) accepts as they are: a fixed point of the
-active-set iteration at P. Every answer of either method below passes that check; nothing else is returned.
+:func:`consistent_states` returns an active set of P (for Coulomb: open / stick / slip+ / slip- per pair,
+:meth:`bridgefem.laws.base.JointLaw.candidates`) whose linear equations (the rows of the joint law,
+:meth:`bridgefem.laws.base.JointLaw.rows`) give forces that the law's own classification
+(:meth:`bridgefem.laws.base.JointLaw.classify`, with its hysteresis ``force_tol``) accepts as they are: a fixed point
+of the active-set iteration at P. Every answer of either method below passes that check; nothing else is returned.
 
 1. Up to ``ENUMERATED_PAIRS`` pairs it enumerates the 4^|P| combinations and, among several consistent ones, keeps
    the one with the fewest pairs changed from a reference active set (the step's converged start: the load step is
    small, so the state nearest the start continues the load path), then the fewest from the current one. Where the
    problem has several solutions (a non-symmetric C, large mu) this choice is what the enumeration gives and a
    pivoting method does not, and at 4^4 combinations it costs less than the 2|P| + 1 sparse solves that build C.
-2. Above that (4^|P| grows too fast: 10^9 at 15 pairs), the reference active set is kept if it is consistent, then
-   the current one; else the law is written as a linear complementarity problem (LCP) and solved by Lemke's method
-   (:func:`lemke`; Cottle, Pang & Stone 1992, sec. 4.4), in variables z = (lam_n, lam_+, lam_-, beta) per pair with
-   lam_t = lam_+ - lam_- and the slip magnitude beta >= 0 (Stewart & Trinkle 1996; exact in 2-D):
-
-       d_n                        >= 0  _|_  lam_n >= 0     (contact)
-       Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
-       -Delta d_t + beta          >= 0  _|_  lam_- >= 0     (lam_t = -mu lam_n only when slipping by +beta)
-       mu lam_n - lam_+ - lam_-   >= 0  _|_  beta  >= 0     (slip only on the friction cone)
-
-   so that w = q + M z with d = d0 + C lam. Lemke's method was chosen over block principal pivoting (which needs a
-   P-matrix, and M here never is one: its beta block is zero) and over a semismooth Newton method on the small
-   system (no finite termination, a merit function to tune): it is finite (lexicographic pivoting, no cycling on the
-   degenerate rows q_beta = 0) and ends either at a solution or on a secondary ray. What it guarantees: for z >= 0,
+2. Above that (4^|P| grows too fast: 10^9 at 15 pairs), the reference active set is kept if it is consistent, then the
+   current one; else the law is written as a linear complementarity problem (LCP, the law's own:
+   :meth:`bridgefem.laws.base.JointLaw.complementarity`; for Coulomb friction in variables z = (lam_n, lam_+, lam_-,
+   beta) per pair, Stewart & Trinkle 1996) and solved by Lemke's method (:func:`lemke`; Cottle, Pang & Stone 1992, sec.
+   4.4), w = q + M z with d = d0 + C lam. Lemke's method was chosen over block principal pivoting (which needs a
+   P-matrix, and the Coulomb law's M never is one: its beta block is zero) and over a semismooth Newton method on the
+   small system (no finite termination, a merit function to tune): it is finite (lexicographic pivoting, no cycling on
+   the degenerate rows q_beta = 0) and ends either at a solution or on a secondary ray. What it guarantees: for z >= 0,
    z^T M z = lam^T C lam + sum mu beta lam_n, so M is copositive whenever the symmetric part of C is positive
-   semidefinite. Lemke's method on a copositive M ends on a secondary ray only if some z* != 0 solving the
-   homogeneous problem (q = 0) has q^T z* < 0 (Cottle, Pang & Stone 1992, sec. 4.4). With C's symmetric part
-   positive definite such a z* has lam* = 0, so z* = (0, 0, 0, beta*) and q^T z* = 0 (q_beta = 0): the method finds
-   a solution. That is the case with every other closed pair sticking (C a Schur complement of a symmetric positive
-   definite matrix), up to rounding: a C so ill-conditioned that its pairs, open, are nearly a mechanism (diagonal
-   entries a million times apart) can still end on a ray. With pairs sliding elsewhere C is not symmetric, M need
-   not be copositive, and the method may end on a ray (no solution, or one it cannot reach): then None, and the
-   caller repeats the condensation with those slips stuck. The solution's active set is re-solved on its own
-   equations and checked by the law's classification like an enumerated one.
+   semidefinite. Lemke's method on a copositive M ends on a secondary ray only if some z* != 0 solving the homogeneous
+   problem (q = 0) has q^T z* < 0 (Cottle, Pang & Stone 1992, sec. 4.4). With C's symmetric part positive definite such
+   a z* has lam* = 0, so z* = (0, 0, 0, beta*) and q^T z* = 0 (q_beta = 0): the method finds a solution. That is the
+   case with every other closed pair sticking (C a Schur complement of a symmetric positive definite matrix), up to
+   rounding: a C so ill-conditioned that its pairs, open, are nearly a mechanism (diagonal entries a million times
+   apart) can still end on a ray. With pairs sliding elsewhere C is not symmetric, M need not be copositive, and the
+   method may end on a ray (no solution, or one it cannot reach): then None, and the caller repeats the condensation
+   with those slips stuck. The solution's active set is re-solved on its own equations and checked by the law's
+   classification like an enumerated one.
 """
 from __future__ import annotations
 
@@ -51,16 +47,15 @@ import itertools
 
 import numpy as np
 
-from ..laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from ..laws.base import ContactState, JointLaw
 
-CANDIDATES = ((OPEN, 0), (STICK, 0), (SLIP, 1), (SLIP, -1))  # (state, slip sign) each pair may take
 SINGULAR_RTOL = 1e-12  # a combination whose equations' smallest pivot is below this of the largest is singular
 ENUMERATED_PAIRS = 4  # up to this many pairs every combination is tried (4^4); above, Lemke's method
 PIVOT_TOL = 1e-11  # a tableau entry below this (the LCP scaled to forces of order one) is no pivot
 PIVOTS_PER_UNKNOWN = 50  # Lemke's method gives up after this many pivots per LCP unknown (it is finite)
 
 
-def consistent_states(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, reference: ContactState,
+def consistent_states(law: JointLaw, d0: np.ndarray, C: np.ndarray, reference: ContactState,
                       current: ContactState) -> "tuple[ContactState, np.ndarray] | None":
     """A consistent active set of the pairs of ``law`` (one per pair of P, in order) for ``d = d0 + C lam``
     (module docstring), and its joint forces lam (N, (|P|, 2)); None when none is found.
@@ -81,12 +76,13 @@ def consistent_states(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, referen
     return (pivoted, lam[0].reshape(-1, 2)) if ok[0] else None
 
 
-def _enumerated(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, reference: ContactState, current: ContactState
+def _enumerated(law: JointLaw, d0: np.ndarray, C: np.ndarray, reference: ContactState, current: ContactState
                 ) -> "tuple[ContactState, np.ndarray] | None":
     """Every combination of states of the pairs tried; the consistent one nearest ``reference``, then ``current``."""
     p = len(d0)
-    combos = np.array(list(itertools.product(range(len(CANDIDATES)), repeat=p)), dtype=int).reshape(-1, p)
-    table = np.array(CANDIDATES, dtype=np.int8)
+    candidates = law.candidates()
+    combos = np.array(list(itertools.product(range(len(candidates)), repeat=p)), dtype=int).reshape(-1, p)
+    table = np.array(candidates, dtype=np.int8)
     states, signs = table[combos, 0], table[combos, 1]
     lam, ok = _consistent(law, ContactState(states.ravel(), signs.ravel()), d0, C)
     if not ok.any():
@@ -96,14 +92,14 @@ def _enumerated(law: CoulombJoints, d0: np.ndarray, C: np.ndarray, reference: Co
     return ContactState(states[best].copy(), signs[best].copy()), lam[best].reshape(p, 2)
 
 
-def _consistent(law: CoulombJoints, candidates: ContactState, d0: np.ndarray, C: np.ndarray
+def _consistent(law: JointLaw, candidates: ContactState, d0: np.ndarray, C: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
     """The forces of n combinations of states of the p pairs (``candidates``: n p pairs, combination after
     combination) from their equations, (n, 2p) in N, and whether the law's classification keeps each combination as
     it is (n,). A combination whose equations are singular is not consistent."""
     p = len(d0)
     n = len(candidates.state) // p
-    tiled = CoulombJoints(np.tile(law.mu, n), np.tile(law.c, n), law.force_tol)
+    tiled = law.tiled(n)
     matrices, rhs = _equations(tiled, candidates, d0, C)
     pivots = np.abs(np.linalg.svd(matrices, compute_uv=False))
     solvable = pivots[:, -1] > SINGULAR_RTOL * np.maximum(pivots[:, 0], 1e-300)
@@ -115,44 +111,15 @@ def _consistent(law: CoulombJoints, candidates: ContactState, d0: np.ndarray, C:
     return lam, solvable & kept.all(axis=1)
 
 
-def coulomb_lcp(law: CoulombJoints, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The joint law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 of the module
-    docstring, (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta), equilibrated: each force
-    component i is measured in units of 1 / sqrt(|C_ii|) N and each displacement in sqrt(|C_ii|) m, so that the
-    compliance has a unit diagonal (a pair that is nearly a mechanism has C_nn a million times C_tt), the friction
-    coefficient becomes mu sqrt(|C_tt| / |C_nn|) per pair (the cone |lam_t| <= mu lam_n in those units), and q is
-    divided by its largest entry (the problem is homogeneous in (q, z)). The solution's zero pattern, hence its
-    active set, is that of the unscaled problem."""
-    p = len(d0)
-    scale = 1.0 / np.sqrt(np.maximum(np.abs(np.diag(C)), 1e-300))  # N per unit force, per pair and direction
-    compliance = scale[:, None] * C * scale[None, :]
-    expand = np.zeros((2 * p, 4 * p))  # lam = expand z
-    k = np.arange(p)
-    expand[2 * k, 4 * k] = 1.0
-    expand[2 * k + 1, 4 * k + 1], expand[2 * k + 1, 4 * k + 2] = 1.0, -1.0
-    A = compliance @ expand
-    M = np.zeros((4 * p, 4 * p))
-    M[0::4], M[1::4], M[2::4] = A[0::2], A[1::2], -A[1::2]
-    M[4 * k + 1, 4 * k + 3] = M[4 * k + 2, 4 * k + 3] = 1.0
-    M[4 * k + 3, 4 * k] = law.mu * scale[0::2] / scale[1::2]
-    M[4 * k + 3, 4 * k + 1] = M[4 * k + 3, 4 * k + 2] = -1.0
-    q = np.zeros(4 * p)
-    gap = scale.reshape(p, 2) * d0
-    q[0::4], q[1::4], q[2::4] = gap[:, 0], gap[:, 1], -gap[:, 1]
-    return M, q / max(np.abs(q).max(), 1e-300)
-
-
-def lcp_active_set(law: CoulombJoints, d0: np.ndarray, C: np.ndarray) -> ContactState | None:
-    """The active set of the LCP's solution by Lemke's method (module docstring): closed where lam_n > 0, sliding
-    where beta > 0 with the sign of lam_t; None when the method ends on a ray."""
-    M, q = coulomb_lcp(law, d0, C)
-    z = lemke(M, q)
+def lcp_active_set(law: JointLaw, d0: np.ndarray, C: np.ndarray) -> ContactState | None:
+    """The active set of the solution of the law's complementarity problem on ``d = d0 + C lam``
+    (:meth:`bridgefem.laws.base.JointLaw.complementarity`) by Lemke's method; None when the law has none or the
+    method ends on a ray."""
+    problem = law.complementarity(d0, C)
+    z = None if problem is None else lemke(*problem)
     if z is None:
         return None
-    lam_n, lam_t, beta = z[0::4], z[1::4] - z[2::4], z[3::4]
-    closed, slip = lam_n > PIVOT_TOL, beta > PIVOT_TOL
-    state = np.where(~closed, OPEN, np.where(slip, SLIP, STICK)).astype(np.int8)
-    return ContactState(state, np.where(state == SLIP, np.sign(lam_t), 0).astype(np.int8))
+    return law.lcp_state(z, PIVOT_TOL)
 
 
 def lemke(M: np.ndarray, q: np.ndarray) -> np.ndarray | None:
@@ -245,11 +212,11 @@ def pulled_margin(C: np.ndarray) -> float:
     return min(float(np.linalg.svd(normal[np.ix_(s, s)], compute_uv=False)[-1]) for s in subsets)
 
 
-def _equations(tiled: CoulombJoints, candidates: ContactState, d0: np.ndarray, C: np.ndarray
+def _equations(tiled: JointLaw, candidates: ContactState, d0: np.ndarray, C: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """The joint law's rows for n combinations of the states of the p pairs (``candidates``: n p pairs, the law
     ``tiled`` n times) on d = d0 + C lam: ``a c (d0 + C lam) + b lam + e lam_n = 0`` per pair and direction
-    (:class:`bridgefem.laws.coulomb.LawRows`). Returns the matrices (n, 2p, 2p) and right-hand sides (n, 2p)."""
+    (:class:`bridgefem.laws.base.LawRows`). Returns the matrices (n, 2p, 2p) and right-hand sides (n, 2p)."""
     p = len(d0)
     n = len(candidates.state) // p
     rows = tiled.rows(candidates)

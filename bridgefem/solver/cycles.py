@@ -1,47 +1,34 @@
-"""Cycles of a few pairs solved exactly on their condensed compliance (step 5 of :mod:`bridgefem.solver.newton`).
+"""Cycles of a few pairs solved exactly on their condensed compliance (step 6 of :mod:`bridgefem.solver.newton`,
+:mod:`bridgefem.solver.cycle_breaking`).
 
 **Cycles.** When the active set returns to one already solved in the step and at most ``CONDENSED_PAIRS`` pairs
-change, those pairs are solved exactly with every other pair's state held (:meth:`CycleCondenser.condensed`): their
-relative displacements are affine in their forces, d = d0 + C lam (one factorisation with those pairs open, at
-most 2p + 1 solves: :meth:`CycleCondenser.compliance`), and :func:`bridgefem.solver.condensation.consistent_states`
-finds a state of theirs that the joint law accepts: up to four pairs by enumerating their 4^p states, above by
-Lemke's method on the Coulomb law written as a linear complementarity problem (finite, and sure to find a solution
-when C's symmetric part is positive definite); the iteration goes on from that active set, so its end is checked
-like any other (no law is waived).
-With every other closed pair sticking, C is the Schur complement of a symmetric positive definite matrix; with pairs
+change, those pairs are solved exactly with every other pair's state held (:meth:`CycleCondenser.condensed`):
+
+1. Their relative displacements are affine in their forces, d = d0 + C lam: d0 from one solve with the pairs open,
+   C column by column from a unit force at each of their law rows (at most 2p + 1 solves with one factorisation:
+   :meth:`CycleCondenser.compliance`).
+2. :func:`bridgefem.solver.condensation.consistent_states` finds a state of theirs that the joint law accepts (up to
+   four pairs by enumerating their states, above by Lemke's method on the law's complementarity problem).
+3. The iteration goes on from that active set, so its end is checked like any other (no law is waived).
+
+With every other closed pair holding, C is the Schur complement of a symmetric positive definite matrix; with pairs
 sliding elsewhere (non-associative: lam_t = s mu lam_n) it is not symmetric and its normal block need not be a
-P-matrix (:func:`bridgefem.solver.condensation.opens_when_pulled`): then the small problem has no solution or several,
-and the held slips are what is wrong. Campaign seed 1: at the crack-tip pair that cycles in #48 (pointed, 174
-voussoirs, mu = 0.903, 301 kN), #72 (parabolic with fill, mu = 1.035, 1572 kN), #181 (mu = 1.529, 146 kN) and #151
-(segmental, mu = 0.424, 166 kN) C_nn = -1.0e-8, -1.2e-7, -1.1e-7 and -6.7e-7 m/N, a hundred times the elastic
-compliance (the held slips make the ring nearly a mechanism): penetrating when open, in tension when closed (#151:
-opening it sends the ring into a diverging mode). Such a condensation is not used; it is repeated with every other
-sliding pair sticking (their slip is re-derived by the next iterations), where #72's pair has C_nn = +5.6e-9 m/N and
-a symmetric C. With an elastic fill the ring's collapse under the loads the fill transmits cycles at 5 to 40 pairs
-(ring joints and arch-fill pairs; #9: segmental, 220 voussoirs, mu = 6.78), most of them with a P-matrix normal block
-once the other slips stick. Condensed at once, cycles of 5 to 24 pairs cost some bare rings two to three times the
-solves (campaign seed 1: #48 390 -> 852, #197 463 -> 993, #230 296 -> 612 against condensing at most four pairs);
-condensed only in the last retry of a failing trial, #182 (pointed, 171 voussoirs, mu = 0.325) ends 7.5 % below the
-LP as a solver failure instead of at the LP's limit, and tried only after damping and bonding fail they cost more
-still without confirming #9 or #181. An answer comes before its cost: they are condensed at once.
-A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding
-(:mod:`bridgefem.solver.newton`).
+P-matrix (:func:`bridgefem.solver.condensation.opens_when_pulled`): then the small problem has no solution or several
+(a crack-tip pair penetrating when open and in tension when closed), and the held slips are what is wrong. Such a
+condensation is not used; it is repeated with every other sliding pair holding (their slip is re-derived by the
+next iterations). A cycle of more pairs, or with no consistent state either way, goes on to damping and bonding.
+The compliances are kept per held active set and pairs while the matrix depends on them alone (a cycle condensed
+again costs one solve), and the pairs whose normal block failed are solved first the next time (a cycle usually fails
+at the same crack-tip pair).
 
 **Rounding.** With the pairs open and slips held elsewhere the system can be so nearly singular that a unit force's
-response is rounding: campaign seed 1 #193 (elliptical, 22 voussoirs, mu = 0.489, 2 % above its least thickness),
-self-weight, one crack-tip pair: the unit normal force moved the structure by 9e4 m/N, and one step of iterative
-refinement (:meth:`PairSolves.unit_force_error`) corrected that by 9e5 m/N; the pair's own entry C_nn came out
-+4.3e-10 m/N serially and -3.8e-10 m/N on 2 MPI ranks (MUMPS rounds otherwise), so the condensation was used on one
-and declined on the other, and the two runs took different paths to different verdicts. A P-matrix verdict is
-taken only where it exceeds the rounding: a normal column that moves some pair more than ``AMPLIFIED`` times its
-own entry has its error measured by that refinement (one more solve), and the block is kept only when its distance
-from failing the test (:func:`bridgefem.solver.condensation.pulled_margin`) exceeds ``ROUNDING_MARGIN`` times the
-Frobenius norm of its estimated error (a bound of that error's 2-norm; the factor covers the estimate's own rounding,
-of the order of the backward error's). #193's pair: error 2.1e-10 against 4.3e-10, declined on one rank and on two
-alike. Declining is always safe (the caller holds the other slips stuck, then damps): it changes the path, never what
-counts as converged. Columns that are not amplified are not measured (their cost stays 2p + 1 solves): over the
-condensations of seed 1 #48, #299 and #193 (100 normal columns) the others moved no pair more than 28 times their
-own entry, and their refinement corrections were about 1e-13 of the solution; #193's three rounding columns, 2e14.
+response is rounding, and the sign of a pair's own entry C_nn then depends on it (it differed between one MPI rank
+and two). A P-matrix verdict is taken only where it exceeds the rounding: a normal column that moves some pair more
+than ``AMPLIFIED`` times its own entry has its error measured by one step of iterative refinement
+(:meth:`PairSolves.unit_force_error`, one more solve), and the block is kept only when its distance from failing the
+test (:func:`bridgefem.solver.condensation.pulled_margin`) exceeds ``ROUNDING_MARGIN`` times the Frobenius norm of its
+estimated error (a bound of that error's 2-norm; the factor covers the estimate's own rounding). Declining is always
+safe (the caller holds the other slips, then damps): it changes the path, never what counts as converged.
 
 The condensation uses the contact system (:mod:`bridgefem.solver.system`) through :class:`PairSolves` (its
 factorisation is reused: the pairs' columns of C are solves with one matrix) and counts its solves as
@@ -55,7 +42,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..fe.pairs import JointPairs
-from ..laws.coulomb import OPEN, SLIP, STICK, ContactState, CoulombJoints
+from ..laws.base import ContactState, JointLaw
 from .condensation import consistent_states, opens_when_pulled, pulled_margin
 
 CONDENSED_PAIRS = 24  # a cycle of at most this many pairs is solved exactly on their compliance (<= 2p + 1 solves)
@@ -69,7 +56,7 @@ class PairSolves(Protocol):
     and two solves of an active set's system, each with the factorisation of that set's matrix."""
 
     comm: MPI.Comm
-    law: CoulombJoints
+    law: JointLaw
     pairs: JointPairs
     stats: dict
 
@@ -120,10 +107,10 @@ class CycleCondenser:
             return np.concatenate(self.comm.allgather(a[cycling]))
 
         law, stats = self.system.law, self.system.stats
-        cycle_law = CoulombJoints(gather(law.mu), gather(law.c), law.force_tol)
+        cycle_law = law.gathered(cycling, self.comm)
         stuck = active.copy()
-        slips = (stuck.state == SLIP) & ~cycling  # every other sliding pair, stuck
-        stuck.state[slips], stuck.sign[slips] = STICK, 0
+        slips = law.sliding(stuck) & ~cycling  # every other sliding pair, held
+        law.hold(stuck, slips)
         slips_elsewhere = bool(self.comm.allreduce(int(slips.any()), op=MPI.MAX))
         for held in (active, stuck)[:1 + slips_elsewhere]:
             before = stats["solves"]
@@ -148,7 +135,7 @@ class CycleCondenser:
         :meth:`compliance`); None when a solve fails or C's normal block is not a P-matrix (the condensation is not
         used: the module's *Cycles*). Collective."""
         trial = active.copy()
-        trial.state[pairs], trial.sign[pairs] = OPEN, 0
+        self.system.law.release(trial, pairs)
         C = self.compliance(trial, pairs)
         if C is None:
             return None
@@ -160,17 +147,16 @@ class CycleCondenser:
 
     def compliance(self, trial: ContactState, pairs: np.ndarray) -> np.ndarray | None:
         """The compliance C (2p, 2p, m/N; rows and columns (n, t) per pair in global order) of ``pairs`` (local mask),
-        open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law
-        row (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first,
-        and after each the principal block of C_nn of the pairs solved so far is tested
+        open in ``trial``: column j is the pairs' relative displacement under a unit force alone at their j-th law row
+        (lam = r), one solve each with the factorisation of ``trial``'s matrix. The normal columns come first, and after
+        each the principal block of C_nn of the pairs solved so far is tested
         (:func:`bridgefem.solver.condensation.opens_when_pulled`): a block that fails stops with None (every principal
-        submatrix of a P-matrix is one, and of a matrix with a positive definite symmetric part has one, so C_nn
-        fails too), so a declined condensation costs only the solves up to the pair that shows it. Pairs that showed
-        it before are solved first: a cycle condensed again, with other pairs or held states, usually fails at the
-        same crack-tip pair (campaign seed 1, #48 and #197: 14 of 19 declines at a pair with C_nn <= 0). None too when a
-        solve fails. With ``reuse`` the matrix depends only on the active set and the law's constants, so C (or its
-        decline) is kept per (``trial``, ``pairs``) until :meth:`forget`: a cycle condensed again with the same held
-        states costs no solve. Collective."""
+        submatrix of a P-matrix is one, and of a matrix with a positive definite symmetric part has one, so C_nn fails
+        too), so a declined condensation costs only the solves up to the pair that shows it. Pairs that showed it before
+        are solved first: a cycle condensed again, with other pairs or held states, usually fails at the same crack-tip
+        pair. None too when a solve fails. With ``reuse`` the matrix depends only on the active set and the law's
+        constants, so C (or its decline) is kept per (``trial``, ``pairs``) until :meth:`forget`: a cycle condensed
+        again with the same held states costs no solve. Collective."""
         comm = self.comm
         ids = np.concatenate(comm.allgather(self.system.pairs.offset + np.flatnonzero(pairs)))  # global, C's order
         key = (tuple(comm.allgather(trial.key())), ids.tobytes())

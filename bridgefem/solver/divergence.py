@@ -9,16 +9,17 @@ run off along a (nearly) singular direction. :class:`DivergenceTest` decides it:
 2. Beyond it, the *mode* is the solution minus the step's converged start (``origin``), at the pairs
    (:meth:`bridgefem.solver.system.ContactSystem.mode`), with the work on it of the driving load (the live load;
    the self-weight at live-load level 0) and of the whole load, each with its scale |f|_1 |u|_inf, and the power
-   of the whole load and the sliding pairs' friction forces s mu lam_n (lam_n of the last solved iterate, N) with
-   its scale (|f|_1 + sum |s mu lam_n|) |u|_inf (all N m); the start's gaps narrow the repair to its first
-   contact.
-3. :func:`bridgefem.solver.mechanism.judge` gives the verdict on that mode: a wrong active set (a failure without proof,
+   of the whole load and the sliding pairs' friction forces (:meth:`bridgefem.laws.base.JointLaw.sliding_forces`:
+   s mu lam_n, lam_n of the last solved iterate, N) with its scale (|f|_1 + sum |s mu lam_n|) |u|_inf (all N m);
+   the start's gaps narrow the repair to its first contact.
+3. :func:`bridgefem.solver.mechanism.judge` gives the verdict on that mode, with what the joint law forbids a mode
+   (:meth:`bridgefem.laws.base.JointLaw.mode_rules`): a wrong active set (a failure without proof,
    with the repair of the pairs it pushes into each other, and whether it slides against the friction force), a
    mechanism, or a proof of collapse (only for a linear elastic structure: a yielding fill dissipates on the mode).
 
-The verdict is a pure function of the mode (:mod:`bridgefem.solver.mechanism`, unit-tested on made-up modes); this module
-reads the mode and the loads' work off the FE system. Why and how the solver uses the verdicts:
-:mod:`bridgefem.solver.newton`, *Mechanism verdicts*. Every reduction is over the system's communicator: the same verdict
+The verdict is a pure function of the mode (:mod:`bridgefem.solver.mechanism`, unit-tested on made-up modes); this
+module reads the mode and the loads' work off the FE system. How the solver uses the verdicts:
+:mod:`bridgefem.solver.recovery`. Every reduction is over the system's communicator: the same verdict
 on every MPI rank.
 """
 from __future__ import annotations
@@ -29,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from petsc4py import PETSc
 
-from ..laws.coulomb import SLIP, ContactState
+from ..laws.base import ContactState
 from .mechanism import Mode, Verdict, judge
 from .system import ContactSystem
 
@@ -52,8 +53,8 @@ class ActiveSetFailure(NamedTuple):
 
 @dataclass(eq=False)
 class DivergenceTest:
-    """The divergence test of the solves of one :class:`bridgefem.solver.system.ContactSystem` (its joint law's
-    Coulomb coefficients as they stand at each test, its pairs' joint ids for messages) and ``provable``: whether a
+    """The divergence test of the solves of one :class:`bridgefem.solver.system.ContactSystem` (its joint law as it
+    stands at each test, its pairs' joint ids for messages) and ``provable``: whether a
     diverging mode can prove collapse (no plastic fill). ``cap`` (m) is set by the first solve that moves the
     structure (module docstring, step 1) and fixed from then on."""
 
@@ -85,8 +86,8 @@ class DivergenceTest:
     def verdict(self, level: float, active: ContactState, x: PETSc.Vec, origin: PETSc.Vec, forces: PETSc.Vec
                 ) -> Verdict:
         """What the diverging direction x - origin of a solve shows (:func:`bridgefem.solver.mechanism.judge`), with the
-        power on it of the whole load and of the friction forces s mu lam_n of ``active``'s sliding pairs, lam_n
-        those of ``forces`` (the last solved iterate, N), and the gaps at ``origin`` for its repair's first contact.
+        power on it of the whole load and of the friction forces of ``active``'s sliding pairs, lam_n those of
+        ``forces`` (the last solved iterate, N), and the gaps at ``origin`` for its repair's first contact.
         Collective."""
         system = self.system
         lam_n = system.split(forces)[1][:, 0]
@@ -94,12 +95,12 @@ class DivergenceTest:
         u, d = system.mode(x, origin)
         drive, name = (system.f_live, "live load") if level > 0 else (system.f_dead, "self-weight")
         total = system.loads(level)
-        mu = system.law.mu
-        friction = np.where(active.state == SLIP, active.sign * mu * lam_n, 0.0)  # lam_t of the slip law
+        law = system.law
+        friction = law.sliding_forces(active, lam_n)  # lam_t of the slip law
         works = system.comm.allreduce(np.array([drive.array @ u, total @ u, total @ u + friction @ d[:, 1],
                                                 np.abs(drive.array).sum(), np.abs(total).sum(),
                                                 np.abs(total).sum() + np.abs(friction).sum()]))
         scales = works[3:] * system.norm_inf(u)
-        return judge(Mode(d, active.state, active.sign, mu, system.pairs.joint, tuple(works[:2]),
-                          tuple(scales[:2]), name, (works[2], scales[2]), gap), provable=self.provable,
+        return judge(Mode(d, law.mode_rules(active), system.pairs.joint, tuple(works[:2]), tuple(scales[:2]), name,
+                          (works[2], scales[2]), gap), provable=self.provable,
                      comm=system.comm)

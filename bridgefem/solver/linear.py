@@ -7,11 +7,11 @@ solver that did not solve the system (e.g. ``pc_type = none``) is a failure, nev
 the matrix numerically singular (INFOG(1) = -10) marks a failure ``singular``. The solve after any failure uses a
 new KSP: after a PETSc error inside KSPSolve, PCPreSolve's nesting count stays raised (two such errors and every
 later solve fails with PETSc error 56); after a singular factorisation, MUMPS refused the next solve of the same KSP
-with INFOG(1) = -3 (campaign scene 161, seed 1).
+with INFOG(1) = -3.
 
-A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis.runner`): the
-solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a Newton
-iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
+A caller may bound the solves (:meth:`CheckedSolve.limited`, e.g. a re-run's budget: :mod:`bridgefem.analysis.runner`):
+the solve that would pass the bound raises :class:`SolveBudgetSpent` before it solves, wherever it is asked for (a
+Newton iteration, a cycle's condensation, an iterative refinement), so the bound holds exactly.
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..petsc_start import startup_options
 from ..scene.schema import PETSC_PREFIX, SceneError
 
 DEFAULT_PETSC_OPTIONS = {
@@ -51,14 +52,23 @@ class SolveBudgetSpent(Exception):
         self.budget = budget
 
 
+def environment_options() -> dict:
+    """The contact solver's options in the user's environment (``-bridgefem_KEY VALUE`` in PETSC_OPTIONS, or in an
+    options file it names), without the prefix; a flag's value is ""."""
+    return {key[len(PETSC_PREFIX):]: value for key, value in startup_options().items() if key.startswith(PETSC_PREFIX)}
+
+
 class CheckedSolve:
-    """The KSP of a matrix ``A`` (options: the defaults overridden by ``options``, given without the prefix) and
-    counters ``stats`` (factorisations, solves, seconds factorising and solving)."""
+    """The KSP of a matrix ``A`` and counters ``stats`` (factorisations, solves, seconds factorising and solving).
+    Its options (without the prefix): the defaults, overridden by the user's environment's
+    (:func:`environment_options`: they replace the defaults on every run), overridden by ``options`` (the scene's
+    and the command line's, which are the run's own)."""
 
     def __init__(self, A: PETSc.Mat, options: dict):
         self.A = A
         self.comm = A.getComm().tompi4py()
-        self.options = {k: str(v) for k, v in {**DEFAULT_PETSC_OPTIONS, **options}.items()}
+        merged = {**DEFAULT_PETSC_OPTIONS, **environment_options(), **options}
+        self.options = {k: str(v) for k, v in merged.items()}
         self.ksp = self._new_ksp()
         self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._r = A.createVecLeft()
@@ -172,10 +182,10 @@ class CheckedSolve:
         return SolveFailure(f"{text} (the {pc.getType()} preconditioner failed; not a proof of a mechanism)", False)
 
 
-def check_petsc_options(options: dict, comm) -> None:
-    """Set each PETSc option (the scene's and the command line's) on a throw-away solver of a tiny matrix, so that a
-    value PETSc rejects (an unknown type, a malformed number, a solver package not installed) stops the run before
-    anything is written (collective)."""
+def check_petsc_options(options: dict, comm, where: str | None = None) -> None:
+    """Set each PETSc option (the scene's and the command line's, or those of the environment variable ``where``) on
+    a throw-away solver of a tiny matrix, so that a value PETSc rejects (an unknown type, a malformed number, a
+    solver package not installed, a file it cannot open) stops the run before anything is written (collective)."""
     if not options:
         return
     prefix = "bridgefem_check_"
@@ -198,8 +208,10 @@ def check_petsc_options(options: dict, comm) -> None:
                 ksp.setFromOptions()
                 ksp.setUp()
             except PETSc.Error as err:
-                reason = str(err).strip().splitlines()[-1].split("] ", 1)[-1].strip()
-                raise SceneError(f"PETSc option {key} = {value!r}: rejected by PETSc ({reason})") from None
+                reason = str(err).strip().splitlines()[-1].split("] ", 1)[-1].strip().replace(prefix, PETSC_PREFIX)
+                name = f"PETSc option {key} = {value!r}" if where is None else \
+                    f"{where}: -{PETSC_PREFIX}{key}" + (f" {value}" if value else "")
+                raise SceneError(f"{name}: rejected by PETSc ({reason})") from None
             finally:
                 ksp.destroy()
                 for k in merged:
@@ -207,3 +219,9 @@ def check_petsc_options(options: dict, comm) -> None:
     finally:
         PETSc.Sys.popErrorHandler()
         A.destroy()
+
+
+def check_environment_options(comm) -> None:
+    """Try the contact solver's options of the user's environment (:func:`environment_options`) before the analysis,
+    as :func:`check_petsc_options` tries the run's own: a value PETSc rejects is one line naming PETSC_OPTIONS."""
+    check_petsc_options(environment_options(), comm, where="PETSC_OPTIONS")

@@ -14,24 +14,24 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
    the choice does not depend on the rounding that sets the diverging solve's sign (the same under MPI).
    E.g. both springings sliding outwards let the ring translate freely: in either sense one springing slips against
    its friction force, and the ring runs towards the springing with the smaller friction force, so the other one is
-   the one whose slip is wrong (campaign seed 1 #193, elliptical, mu = 0.489: its self-weight state slides at both
-   springings; the live load's first step let the less loaded one slide wholly, and the repair that stuck that one
-   cycled until the friction law, held at its pairs, failed by a force proportional to the load).
-2. Its *violation* in that sense, per pair: an open pair that the mode closes (interpenetration, -d_n), a sliding
-   pair that it slips against the pair's friction force (the slip law lam_t = s mu lam_n assumes slip d_t of sign
-   -s: s d_t > 0 is backwards), measured by mu s d_t, the friction's work on it per unit normal force (mu = 0
-   pairs slip freely). Closed pairs keep d_n = 0 and sticking pairs d_t = 0 by their laws.
+   the one whose slip is wrong.
+2. Its *violation* in that sense, per pair, by the joint law's rules (:meth:`bridgefem.laws.base.JointLaw.mode_rules`):
+   an open pair that the mode closes (interpenetration, -d_n), a sliding pair that it slips against the pair's
+   friction force (for Coulomb: the slip law lam_t = s mu lam_n assumes slip d_t of sign -s, so s d_t > 0 is
+   backwards), measured by mu s d_t, the friction's work on it per unit normal force (mu = 0 pairs slip freely).
+   Closed pairs keep d_n = 0 and holding pairs d_t = 0 by their laws.
 3. A *flaw*: a hinge mode on which the driving load does no work (below ``WORK_TOL`` of |f|_1 |u|_inf: e.g. a part
    of the ring freed by opening a whole joint), or a violation beyond ``ADMISSIBLE_TOL`` of the largest joint
    displacement. A flawed mode is a wrong active set, no mechanism; its *repair* closes the pairs whose violation is
    within ``REPAIR`` of the worst, narrowed to its *first contact* when the mode carries the gaps of the step's
-   start (:func:`first_contact`); the solver closes them sticking, or sliding on a sliding joint
-   (:meth:`bridgefem.solver.newton.ContactSolver._repaired`). A flaw that is a slip against the friction force marks a
+   start (:func:`first_contact`); the solver closes them (:meth:`bridgefem.laws.base.JointLaw.repaired`: for
+   Coulomb sticking, or sliding on a sliding joint). A flaw that is a slip against the friction force marks a
    *sliding* mode (``Verdict.slides``: the solver solves its set again with a proximal term).
 4. A *proof*: an admissible rigid-block hinge mode, with violation and friction slip below ``PROOF_TOL`` (mu = 0
-   pairs may slip) on which the whole load and the driving load do positive work. By virtual work any equilibrium
-   with compressive joint forces lam_n >= 0 would give that work as -sum(lam_n d_n) <= 0: no equilibrium exists.
-   Only for a linear elastic structure (``provable``; a yielding fill dissipates on the mode).
+   pairs may slip) on which the driving load does positive work and the whole load more than the joints can
+   dissipate on it (the tension T that the law lets an open pair carry, sum T d_n; none for Coulomb's no-tension
+   joints). By virtual work any equilibrium with joint forces lam_n >= -T would give that work as -sum(lam_n d_n) <= sum T d_n: no
+   equilibrium exists. Only for a linear elastic structure (``provable``; a yielding fill dissipates on the mode).
 
 Every reduction is over ``comm``: the pairs may be spread over MPI ranks.
 """
@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from mpi4py import MPI
 
-from ..laws.coulomb import OPEN, SLIP
+from ..laws.base import ModeRules
 
 ADMISSIBLE_TOL = 1e-3  # violation (friction slip) of a mode, of its largest joint displacement, beyond which it is
 # inadmissible (a slip mode)
@@ -58,18 +58,16 @@ TIE_TOL = 1e-6  # a slip mode violating the laws alike in both senses, within th
 
 @dataclass(frozen=True)
 class Mode:
-    """A diverging direction at this rank's pairs. ``d`` (m, 2): relative displacements [d_n, d_t]; ``state``,
-    ``sign``: the active set that diverged (contact.OPEN/STICK/SLIP and the slip sign); ``mu``: Coulomb
-    coefficients; ``joint``: joint ids (for messages). ``works``: (driving load, whole load) work on the mode and
+    """A diverging direction at this rank's pairs. ``d`` (m, 2): relative displacements [d_n, d_t]; ``rules``: what
+    the joint law forbids a mode of the active set that diverged (:class:`bridgefem.laws.base.ModeRules`); ``joint``:
+    joint ids (for messages). ``works``: (driving load, whole load) work on the mode and
     ``scales`` their |f|_1 |u|_inf (global values, N m); ``driver``: the driving load's name; ``power``: the power of
     the whole load and the sliding pairs' friction forces on the mode and its scale (|f|_1 + sum mu lam_n) |u|_inf
     (N m; step 1); ``gap``: the pairs' normal gaps d_n at the step's start (m; None: the repair is not narrowed to
     the first contact, step 3)."""
 
     d: np.ndarray
-    state: np.ndarray
-    sign: np.ndarray
-    mu: np.ndarray
+    rules: ModeRules
     joint: np.ndarray
     works: tuple[float, float]
     scales: tuple[float, float]
@@ -94,23 +92,23 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
     def norm(a: np.ndarray) -> float:
         return float(comm.allreduce(np.abs(a).max() if a.size else 0.0, op=MPI.MAX))
 
-    d, works, scales = mode.d, np.asarray(mode.works), np.asarray(mode.scales)
+    d, rules, works, scales = mode.d, mode.rules, np.asarray(mode.works), np.asarray(mode.scales)
     significant = np.abs(works) > WORK_TOL * scales
     span = norm(d.ravel())
-    slip = norm(np.where(mode.mu > 0, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
+    slip = norm(np.where(rules.rough, d[:, 1], 0.0))  # slip against friction (mu = 0 slips freely)
     slipping = slip > ADMISSIBLE_TOL * span
     senses = [np.sign(works[0])] if significant[0] and not slipping else \
         [np.sign(works[1])] if significant[1] and not slipping else [1.0, -1.0]
-    closing = np.where(mode.state == OPEN, -d[:, 0], np.nan)  # times the sense: > 0 interpenetrates
-    backwards = np.where(mode.state == SLIP, mode.mu * mode.sign * d[:, 1], np.nan)  # times the sense: > 0 slips
-    # against the friction force; mu d_t is the friction's work on it per unit normal force (none where mu = 0)
+    closing = np.where(rules.open, -d[:, 0], np.nan)  # times the sense: > 0 interpenetrates
+    backwards = rules.backwards * d[:, 1]  # times the sense: > 0 slips against the friction force; mu s d_t is the
+    # friction's work on it per unit normal force (none where mu = 0); NaN where no slip law holds
     worst = []
     for sense in senses:
         violation = np.fmax(sense * closing, sense * backwards)
         local = (-np.inf, 0, 0)
         if np.any(np.isfinite(violation)):
             i = int(np.nanargmax(violation))
-            local = (float(violation[i]), int(mode.joint[i]), int(mode.state[i] == SLIP))
+            local = (float(violation[i]), int(mode.joint[i]), int(not np.isnan(rules.backwards[i])))
         worst.append(max(comm.allgather(local)))
     values = [w[0] for w in worst]
     k = int(np.argmin(values))
@@ -129,17 +127,20 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
         violation = np.nan_to_num(np.fmax(orient * closing, orient * backwards), nan=-np.inf)
         repair = violation > max(ADMISSIBLE_TOL * span, REPAIR * value)
         if mode.gap is not None:
-            repair = first_contact(repair, -orient * d[:, 0], mode.gap, mode.state, comm)
+            repair = first_contact(repair, -orient * d[:, 0], mode.gap, rules.open, comm)
         return Verdict(flaw, repair, False, slides)
+    dissipation = comm.allreduce(float(np.sum(np.where(rules.open, rules.tension * np.maximum(orient * d[:, 0], 0.0),
+                                                       0.0))))  # the open pairs' tension's work on the opening
     proof = (provable and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
-             and orient * works[1] > WORK_TOL * scales[1] and orient * works[0] > 0)
+             and orient * works[1] - dissipation > WORK_TOL * scales[1] and orient * works[0] > 0)
     return Verdict(None, None, bool(proof))
 
 
-def first_contact(repair: np.ndarray, rate: np.ndarray, gap: np.ndarray, state: np.ndarray,
+def first_contact(repair: np.ndarray, rate: np.ndarray, gap: np.ndarray, open_pairs: np.ndarray,
                   comm: MPI.Comm = MPI.COMM_SELF) -> np.ndarray:
     """A ``repair`` (per pair) narrowed to the open pairs that close first when the structure moves from the step's
-    start along the mode in the sense the repair closes, and its closed pairs (``state``: the mode's active set).
+    start along the mode in the sense the repair closes, and its closed pairs (``open_pairs``: the open pairs of the
+    mode's active set).
     ``rate``: each pair's closing per unit of the mode (-d_n in that sense, m), ``gap``: its normal gap d_n at the
     start (m; a negative one counts as closed). An open pair closing faster than ``ADMISSIBLE_TOL`` of the fastest
     closes at the amplitude gap / rate; the least sets the first contact, and the open pairs closing within
@@ -148,9 +149,9 @@ def first_contact(repair: np.ndarray, rate: np.ndarray, gap: np.ndarray, state: 
     would reach later imposes a rotation the blocks can only take by straining. A repair that closes no open pair
     (it sticks pairs that slip backwards) is returned as it is. Collective over ``comm``."""
     span = float(comm.allreduce(np.abs(rate).max(initial=0.0), op=MPI.MAX))
-    closes = (state == OPEN) & (rate > ADMISSIBLE_TOL * span)
+    closes = open_pairs & (rate > ADMISSIBLE_TOL * span)
     if not comm.allreduce(bool((repair & closes).any()), op=MPI.LOR):
         return repair
     amplitude = np.where(closes, np.maximum(gap, 0.0) / np.where(closes, rate, 1.0), np.inf)
     first = comm.allreduce(float(amplitude.min(initial=np.inf)), op=MPI.MIN)
-    return (repair & (state != OPEN)) | (closes & (amplitude <= (1.0 + FIRST_CONTACT) * first))
+    return (repair & ~open_pairs) | (closes & (amplitude <= (1.0 + FIRST_CONTACT) * first))

@@ -7,21 +7,22 @@ Unknowns: displacements u (m) and joint forces lam (N). For a given active set t
     stick pair:  c G_n u = 0,           c G_t u = c d_t(ref)          (closed, no slip this step)
     slip pair:   c G_n u = 0,           lam_t - s mu lam_n = 0         (closed, sliding in direction -s)
 
-with G the relative displacement operator of :mod:`bridgefem.fe.pairs` (d = G u, right face minus left, normal then
-tangential; lam_n >= 0 is compression) and c the Alart-Curnier constant (N/m per pair); the rows are those of the
-joint law (:meth:`bridgefem.laws.coulomb.CoulombJoints.rows`). An imposed support movement adds a known
-offset g to the relative displacements of the pairs on the moving ground, d = G u + g
-(:func:`bridgefem.fe.pairs.ground_offsets`, scaled by :meth:`ContactSystem.set_support_movement`): the closed and
-stick laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). The system lives in one PETSc
-AIJ matrix whose sparsity pattern never changes (entries of inactive laws are explicit zeros), so the
-direct solver's symbolic factorisation is reused; the matrix is refactorised only when the active set
-changed. Rank r owns [its u rows, its 2 m_r lam rows] (:meth:`ContactSystem.comb_u`, :meth:`ContactSystem.comb_lam`).
+(for the Coulomb law) with G the relative displacement operator of :mod:`bridgefem.fe.pairs` (d = G u, right face minus
+left, normal then tangential; lam_n >= 0 is compression) and c the Alart-Curnier constant (N/m per pair); the rows are
+the joint law's (:meth:`bridgefem.laws.base.JointLaw.rows`, :class:`bridgefem.laws.base.LawRows`). An imposed support
+movement adds a known offset g to the relative displacements of the pairs on the moving ground, d = G u + g
+(:func:`bridgefem.fe.pairs.ground_offsets`, scaled by :meth:`ContactSystem.set_support_movement`): the closed and stick
+laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). The system lives in one PETSc AIJ matrix whose sparsity
+pattern never changes (entries of inactive laws are explicit zeros), so the direct solver's symbolic factorisation is
+reused; the matrix is refactorised only when the active set changed. Rank r owns [its u rows, its 2 m_r lam rows]
+(:meth:`ContactSystem.comb_u`, :meth:`ContactSystem.comb_lam`).
 
 With a Mohr-Coulomb fill (:mod:`bridgefem.fe.fill`) the stiffness block is the fill's consistent tangent K_t at the
 current displacements and the right-hand side carries ``K_t u - f_int(u)`` (N; :meth:`ContactSystem.linearise`).
 
 With the proximal term anchored at an iterate x_k (relative displacements d_k; why and when:
-:mod:`bridgefem.solver.newton`, *Proximal solves*) the free directions get a spring k = ``PROXIMAL`` c:
+:mod:`bridgefem.solver.recovery`, *Proximal solves*) the free directions of the law's rows
+(:meth:`bridgefem.laws.base.JointLaw.free_directions`) get a spring k = ``PROXIMAL`` c:
 
     open pair:   lam + k (d - d_k) = 0                   (both directions)
     slip pair:   lam_t - s mu lam_n + k (d_t - d_t,k) = 0
@@ -38,21 +39,20 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..fe.pairs import GROUND, JointPairs
-from ..laws.coulomb import OPEN, STICK, ContactState, CoulombJoints, LawRows
+from ..laws.base import ContactState, JointLaw, LawRows
 from .linear import CheckedSolve, SolveFailure
 
 if TYPE_CHECKING:
     from ..fe.fill import FillResponse, PlasticFill
 
 PROXIMAL = 1e-4  # stiffness of the proximal term against the free directions' motion, of the Alart-Curnier constant
-# (measured: :mod:`bridgefem.solver.newton`, *Proximal solves*)
 
 
 class ContactSystem:
     """Builds the combined system of the elastic (or fill) stiffness and the joint law once, and solves it for an
     active set with a factorisation reused while the set and the fill's tangent stay."""
 
-    def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs, law: CoulombJoints,
+    def __init__(self, K: PETSc.Mat, f_dead: PETSc.Vec, f_live: PETSc.Vec, pairs: JointPairs, law: JointLaw,
                  petsc_options: dict, material: "PlasticFill | None" = None,
                  support_motion: np.ndarray | None = None):
         self.comm = K.getComm().tompi4py()
@@ -92,24 +92,9 @@ class ContactSystem:
         return self.starts[q] + self.n_u_all[q] + g - self.lam_starts[q]
 
     # ----------------------------------------------------------------- assembly
-    def g_entries(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Entries of the relative displacement operator G for the local pairs: (row in 0..2m-1: 2 k normal,
-        2 k + 1 tangential of local pair k; global u dof; value)."""
-        p = self.pairs
-        k = np.arange(len(p))
-        rows, cols, vals = [], [], []
-        for node, sign in ((p.right, 1.0), (p.left, -1.0)):
-            has = node != GROUND
-            for comp in (0, 1):
-                for kind, vec in ((0, p.normal), (1, p.tangent)):
-                    rows.append(2 * k[has] + kind)
-                    cols.append(2 * node[has] + comp)
-                    vals.append(sign * vec[has, comp])
-        return np.concatenate(rows), np.concatenate(cols).astype(np.int64), np.concatenate(vals)
-
     def _build(self, K: PETSc.Mat) -> None:
         comm, p = self.comm, self.pairs
-        g_rows, g_cols, g_vals = self.g_entries()
+        g_rows, g_cols, g_vals = g_entries(p)
         m2 = self.n_lam
         n_u_global = K.getSize()[0]
         g_local = sp.csr_matrix((g_vals, (g_rows, g_cols)), shape=(m2, n_u_global))
@@ -140,7 +125,7 @@ class ContactSystem:
         self._perm = slots.data.astype(np.int64) - 1
         self._indptr = slots.indptr.astype(PETSc.IntType)
         self._indices = slots.indices.astype(PETSc.IntType)
-        values = self._values(ContactState.all_stick(len(p)))
+        values = self._values(self.law.bonded(len(p)))
         self.A = PETSc.Mat().createAIJ(size=((self.n_local, self.N), (self.n_local, self.N)),
                                        csr=(self._indptr, self._indices, values), comm=comm)
         self.A.assemble()
@@ -170,7 +155,7 @@ class ContactSystem:
     def _ksp(self, options: dict) -> None:
         self.linear = CheckedSolve(self.A, options)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
-        self._matrix_key = ContactState.all_stick(len(self.pairs)).key() + bytes([False])
+        self._matrix_key = self.law.bonded(len(self.pairs)).key() + bytes([False])
 
     def vector(self) -> PETSc.Vec:
         """A new combined vector [u; lam] (zero)."""
@@ -221,8 +206,8 @@ class ContactSystem:
         the anchor x_k (open pairs: lam + k (d - d_k) = 0 in both directions; sliding pairs:
         lam_t - s mu lam_n + k (d_t - d_t,k) = 0), the rows of the law itself elsewhere."""
         rows = self.law.rows(active)
-        return rows._replace(a_n=rows.a_n + PROXIMAL * (active.state == OPEN),
-                             a_t=rows.a_t + PROXIMAL * (active.state != STICK))
+        free_n, free_t = self.law.free_directions(active)
+        return rows._replace(a_n=rows.a_n + PROXIMAL * free_n, a_t=rows.a_t + PROXIMAL * free_t)
 
     # ----------------------------------------------------------------- the fill's linearisation
     def linearise(self, x: PETSc.Vec, plastic_strain: np.ndarray, elastic: bool = False,
@@ -350,6 +335,21 @@ class ContactSystem:
     def material_residual(self, x: PETSc.Vec, f_int: np.ndarray, level: float, f_scale: float) -> float:
         """Scaled out-of-balance force |f + G^T lam - f_int(u)|_inf / f_scale with the fill's true stresses."""
         return self.norm_inf(self.out_of_balance(x, f_int, level)) / f_scale
+
+
+def g_entries(p: JointPairs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Entries of the relative displacement operator G for the local pairs ``p``: (row in 0..2m-1: 2 k normal,
+    2 k + 1 tangential of local pair k; global u dof; value)."""
+    k = np.arange(len(p))
+    rows, cols, vals = [], [], []
+    for node, sign in ((p.right, 1.0), (p.left, -1.0)):
+        has = node != GROUND
+        for comp in (0, 1):
+            for kind, vec in ((0, p.normal), (1, p.tangent)):
+                rows.append(2 * k[has] + kind)
+                cols.append(2 * node[has] + comp)
+                vals.append(sign * vec[has, comp])
+    return np.concatenate(rows), np.concatenate(cols).astype(np.int64), np.concatenate(vals)
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:

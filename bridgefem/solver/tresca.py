@@ -8,25 +8,22 @@ ch. 10: minimum potential energy with the friction dissipation):
     min_u  1/2 u^T K u - f(level)^T u + sum_k g_k |G_t u + o_t - d_t,ref|_k
     s.t.   G_n u + o_n >= 0                                         (no interpenetration; d_n >= 0 is opening)
 
-with G the relative displacement operator and o the ground offsets (:mod:`bridgefem.solver.system`). Its
-multipliers are the joint forces of the solver's convention, ``K u = f + G_n^T lam_n + G_t^T lam_t``: lam_n >= 0
-(N, compression) on the contact rows and lam_t = -g sign(slip) where a pair slides, |lam_t| <= g where it sticks.
-The Coulomb law is the fixed point g = mu lam_n (the Tresca fixed point of :mod:`bridgefem.limit.rigid_block`; slip without
-dilatancy, the FE's non-associative law): from g = mu x the start's normal forces, each QP's normal forces give the
-next capacities, until they settle (largest change below ``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A
-settled fixed point is an equilibrium of the FE's own laws up to the QP's tolerance; the solver's *Predictor*
-classifies it against the start (:meth:`bridgefem.solver.newton.ContactSolver.solve_step`) and the Newton iteration
-verifies it. A prediction changes only the iteration's path, never what counts as converged. When and how the
-search uses it: :mod:`bridgefem.search.pathfollow`, *Predictor*.
+with G the relative displacement operator and o the ground offsets (:mod:`bridgefem.solver.system`). Its multipliers are
+the joint forces of the solver's convention, ``K u = f + G_n^T lam_n + G_t^T lam_t``: lam_n >= 0 (N, compression) on the
+contact rows and lam_t = -g sign(slip) where a pair slides, |lam_t| <= g where it sticks. The Coulomb law is the fixed
+point g = mu lam_n (mu: the joint law's coefficients; the Tresca fixed point of :mod:`bridgefem.limit.rigid_block`; slip
+without dilatancy, the FE's non-associative law): from g = mu x the start's normal forces, each QP's normal forces give
+the next capacities, until they settle (largest change below ``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A
+settled fixed point is an equilibrium of the FE's own laws up to the QP's tolerance; the solver's *Predictor* classifies
+it against the start (:meth:`bridgefem.solver.newton.ContactSolver.solve_step`) and the Newton iteration verifies it. A
+prediction changes only the iteration's path, never what counts as converged. When and how the search uses it:
+:mod:`bridgefem.search.pathfollow`, *Predictor*.
 
 Why: on rings of slice-like voussoirs the Newton iteration moves openings between neighbouring joints and fails
-trials whose state the later, smaller steps reach (``docs/robustness.md``, *The campaign*); on hinge collapses the
-fixed point settles in 2-7 QPs and the trial converges from it in 1-3 iterations. Where the collapse slides it
-settles less often, and an unsettled fixed point is no prediction (no solve). Of the 298 bare rings of campaign
-seeds 1-9 whose rigid-block mechanism slides, it changed the searches of 20: 53 predictions asked, 24 settled, 19 of
-their trials converged. Seed 9 #159 (179 voussoirs, mu = 0.331) went from 246 to 74 linear solves and seed 1 #235 from
-91 to 52; of the 292 limits 15 were cheaper and 3 dearer by 2 to 11 solves, every class and bracket as before (to
-2e-12). So :mod:`bridgefem.analysis.runner` builds the predictor for every bare ring. K and G are gathered on rank 0 once,
+trials whose state the later, smaller steps reach; on hinge collapses the fixed point settles in a few QPs and the
+trial converges from it in one to three iterations. Where the collapse slides it settles less often, and an
+unsettled fixed point is no prediction (no solve); measured: ``docs/robustness.md``. So
+:mod:`bridgefem.analysis.runner` builds the predictor for every bare ring. K and G are gathered on rank 0 once,
 each QP runs there (Clarabel) and the state is scattered: collective.
 """
 from __future__ import annotations
@@ -40,6 +37,7 @@ from petsc4py import PETSc
 
 from ..limit.conic import clarabel_solve
 from .newton import ContactSolver, Iterate
+from .system import g_entries
 
 TRESCA_QPS = 8  # QPs of the fixed point per prediction
 SETTLED = 1e-3  # the normal forces settled: largest change below this fraction of the largest normal force
@@ -120,7 +118,7 @@ class TrescaPredictor:
             system = self.system
             ki, kj, kv = system.stiffness.getValuesCSR()
             n_global = system.stiffness.getSize()[0]
-            rows, cols, vals = system.g_entries()
+            rows, cols, vals = g_entries(self.solver.pairs)
             K = sp.csr_matrix((kv, kj, ki), shape=(system.n_u, n_global))
             G = sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(self.solver.pairs), n_global))
             blocks = self.comm.gather((K, G), root=0)

@@ -1,0 +1,128 @@
+"""The rigid-block checks of an FE limit analysis: the rigid-block LP on the same joints (the search's guess and the
+verdict's evidence), and the non-associative checks of a converged state with sliding joints (evidence 3 of
+:mod:`bridgefem.analysis.evidence`), at the end of the search and at its converged states.
+
+Levels in N per unit load factor, forces in N. Every LP is solved on rank 0 and broadcast, so each function here is
+collective; an LP that fails is a check that confirms nothing, never the reason a run fails.
+
+1. *The LP* (:func:`rigid_block_check`): the scene's ring as rigid blocks on the same joints with associative
+   friction (Livesley 1978; Gilbert & Melbourne 1994): its collapse level is the search's guess, its verdict the
+   evidence of rule 2, and it decides on which side of a joint a load on that joint sits.
+2. *The frozen LP* (:func:`frozen_collapse`): the rigid blocks loaded as the FE loads its voussoirs, each joint's
+   shear capacity frozen at mu x the FE's normal force there; the sliding joints of its mechanism whose FE forces
+   are at their Coulomb limit against the slip.
+3. *The slip check* (:func:`slip_check`, :func:`slip_state`): for an unproven limit with sliding joints that the
+   associative LP does not confirm, the frozen LP at the last converged state, the same under the scene's exact
+   voussoir weights, and the Tresca fixed point from it (Gilbert, Casapulla & Ahmed 2006).
+4. *The collapse check* (:func:`collapse_check`): the frozen LP at each converged state of the search, for its
+   *Collapse state* rule (:mod:`bridgefem.search.target`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+
+from ..fe.pairs import JointPairs
+from ..geometry.ring import ArchRing
+from ..limit.collapse import collapse_load, collapse_state_from
+from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
+from ..scene.schema import Scene
+from ..search.records import CollapseCheck, LimitSearch
+from ..solver.newton import ContactSolver, Iterate
+from ..status import Status
+from .evidence import SlipCheck, coulomb_limited, needs_slip_check
+from .mechanism import JointState, joint_states
+
+
+def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
+    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.collapse.collapse_load`,
+    associative friction), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
+    LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
+    lp = None
+    if comm.rank == 0:
+        try:
+            lp = collapse_load(scene)
+        except (RuntimeError, ValueError) as err:  # the LP is a check: its failure is reported, not raised
+            lp = LPResult(None, None, f"LP failed: {err}")
+    return comm.bcast(lp, root=0)
+
+
+def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, joints: list[JointState],
+               blocks: BlockModel | None) -> SlipCheck | None:
+    """The non-associative rigid-block check (:func:`slip_state`) of an unproven limit with sliding joints that the
+    associative LP does not confirm (:func:`bridgefem.analysis.evidence.needs_slip_check`), from the joint forces of
+    the last converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check).
+    Collective; None when no check is needed."""
+    if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
+                            scene.fill is not None, any(j.sliding for j in joints)):
+        return None
+    return slip_state(scene, comm, lp, joints, blocks)
+
+
+def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
+               fixed_point: bool = True) -> SlipCheck:
+    """The non-associative rigid-block check of a converged state's ``joints`` (evidence 3 of
+    :mod:`bridgefem.analysis.evidence`): the rigid ``blocks`` loaded as the FE loads its voussoirs
+    (:func:`bridgefem.analysis.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x
+    normal force (:func:`frozen_collapse`) and, with ``fixed_point``, the Tresca fixed point from them (its LPs are the
+    check's dearest; none of evidence 3's rules asks for it), and the frozen LP under the scene's own block loads
+    (:func:`bridgefem.limit.collapse.collapse_state_from`).
+    The LPs on rank 0, broadcast (collective)."""
+    sliding = tuple(j.id for j in joints if j.sliding)
+    out = None
+    if comm.rank == 0:
+        try:
+            normal, frozen, limited = frozen_collapse(joints, blocks)
+            fixed = (solve_blocks(blocks, "non-associative", seed=normal) if fixed_point
+                     else LPResult(None, None, "not computed", converged=False, iterations=0))
+            exact = collapse_state_from(scene, normal, lp.load_sides, max_iterations=1)
+            out = SlipCheck(sliding, frozen.level, tuple(frozen.sliding), tuple(frozen.hinges), limited,
+                            exact.level, fixed.converged, fixed.level, tuple(fixed.sliding), tuple(fixed.hinges),
+                            fixed.iterations)
+        except (RuntimeError, ValueError):  # a check that fails confirms nothing
+            out = SlipCheck(sliding, None, (), (), (), None, False, None, (), (), 0)
+    return comm.bcast(out, root=0)
+
+
+def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.ndarray, LPResult, tuple[int, ...]]:
+    """The ``blocks`` with each joint's shear capacity frozen at mu x its normal force in ``joints``
+    (:func:`bridgefem.limit.rigid_block.frozen_capacity_collapse`): the normal forces (N per joint), the LP's result
+    and those of its sliding joints where the joints' forces are at their Coulomb limit against the slip
+    (:func:`bridgefem.analysis.evidence.coulomb_limited`). Raises RuntimeError or ValueError when the LP fails."""
+    normal, shear = np.zeros(blocks.n_joints), np.zeros(blocks.n_joints)
+    ids = [j.id for j in joints]
+    normal[ids], shear[ids] = [j.normal_force for j in joints], [j.shear_force for j in joints]
+    frozen = frozen_capacity_collapse(blocks, normal)
+    limited = () if frozen.level is None else coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip,
+                                                               frozen.sliding)
+    return normal, frozen, limited
+
+
+def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel | None, solver: ContactSolver,
+                   pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float) -> CollapseCheck | None:
+    """Evidence 3 at the search's converged states (:class:`bridgefem.search.records.CollapseCheck`): the frozen
+    LP's level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
+    (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
+    bracket [``lower``, ``trial``] of relative width ``tolerance``
+    (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`), with the check in words (``unit``: N of live load per
+    unit level), on the rigid ``blocks`` loaded as the FE loads them. None with a fill (``blocks`` None) or without an
+    LP limit (evidence 3 does not apply). Collective."""
+    if blocks is None or lp.status != Status.LIMIT or lp.level is None:
+        return None
+
+    def level(state: Iterate) -> float | None:
+        joints, out = joint_states(solver, pairs, ring, state), None
+        if comm.rank == 0:
+            try:
+                _, frozen, limited = frozen_collapse(joints, blocks)
+                out = frozen.level if frozen.sliding and set(frozen.sliding) == set(limited) else None
+            except (RuntimeError, ValueError):  # no estimate
+                out = None
+        return comm.bcast(out, root=0)
+
+    def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
+        return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
+
+    return CollapseCheck(level, settles)
+

@@ -1,0 +1,103 @@
+"""The arch-fill interface at a converged state: the forces the fill exerts on the ring, and the ring's rigid-block
+LP under the loads the fill transmits, a lower-bound check of an FE limit with a fill.
+
+Forces are in N for the scene's width, x to the right and y up; levels in N per unit load factor. The interface's
+joint forces are nodal forces (the multipliers of the interface pairs), so the rows of :func:`interface_forces`
+balance the ring's nodes exactly: the ring receives ``-(lam_n n + lam_t tau)`` at each interface pair, with n the
+pair's normal from the ring into the fill and tau that normal turned +90 degrees.
+
+The check (:func:`transmitted_load_check`):
+
+1. read the interface forces F_S after self-weight and F_L at the last converged level P_L;
+2. load the ring's rigid-block LP (:func:`bridgefem.limit.ring_blocks.ring_under_forces`) with the dead load ring
+   weight + F_S and the live load (F_L - F_S) / P_L;
+3. solve it (associative friction, on rank 0): its collapse level lambda.
+
+The FE state at P_L balances every voussoir with joint forces that obey no tension and Coulomb friction pair by
+pair, so it is statically admissible for that LP: lambda >= P_L, up to the LP's polygonal voussoirs against the mesh
+(the static theorem, Livesley 1978). When the FE limit is a mechanism of the ring (the fill only passes loads on),
+the ring under F_L is itself at collapse and lambda ~ P_L; lambda well above P_L means that the fill carried the rest
+by changing how it loads the ring (its stiffness or strength restrains the mechanism).
+
+Safeguard: *the ring-side node check*: every interface pair's ring-side node must lie on the extrados, else the
+forces would be put on the wrong voussoir; a mismatch raises instead.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from dolfinx import fem
+
+from ..fe.mesh import EXTRADOS_TAG
+from ..fe.model import node_blocks
+from ..fe.pairs import ARCH_FILL
+from ..limit.rigid_block import LPResult, solve_blocks
+from ..limit.ring_blocks import ring_under_forces
+from ..solver.newton import Iterate
+from .result import Analysis, TransmittedLoadCheck
+
+
+@dataclass
+class InterfaceForces:
+    """What the fill exerts on the ring across the arch-fill interface at one converged state: one row per interface
+    pair, identical on every rank, sorted by x. ``points`` (k, 2): the ring-side node (m); ``blocks`` (k,): the
+    voussoir it belongs to; ``forces`` (k, 2): the force on that node (N, x and y, whole width); ``normal`` (k,):
+    the interface's compression lam_n (N, >= 0); ``shear`` (k,): lam_t (N), the force on the fill along the pair's
+    tangent (its normal, from the ring into the fill, turned +90 degrees). The ring receives
+    ``-(lam_n n + lam_t tau)``: the multipliers are nodal forces, so these rows balance the ring's nodes exactly."""
+
+    points: np.ndarray
+    blocks: np.ndarray
+    forces: np.ndarray
+    normal: np.ndarray
+    shear: np.ndarray
+
+
+def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
+    """The arch-fill interface forces on the ring at a converged iterate (collective; empty without a fill)."""
+    solver, pairs, V, bm = an.solver, an.pairs, an.model.V, an.block_mesh
+    comm = solver.comm
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    facets = bm.facet_tags.indices[bm.facet_tags.values == EXTRADOS_TAG]
+    nodes = fem.locate_dofs_topological(V, 1, facets)
+    nodes = nodes[nodes < n_owned]
+    node_block = node_blocks(V, bm)
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    table = np.vstack(comm.allgather(np.column_stack([imap.local_to_global(nodes.astype(np.int32)), coords[nodes],
+                                                      node_block[nodes]])))
+    table = table[np.argsort(table[:, 0])]
+    _, lam, _ = solver.system.split(it.x)
+    on = pairs.joint == ARCH_FILL
+    local = np.column_stack([pairs.left[on], pairs.normal[on], pairs.tangent[on], lam[on]])
+    rows = np.vstack(comm.allgather(local))
+    at = np.searchsorted(table[:, 0], rows[:, 0]) if len(table) else np.zeros(0, int)
+    if len(rows) and not np.array_equal(table[np.minimum(at, len(table) - 1), 0], rows[:, 0]):
+        raise RuntimeError("arch-fill interface: a ring-side node is not on the extrados")
+    ring_rows = table[at]
+    forces = -(rows[:, 5:6] * rows[:, 1:3] + rows[:, 6:7] * rows[:, 3:5])
+    order = np.argsort(ring_rows[:, 1], kind="stable")
+    return InterfaceForces(ring_rows[order, 1:3], ring_rows[order, 3].astype(int), forces[order],
+                           rows[order, 5], rows[order, 6])
+
+
+def transmitted_load_check(an: Analysis, friction_model: str = "associative") -> TransmittedLoadCheck | None:
+    """The ring under the loads the fill transmits, a lower-bound check of the FE limit with a fill (module
+    docstring, steps 1-3). The LP on rank 0, broadcast (collective); None without a fill, a live load or a converged
+    live-load step above 0; an LP that fails is reported in ``lp.status`` ("LP failed: ...")."""
+    s = an.search
+    if an.scene.fill is None or not an.scene.loads or s.settled is None or s.last is None or not s.lower > 0:
+        return None
+    dead, live = interface_forces(an, s.settled), interface_forces(an, s.last)
+    out = None
+    if an.solver.comm.rank == 0:
+        increment = (live.forces - dead.forces) / s.lower  # N per unit load level
+        model = ring_under_forces(an.scene, dead.blocks, dead.points, dead.forces, increment)
+        try:
+            lp = solve_blocks(model, friction_model)
+        except RuntimeError as err:  # a check, never the reason a run fails: report it
+            lp = LPResult(None, None, f"LP failed: {err}", friction_model)
+        ratio = lp.level / s.lower if lp.level is not None else None
+        out = TransmittedLoadCheck(s.lower, lp.level, ratio, lp)
+    return an.solver.comm.bcast(out, root=0)

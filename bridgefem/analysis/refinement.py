@@ -1,0 +1,159 @@
+"""Re-runs of a limit analysis on finer meshes (:func:`bridgefem.analysis.runner.run_analysis`): when a finer mesh
+can settle a run, and how the re-runs follow one another.
+
+A joint of linear elements has one pair more than the thickness has elements: with n elements through the thickness
+it opens and slides an n-th of the thickness at a time. Near the limit the Newton method's proposals can then turn
+into inadmissible modes that a finer joint settles; a collapse state with sliding joints (evidence 3 of
+:mod:`bridgefem.analysis.evidence`) has normal forces, and so a level, that move with the mesh; and near its least
+thickness a ring stands with hundreds of joint pairs open, which the Newton method, proposing too many openings at
+once from the bonded start, reaches only where the voussoirs are an element long or more.
+
+**Cases a finer mesh settles** (:func:`refinement_reason`):
+
+- a confirmed non-associative collapse state below the associative LP, or a failed run whose limit depends on the
+  mesh (both ``Verdict.mesh_dependent``);
+- a live-load trial that failed without proof where the rigid-block LP finds the ring standing, on a bare ring or,
+  under a fill, on voussoirs shorter than an element;
+- a self-weight that failed without proof on voussoirs shorter than an element, where the LP finds the ring
+  standing.
+
+A self-weight failure on longer voussoirs is not re-run (that is where a PETSc option that breaks the linear solve
+fails, and a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
+limit, and its re-runs are costly).
+
+**The loop** (:func:`refine`):
+
+1. Run the scene on its mesh.
+2. A re-run of a confirmed run that failed leaves the confirmed run standing, the failed run listed: a solver failure
+   on the finer mesh does not undo a confirmed answer on the coarser one.
+3. Stop when no case above applies, when the run's last converged level moved by at most ``SETTLED_MOVE`` (or the
+   search's tolerance, if larger) from the run before (with an error of first order in the element size, the finer
+   run's error is about its move), after ``max_refinements`` re-runs, or when twice the elements exceed
+   ``REFINED_ELEMENTS_MAX`` or the size estimate (:func:`refined_elements`). The decision is rank 0's, broadcast:
+   every rank re-runs or none.
+4. Otherwise run again with twice the elements through the thickness: its first live-load step and its search's
+   target are the level the run before it reached (:func:`bridgefem.analysis.runner.first_step`;
+   :mod:`bridgefem.search.target`, *Guess*); a bare ring's re-run starts its trials from that run's converged path
+   (:mod:`bridgefem.search.coarser_path`); a re-run of a confirmed run may spend ``REFINEMENT_BUDGET`` times that
+   run's linear solves, at least ``REFINEMENT_FLOOR``, exactly (the solve past it is never made:
+   :meth:`bridgefem.solver.linear.CheckedSolve.limited`), and one that spends it unsettled is a failure "not
+   settled within its budget" (step 2). Go to step 2.
+
+The last run is the answer, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same
+evidence as any other.
+
+Safeguards:
+
+- *Settled move* ``SETTLED_MOVE``: a finer mesh that did not move the limit shows that these elements do not decide
+  it, so no finer one is tried.
+- *Caps* ``MAX_REFINEMENTS``, ``REFINED_ELEMENTS_MAX`` and the size estimate: the re-runs' cost and memory stay
+  bounded.
+- *Budget of a confirmed run's re-run* ``REFINEMENT_BUDGET``, ``REFINEMENT_FLOOR``: such a re-run can only refine
+  an answer already confirmed, so it may not cost more than a few times that answer.
+- *The confirmed run stands* (step 2): a finer mesh's solver failure never replaces a confirmed answer.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+from mpi4py import MPI
+
+from ..fe.sizing import MAX_DOFS, check_size
+from ..scene.schema import Scene, SceneError, with_mesh
+from ..search.coarser_path import CoarserPath
+from ..status import Status
+from .evidence import AGREEMENT
+from .result import Analysis, MeshRefinement
+
+MAX_REFINEMENTS = 2  # re-runs of a limit that depends on the mesh, each with twice the elements through the thickness
+REFINED_ELEMENTS_MAX = 16  # elements through the thickness a re-run may reach
+SETTLED_MOVE = AGREEMENT  # a re-run whose limit moved by less than this fraction (or the search's tolerance, if
+# larger) is not re-run again
+REFINEMENT_BUDGET = 2  # a re-run of a confirmed run may spend this many times the linear solves of that run, ...
+REFINEMENT_FLOOR = 80  # ... and at least this many
+
+Analyse = Callable[[Scene, float | None, int | None, CoarserPath | None], Analysis]  # one run of one mesh (refine)
+
+
+def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str], None],
+           max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS) -> Analysis:
+    """The scene's run, re-run on finer meshes while they can settle it (module docstring, *The loop*);
+    ``analyse(scene, coarser, budget, path)`` runs one mesh given the level the run before it reached (None on a
+    first run), its budget of linear solves (None: none) and the bare ring's path of the run before it (None: none);
+    ``notice(line)`` announces each re-run. Collective."""
+    refinements, previous, confirmed, path = [], None, None, None
+    while True:
+        budget = max(REFINEMENT_FLOOR, REFINEMENT_BUDGET * refinements[-1].solves) if confirmed is not None \
+            else None
+        an = analyse(scene, previous, budget, path)
+        ett, carried = scene.mesh.elements_through_thickness, an.search.lower
+        failed = Status.of(an.search.status) is Status.FAILURE
+        if failed and confirmed is not None:
+            notice(f"the re-run with {ett} elements through the thickness failed ({an.search.status}): the "
+                   f"confirmed run with {confirmed.scene.mesh.elements_through_thickness} stands")
+            confirmed.refinements = refinements[:-1] + [_replaced(an, ett)]
+            return confirmed
+        moved = previous is None or abs(carried - previous) > max(an.search.tolerance, SETTLED_MOVE) * previous
+        finer, why = None, refinement_reason(an, ett)
+        if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
+            finer = refined_elements(scene, max_dofs)
+        finer = comm.bcast(finer, root=0)
+        if finer is None:
+            an.refinements = refinements
+            return an
+        refinements.append(_replaced(an, ett))
+        previous, confirmed = carried, None if failed else an
+        path = CoarserPath.of(an.pairs, [(c.load / an.load_total, c.lam, c.d) for c in an.converged], comm) \
+            if scene.fill is None else None
+        notice(f"{why}: re-running with {finer} elements through the thickness")
+        del an  # free a failed coarse model before the finer one is built
+        scene = with_mesh(scene, finer)
+
+
+def _replaced(an: Analysis, ett: int) -> MeshRefinement:
+    """The record of a run with ``ett`` elements through the thickness that another run replaces."""
+    return MeshRefinement(ett, an.search.status, sum(an.timings.values()), an.solver.stats["solves"])
+
+
+def refinement_reason(an: Analysis, ett: int) -> str:
+    """Why a finer mesh can settle a run with ``ett`` elements through the thickness, in words (empty: it cannot;
+    module docstring, *Cases a finer mesh settles*): a confirmed non-associative collapse state below the associative
+    LP, or a failed run whose limit depends on the mesh (both ``Verdict.mesh_dependent``), or a run that failed
+    without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
+    steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
+    such voussoirs."""
+    if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
+        return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
+                f"({ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, the LP "
+                f"{an.lp.load / 1e3:.6g} kN); its joints' normal forces, and so its level, move with the mesh")
+    if an.verdict.mesh_dependent:
+        return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
+                f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
+                f"{an.lp.load / 1e3:.6g} kN)")
+    if (Status.of(an.search.status) is not Status.FAILURE or an.search.proved
+            or an.lp.status not in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)):
+        return ""
+    short = an.shortest_voussoir < an.block_mesh.element_size
+    live = an.search.settled is not None and bool(an.search.failure)  # a failed live-load trial ended it
+    if live and (short or an.scene.fill is None):
+        return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
+                f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
+                f"thickness), where the rigid-block LP finds the ring standing")
+    if an.search.last is None and short:
+        return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
+                f"the thickness), where the rigid-block LP finds the ring standing")
+    return ""
+
+
+def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:
+    """Twice the scene's elements through the ring thickness, or None when that exceeds
+    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.fe.sizing.check_size` with at most
+    ``max_dofs`` unknowns)."""
+    ett = 2 * scene.mesh.elements_through_thickness
+    if ett > REFINED_ELEMENTS_MAX:
+        return None
+    try:
+        check_size(with_mesh(scene, ett), max_dofs=max_dofs)
+    except SceneError:
+        return None
+    return ett

@@ -1,0 +1,155 @@
+"""What a limit search takes and what it gives (:mod:`bridgefem.search.pathfollow`): its settings, its guides (what
+is known of the limit before it starts), its observers, and the records of its load steps and of its outcome.
+
+Levels are live-load levels P in N per unit load factor: the scene's live loads are each ``factor`` x P
+(:mod:`bridgefem.analysis.runner`, *Load vocabulary*). Deflections are in m, positive down.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from petsc4py import PETSc
+
+from ..solver.newton import Iterate, PairPrediction
+
+
+@dataclass
+class LoadStep:
+    """One attempted step; ``level`` in N per unit load factor, ``deflection`` (m, down positive) under the load;
+    ``movement`` the fraction of the imposed support movement applied; ``cohesion`` the fill's raised cohesion (Pa)
+    in a step of the self-weight's cohesion continuation (None: the scene's); ``mechanism``: a failed step that showed
+    no equilibrium (:class:`bridgefem.solver.newton.StepOutcome`; a flat load-deflection curve counts);
+    ``friction_factor``: the joints' raised friction (multiple of the scene's) in a step of the friction
+    continuation (None: the scene's)."""
+
+    index: int
+    level: float
+    converged: bool
+    reason: str
+    iterations: int
+    factorisations: int
+    residual: float
+    deflection: float | None
+    counts: dict
+    seconds: float
+    movement: float = 0.0
+    cohesion: float | None = None
+    mechanism: bool = False
+    friction_factor: float | None = None
+
+
+@dataclass
+class LimitSearch:
+    """Outcome of the search; ``lower``/``upper`` bracket the limit level (N per unit load factor); ``guess`` is
+    the estimate of the limit level the search used (N per unit load factor; None: none); ``last`` is the last
+    converged state, ``settled`` the converged state at live load 0 (after self-weight and any support movement)
+    from which the live-load search started (None when it was not reached); ``failure``: what ended the search
+    above ``lower``, the failed step's reason or the static bound's (empty at the cap on the load steps or a locked
+    ring); ``proved``: the failed step that ended the search proved its mechanism
+    (:class:`bridgefem.solver.newton.StepOutcome`), else the verdict needs other evidence
+    (:mod:`bridgefem.analysis.evidence`); ``static``: the search ended on the static bound (its upper end is the
+    bound's level, :mod:`bridgefem.search.pathfollow`, *Static bound*)."""
+
+    status: str
+    lower: float
+    upper: float | None
+    tolerance: float
+    steps: list[LoadStep] = field(default_factory=list)
+    last: Iterate | None = None
+    failure: str = ""
+    guess: float | None = None
+    settled: Iterate | None = None
+    proved: bool = False
+    static: bool = False
+
+
+@dataclass
+class StaticCap:
+    """The static theorem's bound on a search (:mod:`bridgefem.search.pathfollow`, *Static bound*): ``level`` the
+    largest level at which an equilibrium can exist (N per unit load factor; None: no bound on the live load);
+    ``falls``: no equilibrium exists under self-weight; ``admissible(step, iterate)`` checks a converged state against
+    the theorem's premises, returning the answer and a sentence (collective)."""
+
+    level: float | None
+    falls: bool
+    admissible: Callable[[LoadStep, Iterate], tuple[bool, str]]
+
+
+@dataclass
+class CollapseCheck:
+    """Evidence 3 (:mod:`bridgefem.analysis.evidence`) at a converged state of a bare ring
+    (:mod:`bridgefem.search.target`, *Collapse state*): ``level(state)`` the level (N per unit load factor) at which
+    the state's rigid blocks with its friction capacities (mu x its joint normal forces) collapse, on a mechanism
+    that slides only where the state's joints are at their Coulomb limit (None: no such mechanism);
+    ``settles(lower, trial, state)`` whether the state at ``lower`` is the collapse state that settles the bracket
+    [lower, trial], with the check in words. Both collective."""
+
+    level: Callable[[Iterate], float | None]
+    settles: Callable[[float, float, Iterate], tuple[bool, str]]
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """The numbers that set a limit search, chosen by the user or fixed by the scene
+    (:func:`bridgefem.analysis.runner.search_settings` reads them from its keys).
+
+    ``tolerance``: the bracket's relative width (:mod:`bridgefem.search.bracket`, *Bracket rule*).
+    ``initial_step``: the first live-load step (N per unit load factor; :mod:`bridgefem.search.schedule`, *Steps*).
+    ``max_load``: the level (N per unit load factor) at which the search stops as "locked"; 0 or less: self-weight
+    only ("stable under self-weight").
+    ``max_steps``: the load steps attempted in all (self-weight and support movement included) before the search is
+    a solver failure.
+    ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m), or
+    tangent stiffness at its converged state, is below this fraction of the tangent stiffness after self-weight
+    counts as failed, like a step without equilibrium: the load-deflection curve is flat (collapse of a structure
+    restrained by a soft or yielding fill, which never becomes exactly singular; :mod:`bridgefem.search.step`, *Flat
+    curve*);
+    0: no such check.
+    ``movement_steps``: the increments of the solver's support movement (:mod:`bridgefem.search.pathfollow`, *Support
+    movement*); 0: no movement.
+    """
+
+    tolerance: float
+    initial_step: float
+    max_load: float
+    max_steps: int
+    stiffness_drop: float = 0.0
+    movement_steps: int = 0
+
+
+@dataclass(frozen=True)
+class SearchGuides:
+    """What is known of the limit before the search: it steers the search's path, and the static bound and the
+    collapse state can also end it with their proof. Each None: not known; each but the guess the same on every rank.
+
+    ``guess``: an estimate of the limit level (N per unit load factor; e.g. the rigid-block LP's, taken from rank
+    0; :mod:`bridgefem.search.target`, *Guess*).
+    ``bound``: the static theorem's bound (:mod:`bridgefem.search.pathfollow`, *Static bound*).
+    ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor;
+    :mod:`bridgefem.search.target`, *Guess*); None on a first run.
+    ``collapse``: evidence 3 at the converged states of a bare ring (:mod:`bridgefem.search.target`, *Collapse
+    state*).
+    ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
+    (:mod:`bridgefem.search.pathfollow`, *Predictor*). Collective.
+    ``coarser_path(trial, lower, state)``: a re-run's start of a trial from its converged ``state`` at ``lower`` on its
+    coarser run's path (:class:`bridgefem.search.coarser_path.CoarserPath`), or None
+    (:mod:`bridgefem.search.pathfollow`, *Predictor*).
+    """
+
+    guess: float | None = None
+    bound: StaticCap | None = None
+    coarser: float | None = None
+    collapse: CollapseCheck | None = None
+    predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None
+    coarser_path: Callable[[float, float, Iterate], PairPrediction | None] | None = None
+
+
+@dataclass(frozen=True)
+class SearchObservers:
+    """Who watches the search: ``report(step)`` is called after every attempted step, ``converged(step, iterate)``
+    after every converged one with its state. Both collective; by default nobody."""
+
+    report: Callable[[LoadStep], None] = lambda step: None
+    converged: Callable[[LoadStep, Iterate], None] = lambda step, iterate: None
+

@@ -1,0 +1,72 @@
+"""The warnings of an analysis (bridgefem.analysis.result, *Warnings*), each on made-up results: a warning is a plain
+function of what the run stored, one per class of doubtful bracket that the verdict's evidence does not catch."""
+from types import SimpleNamespace
+
+import pytest
+
+from bridgefem.analysis.result import FILL_BOUND_TOL, LP_RATIO_RANGE, SMALL_DISPLACEMENT, user_warnings
+
+SPAN = 10.0  # m
+
+
+def run(ratio=1.0, sliding=0, fill=None, bounds=None, lower=100e3, deflection=0.001, shortest=1.0, size=0.25,
+        verdict=(), upper=None):
+    """The parts of an Analysis that the warnings read: one converged step with its ``deflection`` (m), the last
+    converged live load ``lower`` and the bracket's ``upper`` end (N, one unit of load), the FE/LP ``ratio``, one joint ``sliding`` or not, the fill's
+    conic ``bounds`` (N), the shortest voussoir and the element size (m), the verdict's own warnings."""
+    return SimpleNamespace(search=SimpleNamespace(steps=[SimpleNamespace(converged=True, deflection=deflection)],
+                                                  lower=lower, upper=upper),
+                           scene=SimpleNamespace(arch=SimpleNamespace(span=SPAN), fill=fill), load_total=1.0,
+                           shortest_voussoir=shortest, block_mesh=SimpleNamespace(element_size=size),
+                           fe_lp_ratio=ratio, joints=[SimpleNamespace(sliding=sliding)], fill_bounds=bounds,
+                           verdict=SimpleNamespace(warnings=verdict))
+
+
+def test_a_sound_run_has_no_warning():
+    assert user_warnings(run()) == []
+
+
+def test_a_deflection_beyond_the_small_displacement_range_warns():
+    assert user_warnings(run(deflection=0.99 * SMALL_DISPLACEMENT * SPAN)) == []
+    (warning,) = user_warnings(run(deflection=-1.01 * SMALL_DISPLACEMENT * SPAN))
+    assert "small-displacement model is outside its validity" in warning
+
+
+def test_voussoirs_shorter_than_an_element_warn():
+    (warning,) = user_warnings(run(shortest=0.2, size=0.25))
+    assert "shorter than one element" in warning
+
+
+@pytest.mark.parametrize("ratio, sliding, fill, warns", [
+    (LP_RATIO_RANGE[0] * 0.999, 0, None, True), (LP_RATIO_RANGE[1] * 1.001, 0, None, True),
+    (LP_RATIO_RANGE[0], 0, None, False), (LP_RATIO_RANGE[1], 0, None, False),
+    (0.9, 1, None, False), (0.9, 0, "a fill", False), (None, 0, None, False)])
+def test_an_fe_lp_ratio_outside_its_range_warns_only_on_a_bare_ring_without_sliding(ratio, sliding, fill, warns):
+    """Elastic blocks stop a little below the rigid-block LP and never above it; sliding joints (non-associative
+    friction) and a fill (the LP carries it as dead load only) may stop anywhere below."""
+    warnings = user_warnings(run(ratio=ratio, sliding=sliding, fill=fill))
+    assert any("FE/LP limit-load ratio" in w for w in warnings) == warns
+
+
+@pytest.mark.parametrize("upper, warns", [(100e3 / (1 + 1.01 * FILL_BOUND_TOL), True),
+                                          (100e3 / (1 + 0.99 * FILL_BOUND_TOL), False), (None, False)])
+def test_an_fe_limit_above_the_conic_upper_bound_of_its_fill_warns(upper, warns):
+    """No equilibrium exists above the rigid-plastic upper bound of the bridge with its fill: an FE that carries more
+    has a fill mesh that has not converged."""
+    bounds = {"lower": None, "upper": upper, "unit": "N"}
+    warnings = user_warnings(run(ratio=0.5, fill="a fill", bounds=bounds))
+    assert any("above the conic upper bound" in w for w in warnings) == warns
+
+
+@pytest.mark.parametrize("lower_bound, warns", [(100e3 / (1 - 1.01 * FILL_BOUND_TOL), True),
+                                                (100e3 / (1 - 0.99 * FILL_BOUND_TOL), False), (None, False)])
+def test_an_fe_limit_below_the_conic_lower_bound_of_its_fill_warns(lower_bound, warns):
+    """The bridge with its fill carries at least its rigid-plastic lower bound: an FE bracket whose upper end lies
+    below it stopped before the collapse, and the user reads the bracket with the bounds."""
+    bounds = {"lower": lower_bound, "upper": None, "unit": "N"}
+    warnings = user_warnings(run(ratio=0.5, fill="a fill", bounds=bounds, lower=99.9e3, upper=100e3))
+    assert any("below the conic lower bound" in w for w in warnings) == warns
+
+
+def test_the_verdicts_warnings_come_last():
+    assert user_warnings(run(shortest=0.2, verdict=("the LP says otherwise",)))[-1] == "the LP says otherwise"
