@@ -303,12 +303,12 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
 
 
 @pytest.mark.slow
-def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve_budget():
+def test_a_confirmed_collapse_state_is_refined_to_the_lp():
     """Campaign seed 1, scene 193 (elliptical, 22 voussoirs, mu = 0.489): with 4 and 8 elements through the thickness
     a confirmed non-associative collapse state 2.2 % and 0.6 % below the LP, re-run; with 16 the search reaches the
     level whose width touches the static bound (the rigid-block LP under the FE's loads) and stands, within 0.1 % of
-    the LP on the same joints (computed here independently); the three runs spend at most the issue's 150 linear
-    solves."""
+    the LP on the same joints (computed here independently). (The three runs' solves against the issue's 150:
+    benchmarks/solve_budgets.py.)"""
     from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(193, 1.8177))
@@ -317,7 +317,6 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve
     assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 16
     assert [r.elements_through_thickness for r in an.refinements] == [4, 8]
     assert 0.999 * lp <= an.search.lower * an.load_total <= an.search.upper * an.load_total <= lp
-    assert an.solver.stats["solves"] + sum(r.solves for r in an.refinements) <= 150
 
 
 @pytest.mark.slow
@@ -326,8 +325,8 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     through the thickness (0.81 m) a confirmed non-associative collapse state (sliding at the LP's sliding joint 83)
     4.7 % below the associative LP, re-run with 8; that run moves the limit by less than SETTLED_MOVE, so no run with
     16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
-    more than elastic blocks stop below it; both runs within the issue's 150 linear solves (153 when the re-run's
-    trials started from the coarser run's path only up to 0.98 of its last level)."""
+    more than elastic blocks stop below it (both runs within the issue's 150 linear solves, 153 when the re-run's
+    trials started from the coarser run's path only up to 0.98 of its last level: benchmarks/solve_budgets.py)."""
     from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
@@ -343,7 +342,6 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert 83 in lp.sliding and any(j.sliding and j.id == 83 for j in an.joints)
     assert 0.9 * lp.load <= an.search.lower * an.load_total < an.search.upper * an.load_total <= lp.load
-    assert an.solver.stats["solves"] + coarse.solves <= 150
 
 
 @pytest.mark.slow
@@ -352,10 +350,11 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     """Campaign seed 7, scene 166 (pointed, 243 voussoirs, t = 5.95 m, mu = 1.0, a point load) and seed 6, scene 146
     (pointed, 175 voussoirs, t = 4.15 m, mu = 0.579, a patch load): with 4 elements through the thickness a confirmed
     collapse state 1.4 % and 14.4 % below the associative LP, re-run with 8. The re-run's trials start from the
-    coarser run's path up to its last converged level (bridgefem.search.coarser_path): the limit, both runs counted, within
-    the issue's 150 linear solves (#166: 195 when they started from the re-run's own secant; #146: 176 when the path
-    stopped at 0.98 of its last level, and its target failed from 12 % below), and it agrees with the rigid-block
-    Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently)."""
+    coarser run's path up to its last converged level (bridgefem.search.coarser_path): the limit agrees with the
+    rigid-block Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently).
+    Both runs counted, the issue's 150 linear solves are a budget of benchmarks/solve_budgets.py (#166: 195 when the
+    trials started from the re-run's own secant; #146: 176 when the path stopped at 0.98 of its last level, and its
+    target failed from 12 % below)."""
     from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
@@ -366,4 +365,3 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 8
     lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
     assert (1 - SETTLED_MOVE) * tresca <= lower <= upper <= (1 + SETTLED_MOVE) * tresca
-    assert an.solver.stats["solves"] + coarse.solves <= 150
