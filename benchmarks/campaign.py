@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from bridgefem.analysis.evidence import AGREEMENT, reaches
-from bridgefem.io.output import failed_target
+from bridgefem.io.targets import failed_target
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
@@ -199,7 +199,7 @@ def reference_length(choice: dict, thickness: float) -> float:
 def thickness_of(choice: dict) -> tuple[float, float | None]:
     """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
     from bridgefem.limit.thickness import min_thickness
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
 
     try:
         bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None, "option": None}  # nor do loads

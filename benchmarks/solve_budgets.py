@@ -263,7 +263,7 @@ CASES = (
 def scene_of(seed: int, index: int, thickness: float, **sections):
     import campaign
 
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
 
     return scene_from_dict({**campaign.scene_dict(campaign.draw(seed, index), thickness), **sections})
 

@@ -28,7 +28,9 @@ from dataclasses import dataclass, field
 
 from .io.lp_report import lp_entry, rigid_block_result
 from .scene.document import edit
-from .scene.schema import Scene, SceneError, load_scene, scene_from_dict
+from .scene.keys import SceneError
+from .scene.model import Scene
+from .scene.reader import load_scene, scene_from_dict
 from .status import Status
 
 __all__ = ["LimitLoad", "Result", "RigidBlock", "Scene", "SceneError", "Status", "analyse", "assess_vehicle",

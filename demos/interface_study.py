@@ -28,9 +28,12 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.io.output import OutputError, claim, results_folder
+from bridgefem.io.output import claim, results_folder
+from bridgefem.io.targets import OutputError
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import Scene, SceneError, load_scene
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.model import Scene
+from bridgefem.scene.reader import load_scene
 
 PHASES = ("geometry", "mesh", "assembly", "pairing", "solver setup", "limit search")
 

@@ -21,7 +21,8 @@ from bridgefem.analysis.result import Analysis
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.geometry.ring import ArchRing
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses

@@ -15,7 +15,8 @@ from bridgefem.limit import bounds_model
 from bridgefem.limit.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.limit.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import SceneError, load_scene, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import load_scene, scene_from_dict
 
 
 @pytest.mark.parametrize("sections", [

@@ -7,7 +7,7 @@ import pytest
 from conftest import ROOT, campaign_module, campaign_scene, scene_dict
 
 from bridgefem.geometry.ring import AT_JOINT_TOL, polygon_area_centroid
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end

@@ -3,7 +3,7 @@ import pytest
 from conftest import scene_dict
 
 from bridgefem.analysis.convergence import MeshLimit, richardson, study
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 
 @pytest.mark.parametrize("order", [0.5, 1.0, 1.75, 2.0])

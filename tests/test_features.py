@@ -9,7 +9,7 @@ from conftest import scene_dict
 
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, STABLE
 
 pytestmark = pytest.mark.slow

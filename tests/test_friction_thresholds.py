@@ -21,7 +21,7 @@ from conftest import bridgefem
 from bridgefem.limit.rigid_block import dead_load_deficit
 from bridgefem.limit.ring_blocks import ring_model
 from bridgefem.limit.thickness import NoStableThickness, min_thickness
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 MU_RM, MU_MS, ETA_MS = 0.395832, 0.309215, 0.200637
 FRICTION_MODELS = ["associative", pytest.param("non-associative", marks=pytest.mark.slow)]

@@ -18,7 +18,8 @@ import pytest
 from conftest import bridgefem, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.scene.schema import SCHEMA, scene_from_dict, scene_scales
+from bridgefem.scene.reader import scene_from_dict, scene_scales
+from bridgefem.scene.schema import SCHEMA
 
 
 def valid_scene() -> dict:

@@ -8,7 +8,7 @@ from conftest import scene_dict
 from bridgefem.geometry.ring import joint_under, point_load_blocks
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import BlockModel, generalised_loads, solve_blocks
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 R, DENSITY, G = 5.0, 2000.0, 9.81

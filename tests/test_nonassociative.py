@@ -24,7 +24,7 @@ from bridgefem.limit.rigid_block import (
     statics,
 )
 from bridgefem.limit.ring_blocks import ring_model
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 
 def incline(theta, friction, weight=10.0, b=2.0, h=1.0):

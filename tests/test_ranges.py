@@ -23,15 +23,9 @@ from conftest import REFERENCE_ARCH, campaign_module, scene_dict, write_toml
 from bridgefem.io import cli
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.thickness import min_thickness
-from bridgefem.scene.schema import (
-    SCALES,
-    SCHEMA,
-    SceneError,
-    resolved_toml,
-    scene_from_dict,
-    scene_scales,
-    springing_reach,
-)
+from bridgefem.scene.keys import SCALES, SceneError, springing_reach
+from bridgefem.scene.reader import resolved_toml, scene_from_dict, scene_scales
+from bridgefem.scene.schema import SCHEMA
 
 FILL = {"unit_weight": 18000.0, "young": 1e8, "depth": 0.5, "extension": 2.0}
 MOHR_COULOMB = {**FILL, "material": "mohr-coulomb", "friction_angle": 60.0, "cohesion": 5e3}  # every angle allowed

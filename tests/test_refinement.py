@@ -21,7 +21,7 @@ from bridgefem.analysis.refinement import (
 )
 from bridgefem.analysis.runner import first_step, run_analysis
 from bridgefem.fe import sizing
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.linear import CheckedSolve, SolveBudgetSpent
 from bridgefem.status import Status
 

@@ -13,7 +13,8 @@ from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import BlockModel, LPFailure, dead_load_deficit, generalised_loads, solve_blocks
 from bridgefem.limit.ring_blocks import ring_model, ring_under_forces
 from bridgefem.limit.thickness import NoStableThickness, min_thickness
-from bridgefem.scene.schema import Fill, scene_from_dict
+from bridgefem.scene.model import Fill
+from bridgefem.scene.reader import scene_from_dict
 
 
 def scene(voussoirs=16, friction=0.6, joint_at_loads=True, loads=None):

@@ -4,7 +4,7 @@ import pytest
 
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.status import Status
 
 pytestmark = pytest.mark.slow

@@ -9,7 +9,7 @@ from mpi4py import MPI
 
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
 from bridgefem.status import Status

@@ -15,7 +15,7 @@ from bridgefem.fe.model import build_elastic_model
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import BlockModel, Statics, standing_deficit
 from bridgefem.limit.ring_blocks import ring_model
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.status import Status
 from bridgefem.structure.ring import scene_ring
 

@@ -15,7 +15,7 @@ from conftest import campaign_scene
 
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.limit.collapse import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.tresca import TrescaProblem
 from bridgefem.status import Status
 

@@ -46,7 +46,7 @@ from ..geometry.ring import ArchRing, fill_outline
 from ..laws.base import JointLaw
 from ..laws.coulomb import CoulombJoints
 from ..limit.rigid_block import LPResult
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..solver.newton import ContactSolver
 from ..structure.ring import scene_ring
 from ..structure.supports import support_motion

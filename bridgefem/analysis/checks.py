@@ -26,7 +26,7 @@ from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..limit.collapse import collapse_load, collapse_state_from
 from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..search.records import CollapseCheck, LimitSearch
 from ..solver.newton import ContactSolver, Iterate
 from ..status import Status

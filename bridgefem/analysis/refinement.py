@@ -59,7 +59,8 @@ from typing import Callable
 from mpi4py import MPI
 
 from ..fe.sizing import MAX_DOFS, check_size
-from ..scene.schema import Scene, SceneError, with_mesh
+from ..scene.keys import SceneError
+from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
 from ..status import Status
 from .evidence import AGREEMENT

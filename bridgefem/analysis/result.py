@@ -32,7 +32,7 @@ from ..fe.model import ElasticModel
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..limit.rigid_block import LPResult
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..search.records import LimitSearch
 from ..solver.newton import ContactSolver
 from .evidence import StaticBound, Verdict

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..limit.rigid_block import generalised_loads, solve_blocks  # the LP's public functions
 from ..limit.ring_blocks import ring_model
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 
 CELLS = 400  # integration cells per span

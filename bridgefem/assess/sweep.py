@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..status import Status
 from .vehicle import Placement, place, positions
 
@@ -100,7 +100,8 @@ class Assessment:
 
 def lp_at(scene: Scene, x0: float, refined: bool = False) -> PositionLP:
     """Step 1 of the module docstring at one position."""
-    from ..limit.rigid_block import LPFailure, collapse_load  # the LP's public function
+    from ..limit.collapse import collapse_load  # the LP's public function
+    from ..limit.rigid_block import LPFailure
     from .dispersion import dispersed_lp
 
     pl: Placement = place(scene, x0)

@@ -1,7 +1,7 @@
 """A vehicle at one position on the bridge, as the scene's live loads.
 
 1. The vehicle stands with its first (leftmost) axle at ``x0`` (m from the left springing); axle i at
-   ``x0 + offset_i`` (:attr:`bridgefem.scene.schema.Vehicle.offsets`).
+   ``x0 + offset_i`` (:attr:`bridgefem.scene.model.Vehicle.offsets`).
 2. An axle acts on the bridge when it lies on the span: a point axle strictly between the springings (at least
    :data:`EDGE` x span inside), a patch axle (``contact_length`` c > 0) with the part of [x - c/2, x + c/2] that lies
    on the span, its load scaled by that part's share, when that part is at least the shortest patch the schema
@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.schema import SCHEMA, Scene, scene_from_dict
+from ..scene.model import Scene
+from ..scene.reader import scene_from_dict
+from ..scene.schema import SCHEMA
 
 EDGE = 1e-3  # x span: a point axle closer than this to a springing bears on the abutment
 MIN_PATCH = SCHEMA["load"]["length"].low  # x span: the shortest patch

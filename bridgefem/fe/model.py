@@ -34,7 +34,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..geometry.ring import ArchRing, joint_under, point_load_blocks
-from ..scene.schema import Fill, Scene
+from ..scene.model import Fill, Scene
 from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 
 POINT_RTOL = 1e-7  # of the span: a mesh node closer than this to a load point carries the load (the nodes at the

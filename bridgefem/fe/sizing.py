@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.ring import make_shape
-from ..scene.schema import Scene, SceneError
+from ..geometry.shapes import make_shape
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from .mesh import EXTRADOS_BAND, extrados_element_size
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)

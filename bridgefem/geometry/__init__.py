@@ -1,2 +1,3 @@
-"""Arch geometry (pure numpy): :mod:`~bridgefem.geometry.ring`, the intrados curves of every shape, the joints, the
-voussoir and abutment polygons and where a load on the extrados acts."""
+"""Arch geometry (pure numpy): :mod:`~bridgefem.geometry.shapes`, the intrados curves of every shape;
+:mod:`~bridgefem.geometry.ring`, the joints, the voussoir and abutment polygons and where a load on the extrados
+acts."""

@@ -16,7 +16,9 @@ import sys
 from pathlib import Path
 
 from ..assess.sweep import LOCKED, Assessment, assess
-from ..scene.schema import Scene, SceneError, load_scene
+from ..scene.keys import SceneError
+from ..scene.model import Scene
+from ..scene.reader import load_scene
 from ..status import Status
 from .output import claim, results_folder
 

@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.tri import Triangulation
 
 from ..limit.bounds import Bounds
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .plots import plt  # matplotlib with its own defaults and the Agg backend
 

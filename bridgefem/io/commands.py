@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ..analysis.convergence import RATIO, MeshLimit, study, table
 from ..limit.bounds import bounds_summary, collapse_bounds
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from ..status import Status
 from .output import results_folder
 

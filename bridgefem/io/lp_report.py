@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ..limit.collapse import collapse_load
 from ..limit.rigid_block import LPFailure, LPResult
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..status import Status
 
 

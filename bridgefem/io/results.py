@@ -22,7 +22,8 @@ from ..geometry.ring import fill_outline
 from ..laws.base import JointLaw
 from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
-from .output import results_folder, version
+from .output import results_folder
+from .targets import version
 
 NO_JOINT = 0  # the joint_state of a node on no joint pair (fields.xdmf); a pair's is its law's output code
 FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png", "report.html")

@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from .bounds_lower import lower_bound
 from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.ring import ArchRing, fill_outline
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
 from .collapse import collapse_load

@@ -31,7 +31,7 @@ import itertools
 import numpy as np
 
 from ..geometry.ring import joint_under
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .rigid_block import LPResult, solve_blocks
 from .ring_blocks import live_loads, ring_model

@@ -31,7 +31,7 @@ import dataclasses
 import numpy as np
 
 from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .rigid_block import BlockModel, generalised_loads
 

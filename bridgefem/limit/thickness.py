@@ -24,7 +24,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..scene.schema import SCHEMA, Scene
+from ..scene.model import Scene
+from ..scene.schema import SCHEMA
 from .rigid_block import LPResult, dead_load_deficit
 from .ring_blocks import ring_model
 
