@@ -24,7 +24,7 @@ from pathlib import Path
 
 from bridgefem.limit.bounds import collapse_bounds, problem_bounds
 from bridgefem.limit.bounds_model import Soil, strip_footing_problem
-from bridgefem.scene.schema import load_scene
+from bridgefem.scene.reader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET_SECONDS = 10.0

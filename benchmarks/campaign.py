@@ -3,7 +3,7 @@
 Each scene is drawn from the seed and its index alone (so one scene can be re-run with ``--only``):
 
 - shape: all five; span 3-30 m; rise/span 0.15-0.5 (segmental 0.1-0.45, pointed 0.55-1.0);
-- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.rigid_block.
+- thickness t uniform from the least the shape stands under self-weight (:func:`bridgefem.limit.thickness.
   min_thickness`, at the scene's mu) to 0.4 of the centreline radius (circular shapes) or of the rise (others); when
   no thickness stands (low mu) from 0.05 to 0.4 of it, and the expected verdict is "unstable under self-weight";
 - voussoirs 4-256 (log-uniform); mu 0.3-10 (log-uniform); E 1e8-1e11 Pa (log-uniform);
@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from bridgefem.analysis.evidence import AGREEMENT, reaches
-from bridgefem.io.output import failed_target
+from bridgefem.io.targets import failed_target
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
@@ -104,6 +104,17 @@ def draw(seed: int, index: int) -> dict:
     edge = choice["patch"] / 2 / span  # a patch lies on the span
     choice["position"] = round(edge + (1 - 2 * edge) * choice["position"], 4)
     return choice
+
+
+def draw_vehicle(seed: int, index: int, span: float, fill: str | None) -> dict:
+    """Scene ``index``'s vehicle in a ``--vehicles`` campaign (its own stream): 1-3 axles of 20-200 kN, spaced
+    0.1-0.5 of the span; point axles, or tyre patches of 0.02-0.1 of the span over a fill."""
+    rng = np.random.default_rng([seed, index, 40])
+    n = int(rng.integers(1, 4))
+    contact = round(float(rng.uniform(0.02, 0.1)) * span, 3) if fill else 0.0
+    spacing = [round(max(float(rng.uniform(0.1, 0.5)) * span, 1.5 * contact + 1e-3), 3) for _ in range(n - 1)]
+    return {"axles": [round(float(rng.uniform(20e3, 200e3)), -2) for _ in range(n)], "spacing": spacing,
+            "contact_length": contact}
 
 
 def draw_option(seed: int, index: int) -> dict:
@@ -187,6 +198,8 @@ def scene_dict(choice: dict, thickness: float) -> dict:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
                      "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
                      **({"cohesion": 5e3} if choice["fill"] == "mohr-coulomb" else {})}
+    if choice.get("vehicle"):  # an assessment: the vehicle instead of the loads
+        d["load"], d["vehicle"] = [], choice["vehicle"]
     return with_option(d, choice) if choice.get("option") else d
 
 
@@ -200,8 +213,8 @@ def reference_length(choice: dict, thickness: float) -> float:
 
 def thickness_of(choice: dict) -> tuple[float, float | None]:
     """The scene's thickness (m) and the least thickness that stands (m; None when none does)."""
-    from bridgefem.limit.rigid_block import min_thickness
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.limit.thickness import min_thickness
+    from bridgefem.scene.reader import scene_from_dict
 
     try:
         bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None, "option": None}  # nor do loads
@@ -259,6 +272,9 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
     folder, row = write_scene(choice, out)
     command = [sys.executable, "-m", "bridgefem.io.cli", "run", str(folder / "scene.toml"), "--out",
                str(folder / "results"), "--quiet"]
+    if choice.get("vehicle"):
+        command = [sys.executable, "-m", "bridgefem.io.cli", "assess", str(folder / "scene.toml"), "--out",
+                   str(folder / "results"), "--json"]
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command, capture_output=True,
@@ -269,8 +285,32 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
         code, stderr = None, f"timeout after {timeout:g} s"
     row["seconds"] = time.perf_counter() - t0
     row["exit"] = code
+    if choice.get("vehicle"):
+        row.update(judge_assessment(folder, code, stderr, fill=choice["fill"] is not None))
+        return row
     row.update(judge(results_of(folder), code, stderr, fill=choice["fill"] is not None))
     return row
+
+
+def judge_assessment(folder: Path, code: int | None, stderr: str, fill: bool) -> dict:
+    """An assessment (``--vehicles``) judged by :func:`judge` on the FE run at its critical position (results.json's
+    entries in assessment.json), and its LP adequacy factor against the LP of that run (the same scene, the same
+    loads: they must agree to 1e-6). Locked or unstable by the LP screen alone (no FE run): "lp only"."""
+    path = folder / "results" / "assessment.json"
+    data = json.loads(path.read_text()) if path.exists() else None
+    if data is None or data["critical"] is None:
+        if data is not None and code == 0 and data["status"] in ("locked", "unstable under self-weight"):
+            return {"class": "lp only", "status": data["status"], "fe": None, "lp": None, "ratio": None,
+                    "solves": None}
+        return judge(None, code, stderr, fill)
+    crit = data["critical"]
+    out = judge(crit["results"], code, stderr, fill)
+    confirmation = next(c for c in data["confirmations"] if c["x0"] == crit["x0"])
+    lp_run = crit["results"]["lp"]["load"]
+    if not fill and lp_run and confirmation["lp_factor"] is not None \
+            and abs(lp_run / crit["load"] - confirmation["lp_factor"]) > 1e-6 * confirmation["lp_factor"]:
+        out = {**out, "class": "wrong", "status": "the screen's LP factor differs from the run's LP"}
+    return {**out, "adequacy": data["adequacy_factor"], "lp_adequacy": data["lp_adequacy_factor"]}
 
 
 def results_of(folder: Path) -> dict | None:
@@ -414,6 +454,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--options", action="store_true",
                    help="each scene with one scene option drawn from OPTIONS (a second load, elastic abutments, a "
                         "support movement, a preset, quadratic elements, plane stress)")
+    p.add_argument("--vehicles", action="store_true",
+                   help="each scene an assessment (bridgefem assess) of a vehicle drawn by draw_vehicle")
     p.add_argument("--crushing", action="store_true",
                    help="every scene also gets a compressive strength (draw_strength), from strong to barely standing")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
@@ -449,6 +491,8 @@ def main(argv: list[str] | None = None) -> int:
 
     def one(i):
         choice = draw(args.seed, i)
+        if args.vehicles:
+            choice["vehicle"] = draw_vehicle(args.seed, i, choice["span"], choice["fill"])
         if args.crushing:
             choice["strength"] = draw_strength(args.seed, i)
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,

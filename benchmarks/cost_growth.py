@@ -111,8 +111,8 @@ def slope(rows: list[dict], key: str, min_dofs: int = 900) -> float | None:
 
 def lp_timing(base: dict, blocks: int = LP_BLOCKS, repeats: int = 3) -> dict:
     """Wall time (s) of the rigid-block LP with ``blocks`` voussoirs (ring model + LP), fastest of ``repeats``."""
-    from bridgefem.limit.rigid_block import collapse_load
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.limit.collapse import collapse_load
+    from bridgefem.scene.reader import scene_from_dict
 
     scene = scene_from_dict(scene_variant(base, voussoirs=blocks))
     times, lp = [], None

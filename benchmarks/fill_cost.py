@@ -20,7 +20,9 @@ import logging
 from pathlib import Path
 
 from bridgefem.analysis.convergence import solve_mesh
-from bridgefem.scene.schema import FILL_PRESETS, load_scene, with_mesh
+from bridgefem.scene.model import with_mesh
+from bridgefem.scene.reader import load_scene
+from bridgefem.scene.schema import FILL_PRESETS
 
 SCENE = Path(__file__).resolve().parents[1] / "demos/prestwood.toml"
 CASES = {f"P{d}-t{n}": (d, n) for d in (1, 2) for n in (2, 4, 8)}

@@ -167,7 +167,7 @@ def warm_up(scene_dict: dict) -> None:
     import gmsh  # noqa: F401  (the mesh phase imports it lazily: ~0.5 s once per process)
 
     from bridgefem.analysis.runner import run_analysis
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
     d = copy.deepcopy(scene_dict)
     d.setdefault("mesh", {})["elements_through_thickness"] = 1
     d.pop("solver", None)
@@ -217,7 +217,7 @@ def measure(scene_dict: dict, repeat_budget: float = REPEAT_BUDGET_S, comm=None,
     it; None: no guess): the first Analysis and the merged record (fastest times)."""
     from mpi4py import MPI
 
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
 
     comm = comm or MPI.COMM_WORLD
     scene = scene_from_dict(scene_dict)

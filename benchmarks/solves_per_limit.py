@@ -27,8 +27,9 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bridgefem.analysis import runner as analysis
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import Scene, load_scene
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.model import Scene
+from bridgefem.scene.reader import load_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from harness import scaled_guess  # noqa: E402

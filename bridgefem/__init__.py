@@ -9,8 +9,8 @@ cheap (DOLFINx and PETSc load when :func:`bridgefem.analyse` runs)::
     result = bridgefem.analyse(scene)        # result.status, result.limit_load.lower / .upper (N), result.lp, ...
 """
 
-__all__ = ["LimitLoad", "Result", "RigidBlock", "Scene", "SceneError", "Status", "analyse", "edit", "load_scene",
-           "lp", "scene_from_dict"]
+__all__ = ["LimitLoad", "Result", "RigidBlock", "Scene", "SceneError", "Status", "analyse", "assess_vehicle",
+           "edit", "load_scene", "lp", "scene_from_dict"]
 
 
 def __getattr__(name: str):

@@ -12,6 +12,8 @@
    a bad value raises :class:`SceneError`, one line naming the key, the value and what is allowed.
 2. :func:`edit` returns a changed scene, validated as the changed file would be (:mod:`bridgefem.scene.document`).
 3. :func:`lp` solves the rigid-block limit analysis alone (a linear programme on the same joints; milliseconds).
+5. :func:`assess_vehicle` rolls the scene's ``[vehicle]`` across the bridge: the adequacy factor, its critical position
+   (m from the left springing), the LP screen and the FE confirmations (:mod:`bridgefem.assess.sweep`).
 4. :func:`analyse` runs the FE limit analysis and its checks (:func:`bridgefem.analysis.runner.run_analysis`) and
    summarises it as results.json (:func:`bridgefem.io.results.summary`): :class:`Result`. It is collective over
    ``comm``: under ``mpirun`` every rank calls it and gets the same result.
@@ -26,11 +28,13 @@ from dataclasses import dataclass, field
 
 from .io.lp_report import lp_entry, rigid_block_result
 from .scene.document import edit
-from .scene.schema import Scene, SceneError, load_scene, scene_from_dict
+from .scene.keys import SceneError
+from .scene.model import Scene
+from .scene.reader import load_scene, scene_from_dict
 from .status import Status
 
-__all__ = ["LimitLoad", "Result", "RigidBlock", "Scene", "SceneError", "Status", "analyse", "edit", "load_scene",
-           "lp", "scene_from_dict"]
+__all__ = ["LimitLoad", "Result", "RigidBlock", "Scene", "SceneError", "Status", "analyse", "assess_vehicle",
+           "edit", "load_scene", "lp", "scene_from_dict"]
 
 
 @dataclass(frozen=True)
@@ -124,3 +128,16 @@ def lp(scene: Scene, friction_model: str = "associative") -> RigidBlock:
     one collapse state of several: docs/joints-and-lp.md). A failed LP is a result with the status "solver failure:
     <reason>" and no load."""
     return RigidBlock.of(lp_entry(rigid_block_result(scene, friction_model), scene))
+
+
+def assess_vehicle(scene: Scene, comm=None, step: float | None = None, fe: bool = True):
+    """The assessment of ``scene``'s ``[vehicle]`` (:class:`bridgefem.assess.sweep.Assessment`: ``adequacy``
+    (lower, upper) by the FE, ``critical_x`` (m), ``lp_factor``, ``positions``, ``confirmations``; ``fe=False``: the
+    rigid-block LP screen alone, milliseconds a position). ``step`` (m): the screening step (default span/40).
+    Collective over ``comm`` (default: every rank). Raises :class:`SceneError` for a scene without a vehicle. (Not
+    ``bridgefem.assess``: that name is the subpackage :mod:`bridgefem.assess`.)"""
+    from .assess.sweep import assess as run
+
+    if scene.vehicle is None:
+        raise SceneError("[vehicle]: missing; assess rolls the scene's [vehicle] across the bridge")
+    return run([scene], comm, step, fe=fe)[0]

@@ -38,7 +38,7 @@ import re
 import shutil
 import sys
 import warnings
-from typing import Iterator
+from typing import Callable, Iterator
 
 START_ARGS = ["-skip_petscrc"]
 """PETSc's command line at its start: no rc files (module docstring)."""
@@ -296,9 +296,10 @@ def ignore_folder_jit_parameters() -> None:
 
     Both read ``dolfinx_jit_parameters.json`` / ``ffcx_parameters.json`` from the current folder at their first
     compilation, and a compiler flag there (``cffi_extra_compile_args = ["-B<dir>/"]``) makes the C compiler run
-    programs of that folder. Their readers (``_load_parameters``) are cached on the first call: calling each once
-    from an empty temporary folder caches the user's own files (``~/.config/dolfinx``, ``~/.config/ffcx``) and no
-    folder's."""
+    programs of that folder. Their readers (``_load_parameters``, returning the user's and the folder's parameters)
+    are replaced by ones that return the user's own file (``~/.config/dolfinx``, ``~/.config/ffcx``), read once from
+    an empty temporary folder, and no folder's; a user's file that cannot be opened (a home folder this user may not
+    read) counts as none, as a missing one does."""
     import tempfile
 
     import dolfinx.jit
@@ -308,7 +309,17 @@ def ignore_folder_jit_parameters() -> None:
     with tempfile.TemporaryDirectory(prefix="bridgefem-jit-") as empty:
         os.chdir(empty)
         try:
-            dolfinx.jit._load_parameters()
-            ffcx.parameters._load_parameters()
+            for module in (dolfinx.jit, ffcx.parameters):
+                module._load_parameters = _users_parameters_only(module._load_parameters)
         finally:
             os.chdir(here)
+
+
+def _users_parameters_only(load: Callable[[], tuple[dict, dict]]) -> Callable[[], tuple[dict, dict]]:
+    """A reader of (user's, folder's) parameters that gives the user's as ``load`` reads them now (from an empty
+    folder: no folder's file) and never a folder's."""
+    try:
+        user = load()[0]
+    except OSError:
+        user = {}
+    return lambda: (user, {})

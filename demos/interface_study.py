@@ -3,7 +3,7 @@
 Every joint of the ring is a potential crack, so the number of voussoirs N sets where hinges can form. For each N
 (a joint always sits under each concentrated load) the scene is analysed by the FE contact model
 (:func:`bridgefem.analysis.runner.run_analysis`) and by the rigid-block linear programme
-(:func:`bridgefem.limit.rigid_block.collapse_load`) on the same joint layout. The study shows how the limit load drops
+(:func:`bridgefem.limit.collapse.collapse_load`) on the same joint layout. The study shows how the limit load drops
 and settles as the joints get denser, whether the FE bracket and hinges follow the LP for every N, and what the
 extra joints cost: FE degrees of freedom, load steps, linear solves and time, against the LP time.
 
@@ -28,9 +28,12 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.io.output import OutputError, claim, results_folder
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import Scene, SceneError, load_scene
+from bridgefem.io.output import claim, results_folder
+from bridgefem.io.targets import OutputError
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.model import Scene
+from bridgefem.scene.reader import load_scene
 
 PHASES = ("geometry", "mesh", "assembly", "pairing", "solver setup", "limit search")
 

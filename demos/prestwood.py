@@ -36,10 +36,12 @@ from pathlib import Path
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.io.output import OutputError, results_folder
+from bridgefem.io.output import results_folder
 from bridgefem.io.results import write_results
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import Scene, load_scene, with_mesh
+from bridgefem.io.targets import OutputError
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.model import Scene, with_mesh
+from bridgefem.scene.reader import load_scene
 
 TEST_LOAD_KN = 228.0  # TRRL RR110: maximum load of the collapse test
 PUBLISHED = {"nonlinear FE, Mohr-Coulomb fill (Simoncello et al. 2020, Front. Built Environ. 6:7)": 245.0,

@@ -111,7 +111,7 @@ def solver_jobs(base: dict) -> list[dict]:
 def voussoir_jobs(base: dict) -> list[dict]:
     """The number of voussoirs at DISCRETISATION_TOLERANCE, P1, at least 4 elements through the thickness and
     at least one element along each voussoir."""
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
 
     jobs = []
     for n in VOUSSOIRS:
@@ -153,8 +153,8 @@ def measure_case(jobs: list[dict], quick: bool) -> list[dict]:
 # ------------------------------------------------------------------------------------------------ errors
 def lp_kn(scene_dict: dict, voussoirs: int | None = None) -> float | None:
     """The rigid-block LP collapse load (kN) of a scene dictionary, optionally with another number of voussoirs."""
-    from bridgefem.limit.rigid_block import collapse_load
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.limit.collapse import collapse_load
+    from bridgefem.scene.reader import scene_from_dict
 
     lp = collapse_load(scene_from_dict(scene_variant(scene_dict, voussoirs=voussoirs)))
     return None if lp.load is None else lp.load / 1e3
@@ -168,7 +168,7 @@ def relative(value: float | None, ref: float | None) -> float | None:
 def make_row(case: str, j: dict, rec: dict, lp_cache: dict) -> dict:
     """A table row: the job's knobs, the LP on the same joints and the measurement (loads in kN). The errors
     against the references are added by :func:`add_errors`."""
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
 
     sc = scene_from_dict(j["scene"])
     n = sc.arch.voussoirs
@@ -400,7 +400,8 @@ def plot_voussoirs(ax, rows: list[dict], cases: list[str]) -> None:
 
 def report(rows: list[dict], case_dicts: dict[str, dict], quick: bool, elapsed: float) -> str:
     """The markdown of the study: references, every run, the configurations on every case with the presets."""
-    from bridgefem.scene.schema import PRESETS, scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
+    from bridgefem.scene.schema import PRESETS
 
     cases = list(case_dicts)
     configs = configurations(rows, cases)

@@ -20,8 +20,9 @@ from bridgefem.analysis.mechanism import springing_reactions
 from bridgefem.analysis.result import Analysis
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.geometry.ring import ArchRing
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses

@@ -12,7 +12,8 @@ import pytest
 from conftest import ROOT, bridgefem, scene_dict
 
 import bridgefem as api
-from bridgefem.scene.schema import SceneError, load_scene, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import load_scene, scene_from_dict
 
 DEMO = ROOT / "demos" / "bare_arch.toml"
 

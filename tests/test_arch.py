@@ -7,8 +7,8 @@ from conftest import scene_dict
 
 from bridgefem.analysis.mechanism import springing_reactions
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, STABLE, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses

@@ -12,7 +12,7 @@ from bridgefem.fe.model import build_elastic_model
 from bridgefem.fe.pairs import build_pairs
 from bridgefem.geometry.ring import ArchRing, Joint, Voussoir
 from bridgefem.laws.coulomb import CoulombJoints
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, find_limit_load
 from bridgefem.search.records import SearchSettings
 from bridgefem.solver.newton import ContactSolver

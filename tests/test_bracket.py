@@ -10,9 +10,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from bridgefem.laws.coulomb import CoulombJoints
-from bridgefem.search.pathfollow import FUTILE_PREDICTIONS, find_limit_load
+from bridgefem.search.pathfollow import find_limit_load
 from bridgefem.search.records import CollapseCheck, SearchGuides, SearchSettings, StaticCap
-from bridgefem.search.selfweight import SELF_WEIGHT_RETRIES
 from bridgefem.solver.newton import DEFAULT_SETTING, RETRIES, Iterate, StepOutcome
 from bridgefem.status import Status
 
@@ -104,13 +103,6 @@ def test_the_bracket_holds_the_limit_whatever_the_guess(guess):
     assert s.proved and len(s.steps) == solver.solves
 
 
-def test_a_good_guess_is_cheap():
-    """With the exact limit as the guess the search lands on (1 - tolerance) x guess and closes in a few steps."""
-    solver = OneDof()
-    assert_bracket(search(solver, guess=LIMIT))
-    assert solver.solves <= 12, solver.solves
-
-
 @pytest.mark.parametrize("reach", [LIMIT / 3, LIMIT / 40])
 def test_failures_without_proof_on_long_steps_never_close_the_bracket(reach):
     """The fake Newton method fails (no proof) on steps longer than ``reach``: the search shortens its steps and
@@ -154,13 +146,6 @@ def test_a_static_bound_at_the_limit_closes_the_bracket_on_it(guess, reach):
     assert checked == [s.lower]
 
 
-def test_a_static_bound_saves_the_failing_steps_above_the_limit():
-    plain, capped = OneDof(), OneDof()
-    search(plain, guess=LIMIT)
-    search(capped, guess=LIMIT, bound=static_cap(LIMIT)[0])
-    assert capped.solves < plain.solves, (capped.solves, plain.solves)
-
-
 def test_a_limit_below_the_static_bound_still_needs_its_failing_step():
     """Elastic blocks that slide stop below the LP: the bound only removes trials above it, the bracket closes on a
     failure as without it."""
@@ -178,14 +163,14 @@ def test_a_state_that_fails_the_admissibility_check_voids_the_bound():
     assert not s.static and len(checked) == 1 and max(trials(s)) > 0.999 * LIMIT
 
 
-def test_a_self_weight_that_cannot_stand_is_not_retried():
+def test_a_self_weight_that_cannot_stand_is_unstable_only_with_the_static_proof():
     """With the static theorem showing that no equilibrium under self-weight exists, the failed self-weight step is
-    the answer (a mechanism, "unstable"); without it, the failure is retried with each self-weight setting."""
-    ruled_out, plain = OneDof(stalls_at=-1.0), OneDof(stalls_at=-1.0)
-    s = search(ruled_out, bound=static_cap(None, falls=True)[0])
-    assert s.status == Status.UNSTABLE and s.static and ruled_out.solves == 1
-    s = search(plain)
-    assert Status.of(s.status) is Status.FAILURE and plain.solves == 1 + len(SELF_WEIGHT_RETRIES)
+    the answer (a mechanism, "unstable"); without it, the failure stays a solver failure, whatever its retries (their
+    solves: benchmarks/solve_budgets.py)."""
+    s = search(OneDof(stalls_at=-1.0), bound=static_cap(None, falls=True)[0])
+    assert s.status == Status.UNSTABLE and s.static
+    s = search(OneDof(stalls_at=-1.0))
+    assert Status.of(s.status) is Status.FAILURE and not s.static
 
 
 class Unprovable(OneDof):
@@ -236,31 +221,31 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
 @pytest.mark.parametrize("estimate", [LIMIT, 0.9 * LIMIT, 0.999 * LIMIT, "rising", "falling"])
 def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
     """Unproven failures 30 % below the static bound (suspect): with the exact limit as every converged state's
-    estimate the search lands half a width below it and closes on the next trial, far cheaper than without; a
-    wrong estimate (10 % or 0.1 % low) still leaves the bracket on the exact limit, and one that keeps rising with
-    the load (0.2 % above every state, never settled) leaves the search as it is without an estimate. One that falls
-    towards the limit as the load rises (LIMIT + (LIMIT - level) / 2) is extrapolated to where it meets the load:
-    the limit, as cheap as the exact one."""
+    estimate the search lands half a width below it and closes on the next trial; a wrong estimate (10 % or 0.1 %
+    low) still leaves the bracket on the exact limit, and one that keeps rising with the load (0.2 % above every
+    state, never settled) leaves the search as it is without an estimate: the same trials. One that falls towards
+    the limit as the load rises (LIMIT + (LIMIT - level) / 2) is extrapolated to where it meets the load: the limit,
+    as the exact one. (How many solves each saves: benchmarks/solve_budgets.py.)"""
     plain, estimated = OneDof(proves=False), OneDof(proves=False)
     bound = static_cap(1.3 * LIMIT)[0]
-    assert_bracket(search(plain, guess=1.3 * LIMIT, bound=bound))
+    without = search(plain, guess=1.3 * LIMIT, bound=bound)
+    assert_bracket(without)
     level = {"rising": lambda it: 1.002 * it.x.array[0],
              "falling": lambda it: LIMIT + 0.5 * (LIMIT - it.x.array[0])}.get(estimate, lambda it: estimate)
     s = search(estimated, guess=1.3 * LIMIT, bound=bound,
                collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
     assert_bracket(s)
     if estimate in (LIMIT, "falling"):
-        assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12) and estimated.solves <= plain.solves / 2, (
-            estimated.solves, plain.solves)
+        assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12)
     if estimate == "rising":
-        assert estimated.solves == plain.solves
+        assert trials(s) == trials(without)
 
 
 @pytest.mark.parametrize("helps", [True, False])
-def test_a_predicted_state_retries_a_failed_long_step_and_is_dropped_once_futile(helps):
-    """A trial that failed without proof on a long step is solved once more from the predicted state: where that
-    reaches it, the search needs fewer solves for the same bracket; where it never helps, the search stops asking after
-    FUTILE_PREDICTIONS predicted trials in a row."""
+def test_a_predicted_state_retries_a_failed_long_step_and_the_bracket_holds_either_way(helps):
+    """A trial that failed without proof on a long step is solved once more from the predicted state: whether that
+    reaches it or never helps, the bracket holds the limit. (The steps it saves, and the FUTILE_PREDICTIONS predicted
+    trials in a row after which the search stops asking: benchmarks/solve_budgets.py.)"""
     calls = []
 
     def predicted(level, start):
@@ -272,7 +257,4 @@ def test_a_predicted_state_retries_a_failed_long_step_and_is_dropped_once_futile
     s = search(solver, guess=1.3 * LIMIT, predicted=predicted)
     assert_bracket(s)
     assert_bracket(plain)
-    if helps:
-        assert len(s.steps) < len(plain.steps)
-    else:
-        assert len(calls) == FUTILE_PREDICTIONS
+    assert calls, "no predicted state was asked for: the test proves nothing"

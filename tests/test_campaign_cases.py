@@ -7,7 +7,7 @@ import pytest
 from conftest import ROOT, campaign_module, campaign_scene, scene_dict
 
 from bridgefem.geometry.ring import AT_JOINT_TOL, polygon_area_centroid
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
@@ -256,6 +256,7 @@ def test_campaign_scenes_that_failed_reach_the_lp_verdict(tmp_path, index, thick
         assert lower <= 1.005 * lp and upper >= 0.995 * lp
 
 
+@pytest.mark.slow
 def test_a_movement_that_dwarfs_the_weight_is_in_equilibrium_to_the_solves_precision(tmp_path):
     """Campaign seed 1 #270 with its --options support movement (a 0.09 m parabolic ring, E = 6.3e10 Pa, its right
     springing settling 1.3 mm): the movement's forces put the rounding of an exact solve above the equilibrium

@@ -18,10 +18,10 @@ from bridgefem.geometry.ring import (
     _place_joints_at_loads,
     _samples,
     build_ring,
-    make_shape,
 )
+from bridgefem.geometry.shapes import make_shape
 from bridgefem.io import cli
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring, snapped_loads
 
 SEED = 20261129  # the campaign seed whose single-patch scenes check called valid and run refused

@@ -21,7 +21,7 @@ import dataclasses, json, sys
 from mpi4py import MPI
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.io.results import summary
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 an = run_analysis(scene_from_dict(json.loads(open(sys.argv[1]).read())))
 if MPI.COMM_WORLD.rank == 1:  # rank 0 has finished: a read that needed it would wait for ever

@@ -3,7 +3,7 @@ import pytest
 from conftest import scene_dict
 
 from bridgefem.analysis.convergence import MeshLimit, richardson, study
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 
 @pytest.mark.parametrize("order", [0.5, 1.0, 1.75, 2.0])
@@ -74,7 +74,7 @@ def test_converge_command_on_a_bare_arch_extrapolates_to_the_rigid_block_limit(t
 
     from conftest import bridgefem
 
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
     d = scene_dict()
     proc = bridgefem("converge", tmp_scene(d), "--levels", "1,2,4", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stdout + proc.stderr

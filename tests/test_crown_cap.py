@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bridgefem.fe.mesh import _segment_counts, build_block_mesh
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 # campaign seed 1, scene 182: t = 7.04 m on a 25 m pointed arch; the crown voussoir's extrados is a 6.1 m cap

@@ -11,8 +11,8 @@ from bridgefem.analysis.runner import run_analysis
 from bridgefem.laws.base import ModeRules
 from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.laws.crushing import CrushingJoints, fe_stations, scene_law
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.mechanism import Mode, judge
 
 RING = {"scene": {"name": "crush"},

@@ -9,17 +9,17 @@ import pytest
 
 from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.laws.crushing import CrushingJoints, scene_law
+from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import (
     BlockModel,
     _Programme,
-    collapse_load,
     generalised_loads,
-    min_thickness,
     solve_blocks,
     standing_deficit,
     statics,
 )
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.thickness import min_thickness
+from bridgefem.scene.reader import scene_from_dict
 
 FINE = 2048  # tangent intervals: the rows within 1/FINE^2 = 2.4e-7 of the parabola's largest moment
 

@@ -26,8 +26,10 @@ from bridgefem.analysis.mechanism import springing_reactions
 from bridgefem.analysis.result import Analysis
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.io.results import summary
-from bridgefem.limit.rigid_block import collapse_load, min_thickness
-from bridgefem.scene.schema import Scene, scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.thickness import min_thickness
+from bridgefem.scene.model import Scene
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
 
 pytestmark = pytest.mark.slow  # end-to-end analyses

@@ -19,8 +19,8 @@ from bridgefem.analysis.runner import run_analysis
 from bridgefem.fe.mesh import FILL_BASE_TAG
 from bridgefem.fe.model import beam_lame, cell_constant, lame, strain
 from bridgefem.limit.bounds import fill_bounds
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND
 from bridgefem.search.selfweight import cohesion_continuation
 from bridgefem.solver.convergence import DIVERGED_OUT_OF_BALANCE
@@ -373,7 +373,7 @@ def test_prestwood_same_bracket_under_mpi(prestwood):
                                         (31.0, 30.0, False), (-1.0, 30.0, False)])
 def test_dilation_angle_is_checked_against_the_friction_angle(psi, phi, ok):
     """[fill] dilation_angle: 0 <= psi <= phi (non-associated to associated flow); absent means psi = phi."""
-    from bridgefem.scene.schema import SceneError
+    from bridgefem.scene.keys import SceneError
     fill = {**FILL, "material": "mohr-coulomb", "friction_angle": phi, "cohesion": 1e3}
     if psi is not None:
         fill["dilation_angle"] = psi
@@ -477,7 +477,7 @@ def test_loading_beams_of_touching_patches_are_refused():
     """Two patches that touch would give two beams sharing a side: the scene refuses them, naming the loads and the
     key; as pressures they are allowed."""
     from bridgefem.analysis.build import loading_beams
-    from bridgefem.scene.schema import SceneError
+    from bridgefem.scene.keys import SceneError
     patches = [{"kind": "patch", "position": 0.25, "length": 0.5}, {"kind": "patch", "position": 0.25 + 0.5 / 9.0,
                                                                     "length": 0.5}]
     with pytest.raises(SceneError, match=r"#1 and #2.*loading_beam = false"):

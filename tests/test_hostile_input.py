@@ -18,7 +18,8 @@ import pytest
 from conftest import bridgefem, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.scene.schema import SCHEMA, scene_from_dict, scene_scales
+from bridgefem.scene.reader import scene_from_dict, scene_scales
+from bridgefem.scene.schema import SCHEMA
 
 
 def valid_scene() -> dict:
@@ -27,6 +28,7 @@ def valid_scene() -> dict:
         scene={"name": "hostile", "gravity": 9.81},
         fill={"unit_weight": 18000.0, "young": 1e8, "depth": 0.5, "extension": 2.0, "material": "elastic"},
         abutments={"model": "elastic", "height": 2.0, "movement_springing": "right", "movement_horizontal": 1e-4},
+        vehicle={"axles": [50e3, 50e3], "spacing": [1.0], "contact_length": 0.2, "dispersion": "boussinesq"},
         mesh={"elements_through_thickness": 2}, model={"plane": "strain"},
         solver={"tolerance": 0.001, "petsc": {"mat_mumps_icntl_14": 100}})
 
@@ -35,6 +37,8 @@ def bad_values(key) -> list:
     """Values the key must refuse: wrong types, out of range, nan and inf."""
     if key.kind is dict:
         return ["text", 3]
+    if key.kind is list:  # lists of numbers: their entries are checked with the section ([vehicle])
+        return ["text", 3, [float("nan")], [-1.0]]
     out = [[1, 2], {"a": 1}]
     if key.kind is str:
         return out + [42, "nonsense" if key.choices else None][:1 + bool(key.choices)]

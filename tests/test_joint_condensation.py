@@ -100,7 +100,7 @@ def test_condensed_compliance_reproduces_the_full_solve():
     from bridgefem.fe.mesh import build_block_mesh
     from bridgefem.fe.model import build_elastic_model
     from bridgefem.fe.pairs import build_pairs
-    from bridgefem.scene.schema import scene_from_dict
+    from bridgefem.scene.reader import scene_from_dict
     from bridgefem.solver.newton import ContactSolver
 
     scene = scene_from_dict({"arch": {"shape": "segmental", "span": 1.0, "rise": 0.5, "thickness": 0.2,

@@ -19,7 +19,7 @@ from bridgefem.analysis.static_bound import fe_blocks
 from bridgefem.laws.base import BlockYield, ContactState, ModeRules
 from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.limit.rigid_block import solve_blocks
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 
 
 @dataclass

@@ -1,13 +1,14 @@
 """A point load exactly on a joint: which voussoir carries it (geometry.point_load_blocks), the LP's least
-favourable allocation (rigid_block.collapse_load) and the FE load vector that follows it (model.py), checked
+favourable allocation (collapse.collapse_load) and the FE load vector that follows it (model.py), checked
 against the closed-form push-through load of a keystone wedged between two voussoirs that slide on the ground."""
 import numpy as np
 import pytest
 from conftest import scene_dict
 
 from bridgefem.geometry.ring import joint_under, point_load_blocks
-from bridgefem.limit.rigid_block import BlockModel, collapse_load, generalised_loads, solve_blocks
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.rigid_block import BlockModel, generalised_loads, solve_blocks
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 R, DENSITY, G = 5.0, 2000.0, 9.81
@@ -82,7 +83,7 @@ def test_default_demo_least_favourable():
 
 
 def test_split_is_never_least_favourable():
-    """Convexity (rigid_block._least_favourable): the split allocation is never below both single-block ones."""
+    """Convexity (collapse._least_favourable): the split allocation is never below both single-block ones."""
     rng = np.random.default_rng(12)
     for _ in range(8):
         t = rng.uniform(0.6, 1.5)

@@ -10,7 +10,8 @@ import pytest
 from conftest import ROOT, scene_dict
 
 from bridgefem.io import cli
-from bridgefem.scene.schema import SceneError, load_scene, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import load_scene, scene_from_dict
 
 DEMO = ROOT / "demos" / "bare_arch.toml"
 

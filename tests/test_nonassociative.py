@@ -14,18 +14,17 @@ from test_joint_loads import push_through, three_voussoirs
 from test_rigid_block import THREE_BLOCK_JOINTS, three_blocks
 
 from bridgefem.analysis.evidence import coulomb_limited
+from bridgefem.limit.collapse import collapse_load, collapse_state_from
 from bridgefem.limit.rigid_block import (
     BlockModel,
-    _relative_motion,
-    collapse_load,
-    collapse_state_from,
     frozen_capacity_collapse,
     generalised_loads,
-    ring_model,
+    relative_motion,
     solve_blocks,
     statics,
 )
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.ring_blocks import ring_model
+from bridgefem.scene.reader import scene_from_dict
 
 
 def incline(theta, friction, weight=10.0, b=2.0, h=1.0):
@@ -47,7 +46,7 @@ def assert_collapse_state(res, model, rtol=1e-6):
     n, s = res.joint_forces["n"], res.joint_forces["s"]
     scale = n.max()
     assert np.all(np.abs(s) <= model.friction * n + rtol * scale)
-    _, slip = _relative_motion(model, res.block_velocities)
+    _, slip = relative_motion(model, res.block_velocities)
     dissipation = float(np.sum(model.friction * n * np.abs(slip)))
     assert res.work_dead + res.level * res.work_live == pytest.approx(dissipation, rel=1e-5, abs=1e-6 * res.level)
 
@@ -181,13 +180,13 @@ def test_fe_sliding_limit_below_the_associative_lp_is_a_collapse_state():
 
 
 @pytest.mark.slow
-def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypatch):
+def test_a_collapse_state_below_the_closing_failure_settles_the_bracket_its_retries_reach(monkeypatch):
     """Campaign seed 1, scene 220 (parabolic, 156 voussoirs, mu 0.979, 4 elements through the thickness): without
     the collapse-state check the closing trial fails without proof and every retry of it fails again (74 of its 198
     linear solves). With the check the search aims at the level where its states' rigid blocks with
     their frozen friction capacities collapse, and its closing failure starts from a state whose blocks collapse
-    within the bracket's width of it (computed here independently): no retries, fewer solves, and a bracket that
-    overlaps the other; the verdict confirms both by the same evidence."""
+    within the bracket's width of it (computed here independently): a bracket that overlaps the other, and the
+    verdict confirms both by the same evidence. (No retries and fewer solves: benchmarks/solve_budgets.py.)"""
     from conftest import campaign_scene
     from mpi4py import MPI
 
@@ -203,8 +202,6 @@ def test_a_collapse_state_below_the_closing_failure_spares_its_retries(monkeypat
         assert an.search.status == Status.LIMIT and an.verdict.evidence.startswith("agreement: the non-associative")
     a, b = checked.search, retried.search
     assert a.lower <= b.upper and b.lower <= a.upper
-    assert checked.solver.stats["retry_solves"] == 0 < retried.solver.stats["retry_solves"]
-    assert checked.solver.stats["solves"] < retried.solver.stats["solves"]
     normal = np.zeros(len(checked.ring.joints))
     normal[[j.id for j in checked.joints]] = [j.normal_force for j in checked.joints]
     frozen = frozen_capacity_collapse(fe_blocks(scene, checked.model, checked.block_mesh), normal)

@@ -1,6 +1,6 @@
-"""Names bridgefem prints and creates (bridgefem/io/output.py ``check_names``, bridgefem/scene/schema.py ``check_name``):
-refused before the analysis, with one line that shows the offending character escaped or names the component
-that is too long, exit 2, nothing written.
+"""Names bridgefem prints and creates (bridgefem/io/targets.py ``check_names``, bridgefem/scene/names.py
+``check_name``): refused before the analysis, with one line that shows the offending character escaped or names the
+component that is too long, exit 2, nothing written.
 
 The families are generated: every control character (C0, DEL, C1), every bidi control and both separators, in a
 scene name, in the scene file's name that gives the default name, and in an --out component; name lengths at the
@@ -17,8 +17,9 @@ import pytest
 from conftest import scene_dict, write_toml
 
 from bridgefem.io import cli, output
-from bridgefem.io.output import OutputError, claim, failed_target, results_folder
-from bridgefem.scene.schema import MAX_NAME, MAX_NAME_BYTES, unsafe_character
+from bridgefem.io.output import claim, results_folder
+from bridgefem.io.targets import OutputError, failed_target
+from bridgefem.scene.names import MAX_NAME, MAX_NAME_BYTES, unsafe_character
 
 UNSAFE = [*range(0x00, 0x20), 0x7F, *range(0x80, 0xA0), 0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F),
           *range(0x2066, 0x206A), 0x2028, 0x2029]

@@ -1,4 +1,5 @@
-"""The output policy (bridgefem/io/output.py, docs/output-policy.md): a user's files are never touched.
+"""The output policy (bridgefem/io/output.py, targets.py and lock.py; docs/output-policy.md): a user's files are
+never touched.
 
 bridgefem writes only into a new folder, an empty one or an earlier bridgefem results folder that it may remove
 (a write-protected one is refused: as the running user, and for root by its mode bits), checked before the
@@ -25,7 +26,9 @@ import pytest
 from conftest import ROOT, bridgefem, scene_dict, write_toml
 
 from bridgefem.io import cli, output
-from bridgefem.io.output import MARKER, OutputError, check_target, claim, results_folder
+from bridgefem.io.lock import LOCK_HEADER
+from bridgefem.io.output import claim, results_folder
+from bridgefem.io.targets import MARKER, OutputError, check_target, failed_target
 
 ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
        "OMPI_MCA_rmaps_base_oversubscribe": "1"}
@@ -234,7 +237,7 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(tmp_path):
     holder.kill()
     holder.wait()
     lock = tmp_path / ".out.bridgefem-lock"
-    assert lock.read_bytes().startswith(output.LOCK_HEADER)
+    assert lock.read_bytes().startswith(LOCK_HEADER)
     with results_folder(out) as tmp:
         (tmp / "results.json").write_text('{"next": true}')
     assert strays(tmp_path) == [] and json.loads((out / "results.json").read_text()) == {"next": True}
@@ -243,7 +246,8 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(tmp_path):
 RACE = """
 import os, sys, time
 from pathlib import Path
-from bridgefem.io.output import OutputError, claim
+from bridgefem.io.output import claim
+from bridgefem.io.targets import OutputError
 target = Path(sys.argv[1])
 inside, taken, refused = target.parent / "inside", 0, 0
 print("ready", flush=True)
@@ -300,7 +304,7 @@ def test_a_users_files_named_like_bridgefems_own_are_never_touched(tmp_path):
         with results_folder(out) as tmp:
             (tmp / "results.json").write_text("half")
             raise RuntimeError("disk full")
-    with claim(out, also=(output.failed_target(out),)):
+    with claim(out, also=(failed_target(out),)):
         with results_folder(out) as tmp:
             (tmp / "results.json").write_text('{"new": true}')
     assert {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in before} == before
@@ -484,7 +488,8 @@ def shared_dir():
 AS_USER = """
 import json, os, sys
 from pathlib import Path
-from bridgefem.io.output import OutputError, results_folder
+from bridgefem.io.output import results_folder
+from bridgefem.io.targets import OutputError
 root, seen = Path(sys.argv[1]), {}
 def attempt(name, target):
     try:

@@ -7,8 +7,9 @@ from conftest import scene_dict
 from bridgefem.fe.mesh import build_block_mesh
 from bridgefem.fe.model import build_elastic_model
 from bridgefem.fe.pairs import GROUND, build_pairs
-from bridgefem.geometry.ring import build_ring, make_shape
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.geometry.ring import build_ring
+from bridgefem.geometry.shapes import make_shape
+from bridgefem.scene.reader import scene_from_dict
 
 
 @pytest.mark.parametrize("shape,rise", [("semicircular", 4.5), ("segmental", 2.25), ("pointed", 6.0),

@@ -21,16 +21,11 @@ import pytest
 from conftest import REFERENCE_ARCH, campaign_module, scene_dict, write_toml
 
 from bridgefem.io import cli
-from bridgefem.limit.rigid_block import collapse_load, min_thickness
-from bridgefem.scene.schema import (
-    SCALES,
-    SCHEMA,
-    SceneError,
-    resolved_toml,
-    scene_from_dict,
-    scene_scales,
-    springing_reach,
-)
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.thickness import min_thickness
+from bridgefem.scene.keys import SCALES, SceneError, springing_reach
+from bridgefem.scene.reader import resolved_toml, scene_from_dict, scene_scales
+from bridgefem.scene.schema import SCHEMA
 
 FILL = {"unit_weight": 18000.0, "young": 1e8, "depth": 0.5, "extension": 2.0}
 MOHR_COULOMB = {**FILL, "material": "mohr-coulomb", "friction_angle": 60.0, "cohesion": 5e3}  # every angle allowed
@@ -56,8 +51,11 @@ def base_scene(section: str, name: str) -> dict:
     if section == "abutments":
         return scene_dict(abutments={"model": "elastic", "height": 2.0, "movement_springing": "right"})
     if section == "load":
+        first = {"kind": "point", "x": 2.0} if name == "x" else {"kind": "point", "position": 0.22222}
         return scene_dict(load=copy.deepcopy(PATCH) if name == "length" else
-                          [{"kind": "point", "position": 0.22222}, {"kind": "point", "position": 0.6}])
+                          [first, {"kind": "point", "position": 0.6}])
+    if section == "vehicle":
+        return scene_dict(vehicle={"axles": [1e5]})
     if (section, name) == ("arch", "rise"):
         return scene_dict(arch={"shape": "elliptical"})  # the whole range of rise/span, 0.05 to 2
     if (section, name) == ("arch", "thickness"):

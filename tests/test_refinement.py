@@ -21,7 +21,7 @@ from bridgefem.analysis.refinement import (
 )
 from bridgefem.analysis.runner import first_step, run_analysis
 from bridgefem.fe import sizing
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.linear import CheckedSolve, SolveBudgetSpent
 from bridgefem.status import Status
 
@@ -263,7 +263,7 @@ def test_a_mesh_dependent_limit_is_confirmed_on_a_finer_mesh(tmp_path):
     weights, a failure; the re-run with 8 elements is within 0.5 % of the LP (computed here independently) and
     confirmed by it; results.json names the mesh used and the run it replaced."""
     from bridgefem.io.results import write_results
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict({**SCENE_45, "mesh": {"elements_through_thickness": 4}})
     lp = collapse_load(scene).load
@@ -286,7 +286,7 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
     LP, re-run with 8; with the budget cut to a tenth of the confirmed run's solves (no floor) the re-run stops
     unsettled, the confirmed run is the answer (below the LP, computed here independently) and the stopped run is
     listed, having spent its budget exactly: the solve past it is never made, whatever asks for it."""
-    from bridgefem.limit.rigid_block import collapse_load
+    from bridgefem.limit.collapse import collapse_load
 
     monkeypatch.setattr(refinement, "REFINEMENT_BUDGET", 0.1)
     monkeypatch.setattr(refinement, "REFINEMENT_FLOOR", 0)
@@ -303,13 +303,13 @@ def test_a_re_run_that_spends_its_budget_leaves_the_confirmed_run_standing(monke
 
 
 @pytest.mark.slow
-def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve_budget():
+def test_a_confirmed_collapse_state_is_refined_to_the_lp():
     """Campaign seed 1, scene 193 (elliptical, 22 voussoirs, mu = 0.489): with 4 and 8 elements through the thickness
     a confirmed non-associative collapse state 2.2 % and 0.6 % below the LP, re-run; with 16 the search reaches the
     level whose width touches the static bound (the rigid-block LP under the FE's loads) and stands, within 0.1 % of
-    the LP on the same joints (computed here independently); the three runs spend at most the issue's 150 linear
-    solves."""
-    from bridgefem.limit.rigid_block import collapse_load
+    the LP on the same joints (computed here independently). (The three runs' solves against the issue's 150:
+    benchmarks/solve_budgets.py.)"""
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(193, 1.8177))
     an = run_analysis(scene)
@@ -317,7 +317,6 @@ def test_a_confirmed_collapse_state_is_refined_to_the_lp_within_the_issues_solve
     assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 16
     assert [r.elements_through_thickness for r in an.refinements] == [4, 8]
     assert 0.999 * lp <= an.search.lower * an.load_total <= an.search.upper * an.load_total <= lp
-    assert an.solver.stats["solves"] + sum(r.solves for r in an.refinements) <= 150
 
 
 @pytest.mark.slow
@@ -326,9 +325,9 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     through the thickness (0.81 m) a confirmed non-associative collapse state (sliding at the LP's sliding joint 83)
     4.7 % below the associative LP, re-run with 8; that run moves the limit by less than SETTLED_MOVE, so no run with
     16 follows, and the answer lies below the associative LP on the same joints (computed here independently) by no
-    more than elastic blocks stop below it; both runs within the issue's 150 linear solves (153 when the re-run's
-    trials started from the coarser run's path only up to 0.98 of its last level)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    more than elastic blocks stop below it (both runs within the issue's 150 linear solves, 153 when the re-run's
+    trials started from the coarser run's path only up to 0.98 of its last level: benchmarks/solve_budgets.py)."""
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(38, 3.2503, seed=4))
     lines = []
@@ -343,7 +342,6 @@ def test_a_collapse_state_that_the_finer_mesh_does_not_move_is_not_refined_again
     assert an.verdict.evidence.startswith("agreement: the non-associative rigid-block check")
     assert 83 in lp.sliding and any(j.sliding and j.id == 83 for j in an.joints)
     assert 0.9 * lp.load <= an.search.lower * an.load_total < an.search.upper * an.load_total <= lp.load
-    assert an.solver.stats["solves"] + coarse.solves <= 150
 
 
 @pytest.mark.slow
@@ -352,11 +350,12 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     """Campaign seed 7, scene 166 (pointed, 243 voussoirs, t = 5.95 m, mu = 1.0, a point load) and seed 6, scene 146
     (pointed, 175 voussoirs, t = 4.15 m, mu = 0.579, a patch load): with 4 elements through the thickness a confirmed
     collapse state 1.4 % and 14.4 % below the associative LP, re-run with 8. The re-run's trials start from the
-    coarser run's path up to its last converged level (bridgefem.search.coarser_path): the limit, both runs counted, within
-    the issue's 150 linear solves (#166: 195 when they started from the re-run's own secant; #146: 176 when the path
-    stopped at 0.98 of its last level, and its target failed from 12 % below), and it agrees with the rigid-block
-    Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently)."""
-    from bridgefem.limit.rigid_block import collapse_load
+    coarser run's path up to its last converged level (bridgefem.search.coarser_path): the limit agrees with the
+    rigid-block Tresca fixed point on the same joints (Gilbert, Casapulla & Ahmed 2006, computed here independently).
+    Both runs counted, the issue's 150 linear solves are a budget of benchmarks/solve_budgets.py (#166: 195 when the
+    trials started from the re-run's own secant; #146: 176 when the path stopped at 0.98 of its last level, and its
+    target failed from 12 % below)."""
+    from bridgefem.limit.collapse import collapse_load
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
     an = run_analysis(scene)
@@ -366,4 +365,3 @@ def test_a_re_run_starts_its_trials_from_the_coarser_runs_path(seed, index, thic
     assert an.search.status == Status.LIMIT and an.scene.mesh.elements_through_thickness == 8
     lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
     assert (1 - SETTLED_MOVE) * tresca <= lower <= upper <= (1 + SETTLED_MOVE) * tresca
-    assert an.solver.stats["solves"] + coarse.solves <= 150

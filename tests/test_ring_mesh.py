@@ -11,7 +11,8 @@ from conftest import ROOT, scene_dict
 
 from bridgefem.fe.model import POINT_RTOL
 from bridgefem.geometry.ring import AT_JOINT_TOL, build_ring
-from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
 

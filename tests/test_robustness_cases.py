@@ -3,8 +3,8 @@
 import pytest
 
 from bridgefem.analysis.runner import run_analysis
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
 from bridgefem.status import Status
 
 pytestmark = pytest.mark.slow
@@ -89,7 +89,8 @@ def test_a_sliding_collapse_is_bracketed_where_the_reserve_of_its_states_vanishe
     search that aimed at F crept up to the limit a share of the reserve F - L at a time (after its state at 2521.8 kN:
     17 more trials, 44 linear solves on 4 elements, 104 in all). F - L now vanishes along its secant
     (bridgefem.search.target, *Collapse state*): two trials close the bracket, within 0.5 % of the rigid-block Tresca
-    fixed point (Gilbert, Casapulla & Ahmed 2006, computed here), in at most 80 solves."""
+    fixed point (Gilbert, Casapulla & Ahmed 2006, computed here); its budget of 80 solves:
+    benchmarks/solve_budgets.py."""
     from conftest import campaign_scene
 
     scene = scene_from_dict(campaign_scene(146, 4.1524, seed=6))
@@ -98,12 +99,12 @@ def test_a_sliding_collapse_is_bracketed_where_the_reserve_of_its_states_vanishe
     assert an.search.status == Status.LIMIT
     lower, upper = an.search.lower * an.load_total, an.search.upper * an.load_total
     assert 0.995 * tresca.load <= lower <= upper <= 1.005 * tresca.load
-    assert an.solver.stats["solves"] <= 80
 
 
 def assert_first_mesh_brackets_the_lp(index: int, thickness: float, seed: int) -> None:
     """Campaign scene ``index`` of ``seed`` at ``thickness`` (m): a limit on the first mesh (no re-run) within 0.5 %
-    of the rigid-block LP on the same joints, computed here, in at most the issue's 150 linear solves."""
+    of the rigid-block LP on the same joints, computed here (the issue's 150 linear solves per limit:
+    benchmarks/solve_budgets.py)."""
     from conftest import campaign_scene
 
     scene = scene_from_dict(campaign_scene(index, thickness, seed=seed))
@@ -111,4 +112,3 @@ def assert_first_mesh_brackets_the_lp(index: int, thickness: float, seed: int) -
     lp = collapse_load(scene)
     assert an.search.status == Status.LIMIT and an.refinements == []
     assert 0.995 * lp.load <= an.search.lower * an.load_total <= an.search.upper * an.load_total <= 1.005 * lp.load
-    assert an.solver.stats["solves"] <= 150

@@ -4,7 +4,9 @@ import tomllib
 import pytest
 from conftest import ROOT, scene_dict
 
-from bridgefem.scene.schema import SceneError, keys_markdown, load_scene, resolved_toml, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import load_scene, resolved_toml, scene_from_dict
+from bridgefem.scene.schema import keys_markdown
 
 
 @pytest.mark.parametrize("sections,expected", [

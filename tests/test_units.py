@@ -10,8 +10,8 @@ from bridgefem.analysis.mechanism import JointState, _mark_hinges, springing_rea
 from bridgefem.geometry.ring import build_ring
 from bridgefem.io.cli import _collapse
 from bridgefem.io.plots import bracket_decimals, format_bracket, plot_load_deflection, plot_mechanism
-from bridgefem.limit.rigid_block import collapse_load
-from bridgefem.scene.schema import scene_from_dict
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
 
 
 def ring4():

@@ -10,12 +10,12 @@ SPAN = 10.0  # m
 
 
 def run(ratio=1.0, sliding=0, fill=None, bounds=None, lower=100e3, deflection=0.001, shortest=1.0, size=0.25,
-        verdict=()):
+        verdict=(), upper=None):
     """The parts of an Analysis that the warnings read: one converged step with its ``deflection`` (m), the last
-    converged live load ``lower`` (N, one unit of load), the FE/LP ``ratio``, one joint ``sliding`` or not, the fill's
+    converged live load ``lower`` and the bracket's ``upper`` end (N, one unit of load), the FE/LP ``ratio``, one joint ``sliding`` or not, the fill's
     conic ``bounds`` (N), the shortest voussoir and the element size (m), the verdict's own warnings."""
     return SimpleNamespace(search=SimpleNamespace(steps=[SimpleNamespace(converged=True, deflection=deflection)],
-                                                  lower=lower),
+                                                  lower=lower, upper=upper),
                            scene=SimpleNamespace(arch=SimpleNamespace(span=SPAN), fill=fill), load_total=1.0,
                            shortest_voussoir=shortest, block_mesh=SimpleNamespace(element_size=size),
                            fe_lp_ratio=ratio, joints=[SimpleNamespace(sliding=sliding)], fill_bounds=bounds,
@@ -56,6 +56,16 @@ def test_an_fe_limit_above_the_conic_upper_bound_of_its_fill_warns(upper, warns)
     bounds = {"lower": None, "upper": upper, "unit": "N"}
     warnings = user_warnings(run(ratio=0.5, fill="a fill", bounds=bounds))
     assert any("above the conic upper bound" in w for w in warnings) == warns
+
+
+@pytest.mark.parametrize("lower_bound, warns", [(100e3 / (1 - 1.01 * FILL_BOUND_TOL), True),
+                                                (100e3 / (1 - 0.99 * FILL_BOUND_TOL), False), (None, False)])
+def test_an_fe_limit_below_the_conic_lower_bound_of_its_fill_warns(lower_bound, warns):
+    """The bridge with its fill carries at least its rigid-plastic lower bound: an FE bracket whose upper end lies
+    below it stopped before the collapse, and the user reads the bracket with the bounds."""
+    bounds = {"lower": lower_bound, "upper": None, "unit": "N"}
+    warnings = user_warnings(run(ratio=0.5, fill="a fill", bounds=bounds, lower=99.9e3, upper=100e3))
+    assert any("below the conic lower bound" in w for w in warnings) == warns
 
 
 def test_the_verdicts_warnings_come_last():

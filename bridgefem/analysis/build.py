@@ -47,7 +47,7 @@ from ..laws.base import JointLaw
 from ..laws.coulomb import CoulombJoints
 from ..laws.crushing import scene_law_factory
 from ..limit.rigid_block import LPResult
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..solver.newton import ContactSolver
 from ..structure.ring import scene_ring
 from ..structure.supports import support_motion

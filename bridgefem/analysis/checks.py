@@ -25,15 +25,9 @@ from mpi4py import MPI
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..laws.crushing import scene_law
-from ..limit.rigid_block import (
-    BlockModel,
-    LPResult,
-    collapse_load,
-    collapse_state_from,
-    frozen_capacity_collapse,
-    solve_blocks,
-)
-from ..scene.schema import Scene
+from ..limit.collapse import collapse_load, collapse_state_from
+from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
+from ..scene.model import Scene
 from ..search.records import CollapseCheck, LimitSearch
 from ..solver.newton import ContactSolver, Iterate
 from ..status import Status
@@ -42,7 +36,7 @@ from .mechanism import JointState, joint_states
 
 
 def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
-    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.rigid_block.collapse_load`,
+    """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.collapse.collapse_load`,
     associative friction; with a compressive strength the FE's joint stations' rows,
     :func:`bridgefem.laws.crushing.fe_stations`), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
     LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
@@ -74,7 +68,7 @@ def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointSta
     (:func:`bridgefem.analysis.static_bound.fe_blocks`) with their shear capacities frozen at the joints' friction x
     normal force (:func:`frozen_collapse`) and, with ``fixed_point``, the Tresca fixed point from them (its LPs are the
     check's dearest; none of evidence 3's rules asks for it), and the frozen LP under the scene's own block loads
-    (:func:`bridgefem.limit.rigid_block.collapse_state_from`).
+    (:func:`bridgefem.limit.collapse.collapse_state_from`).
     The LPs on rank 0, broadcast (collective)."""
     sliding = tuple(j.id for j in joints if j.sliding)
     out = None

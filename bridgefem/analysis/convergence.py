@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from math import log
 
-from ..scene.schema import Scene, with_mesh
+from ..scene.model import Scene, with_mesh
 
 RATIO = 2.0  # element size ratio between successive meshes
 SAFETY = 1.25  # Roache's factor of safety for three meshes

@@ -6,7 +6,7 @@ evidence of collapse only when
 1. the step's diverging mode *proves* it (:mod:`bridgefem.solver.newton`, *Mechanism verdicts*: an admissible
    rigid-block hinge mode on which the loads do positive work, so that no equilibrium with compressive joints
    exists); or
-2. the rigid-block LP on the same joints (:func:`bridgefem.limit.rigid_block.collapse_load`, associative friction)
+2. the rigid-block LP on the same joints (:func:`bridgefem.limit.collapse.collapse_load`, associative friction)
    gives the same verdict: the same status and, for a limit load, a level within ``AGREEMENT`` of the FE bracket; or
 3. for a limit with sliding joints below the associative LP: the FE's last converged state is a *collapse state* of its
    rigid blocks (:class:`SlipCheck`). Its joint forces balance every voussoir under the FE's own loads at the bracket's

@@ -9,7 +9,7 @@ pair's normal from the ring into the fill and tau that normal turned +90 degrees
 The check (:func:`transmitted_load_check`):
 
 1. read the interface forces F_S after self-weight and F_L at the last converged level P_L;
-2. load the ring's rigid-block LP (:func:`bridgefem.limit.rigid_block.ring_under_forces`) with the dead load ring
+2. load the ring's rigid-block LP (:func:`bridgefem.limit.ring_blocks.ring_under_forces`) with the dead load ring
    weight + F_S and the live load (F_L - F_S) / P_L;
 3. solve it (associative friction, on rank 0): its collapse level lambda.
 
@@ -32,7 +32,8 @@ from dolfinx import fem
 from ..fe.mesh import EXTRADOS_TAG
 from ..fe.model import node_blocks
 from ..fe.pairs import ARCH_FILL
-from ..limit.rigid_block import LPResult, ring_under_forces, solve_blocks
+from ..limit.rigid_block import LPResult, solve_blocks
+from ..limit.ring_blocks import ring_under_forces
 from ..solver.newton import Iterate
 from .result import Analysis, TransmittedLoadCheck
 

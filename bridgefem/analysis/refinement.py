@@ -62,8 +62,9 @@ from typing import Callable
 from mpi4py import MPI
 
 from ..fe.sizing import MAX_DOFS, check_size
-from ..limit.rigid_block import collapse_load
-from ..scene.schema import Scene, SceneError, with_mesh
+from ..limit.collapse import collapse_load
+from ..scene.keys import SceneError
+from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
 from ..status import Status
 from .evidence import AGREEMENT

@@ -32,7 +32,7 @@ from ..fe.model import ElasticModel
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..limit.rigid_block import LPResult
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..search.records import LimitSearch
 from ..solver.newton import ContactSolver
 from .evidence import StaticBound, Verdict
@@ -145,7 +145,7 @@ def user_warnings(an: Analysis) -> list[str]:
     """What a user must know before trusting the bracket (module docstring, *Warnings*): voussoirs shorter than an
     element, a deflection beyond :data:`SMALL_DISPLACEMENT` of the span, an FE/LP ratio outside
     :data:`LP_RATIO_RANGE` on a bare ring without FE sliding, an FE limit above the conic upper bound of a fill
-    (``an.fill_bounds``, computed before), and the verdict's warnings. Local."""
+    or below its lower bound (``an.fill_bounds``, computed before), and the verdict's warnings. Local."""
     out = []
     deflections = [abs(st.deflection) for st in an.search.steps if st.converged and st.deflection is not None]
     span = an.scene.arch.span
@@ -166,4 +166,9 @@ def user_warnings(an: Analysis) -> list[str]:
     if bounds.get("upper") and an.search.lower * an.load_total > (1 + FILL_BOUND_TOL) * bounds["upper"]:
         out.append(f"FE limit above the conic upper bound of the bridge with its fill ({bounds['upper'] / 1e3:.6g} "
                    "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
+    upper = an.search.upper
+    if bounds.get("lower") and upper is not None and upper * an.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
+        out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
+                   "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, or its "
+                   "fill's flow rule); read the bracket with the bounds")
     return out + (list(an.verdict.warnings) if an.verdict else [])

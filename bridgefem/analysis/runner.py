@@ -57,7 +57,7 @@ from petsc4py import PETSc
 from ..fe.sizing import MAX_DOFS
 from ..limit.bounds import fill_bounds
 from ..limit.rigid_block import BlockModel
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..search.coarser_path import CoarserPath
 from ..search.pathfollow import find_limit_load
 from ..search.records import LimitSearch, LoadStep, SearchGuides, SearchObservers, SearchSettings, StaticCap

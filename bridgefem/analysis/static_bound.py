@@ -26,17 +26,9 @@ from ..fe.mesh import BlockMesh
 from ..fe.model import ElasticModel, node_blocks
 from ..fe.pairs import JointPairs
 from ..laws.crushing import scene_law
-from ..limit.rigid_block import (
-    BlockModel,
-    LPResult,
-    generalised_loads,
-    ring_model,
-    ring_with_loads,
-    solve_blocks,
-    standing_deficit,
-    statics,
-)
-from ..scene.schema import Scene
+from ..limit.rigid_block import BlockModel, LPResult, generalised_loads, solve_blocks, standing_deficit, statics
+from ..limit.ring_blocks import ring_model, ring_with_loads
+from ..scene.model import Scene
 from ..search.records import LoadStep, StaticCap
 from ..solver.convergence import BOND_RTOL, EQUILIBRIUM_RTOL
 from ..solver.newton import ContactSolver, Iterate

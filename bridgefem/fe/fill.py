@@ -22,7 +22,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..laws.soil import MohrCoulomb, elastic_tangent, return_map
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from .mesh import BlockMesh
 from .model import beam_lame, lame, strain
 

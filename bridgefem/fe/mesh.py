@@ -3,7 +3,18 @@
 Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is conformal; each joint has
 ``elements_through_thickness`` segments. The mesh is then split: every node gets one copy per block it
 belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
-have a single face, which meets the rigid ground.
+have a single face, which meets the rigid ground. Lengths in m, coordinates as in :mod:`bridgefem.geometry.ring`.
+
+:func:`build_block_mesh`, on rank 0 (Gmsh: Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309):
+
+1. draws the voussoirs (their polylines as splines, split at kinks and load points), the elastic abutments, the
+   fill and its loading beams as surfaces sharing their boundary curves (:func:`_gmsh_bridge`);
+2. meshes them with triangles: the voussoirs structured (``elements_through_thickness`` across each joint), the
+   rest unstructured with the size fields below;
+3. splits the nodes per block (:func:`split_blocks`: a loading beam counts as the fill's block, bonded to it) and
+   tags the joint faces, the extrados and the fill's boundaries;
+
+then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
 Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
 ``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
@@ -60,8 +71,8 @@ def joint_face_tag(joint: int, side: int) -> int:
 
 
 def marked(mesh: Mesh, tags: MeshTagsMetaClass, values) -> MeshTagsMetaClass:
-    """The entities of ``tags`` (on ``mesh``) whose tag is one of ``values``, all tagged 1: a form integrating over tag 1 is
-    then the same (compiled once) whatever the values, e.g. however many voussoirs there are."""
+    """The entities of ``tags`` (on ``mesh``) whose tag is one of ``values``, all tagged 1: a form integrating over
+    tag 1 is then the same (compiled once) whatever the values, e.g. however many voussoirs there are."""
     entities = tags.indices[np.isin(tags.values, values)]
     return meshtags(mesh, tags.dim, entities, np.ones(len(entities), dtype=np.int32))
 

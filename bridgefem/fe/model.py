@@ -2,6 +2,25 @@
 
 All quantities are for the full out-of-plane width of the ring: K in N/m, forces in N. The live-load
 vector is for a unit load level (1 N times each load's ``factor``); loads point down (-y).
+
+The body is every block of the mesh (:mod:`bridgefem.fe.mesh`): voussoirs, elastic abutments, the fill and its
+loading beams, in plane strain (or plane stress for the masonry, ``[model] plane``), with Lagrange elements of the
+scene's degree on triangles. :func:`build_elastic_model`
+
+1. sets each cell's Lame constants and unit weight by its block (masonry, abutment, fill, a loading beam
+   ``BEAM_STIFFNESS`` times as stiff as the fill, so rigid against it and weightless);
+2. assembles ``K`` from ``width (sigma(u) : eps(v)) dx`` with the fill's supports (fixed base, roller ends) built in;
+3. assembles the self-weight ``-width gamma v_y dx`` and records the ring's, the fill's and the abutments' weights;
+4. assembles the live load for a unit level: a patch as a uniform pressure per horizontal metre on the extrados of a
+   bare ring, on the road or on a loading beam's top over a fill; a point load as a nodal force shared by the nodes
+   at its point (``POINT_TOL``) of the blocks that carry it, on a joint the side the rigid-block LP finds least
+   favourable (:func:`least_favourable_sides`), so that the FE and the LP load the same voussoir;
+5. picks the monitor nodes: the ring's extrados nodes under the first load (at the crown without one), whose mean
+   vertical displacement is the load-deflection curve's deflection.
+
+The joints are not in ``K``: the voussoirs are independent bodies whose node pairs the contact solver joins
+(:mod:`bridgefem.fe.pairs`). Reference: DOLFINx (the FEniCS Project; Baratta et al. 2023, *DOLFINx: the next
+generation FEniCS problem solving environment*).
 """
 from __future__ import annotations
 
@@ -15,7 +34,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..geometry.ring import ArchRing, joint_under, point_load_blocks
-from ..scene.schema import Fill, Scene
+from ..scene.model import Fill, Scene
 from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 
 POINT_RTOL = 1e-7  # of the span: a mesh node closer than this to a load point carries the load (the nodes at the
@@ -206,12 +225,12 @@ def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> t
 
 def least_favourable_sides(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> list[str | None]:
     """Per scene load, the block side ("left" | "right") that carries a point load lying on a joint in the
-    rigid-block LP's least favourable allocation (:func:`bridgefem.limit.rigid_block.collapse_load`), else None. Over
+    rigid-block LP's least favourable allocation (:func:`bridgefem.limit.collapse.collapse_load`), else None. Over
     a fill the loads act on the road and no side is needed. Computed on rank 0 and broadcast; if the LP fails (a
     RuntimeError from HiGHS) the loads stay shared by both faces (None)."""
     if scene.fill is not None or not any(ld.kind == "point" for ld in scene.loads):
         return [None] * len(scene.loads)
-    from ..limit.rigid_block import collapse_load
+    from ..limit.collapse import collapse_load
 
     def sides() -> list[str | None]:
         try:

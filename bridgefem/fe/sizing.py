@@ -8,9 +8,9 @@ cut into two triangles (more along under a thin fill: one per extrados element s
 unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
 is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
 (MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
-bare arch from 1k to 68k unknowns (185, 208 and 325 MB at 1k, 13k and 68k: 117 to 127 bytes per n log2 n); cells
-and unknowns came within 1 % of the mesher's on bare arches and within 30 % with a fill (cells 12 to 22 % under
-the mesher's on Prestwood and campaign scenes #125, #145, #276, over it by 8 % on #260).
+bare arch from 1k to 68k unknowns (117 to 127 bytes per n log2 n). The estimate comes within 1 % of the mesher's
+cells and unknowns on a bare arch and within 30 % with a fill, whose unstructured mesh it can only approximate:
+close enough to refuse a model beyond the machine, not to predict its exact size.
 """
 from __future__ import annotations
 
@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.ring import make_shape
-from ..scene.schema import Scene, SceneError
+from ..geometry.shapes import make_shape
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from .mesh import EXTRADOS_BAND, extrados_element_size
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)

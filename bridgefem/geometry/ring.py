@@ -1,4 +1,5 @@
-"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP.
+"""Arch ring geometry: intrados curve, joints and voussoir polygons — one source for the FE mesh and the LP (pure
+numpy; a scene's ring is built by :func:`bridgefem.structure.ring.scene_ring`).
 
 Coordinates are in metres with the origin at the midpoint of the springing line on the intrados,
 x to the right and y up. A curve parameter ``p`` in [0, 1] runs along the intrados from the left
@@ -8,7 +9,19 @@ The ring is the band swept by the joint segments ``intrados(p) -> intrados(p) + 
 the unit normal of the intrados pointing towards the extrados. Offset curves share their normals, so
 every joint is perpendicular to the intrados, the centreline (offset t/2) and the extrados (offset t);
 for circular shapes the joints are radial. Joints are spaced evenly along the centreline arc length,
-except that by default the nearest joint is moved under each concentrated load.
+except that by default a joint is moved under each concentrated load.
+
+The intrados curves are those of :mod:`bridgefem.geometry.shapes`; on one, :func:`build_ring`
+
+1. measures the centreline's arc length on fine samples of ``p`` (a chord ending at a kink ends on its own arc, so
+   the pointed crown's jump between the two arcs' offsets counts no length);
+2. places N + 1 joints at equal centreline lengths, the springings at p = 0 and 1;
+3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge, keeping the joints in
+   their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
+   load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
+4. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
+   kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines); a load within
+   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own.
 
 Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
 joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
@@ -22,16 +35,12 @@ the outer one (their "extrados").
 """
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    pass
+from .shapes import Shape, make_shape
 
-SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 LOAD_SIDES = ("left", "right", "split")
 # a load point within this fraction of the span of a joint's extrados corner is on the joint: it acts at the
 # corner and gets no edge point of its own (a sliver of an edge would need a sliver of a mesh)
@@ -42,108 +51,6 @@ _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolati
 # points per voussoir intrados/extrados edge (polygon and Gmsh splines): 16 chords, so that a voussoir's polygon
 # holds 1 - theta^2 / 1536 of its curved area (theta: its angle, rad): 7e-4 short at 60 degrees, 1e-5 at 11.25
 _EDGE_SAMPLES = 17
-
-
-class _Shape(ABC):
-    """An intrados curve: ``point(p)`` and ``normal(p)`` for p in [0, 1], vectorised; ``kinks`` lists corners."""
-
-    kinks: tuple[float, ...] = ()
-
-    @abstractmethod
-    def point(self, p: np.ndarray) -> np.ndarray:
-        """Intrados points (m), shape (..., 2)."""
-
-    @abstractmethod
-    def normal(self, p: np.ndarray) -> np.ndarray:
-        """Unit normals towards the extrados, shape (..., 2)."""
-
-
-class _Circular(_Shape):
-    """Circular arc through both springings and the crown (semicircular when rise = span/2)."""
-
-    def __init__(self, span: float, rise: float):
-        self.radius = (span ** 2 / 4 + rise ** 2) / (2 * rise)
-        self.yc = rise - self.radius
-        self.a0 = np.arccos(np.clip(span / (2 * self.radius), -1.0, 1.0))
-
-    def _angle(self, p):
-        return self.a0 + np.asarray(p, float) * (np.pi - 2 * self.a0)
-
-    def point(self, p):
-        a = self._angle(p)
-        return np.stack([-self.radius * np.cos(a), self.yc + self.radius * np.sin(a)], axis=-1)
-
-    def normal(self, p):
-        a = self._angle(p)
-        return np.stack([-np.cos(a), np.sin(a)], axis=-1)
-
-
-class _Pointed(_Shape):
-    """Two circular arcs centred on the springing line, meeting at the crown (equilateral if rise = span*sqrt(3)/2)."""
-
-    kinks = (0.5,)
-
-    def __init__(self, span: float, rise: float):
-        self.x0 = (rise ** 2 - span ** 2 / 4) / span
-        self.radius = span / 2 + self.x0
-        self.a_top = np.arccos(self.x0 / self.radius)
-
-    def _left(self, q):
-        a = 2 * np.asarray(q, float) * self.a_top
-        pt = np.stack([self.x0 - self.radius * np.cos(a), self.radius * np.sin(a)], axis=-1)
-        return pt, np.stack([-np.cos(a), np.sin(a)], axis=-1)
-
-    def _mirror(self, p, which):
-        p = np.asarray(p, float)
-        left = p <= 0.5
-        v = which(np.where(left, p, 1.0 - p))
-        return np.where(left[..., None], v, v * np.array([-1.0, 1.0]))
-
-    def point(self, p):
-        return self._mirror(p, lambda q: self._left(q)[0])
-
-    def normal(self, p):
-        n = self._mirror(p, lambda q: self._left(q)[1])
-        crown = np.isclose(np.asarray(p, float), 0.5, rtol=0, atol=1e-12)  # p = 0.5 up to round-off: the apex
-        return np.where(crown[..., None], np.array([0.0, 1.0]), n)
-
-
-class _Elliptical(_Shape):
-    """Semi-ellipse with semi-axes span/2 (horizontal) and rise (vertical)."""
-
-    def __init__(self, span: float, rise: float):
-        self.a, self.b = span / 2, rise
-
-    def point(self, p):
-        t = np.pi * np.asarray(p, float)
-        return np.stack([-self.a * np.cos(t), self.b * np.sin(t)], axis=-1)
-
-    def normal(self, p):
-        t = np.pi * np.asarray(p, float)
-        n = np.stack([-self.b * np.cos(t), self.a * np.sin(t)], axis=-1)
-        return n / np.linalg.norm(n, axis=-1, keepdims=True)
-
-
-class _Parabolic(_Shape):
-    """Parabola y = rise (1 - (2x/span)^2)."""
-
-    def __init__(self, span: float, rise: float):
-        self.span, self.rise = span, rise
-
-    def point(self, p):
-        x = self.span * (np.asarray(p, float) - 0.5)
-        return np.stack([x, self.rise * (1 - (2 * x / self.span) ** 2)], axis=-1)
-
-    def normal(self, p):
-        x = self.span * (np.asarray(p, float) - 0.5)
-        n = np.stack([8 * self.rise * x / self.span ** 2, np.ones_like(x)], axis=-1)
-        return n / np.linalg.norm(n, axis=-1, keepdims=True)
-
-
-def make_shape(shape: str, span: float, rise: float) -> _Shape:
-    """The intrados curve of a named shape (see ``SHAPES``); span and rise in m on the intrados."""
-    return {"semicircular": _Circular, "segmental": _Circular, "pointed": _Pointed,
-            "elliptical": _Elliptical, "parabolic": _Parabolic}[shape](span, rise)
 
 
 @dataclass(frozen=True)
@@ -313,17 +220,17 @@ def fill_outline(ring: ArchRing, depth: float, extension: float, road_x: list[fl
                        tuple(sorted(set(float(x) for x in road_x))))
 
 
-def _ring_point(shape: _Shape, thickness: float, p, offset: float) -> np.ndarray:
+def _ring_point(shape: Shape, thickness: float, p, offset: float) -> np.ndarray:
     return shape.point(p) + offset * thickness * shape.normal(p)
 
 
-def _samples(shape: _Shape) -> np.ndarray:
+def _samples(shape: Shape) -> np.ndarray:
     """``_FINE`` equally spaced parameters in [0, 1] and the shape's kinks, sorted: where arc lengths are measured
     and x(p) inverted."""
     return np.unique(np.concatenate([np.linspace(0.0, 1.0, _FINE), shape.kinks]))
 
 
-def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.ndarray:
+def _centreline_length(shape: Shape, thickness: float, p: np.ndarray) -> np.ndarray:
     """The ring's centreline arc length (m) from p[0] at the increasing parameters ``p`` (which hold the shape's
     kinks), summed over chords; a chord that ends at a kink ends on its own arc (``KINK_NUDGE`` of it short of the
     kink), so the centreline's jump there, between the offsets of the two arcs (the pointed crown: t sin(phi / 2) for
@@ -339,7 +246,7 @@ def _centreline_length(shape: _Shape, thickness: float, p: np.ndarray) -> np.nda
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(end - start, axis=1))])
 
 
-def _extrados_param(shape: _Shape, thickness: float, x: float) -> tuple[float, bool]:
+def _extrados_param(shape: Shape, thickness: float, x: float) -> tuple[float, bool]:
     """The curve parameter whose extrados point is at horizontal position x (m), interpolated in fine samples (about
     span / 4000^2 off: the load's vertex is the extrados vertex nearest to x, :meth:`ArchRing.extrados_vertex`), and
     whether that point exists: at a kink the extrados jumps (the pointed crown's cap between the offsets of its two
@@ -435,6 +342,97 @@ def _check_voussoir_lengths(s_joints: np.ndarray, length: float, at_loads: dict[
                      "[arch] joint_at_loads = false")
 
 
+def _grouped_labels(load_x: list[float], load_labels: list[str] | None) -> dict[float, list[str]]:
+    """The loads at each horizontal position (m) in words, for the messages: their ``load_labels``, else their
+    position."""
+    labels: dict[float, list[str]] = {}
+    for x, label in zip(load_x, load_labels or [None] * len(load_x)):
+        labels.setdefault(float(x), []).append(label or f"the load at x = {float(x):.9g} m")
+    return labels
+
+
+def _check_load_spacing(xs: np.ndarray, span: float, labels: dict[float, list[str]]) -> None:
+    """Raise ValueError, naming the loads, when two of the load positions ``xs`` (m, increasing) are closer than
+    ``AT_JOINT_TOL`` x span: the ring cannot have an edge that short."""
+    gaps = np.diff(xs)
+    if np.any(gaps < AT_JOINT_TOL * span):
+        k = int(np.argmin(gaps))
+        raise ValueError(f"{_load_label(labels, xs[k])} and {_load_label(labels, xs[k + 1])} are {gaps[k]:.3g} m "
+                         f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
+                         "have an edge that short; put them at one position or further apart")
+
+
+def _joints_at_loads(params: np.ndarray, s_of_p, length: float, xs: np.ndarray, located: list[tuple[float, bool]],
+                     labels: dict[float, list[str]]) -> tuple[np.ndarray, frozenset[float]]:
+    """The joints' curve parameters ``params`` with an interior joint moved under each load position ``xs`` (m;
+    ``located``: each one's curve parameter on the extrados and whether it lies on the curve rather than a kink's
+    cap), and the positions on the curve that now have a joint under them. Raises ValueError when there are more
+    load positions than interior joints, or a moved joint leaves a voussoir of (almost) no length along the
+    centreline (``length``, m; ``s_of_p``: centreline position of a curve parameter)."""
+    n_voussoirs = len(params) - 1
+    load_params = [q for q, _ in located]  # a load on a kink's cap gets a joint at the kink
+    wanted = len(set(load_params))
+    if wanted > n_voussoirs - 1:
+        raise ValueError(f"[arch] voussoirs = {n_voussoirs}: the loads need a joint under each of their {wanted} "
+                         f"positions (point loads and patch edges, [arch] joint_at_loads = true), and "
+                         f"{n_voussoirs} voussoirs have {n_voussoirs - 1} joints between the springings; allowed "
+                         f"are at least {wanted + 1} voussoirs, or joint_at_loads = false")
+    params, moved = _place_joints_at_loads(params, s_of_p, load_params)
+    _check_voussoir_lengths(s_of_p(params), length, {j: [x for x, (q, _) in zip(xs, located) if q == pl]
+                                                     for j, pl in moved.items()}, labels)
+    return params, frozenset(float(x) for x, (q, on_curve) in zip(xs, located) if on_curve)
+
+
+def _voussoir(curve: Shape, thickness: float, span: float, i: int, pa: float, pb: float,
+              curve_params: list[float], cap_x: list[float]) -> Voussoir:
+    """Voussoir ``i`` between the joints at curve parameters ``pa`` and ``pb``: its intrados and extrados sampled
+    at ``_EDGE_SAMPLES`` points and at every kink and load point inside it (``curve_params``: the loads' curve
+    parameters on the extrados; ``cap_x``: the positions (m) of loads on a kink's cap, each a vertex on its chord)."""
+
+    def extrados_x(q):
+        return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
+
+    kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
+    inside = np.array([k for k in curve_params if pa < k < pb])  # a load on a joint's corner is at the joint
+    corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
+    loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
+    special = np.array(sorted(kinks + loads))
+    regular = np.linspace(pa, pb, _EDGE_SAMPLES)
+    if len(special):  # no spline point closer than a quarter of the sample spacing to a corner or load point
+        gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
+        regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
+    q = np.unique(np.concatenate([regular, special]))
+    intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
+    kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
+    # the apex inside this voussoir or at one of its joints (``kinks`` leaves a joint's out: no split there)
+    apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))
+    cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
+    split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
+    for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
+        if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
+            continue
+        k = int(np.searchsorted(extra[:, 0], xc))
+        f = (xc - extra[k - 1, 0]) / (extra[k, 0] - extra[k - 1, 0])
+        qc = q[k - 1] + f * (q[k] - q[k - 1])
+        intra = np.insert(intra, k, _ring_point(curve, thickness, qc, 0.0), axis=0)
+        extra = np.insert(extra, k, extra[k - 1] + f * (extra[k] - extra[k - 1]), axis=0)
+        q, kink_at, split_at = np.insert(q, k, qc), np.insert(kink_at, k, False), np.insert(split_at, k, True)
+    return Voussoir(i, intra, extra, tuple(np.flatnonzero(kink_at).tolist()),
+                    tuple(np.flatnonzero(split_at).tolist()))
+
+
+def _ring_joints(curve: Shape, thickness: float, params: np.ndarray) -> list[Joint]:
+    """The joints at curve parameters ``params``, from the intrados to the extrados, voussoir j - 1 on their left
+    and j on their right (the ground beyond the springings)."""
+    n_voussoirs = len(params) - 1
+    joints = []
+    for j, pj in enumerate(params):
+        a = _ring_point(curve, thickness, pj, 0.0)
+        b = _ring_point(curve, thickness, pj, 1.0)
+        joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
+    return joints
+
+
 def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoirs: int,
                load_x: list[float] = (), joint_at_loads: bool = True, load_labels: list[str] | None = None) -> ArchRing:
     """Build joints and voussoirs of a ring (all lengths in m).
@@ -453,75 +451,21 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     def s_of_p(q):
         return np.interp(q, p, s)
 
-    labels: dict[float, list[str]] = {}
-    for x, label in zip(load_x, load_labels or [None] * len(load_x)):
-        labels.setdefault(float(x), []).append(label or f"the load at x = {float(x):.9g} m")
+    labels = _grouped_labels(load_x, load_labels)
     xs = np.unique(np.asarray(load_x, float))
-    gaps = np.diff(xs)
-    if np.any(gaps < AT_JOINT_TOL * span):
-        k = int(np.argmin(gaps))
-        raise ValueError(f"{_load_label(labels, xs[k])} and {_load_label(labels, xs[k + 1])} are {gaps[k]:.3g} m "
-                         f"apart, closer than {AT_JOINT_TOL:g} x span = {AT_JOINT_TOL * span:.3g} m: the ring cannot "
-                         "have an edge that short; put them at one position or further apart")
+    _check_load_spacing(xs, span, labels)
     located = [_extrados_param(curve, thickness, x) for x in xs]
-    load_params = [q for q, _ in located]  # a load on a kink's cap gets a joint at the kink
     curve_params = [q for q, on_curve in located if on_curve]
     cap_x = [x for x, (_, on_curve) in zip(xs, located) if not on_curve]
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
     joints_at_x: frozenset[float] = frozenset()
-    if joint_at_loads and len(load_params):
-        wanted = len(set(load_params))
-        if wanted > n_voussoirs - 1:
-            raise ValueError(f"[arch] voussoirs = {n_voussoirs}: the loads need a joint under each of their {wanted} "
-                             f"positions (point loads and patch edges, [arch] joint_at_loads = true), and "
-                             f"{n_voussoirs} voussoirs have {n_voussoirs - 1} joints between the springings; allowed "
-                             f"are at least {wanted + 1} voussoirs, or joint_at_loads = false")
-        params, moved = _place_joints_at_loads(params, s_of_p, load_params)
-        _check_voussoir_lengths(s_of_p(params), s[-1], {j: [x for x, (q, _) in zip(xs, located) if q == pl]
-                                                         for j, pl in moved.items()}, labels)
-        joints_at_x = frozenset(float(x) for x, (q, on_curve) in zip(xs, located) if on_curve)
-
-    def extrados_x(q):
-        return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
-
-    def voussoir(i):
-        pa, pb = params[i], params[i + 1]
-        kinks = [k for k in curve.kinks if pa + 1e-9 < k < pb - 1e-9]  # a kink at a joint is no split
-        inside = np.array([k for k in curve_params if pa < k < pb])  # a load on a joint's corner is at the joint
-        corner_gap = np.abs(extrados_x(inside)[:, None] - extrados_x([pa, pb])[None, :]).min(axis=1)
-        loads = sorted(set(inside[corner_gap > AT_JOINT_TOL * span].tolist()))
-        special = np.array(sorted(kinks + loads))
-        regular = np.linspace(pa, pb, _EDGE_SAMPLES)
-        if len(special):  # no spline point closer than a quarter of the sample spacing to a corner or load point
-            gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
-            regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
-        q = np.unique(np.concatenate([regular, special]))
-        intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
-        kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
-        # the apex inside this voussoir or at one of its joints (``kinks`` leaves a joint's out: no split there)
-        apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))
-        cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
-        split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
-        for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
-            if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
-                continue
-            k = int(np.searchsorted(extra[:, 0], xc))
-            f = (xc - extra[k - 1, 0]) / (extra[k, 0] - extra[k - 1, 0])
-            qc = q[k - 1] + f * (q[k] - q[k - 1])
-            intra = np.insert(intra, k, _ring_point(curve, thickness, qc, 0.0), axis=0)
-            extra = np.insert(extra, k, extra[k - 1] + f * (extra[k] - extra[k - 1]), axis=0)
-            q, kink_at, split_at = np.insert(q, k, qc), np.insert(kink_at, k, False), np.insert(split_at, k, True)
-        return Voussoir(i, intra, extra, tuple(np.flatnonzero(kink_at).tolist()),
-                        tuple(np.flatnonzero(split_at).tolist()))
-
-    voussoirs = [voussoir(i) for i in range(n_voussoirs)]
-    joints = []
-    for j, pj in enumerate(params):
-        a = _ring_point(curve, thickness, pj, 0.0)
-        b = _ring_point(curve, thickness, pj, 1.0)
-        joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
-    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs, joints_at_x=joints_at_x)
+    if joint_at_loads and len(located):
+        params, joints_at_x = _joints_at_loads(params, s_of_p, s[-1], xs, located, labels)
+    voussoirs = [_voussoir(curve, thickness, span, i, params[i], params[i + 1], curve_params, cap_x)
+                 for i in range(n_voussoirs)]
+    return ArchRing(shape, span, rise, thickness, params, _ring_joints(curve, thickness, params), voussoirs,
+                    joints_at_x=joints_at_x)
 
 
 def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
@@ -580,5 +524,3 @@ def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[in
     if not on:
         raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
     return (on[0],)
-
-

@@ -1,5 +1,7 @@
-"""PNG of the collapse bounds: the upper bound's mechanism (voussoirs moved by their velocities, the fill's
-speed) over the lower bound's stress field (the fill's major compressive principal stress)."""
+"""PNG of the collapse bounds (``bridgefem bounds --plot``): the upper bound's mechanism (voussoirs moved by their
+velocities, the fill shaded by its speed) over the lower bound's stress field (the fill's major compressive principal
+stress per triangle, in kPa, compression negative). Lengths in m, loads in kN; the mechanism's displacements are
+scaled so that the largest voussoir moves ``amplitude`` x the span."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,7 +10,7 @@ import numpy as np
 from matplotlib.tri import Triangulation
 
 from ..limit.bounds import Bounds
-from ..scene.schema import Scene
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .plots import plt  # matplotlib with its own defaults and the Agg backend
 

@@ -1,4 +1,4 @@
-"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check SCENE.toml``.
+"""Command line: ``bridgefem run | converge | lp | min-thickness | bounds | check | assess SCENE.toml``.
 
 Exit codes: 0 computed (whatever the structural status), 1 solver failure (its results go to ``<out>-failed``;
 the earlier results in ``<out>`` are kept) or no stable thickness (``min-thickness``), 2 bad input or a refused
@@ -25,9 +25,13 @@ from pathlib import Path
 from ..fe.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
 from ..petsc_start import launcher_rank
 from ..scene.document import key_units, resolved_document
-from ..scene.schema import PETSC_PREFIX, Scene, SceneError, did_you_mean, load_scene, resolved_toml
+from ..scene.keys import SceneError
+from ..scene.model import Scene
+from ..scene.petsc_options import PETSC_PREFIX
+from ..scene.reader import did_you_mean, load_scene, resolved_toml
 from ..status import Status
-from .output import OutputError, Terminated, claim, failed_target, sigterm_raises, version
+from .output import Terminated, claim, sigterm_raises
+from .targets import OutputError, failed_target, version
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -64,6 +68,14 @@ def _parser() -> argparse.ArgumentParser:
     bd.add_argument("--json", action="store_true", help="print one JSON object")
     bd.add_argument("--refine", type=float, default=1.0, help="mesh refinement factor (default 1)")
     bd.add_argument("--plot", type=Path, metavar="PNG", help="write the mechanism and the stress field to this PNG")
+    asm = sub.add_parser("assess", help="roll the scene's [vehicle] across the bridge: critical position, adequacy "
+                                         "factor (FE, with the rigid-block LP's), report.html")
+    asm.add_argument("scene", type=Path, nargs="+", help="one or more scenes, each with a [vehicle]")
+    asm.add_argument("--step", type=float, help="screening step of the first axle's position, m (default span/40)")
+    asm.add_argument("--out", type=Path, help="output folder (default results/<scene name>-assessment; several "
+                     "scenes: DIR/<scene name>-assessment)")
+    asm.add_argument("--json", action="store_true", help="print the verdict as one JSON object, the last line of "
+                     "stdout")
     for command in sub.choices.values():  # each command's options, for the hint after an unknown one
         command.set_defaults(options=[s for a in command._actions for s in a.option_strings if s != "-h"])
     return p
@@ -165,7 +177,7 @@ class Validated:
 
 def validate(args, petsc: dict) -> Validated:
     """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check``
-    calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.schema.load_scene`),
+    calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.reader.load_scene`),
     its size (:func:`bridgefem.fe.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
     one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's and
     ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
@@ -328,7 +340,8 @@ def _lp(args) -> int:
 
 
 def _min_thickness(args) -> int:
-    from ..limit.rigid_block import LPFailure, NoStableThickness, min_thickness
+    from ..limit.rigid_block import LPFailure
+    from ..limit.thickness import NoStableThickness, min_thickness
 
     scene = load_scene(args.scene)
     try:
@@ -361,9 +374,13 @@ def main(argv: list[str] | None = None) -> int:
             if args.command == "check":
                 return _check(args, petsc)
             if args.command == "converge":
-                from .commands import command
+                from .commands import converge_command
 
-                return command(load_scene(args.scene), _levels(args.levels), args.out)
+                return converge_command(load_scene(args.scene), _levels(args.levels), args.out)
+            if args.command == "assess":
+                from .assessment import assess_command
+
+                return assess_command(args.scene, args.step, args.out, args.json)
             if args.command == "bounds":
                 from .commands import bounds_command
 

@@ -1,4 +1,9 @@
-"""TODO docstring"""
+"""The commands that print a study rather than run one analysis: ``bridgefem converge`` (the limit load on nested
+meshes, :mod:`bridgefem.analysis.convergence`) and ``bridgefem bounds`` (the conic lower and upper collapse bounds,
+:mod:`bridgefem.limit.bounds`). The command line (:mod:`bridgefem.io.cli`) parses the arguments and maps errors to
+exit codes; these print (rank 0), write what they write under the output policy (:mod:`bridgefem.io.output`) and
+return the exit code: 0 computed, 1 a solver failure. Loads printed in kN, written in N.
+"""
 from __future__ import annotations
 
 import contextlib
@@ -9,12 +14,13 @@ from pathlib import Path
 
 from ..analysis.convergence import RATIO, MeshLimit, study, table
 from ..limit.bounds import bounds_summary, collapse_bounds
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from ..status import Status
 from .output import results_folder
 
 
-def command(scene: Scene, levels: list[int], out: Path | None) -> int:
+def converge_command(scene: Scene, levels: list[int], out: Path | None) -> int:
     """``bridgefem converge``: print the study and write ``convergence.json`` into the results folder ``out`` (under
     the output policy of :mod:`bridgefem.io.output`: a new folder or an earlier bridgefem results folder)."""
     from mpi4py import MPI
@@ -37,6 +43,8 @@ def command(scene: Scene, levels: list[int], out: Path | None) -> int:
                         "extrapolation": None if ex is None else dataclasses.asdict(ex)}
                 (folder / "convergence.json").write_text(json.dumps(data, indent=2))
     return 0 if all(m.upper is not None for m in meshes) else 1
+
+
 def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0, plot: Path | None = None) -> int:
     """``bridgefem bounds``: print the bounds (text or one JSON object), optionally write the mechanism and the
     stress field to the PNG ``plot`` (a scene with a fill); exit code 1 on a solver failure."""

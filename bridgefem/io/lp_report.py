@@ -5,13 +5,14 @@ Nothing here imports the FE: ``bridgefem lp`` and :func:`bridgefem.lp` stay as l
 """
 from __future__ import annotations
 
-from ..limit.rigid_block import LPFailure, LPResult, collapse_load
-from ..scene.schema import Scene
+from ..limit.collapse import collapse_load
+from ..limit.rigid_block import LPFailure, LPResult
+from ..scene.model import Scene
 from ..status import Status
 
 
 def rigid_block_result(scene: Scene, friction_model: str = "associative") -> LPResult:
-    """The rigid-block LP of the scene (:func:`bridgefem.limit.rigid_block.collapse_load`); an LP that fails is a
+    """The rigid-block LP of the scene (:func:`bridgefem.limit.collapse.collapse_load`); an LP that fails is a
     result with the status "solver failure: <reason>", no load and no mechanism."""
     try:
         return collapse_load(scene, friction_model=friction_model)

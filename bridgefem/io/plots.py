@@ -1,8 +1,15 @@
-"""PNG plots: the load-deflection path with the limit-load bracket, and the collapse mechanism.
+"""PNG plots of a run (matplotlib, Agg): the load-deflection path with the limit-load bracket, and the collapse
+mechanism.
+
+Loads are drawn in kN, deflections in mm (positive down), lengths in m. The bracket is a band between its ends,
+at least ``BAND_MIN`` of the load axis high so that a tight bracket stays visible; the mechanism draws the
+voussoirs displaced by the collapse mode, amplified until its largest block motion is ``MODE_SIZE`` x the span,
+with the hinges and sliding joints marked.
 
 The pictures are drawn with matplotlib's own defaults and the Agg backend: a ``matplotlibrc`` in the current folder
 (which matplotlib reads as it is imported) could otherwise choose a backend module, or have every label typeset by
-an external LaTeX program, and the same run would draw different pictures in different folders."""
+an external LaTeX program, and the same run would draw different pictures in different folders.
+"""
 from __future__ import annotations
 
 import math
@@ -89,8 +96,10 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
                    fill: np.ndarray | None = None) -> None:
     """The collapse mechanism: the ring and elastic abutments (grey outline), the fill (``fill``: its region,
     m), the blocks moved by ``mode`` (their rigid motion over the last converged load increment: rows ux m, uy m,
-    rotation rad; amplified to be seen), FE hinges (red dots), sliding joints (blue) and the rigid-block LP's
-    hinges (black rings), with the live loads as arrows."""
+    rotation rad; amplified to be seen), FE hinges (red dots, labelled with their joint numbers), sliding joints
+    (blue), the rigid-block LP's hinges (black rings), the line of thrust of the last converged state (purple,
+    diamonds where it touches the intrados or extrados: ``data["line_of_thrust"]``), every joint's number beside
+    its extrados corner, and the live loads as arrows."""
     fig, ax = plt.subplots(figsize=(8, 5))
     if fill is not None:
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.15, lw=0)
@@ -108,9 +117,22 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
             q = p + scale * (np.array([mx, my]) + th * np.column_stack([-p[:, 1], p[:, 0]]))
             ax.fill(q[:, 0], q[:, 1], color="tan", alpha=0.6, lw=0)
             ax.plot(q[:, 0], q[:, 1], color="saddlebrown", lw=0.7)
+    thrust = (data.get("line_of_thrust") or {}).get("points") or []
+    if thrust:
+        ax.plot([p["x"] for p in thrust], [p["y"] for p in thrust], "-", color="tab:purple", lw=1.4, zorder=4)
+        touching = [p for p in thrust if p["touches"]]
+        ax.plot([p["x"] for p in touching], [p["y"] for p in touching], "D", color="tab:purple", ms=5, zorder=6)
+    for jt in ring.joints[:ring.n_voussoirs + 1]:  # every joint's number, outside the extrados
+        out = jt.extrados + 0.06 * ring.span * jt.tangent
+        ax.text(*out, str(jt.id), fontsize=6, ha="center", va="center", color="0.35")
     mech = data["mechanism"]
     for jid, where in mech["hinge_positions"].items():
-        ax.plot(*_hinge_point(ring, int(jid), where), "o", color="red", ms=8, zorder=5)
+        p = _hinge_point(ring, int(jid), where)
+        ax.plot(*p, "o", color="red", ms=8, zorder=5)
+        jt = ring.joints[int(jid)]
+        side = jt.tangent if where == "extrados" else -jt.tangent
+        ax.annotate(f"hinge {jid}", p, p + 0.12 * ring.span * side, fontsize=8, color="red", ha="center",
+                    arrowprops=dict(arrowstyle="-", color="red", lw=0.6), zorder=7)
     for jid in mech["sliding"]:
         jt = ring.joints[jid]
         ax.plot(*np.array([jt.intrados, jt.extrados]).T, color="tab:blue", lw=3, zorder=5)
@@ -132,10 +154,13 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
                           label=f"blocks moved by the last converged load increment x {scale:.3g}"),
                plt.Line2D([], [], marker="o", color="red", ls="", label="FE hinge"),
                plt.Line2D([], [], color="tab:blue", lw=3, label="FE sliding joint")]
+    if thrust:
+        handles.append(plt.Line2D([], [], color="tab:purple", marker="D", ms=4, lw=1.4,
+                                  label="line of thrust (diamonds: touches a face)"))
     if lp:
         handles.append(plt.Line2D([], [], marker="o", mfc="none", mec="k", ls="", ms=10,
                                   label=f"rigid-block LP hinge ({lp.get('model', 'bare ring')})"))
-    ax.legend(handles=handles, loc="upper right", fontsize=7)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.25)
     _title(ax, data)
@@ -143,4 +168,65 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
     ax.set_ylabel("y (m)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_elevation(ring: ArchRing, data: dict, path, fill: np.ndarray | None = None) -> None:
+    """The bridge to scale (equal axes): the ring's voussoirs, the fill, the span and the live loads as arrows
+    labelled with their loads (kN; ``data["loads"]`` with ``x`` from midspan and ``load`` N), at the road with a
+    fill or on the extrados without."""
+    fig, ax = plt.subplots(figsize=(8, 4))
+    if fill is not None:
+        ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.2, lw=0)
+    for v in ring.voussoirs + ring.abutments:
+        p = np.vstack([v.polygon, v.polygon[:1]])
+        ax.fill(p[:, 0], p[:, 1], color="0.85", lw=0)
+        ax.plot(p[:, 0], p[:, 1], color="0.4", lw=0.6)
+    top = fill[:, 1].max() if fill is not None else None
+    arrow = 0.12 * ring.span
+    for ld in data.get("loads", []):
+        tip = np.array([ld["x"], top]) if top is not None else ring.extrados_point(ld["x"])
+        ax.annotate("", xy=tip, xytext=tip + np.array([0, arrow]), arrowprops=dict(arrowstyle="-|>", color="k"))
+        ax.text(tip[0], tip[1] + arrow * 1.05, f"{ld['load'] / 1e3:.0f} kN", ha="center", va="bottom", fontsize=8)
+    y = -0.05 * ring.span
+    ax.annotate("", xy=(-ring.span / 2, y), xytext=(ring.span / 2, y), arrowprops=dict(arrowstyle="<->", lw=0.8))
+    ax.text(0, y, f"span {ring.span:g} m", ha="center", va="top", fontsize=8)
+    ax.set_aspect("equal")
+    ax.margins(0.05, 0.2)
+    ax.set_xlabel("x (m, from midspan)")
+    ax.set_ylabel("y (m)")
+    _title(ax, data)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_adequacy(data: dict, path) -> None:
+    """The adequacy factor against the first axle's position (m from the left springing): the rigid-block LP at
+    every screened position (line and dots), the FE brackets at the confirmed positions (red bars) and the critical
+    position (a vertical line)."""
+    pts = [(p["x0"], p["factor"]) for p in data["positions"] if p["factor"] is not None]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    if pts:
+        x, f = np.array(pts).T
+        ax.plot(x, f, ".-", ms=3, lw=0.8, label="rigid-block LP (screen and refinements)")
+    for c in data["confirmations"]:
+        if c["adequacy"]:
+            lo, hi = c["adequacy"]["lower"], c["adequacy"]["upper"]
+            ax.errorbar([c["x0"]], [(lo + hi) / 2], yerr=[[(hi - lo) / 2 + 1e-9]], fmt="o", color="tab:red",
+                        ms=5, capsize=4)
+    ax.plot([], [], "o", color="tab:red", label="FE limit analysis (confirmed positions)")
+    if data.get("critical_x") is not None:
+        ax.axvline(data["critical_x"], color="k", ls="--", lw=0.8, label=f"critical: x = {data['critical_x']:.3f} m")
+    if pts:
+        finite = f[np.isfinite(f)]
+        if len(finite):
+            ax.set_ylim(0, min(finite.max(), 4 * finite.min()) * 1.05)
+    ax.set_xlabel("first axle's position x (m from the left springing)")
+    ax.set_ylabel("adequacy factor (collapse load / vehicle)")
+    ax.set_title(textwrap.shorten(f"{data['scene']}: {data['status']}", TITLE_WIDTH * 2), fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
     plt.close(fig)

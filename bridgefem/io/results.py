@@ -17,14 +17,16 @@ import numpy as np
 from ..analysis.mechanism import springing_reactions
 from ..analysis.result import Analysis
 from ..analysis.runner import quiet_compiler
+from ..analysis.thrust import line_of_thrust, thrust_summary
 from ..geometry.ring import fill_outline
 from ..laws.base import JointLaw
 from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
-from .output import results_folder, version
+from .output import results_folder
+from .targets import version
 
 NO_JOINT = 0  # the joint_state of a node on no joint pair (fields.xdmf); a pair's is its law's output code
-FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png")
+FILES = ("results.json", "fields.xdmf", "fields.h5", "load_deflection.png", "mechanism.png", "report.html")
 """The files :func:`write_results` writes: the command line has their paths' lengths checked before the analysis
 (:func:`bridgefem.io.output.check_names`)."""
 
@@ -105,6 +107,7 @@ def summary(an: Analysis) -> dict:
                         "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
                         "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding} if js else {})}
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
+        "line_of_thrust": thrust_summary(line_of_thrust(an.joints, an.ring)),
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
         "springing_reactions": _reactions(an),
@@ -213,6 +216,10 @@ def write_results(an: Analysis, out: Path) -> dict:
 
             plot_load_deflection(data, tmp / "load_deflection.png")
             plot_mechanism(an.ring, data, motion, tmp / "mechanism.png", _fill_polygon(an))
+            from .report import run_report
+
+            (tmp / "report.html").write_text(run_report(data, {"mechanism": tmp / "mechanism.png",
+                                                               "load_deflection": tmp / "load_deflection.png"}))
     return data
 
 
@@ -295,6 +302,30 @@ def _write_fields(an: Analysis, path: Path) -> None:
             series.write(cs.load, {"displacement": disp, "joint_state": joint_state})
     if series is not None:
         series.close()
+
+
+def pictures(an: Analysis, data: dict, level: float | None = None) -> dict[str, bytes]:
+    """The mechanism (with the line of thrust), the load-deflection and the elevation (the bridge and its loads at
+    ``level``, N per unit factor; default: the last converged one) PNGs of an analysis, as bytes (collective: the
+    collapse mode; drawn on rank 0, empty elsewhere)."""
+    import io
+
+    motion = an.collapse_mode
+    if an.solver.comm.rank != 0:
+        return {}
+    from .plots import plot_elevation, plot_load_deflection, plot_mechanism
+
+    out = {}
+    level = data["limit_load"]["lower"] / an.load_total if level is None else level
+    loads = [{"x": ld["x"], "load": ld["factor"] * level} for ld in data["loads"]]
+    for name, draw in (("mechanism", lambda f: plot_mechanism(an.ring, data, motion, f, _fill_polygon(an))),
+                       ("load_deflection", lambda f: plot_load_deflection(data, f)),
+                       ("elevation", lambda f: plot_elevation(an.ring, {**data, "loads": loads}, f,
+                                                              _fill_polygon(an)))):
+        buf = io.BytesIO()
+        draw(buf)
+        out[name] = buf.getvalue()
+    return out
 
 
 def _fill_polygon(an: Analysis) -> np.ndarray | None:

@@ -58,7 +58,7 @@ import numpy as np
 if TYPE_CHECKING:
     from mpi4py import MPI
 
-    from ..scene.schema import Scene
+    from ..scene.model import Scene
 
 from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules
 from .coulomb import CoulombJoints

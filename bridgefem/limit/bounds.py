@@ -6,6 +6,19 @@ associated flow on a triangle mesh; no-tension Coulomb arch-fill interface; fixe
 load = voussoirs' and fill's weight; the scene's live-load pattern on the road) has a collapse load factor
 between the static bound of :mod:`bridgefem.limit.bounds_lower` and the kinematic bound of
 :mod:`bridgefem.limit.bounds_upper`. Without a fill both equal the rigid-block LP. Loads in N for the arch's width.
+
+:func:`collapse_bounds`:
+
+1. builds the problem (:func:`bridgefem.limit.bounds_model.bridge_problem`): the ring's blocks, the fill's triangles
+   at the mesh size ``min(ring thickness / 2, fill depth over the crown) / refine`` near the ring, a rigid loading
+   beam under each patch;
+2. solves the static programme (Makrodimopoulos & Martin 2006) for the lower bound and its stress field;
+3. solves the kinematic programme (Makrodimopoulos & Martin 2007) for the upper bound and its mechanism, the block
+   and soil velocities being its equality duals;
+4. reports the blocks' part of that mechanism as the rigid-block LP does (:func:`upper_mechanism`).
+
+Both are second-order cone programmes solved by Clarabel (:mod:`bridgefem.limit.conic`); a refinement narrows the
+gap between them at a cost that grows faster than the number of triangles.
 """
 from __future__ import annotations
 
@@ -14,11 +27,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from .bounds_lower import lower_bound
 from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound
-from .rigid_block import _MECH_TOL, _relative_motion
+from .rigid_block import joint_motion
 
 BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
                 "Mohr-Coulomb continuum (associated flow; cut-off on the in-plane mean stress), no-tension Coulomb "
@@ -88,7 +102,8 @@ def problem_bounds(problem: LimitProblem) -> Bounds:
 
 
 def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
-    """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) / refine`` near the ring)."""
+    """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) /
+    refine`` near the ring)."""
     start = time.perf_counter()
     problem = bridge_problem(scene, refine)
     t_mesh = time.perf_counter() - start
@@ -103,13 +118,9 @@ def upper_mechanism(b: Bounds) -> dict | None:
     moves no joint; None without an upper bound)."""
     if b.block_velocities is None or not b.problem.blocks.n_joints:
         return None
-    model = b.problem.blocks
-    rot, slip = _relative_motion(model, b.block_velocities)
-    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()
     fill = 0.0 if b.soil_velocities is None else float(np.linalg.norm(b.soil_velocities, axis=1).max())
-    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), fill, 1e-300)
-    return {"hinges": [int(j) for j in np.nonzero(np.abs(rot) * size > _MECH_TOL * scale)[0]],
-            "sliding": [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]}
+    motion = joint_motion(b.problem.blocks, b.block_velocities, fill)
+    return {"hinges": motion.hinges, "sliding": motion.sliding}
 
 
 def bounds_summary(b: Bounds) -> dict:

@@ -56,12 +56,9 @@ def lower_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
             cols.append(c)
             vals.append(v)
     prog.add(ZERO, np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), -blocks.dead.ravel())
-    prog.add(NONNEG, [0], [lam], [-1.0], [0.0])
-    cost = np.zeros(lam + 1)
-    cost[lam] = -1.0
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), [f]])
-    return prog.solve(cost, scale), {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
+    return prog.maximise(lam, scale), {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
 
 
 def _soil(prog: ConicProgramme, problem: LimitProblem, cs: int, lam: int):

@@ -10,6 +10,14 @@ The region is a simple polygon given counter-clockwise by its corner points; eve
 
 Lengths in m. Triangles are counter-clockwise; side ``s`` of a triangle runs from its local vertex ``s`` to
 ``(s + 1) % 3``, and its outward unit normal is the side's direction turned clockwise by 90 degrees.
+
+:func:`triangulate`:
+
+1. Gmsh (Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309; its MeshAdapt algorithm) meshes the polygon
+   with the sizes given at its corners, and with a fan of ``FAN`` rays embedded around each point where the boundary
+   traction jumps (:class:`Outline`);
+2. the triangles are renumbered to the vertices they use and turned counter-clockwise;
+3. every edge is classified (:func:`_classify`): interior, or the kind, block and traction of the side it lies on.
 """
 from __future__ import annotations
 

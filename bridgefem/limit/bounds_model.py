@@ -22,17 +22,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.ring import ArchRing, fill_outline
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
+from .collapse import collapse_load
 from .conic import NONNEG, SOC, ConicProgramme
-from .rigid_block import BlockModel, _Programme, collapse_load, ring_model
+from .rigid_block import BlockModel, _Programme
+from .ring_blocks import ring_model
 
 FAR_SIZE = 4.0  # element size away from the ring and the loads, in multiples of the size near them
 LOAD_SIZE = 0.5  # element size at the edges of a loaded patch, in multiples of the size near the ring
-MAX_TRIANGLES = 6000  # triangles of the fill at refine 1 (x refine^2), above which the size grows to fit (module
-# docstring of bridge_problem: campaign seed 5, #158, 18 425 triangles of a 0.049 m ring's t/2 took 271 s; the
-# campaigns' other fill scenes have at most 3419, Prestwood 1649 and 6467 at refine 2)
+MAX_TRIANGLES = 6000  # triangles of the fill at refine 1 (x refine^2), above which the size grows to fit
+# (bridge_problem: the mesh cap)
 
 
 @dataclass(frozen=True)
@@ -142,11 +144,10 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     as Mohr-Coulomb soil meshed with element size ``min(ring thickness / 2, fill depth over the crown) / refine``
     near the extrados (half that at the load patches' edges, ``FAR_SIZE`` times it far from them; the depth keeps
     a thin fill over a thick ring from being one triangle deep, on which no mechanism forms and the upper bound
-    is unbounded). A mesh of more than ``MAX_TRIANGLES`` x refine^2 triangles (a thin ring under a deep, long fill)
-    is made again with the size grown by the square root of the excess: the programmes' cost grows with the
-    triangles (campaign seed 5, #158, t = 0.049 m under 0.27 m of fill: 18 425 triangles of 0.024 m, 271 s for
-    both), and a coarser mesh still gives bounds, only wider. Without a fill this is the LP's model (point loads
-    on a Mohr-Coulomb fill are refused by the scene)."""
+    is unbounded). The mesh cap: a mesh of more than ``MAX_TRIANGLES`` x refine^2 triangles is made again with the
+    size grown by the square root of the excess, since a thin ring under a deep, long fill would otherwise give tens
+    of thousands of triangles and conic programmes that take minutes; a coarser mesh still gives bounds, only
+    wider. Without a fill this is the LP's model (point loads on a Mohr-Coulomb fill are refused by the scene)."""
     width = scene.arch.width
     live_total = float(sum(ld.factor for ld in scene.loads))
     if scene.fill is None:  # a point load on a joint goes on the block the LP finds least favourable

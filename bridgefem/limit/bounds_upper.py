@@ -61,13 +61,10 @@ def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     tie = _bonded_nodes(problem, row_of, n_free) if mesh is not None else sp.identity(3 * nb, format="csr")
     rows = (tie @ sp.csr_matrix((v[keep], (r[keep], c[keep])), shape=(tie.shape[1], lam + 1))).tocoo()
     prog.add(ZERO, rows.row, rows.col, rows.data, tie @ np.concatenate([rhs, -blocks.dead.ravel()]))
-    prog.add(NONNEG, [0], [lam], [-1.0], [0.0])
-    cost = np.zeros(lam + 1)
-    cost[lam] = -1.0
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), np.full(6 * n_if, f / max(np.ptp(
         mesh.x, axis=0).max() * problem.width, 1e-300) if mesh is not None else 1.0), [f]])
-    return prog.solve(cost, scale), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
+    return prog.maximise(lam, scale), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
 
 
 def _bonded_nodes(problem: LimitProblem, row_of: np.ndarray, n_free: int) -> sp.csr_matrix:

@@ -1,7 +1,13 @@
-"""Rigid-block limit analysis by linear programming (Gilbert & Melbourne / LimitState:RING style).
+"""Rigid-block limit analysis by linear programming: the collapse load factor of rigid blocks on no-tension
+Coulomb joints, its mechanism, and whether the dead load alone stands.
 
 The structure is an assembly of rigid blocks in contact through plane joints; the ground is a block without an
-equilibrium equation. Units are SI throughout: m, N, N·m; velocities are virtual and dimensionless in scale.
+equilibrium equation. The static (lower-bound) formulation of Livesley (1978, *Limit analysis of structures formed
+from rigid blocks*, Int. J. Numer. Meth. Eng. 12:1853) as Gilbert & Melbourne (1994, *Rigid-block analysis of
+masonry structures*, The Structural Engineer 72(21):356) apply it to masonry arches (the program RING): the joint
+forces are the unknowns, equilibrium of every block the equalities, the joints' yield conditions the inequalities,
+and the live load's factor the objective. Units are SI throughout: m, N, N·m; velocities are virtual and
+dimensionless in scale. The scene's ring as blocks: :mod:`bridgefem.limit.ring_blocks`.
 
 **Joints.** Joint ``j`` is the segment from its start point ``a_j`` to its end point ``b_j`` (for a ring: intrados
 to extrados), with length ``t_j``, centre ``c_j``, unit tangent ``T_j = (b_j - a_j)/t_j`` and unit normal
@@ -34,8 +40,18 @@ The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linpro
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
 decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
 admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
-FE); otherwise :class:`LPFailure` (campaign seed 5, #162, an elliptical ring of 185 voussoirs at mu = 0.3: every
-HiGHS method, with or without presolve, gives no status for the load programme and a deficit of 2675 N).
+FE); otherwise :class:`LPFailure`.
+
+:func:`solve_blocks`, step by step:
+
+1. assemble the programme (:class:`_Programme`): the equilibrium matrix ``A`` (3 rows per block, 3 columns per
+   joint), four yield rows per joint, the live load as the column of ``lambda``; forces are divided by the total
+   dead weight so that the unknowns are of order one;
+2. solve it with HiGHS (interior point and crossover: a basic solution with its duals);
+3. with no status from HiGHS, let the deficit programme decide (the *no-status fallback* above);
+4. for non-associative friction, iterate the Tresca fixed point below from the associative solution or a seed;
+5. read the mechanism off the equilibrium duals: the block velocities, each joint's relative rotation and slip,
+   the hinges and the sliding joints.
 
 **Mechanism.** The equilibrium duals are the block virtual velocities ``(u, v, omega)`` at ``r_k`` (the velocity
 is ``minus`` HiGHS' marginals, normalised so that the live load does unit work). At a joint the relative motion of
@@ -57,22 +73,33 @@ mechanism of hinges and slips without dilatancy on which the loads' work equals 
 associative one (its state is admissible there). Non-associative collapse states are not unique (they depend on
 the normal forces, e.g. the clamping left in the blocks), so a fixed point is one of them, reached from its seed,
 never a bound; where a ring's collapse is statically determinate (hinges plus sliding joints, one degree of
-freedom) the associative solution is itself a fixed point. Tested against closed forms and hand-derived states
-in tests/test_nonassociative.py. A single Tresca LP (:func:`frozen_capacity_collapse`, capacities frozen at given
-normal forces) is itself a standard problem with bound theorems (a shear limit independent of the normal force:
-Livesley 1978, Int. J. Numer. Meth. Eng. 12:1853, part I); how the FE uses both: :mod:`bridgefem.analysis.evidence`,
+freedom) the associative solution is itself a fixed point. A single Tresca LP (:func:`frozen_capacity_collapse`,
+capacities frozen at given normal forces) is itself a standard problem with bound theorems (a shear limit
+independent of the normal force: Livesley 1978, part I); how the FE uses both: :mod:`bridgefem.analysis.evidence`,
 docs/joints-and-lp.md.
 
-**Point loads on joints** (:func:`collapse_load`): the least favourable allocation to the two voussoirs.
+**Dead load only**: the *deficit* programme (:func:`dead_load_deficit`) minimises ``tau >= 0``, a uniform tensile
+strength at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``).
+The blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load work > 0).
+:func:`standing_deficit` also lets ``n`` go down to ``-tau``: the static theorem under dead load for joint forces
+known only to a tolerance. :func:`statics` evaluates the programme's rows at given joint forces (an FE state's).
 
-**Dead load only** (least thickness): the *deficit* programme minimises ``tau >= 0``, a uniform tensile strength
-at the joint edges and cohesion that equilibrium needs (``|m| <= (n + tau) t/2``, ``|s| <= mu n + tau``). The
-blocks stand when ``tau = 0``; otherwise the duals give the mechanism (dead-load work > 0).
+Safeguards:
+
+- *force scaling*: every force is divided by the total dead weight, so that the unknowns are of order one on a
+  small ring and a large one alike and HiGHS' absolute tolerances keep their meaning;
+- *no-status fallback*: HiGHS may return no status for a load programme that has no feasible point (a ring that
+  cannot carry its own weight); the deficit programme proves that case, which would otherwise be a solver failure;
+- ``MECHANISM_TOL``: a relative rotation or slip below this fraction of the largest one is round-off, not a hinge
+  or a slip, so that the mechanism lists only the joints that move;
+- ``_DEFICIT_TOL``: a deficit below this fraction of the dead weight is the LP's round-off: the blocks stand;
+- *fixed-point stop*: the Tresca iteration stops only when ``lambda`` is steady over ``_WINDOW`` LPs *and* its state
+  obeys Coulomb's law, so that neither a pause in a slow drift nor a steady load factor on a state that breaks
+  Coulomb's law is taken for a collapse state; after ``FIXED_POINT_LPS`` LPs it returns its last state with
+  ``converged = False``.
 """
 from __future__ import annotations
 
-import dataclasses
-import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -80,26 +107,16 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
 from ..laws.base import BlockYield, JointLaw
 from ..laws.coulomb import CoulombJoints
-from ..laws.crushing import scene_law, strength_text
-from ..scene.schema import SCHEMA, Scene
-from ..structure.ring import scene_ring
 
 FRICTION_MODELS = ("associative", "non-associative")
-LEAST_FAVOURABLE = "least-favourable"
-_EXHAUSTIVE = 8  # point loads on joints up to which every allocation is tried (2^8 = 256 LPs)
-_TIE = 1e-7  # relative: a load on one block must lower the collapse load by more than this to replace the split
-_MECH_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
+MECHANISM_TOL = 1e-6  # relative size below which a relative rotation or slip counts as zero
 _DEFICIT_TOL = 1e-9  # deficit tau / dead weight below this is zero: LP round-off, the blocks stand
 _WINDOW = 6  # non-associative iterations: converged when lambda is steady over this many LPs
 RELAXATION = 0.6  # Tresca fixed point: n~ <- n~ + RELAXATION (n - n~) between LPs
 FIXED_POINT_RTOL = 1e-6  # Tresca fixed point: tolerance on lambda and on the Coulomb condition
 FIXED_POINT_LPS = 200  # Tresca fixed point: LPs at most
-# least-thickness search, x span: from the scene's least thickness (a sliver) to (almost) a solid half-disc (the
-# scene's range ends below the span)
-_THICKNESS_RANGE = (SCHEMA["arch"]["thickness"].low, 0.999)
 _LP_METHOD = "highs-ipm"  # HiGHS interior point + crossover (basic solution and duals): 5x faster than simplex
 
 
@@ -167,7 +184,7 @@ class LPResult:
     work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
     iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s);
     load_sides: per scene load, the block ("left" | "right" | "split") that carries it when it lies on a joint,
-    else None (:func:`collapse_load`).
+    else None (:func:`bridgefem.limit.collapse.collapse_load`).
     """
 
     load: float | None
@@ -283,7 +300,7 @@ class _Programme:
                        bounds=self.bounds, method=_LP_METHOD)
 
 
-def _relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Relative rotation [omega] and slip T.[v] of the right block with respect to the left one at each joint."""
     _, c, tang, _ = model.frames()
     padded = np.vstack([vel, np.zeros(3)])  # index -1: the ground, at rest
@@ -299,6 +316,28 @@ def _relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np
     return w_r - w_l, np.einsum("ij,ij->i", v_r - v_l, tang)
 
 
+@dataclass(frozen=True)
+class JointMotion:
+    """What a mechanism does at the joints: ``rotation`` [omega] (rad) and ``slip`` T.[v] (m) per joint
+    (:func:`relative_motion`), and the ids of the joints that rotate (``hinges``) and slide (``sliding``)."""
+
+    rotation: np.ndarray
+    slip: np.ndarray
+    hinges: list[int]
+    sliding: list[int]
+
+
+def joint_motion(model: BlockModel, vel: np.ndarray, other_speed: float = 0.0) -> JointMotion:
+    """The joints that the block velocities ``vel`` (nb, 3) move. A joint is a hinge (sliding) where its relative
+    rotation times the model's extent (its slip) exceeds ``MECHANISM_TOL`` x the largest motion: the largest such
+    rotation or slip, or ``other_speed`` (e.g. the largest speed of a fill that moves with the blocks)."""
+    rot, slip = relative_motion(model, vel)
+    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()  # extent of the model, m
+    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), other_speed, 1e-300)
+    return JointMotion(rot, slip, [int(j) for j in np.nonzero(np.abs(rot) * size > MECHANISM_TOL * scale)[0]],
+                       [int(j) for j in np.nonzero(np.abs(slip) > MECHANISM_TOL * scale)[0]])
+
+
 def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesion: np.ndarray) -> None:
     """Joint forces, mechanism (from the equilibrium duals) and work terms of an optimal LP."""
     nj = model.n_joints
@@ -308,14 +347,10 @@ def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesi
     if res.level is None:  # dead load only: largest block speed = 1
         speed = np.hypot(vel[:, 0], vel[:, 1]).max()
         vel = vel / speed if speed > 0 else vel
-    rot, slip = _relative_motion(model, vel)
-    size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()  # extent of the model, m
-    scale = max(np.abs(rot).max() * size, np.abs(slip).max(), 1e-300)
-    hinge = np.abs(rot) * size > _MECH_TOL * scale
-    res.block_velocities, res.joint_rotation, res.joint_slip = vel, rot, slip
-    res.hinges = [int(j) for j in np.nonzero(hinge)[0]]
-    res.hinge_positions = {j: ("extrados" if rot[j] > 0 else "intrados") for j in res.hinges}
-    res.sliding = [int(j) for j in np.nonzero(np.abs(slip) > _MECH_TOL * scale)[0]]
+    motion = joint_motion(model, vel)
+    res.block_velocities, res.joint_rotation, res.joint_slip = vel, motion.rotation, motion.slip
+    res.hinges, res.sliding = motion.hinges, motion.sliding
+    res.hinge_positions = {j: ("extrados" if motion.rotation[j] > 0 else "intrados") for j in res.hinges}
     res.work_dead = float(model.dead.ravel() @ vel.ravel())
     res.work_live = float(model.live.ravel() @ vel.ravel())
     z = np.asarray(sol.ineqlin.marginals)
@@ -442,142 +477,6 @@ def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
                    np.abs(m) - model.law.moment_capacity(prog.t, n))
 
 
-def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
-               live: bool = True, law: type[JointLaw] | JointLaw | None = None) -> BlockModel:
-    """The voussoirs of a scene's ring as a :class:`BlockModel` (same joint layout as the FE model).
-
-    Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
-    vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
-    uniform per horizontal metre over its x-range. A point load exactly above a joint acts at the joint's extrados
-    corner and is carried as :func:`bridgefem.geometry.ring.point_load_blocks` says for its side: ``load_at_joint`` is
-    one side ("left" | "right" | "split") for every load, or one per scene load (patches ignore theirs).
-    ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
-    only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
-    centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
-    (it does not change the collapse load of rigid blocks). ``law``: the joints' law (default the scene's,
-    :func:`bridgefem.laws.crushing.scene_law`).
-    """
-    a = scene.arch
-    sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
-    if len(sides) != len(scene.loads):
-        raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
-    ring = scene_ring(scene, thickness)
-    blocks = ring.voussoirs + ring.abutments
-    area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
-    ref = np.array(centroid)
-    nb = len(ref)
-    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
-                           + [scene.abutments.unit_weight] * len(ring.abutments))
-    weight = unit_weight * a.width * np.array(area)
-    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
-    if scene.fill is not None:
-        dead = dead + _overburden(ring, scene, ref)
-    live_loads = _live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
-    friction = np.full(len(ring.joints), scene.joints.friction)
-    if ring.bases:
-        friction[[j.id for j in ring.bases]] = scene.abutments.friction
-    return BlockModel(
-        ref=ref, dead=dead, live=live_loads,
-        joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
-        joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
-        joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
-        friction=friction, law=scene_law(scene) if law is None else law)
-
-
-def _live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
-    """(nb, 3) generalised live loads of a scene's loads for unit load factor (see :func:`ring_model`)."""
-    ext = np.vstack([v.extrados for v in ring.voussoirs])
-    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
-    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
-    on, xs, fy = [], [], []
-    for ld, side in zip(scene.loads, sides):
-        lo, hi = ld.x_range(scene.arch.span)
-        if ld.kind == "point":
-            carriers = point_load_blocks(ring, lo, side)
-            j = joint_under(ring, lo)
-            on.append(np.array(carriers))
-            xs.append(np.full(len(carriers), lo if j is None else ring.joints[j].extrados[0]))
-            fy.append(np.full(len(carriers), -ld.factor / len(carriers)))
-        else:
-            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
-            k = np.nonzero(right > left)[0]
-            on.append(k)
-            xs.append(0.5 * (left[k] + right[k]))
-            fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
-    if not on:
-        return np.zeros((len(ref), 3))
-    x, f = np.concatenate(xs), np.concatenate(fy)
-    return generalised_loads(ref, np.concatenate(on), np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
-                             np.column_stack([np.zeros(len(f)), f]))
-
-
-def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:
-    """The scene's ring (the joints and blocks of :func:`ring_model`, its self-weight; without the fill's overburden
-    and without the scene's live loads) loaded by given nodal forces instead of a fill.
-
-    ``blocks`` (k,): the voussoir each force acts on; ``points`` (k, 2): where (m); ``dead_forces`` (k, 2): forces
-    (N, x and y, whole width) added to the dead load; ``live_forces`` (k, 2): the live load for a unit load factor
-    (N per unit factor). With the forces a fill transmits across the arch-fill interface at two states of an FE
-    analysis (:func:`bridgefem.analysis.interface.transmitted_load_check`) this is the ring as the FE sees it: the fill
-    then needs no model of its own, whatever its stiffness or strength.
-    """
-    model = ring_model(dataclasses.replace(scene, fill=None), live=False)
-    blocks = np.asarray(blocks, int)
-    return dataclasses.replace(model, dead=model.dead + generalised_loads(model.ref, blocks, points, dead_forces),
-                               live=generalised_loads(model.ref, blocks, points, live_forces))
-
-
-def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> BlockModel:
-    """The blocks and joints of ``model`` (e.g. :func:`ring_model`) under given block loads instead of its own:
-    ``dead``, ``live`` (nb, 3) Fx, Fy (N) and M (N·m, counter-clockwise) about ``model.ref``, ``live`` for a unit
-    load level, e.g. the FE's assembled self-weight and live load (:func:`bridgefem.analysis.static_bound.block_loads`): the
-    rigid blocks loaded as the FE's meshed voussoirs are."""
-    return dataclasses.replace(model, dead=np.asarray(dead, float), live=np.asarray(live, float))
-
-
-def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
-    """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
-    the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
-    spreading are ignored (live loads still act on the extrados below them)."""
-    road = ring.crown_extrados + scene.fill.depth
-    w = scene.fill.unit_weight * scene.arch.width
-    points, forces = [], []
-    for v in ring.voussoirs:
-        x, h = v.extrados[:, 0], road - v.extrados[:, 1]
-        area = np.trapz(h, x)
-        xc = np.trapz(x * h, x) / area
-        points.append(ring.extrados_point(xc))
-        forces.append((0.0, -w * area))
-    return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
-
-
-def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
-                  law: type[JointLaw] | JointLaw | None = None, **options) -> LPResult:
-    """Rigid-block collapse load of a scene's ring; ``law`` the joints' (default the scene's, :func:`ring_model`);
-    ``options`` go to :func:`solve_blocks`.
-
-    ``load_at_joint``: the block that carries a point load lying on a joint (:func:`ring_model`), or
-    "least-favourable" (the default): the allocation with the least collapse load (:func:`_least_favourable`).
-    The result's ``load_sides`` says which was taken.
-    """
-    ring = scene_ring(scene)
-    span = scene.arch.span
-    on_joint = [i for i, ld in enumerate(scene.loads)
-                if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
-    model = ring_model(scene, load_at_joint="split", law=law)
-
-    def solve(choice: dict[int, str]) -> LPResult:
-        sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))
-        res = solve_blocks(dataclasses.replace(model, live=_live_loads(scene, ring, model.ref, sides)),
-                           friction_model, **options)
-        res.load_sides = [choice.get(i) for i in range(len(scene.loads))]
-        return res
-
-    if load_at_joint != LEAST_FAVOURABLE:
-        return solve({i: load_at_joint for i in on_joint})
-    return _least_favourable(solve, on_joint)
-
-
 def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LPResult:
     """The collapse of the blocks with every joint's shear capacity frozen at ``mu n~`` (``normal_forces`` n~, N
     per joint): the first Tresca LP of :func:`solve_blocks` (``level``, mechanism, joint forces).
@@ -588,83 +487,6 @@ def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LP
     blocks, at least that of any statically admissible state, and the LP duality makes every optimal state do
     exactly the mechanism's dissipation ``mu n~ |slip|`` (complementary slackness)."""
     return solve_blocks(model, "non-associative", seed=normal_forces, max_iterations=1)
-
-
-def collapse_state_from(scene: Scene, normal_forces: np.ndarray, load_sides: list[str | None] | None = None,
-                        **options) -> LPResult:
-    """The non-associative rigid-block collapse state of a scene's ring reached from given joint normal forces.
-
-    ``normal_forces`` (N, one per joint of :func:`ring_model`, e.g. an FE state's joint resultants) seed the Tresca
-    fixed point (:func:`solve_blocks`, ``friction_model="non-associative"``); ``load_sides``: the block carrying
-    each point load on a joint (:func:`collapse_load`'s ``load_sides``; None entries and None: shared). The
-    result's ``converged`` says whether a fixed point was reached; ``options`` go to :func:`solve_blocks`.
-    """
-    sides = tuple(side or "split" for side in (load_sides or [None] * len(scene.loads)))
-    res = solve_blocks(ring_model(scene, load_at_joint=sides), "non-associative", seed=normal_forces, **options)
-    res.load_sides = list(load_sides or [None] * len(scene.loads))
-    return res
-
-
-def _level(res: LPResult) -> float:
-    """The collapse load factor as a number to compare (an unbounded load is +inf)."""
-    return np.inf if res.level is None and res.status == "no collapse (unbounded)" else (res.level or 0.0)
-
-
-def _least_favourable(solve, on_joint: list[int]) -> LPResult:
-    """The least collapse load over the allocations of the point loads on joints (load index -> side).
-
-    With associative friction the load factors ``(lambda_1, ..., lambda_k)`` the blocks can carry form a convex
-    set, so its gauge is convex along the (affine) allocation and its maximum over the box of allocations (the
-    least load factor) sits at a corner: every load wholly on one block. Up to ``_EXHAUSTIVE`` such loads every
-    corner is tried (2^k LPs); beyond, one load at a time is moved to its other block while that lowers the load
-    (a local search, not a proof). The split allocation is kept unless a corner is lower by more than ``_TIE``
-    (relative): where the allocation does not matter (no joint slides) the load stays shared by both faces.
-    """
-    split = solve({})
-    if not on_joint:
-        return split
-    if len(on_joint) <= _EXHAUSTIVE:
-        results = [solve(dict(zip(on_joint, c))) for c in itertools.product(("left", "right"), repeat=len(on_joint))]
-        best = min(results, key=_level)
-    else:
-        choice = dict.fromkeys(on_joint, "left")
-        best = solve(choice)
-        improved = True
-        while improved:
-            improved = False
-            for i in on_joint:
-                trial = {**choice, i: "right" if choice[i] == "left" else "left"}
-                res = solve(trial)
-                if _level(res) < _level(best):
-                    best, choice, improved = res, trial, True
-    if _level(best) < _level(split) * (1 - _TIE):
-        return best
-    split.load_sides = ["split" if i in on_joint else None for i in range(len(split.load_sides))]
-    return split
-
-
-class NoStableThickness(ValueError):
-    """No ring thickness in the searched range carries the self-weight (e.g. too little friction: a semicircle
-    needs mu >= 0.3092, Cocchetti & Rizzi 2020)."""
-
-
-@dataclass
-class ThicknessResult:
-    """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
-    shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
-    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed."""
-
-    thickness: float
-    ratio: float | None
-    radius: float | None
-    mechanism: LPResult
-    bracket: tuple[float, float]
-    evaluations: int
-
-    def to_dict(self) -> dict:
-        return {"thickness": self.thickness, "ratio": self.ratio, "radius": self.radius,
-                "mechanism": self.mechanism.to_dict(), "bracket": list(self.bracket),
-                "evaluations": self.evaluations}
 
 
 def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *, beta: float = RELAXATION,
@@ -711,42 +533,3 @@ def standing_deficit(model: BlockModel) -> float:
     if sol.status != 0:
         raise LPFailure(f"rigid-block deficit LP failed: {sol.message}")
     return float(sol.x[-1] * prog.fref)
-
-
-def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",
-                  **options) -> ThicknessResult:
-    """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.
-
-    A thickness is stable when :func:`dead_load_deficit` is zero; the bracket starts at ``_THICKNESS_RANGE`` x span
-    and is halved until its width is below ``rtol`` x thickness. Raises :class:`NoStableThickness` when even the
-    thickest ring of the range falls. For circular shapes the centreline radius is
-    ``R = R_intrados + t/2`` and ``ratio = t/R``.
-    """
-    span = scene.arch.span
-    evals = 0
-
-    def analyse(t) -> LPResult:
-        nonlocal evals
-        evals += 1
-        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)[1]
-
-    lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
-    thickest = analyse(hi)
-    if thickest.status != "stable under self-weight":
-        how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
-        raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
-                                f"self-weight with friction {scene.joints.friction:g} ({friction_model})"
-                                f"{strength_text(scene)}: {how}")
-    while hi - lo > rtol * hi:
-        mid = 0.5 * (lo + hi)
-        if analyse(mid).status == "stable under self-weight":
-            hi = mid
-        else:
-            lo = mid
-    mechanism = analyse(lo)
-    radius = ratio = None
-    if scene.arch.shape in ("semicircular", "segmental"):
-        a = scene.arch
-        radius = (a.span ** 2 / 4 + a.rise ** 2) / (2 * a.rise) + hi / 2
-        ratio = hi / radius
-    return ThicknessResult(hi, ratio, radius, mechanism, (lo, hi), evals)

@@ -6,8 +6,8 @@ on the resolved scene, so that it means what the same change in the file would m
 1. each section given replaces the keys it names in that section of the document (a key set to None is removed,
    so that its default applies again); a section set to None is removed (e.g. ``fill=None``: a bare arch); the
    ``load`` section is the list of ``[[load]]`` tables and is replaced whole;
-2. the changed document is validated by :func:`bridgefem.scene.schema.scene_from_dict` as a file would be: a bad
-   value or an unknown key raises the same one-line :class:`~bridgefem.scene.schema.SceneError`, and whatever the
+2. the changed document is validated by :func:`bridgefem.scene.reader.scene_from_dict` as a file would be: a bad
+   value or an unknown key raises the same one-line :class:`~bridgefem.scene.keys.SceneError`, and whatever the
    schema derives (a semicircular ring's rise, a preset's mesh and tolerance, an elastic abutment's material) is
    derived again from the new values.
 
@@ -20,7 +20,9 @@ import copy
 import tomllib
 from typing import Any
 
-from .schema import SCHEMA, Scene, resolved_toml, scene_from_dict
+from .model import Scene
+from .reader import resolved_toml, scene_from_dict
+from .schema import SCHEMA
 
 
 def edit(scene: Scene, /, **sections: dict[str, Any] | list[dict[str, Any]] | None) -> Scene:

@@ -1,144 +1,22 @@
-"""Scene files (TOML): read, validate and hold everything a run needs, in SI units.
+"""The schema of scene files: :data:`SCHEMA`, the one source of every scene key: its type, default, unit, allowed
+values and a one-line description, with the speed-accuracy presets that supply some defaults.
 
-:data:`SCHEMA` is the one source of every scene key: its type, default, unit, allowed values and a one-line
-description. The dataclasses take their defaults from it, ``bridgefem check`` prints a scene resolved against it
-and docs/scene-keys.md is generated from it (:func:`keys_markdown`). To add a key: one :class:`Key` line in its
-section of :data:`SCHEMA` and a field of the same name in the section's dataclass (default
-``_default(section, key)``); a key that applies only with a given value of another key names it in ``only``.
-Then regenerate docs/scene-keys.md (``./run python -m bridgefem.scene.schema > docs/scene-keys.md``).
-
-Every rejected value raises :class:`SceneError` naming the key, the value and what is allowed; the command line
-turns it into exit code 2 before anything is written.
+The dataclasses take their defaults from it (:mod:`bridgefem.scene.model`), the reader validates a scene against it
+(:mod:`bridgefem.scene.reader`), ``bridgefem check`` prints a scene resolved against it and docs/scene-keys.md is
+generated from it (:func:`keys_markdown`). To add a key: one :class:`~bridgefem.scene.keys.Key` line in its section
+of :data:`SCHEMA` and a field of the same name in the section's dataclass in :mod:`bridgefem.scene.model` (default
+``_default(section, key)``); a key that applies only with a given value of another key names it in ``only``. Then
+regenerate docs/scene-keys.md (``./run python -m bridgefem.scene.schema > docs/scene-keys.md``).
 """
 from __future__ import annotations
 
-import copy
-import dataclasses
-import difflib
-import math
-import os
-import re
-import stat
-import tomllib
-from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..geometry.ring import SHAPES, make_shape, polygon_area_centroid
-
-PETSC_PREFIX = "bridgefem_"
-"""Options prefix of the contact solver's PETSc objects: ``-bridgefem_ksp_type ...`` on the command line."""
-
-
-class SceneError(ValueError):
-    """A scene value that cannot be used; the message names key, value and what is allowed."""
-
-
-REQUIRED = object()  # a Key default: the key must be given
-
-
-@dataclass(frozen=True)
-class Key:
-    """One scene key. ``default``: REQUIRED, a value, or None when the code derives it (``derived`` says how);
-    numbers must be finite and within ``low``..``high`` (``low_open``/``high_open``: the bound itself excluded),
-    bounds that are multiples of the scene's ``per`` (:data:`SCALES`: "span" or "ring weight") when it is given, so
-    that a range holds for a bridge of any size; ``zero``: 0 is allowed too, outside the range (the key's "none" or
-    "derived" value); ``why``: the physical argument for the range; ``choices``: the allowed values; ``only``: (key,
-    value) of the same section without which this key is refused (e.g. the Mohr-Coulomb keys of an elastic fill)."""
-
-    kind: type
-    doc: str
-    default: Any = REQUIRED
-    unit: str = ""
-    low: float | None = None
-    high: float | None = None
-    low_open: bool = False
-    high_open: bool = False
-    choices: tuple = ()
-    only: tuple[str, str] | None = None
-    derived: str = ""
-    per: str = ""
-    zero: bool = False
-    why: str = ""
-
-    def _bound(self, value: float) -> str:
-        if not self.per:
-            return f"{value:g}"
-        name = SCALES[self.per]
-        return name if value == 1 else f"{value:g} x {name}"
-
-    def allowed(self, scale: float | None = None) -> str:
-        """What is allowed, in words, e.g. "a number from 0.0001 x span to below span in m"; with the scene's
-        ``scale`` of a relative range (the span in m, the ring's weight in N) also the bounds it gives."""
-        if self.choices:
-            return " or ".join(f'"{c}"' if isinstance(c, str) else str(c) for c in self.choices)
-        if self.kind is not int and self.kind is not float:
-            return {bool: "true or false", str: "a string", dict: "a table"}[self.kind]
-        noun = "integer" if self.kind is int else "number"
-        article = "an" if noun == "integer" else "a"
-        lo, hi, unit = self.low, self.high, f" in {self.unit}" if self.unit else ""
-        above = f"{'>' if self.low_open else '>='} {self._bound(lo)}" if lo is not None else ""
-        below = f"{'<' if self.high_open else '<='} {self._bound(hi)}" if hi is not None else ""
-        if lo is not None and hi is not None and not (self.low_open or self.high_open):
-            text = f"{article} {noun} from {self._bound(lo)} to {self._bound(hi)}{unit}"
-        elif lo == 0 and self.low_open:
-            up = f" {'below' if self.high_open else 'up to'} {self._bound(hi)}" if hi is not None else ""
-            text = f"a positive {noun}{unit}{up}"
-        else:
-            text = f"{article} {noun}{unit} {' and '.join(t for t in (above, below) if t)}".rstrip()
-        if self.zero:
-            text = "0 or " + text
-        if scale is not None and self.per:
-            ends = [f"{v * scale:.4g}" for v in (lo, hi) if v is not None]
-            text += f" ({' to '.join(ends)}{' ' + self.unit if self.unit else ''} in this scene)"
-        return text
-
-    def check(self, where: str, value: Any, scale: float | None = None) -> Any:
-        """The value, typed (an integer where a number is expected becomes a float), or SceneError; ``scale``: the
-        scene's span or ring weight (:data:`SCALES`) that a relative range is a multiple of."""
-        if self.kind is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, self.kind) or (self.kind is not bool and isinstance(value, bool)):
-            kind = {float: "number", int: "integer", str: "string", bool: "true or false", dict: "table"}[self.kind]
-            raise SceneError(f"{where} = {_show(value)}: expected {kind} ({self.allowed(scale)})")
-        ok = True
-        if isinstance(value, float) and not math.isfinite(value):
-            ok = False
-        elif self.choices:
-            ok = value in self.choices
-        elif self.kind in (int, float) and not (self.zero and value == 0):
-            if self.per and scale is None:
-                raise TypeError(f"{where}: a range relative to the {self.per} needs the scene's {self.per}")
-            ok = self.within(value, 1.0 if scale is None else scale)
-        if not ok:
-            raise SceneError(f"{where} = {_show(value)}: allowed is {self.allowed(scale)}")
-        return value
-
-    def within(self, value: float, scale: float = 1.0) -> bool:
-        """Whether ``value`` lies in the range with its bounds times ``scale``; a relative bound is met up to the
-        round-off of that product (1e-12 of it), so that the bound a message prints is allowed."""
-        slack = RANGE_RTOL if self.per else 0.0
-        lo = None if self.low is None else self.low * scale
-        hi = None if self.high is None else self.high * scale
-        if lo is not None and not (value > lo if self.low_open else value >= lo - slack * abs(lo)):
-            return False
-        return hi is None or (value < hi if self.high_open else value <= hi + slack * abs(hi))
-
-
-def _show(value: Any, limit: int = 60) -> str:
-    """A value for a one-line message: its repr, cut to ``limit`` characters."""
-    text = repr(value)
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
-
-
-def did_you_mean(name: str, allowed, show=repr) -> str:
-    """The hint after an unknown name in a one-line message: ``"did you mean 'span'? "`` when an allowed name is
-    close to ``name`` (:func:`difflib.get_close_matches`; ``show`` writes it), else ``""``."""
-    close = difflib.get_close_matches(name, list(allowed), n=1) if isinstance(name, str) else []
-    return f"did you mean {show(close[0])}? " if close else ""
-
+from ..geometry.shapes import SHAPES
+from .keys import REQUIRED, Key, toml_value
+from .names import MAX_NAME, MAX_NAME_BYTES
+from .petsc_options import MUMPS_CNTL, MUMPS_ICNTL, PETSC_SCENE_OPTIONS, petsc_key
+from .vehicles import DISPERSIONS, MAX_AXLES, VEHICLES
 
 PRESETS: dict[str, dict[tuple[str, str], Any]] = {
     "fast": {("mesh", "elements_through_thickness"): 2, ("mesh", "degree"): 1, ("solver", "tolerance"): 0.0005},
@@ -165,13 +43,6 @@ FILL_MATERIALS = ("elastic", "mohr-coulomb")
 ABUTMENT_MODELS = ("rigid", "elastic")
 MOVING_SPRINGINGS = ("left", "right", "both")
 MAX_LOADS = 100  # [[load]] tables in one scene
-MAX_NAME = 100  # characters of a scene name (a file name)
-MAX_NAME_BYTES = 200  # in UTF-8: results/<name> and the names a run makes beside it (up to 32 bytes longer) fit 255
-MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
-SCALES = {"span": "span", "ring weight": "the ring's weight"}
-"""What a relative range (:attr:`Key.per`) is a multiple of: the [arch] span (m), or the ring's weight (N, the
-voussoirs' density x gravity x width x the ring's area, :func:`ring_weight`)."""
-RANGE_RTOL = 1e-12  # a relative bound is met up to this fraction of it: the round-off of bound x scale
 _MC = ("material", "mohr-coulomb")
 _ELASTIC = ("model", "elastic")
 _WHY_MODULUS = ("from rubber-like laboratory blocks (1 MPa) to ten times the stiffest rock (basalt, granite: about "
@@ -283,14 +154,34 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "load": {
         "kind": Key(str, "a point load or a patch (uniform per horizontal metre)", choices=("point", "patch")),
-        "position": Key(float, "fraction of the span from the left springing (a patch: its centre)", low=0.0,
-                        high=1.0, why="the span, from the left springing to the right one"),
+        "position": Key(float, "fraction of the span from the left springing (a patch: its centre)", None, low=0.0,
+                        high=1.0, derived="x / span (give position or x)",
+                        why="the span, from the left springing to the right one"),
+        "x": _length("metres from the left springing (a patch: its centre); instead of position", 0.0, 1.0, None,
+                     derived="position x span (give position or x)",
+                     why="the span, from the left springing to the right one"),
         "length": _length("length along the span (patch loads only; 0: a point load)", 1e-3, 1.0, 0.0, zero=True,
                           why="a patch shorter than 1e-3 x span is a point load (kind = \"point\"), one longer "
                               "than the span is off the arch"),
         "factor": Key(float, "share of the load pattern: this load is factor x the load level (N)", 1.0, low=1e-3,
                       high=1e3, why="shares of one pattern (the axles of a vehicle): a load 1e6 times smaller "
                                     "than another is no load"),
+    },
+    "vehicle": {
+        "standard": Key(str, "a published vehicle or load model of the library (docs/assessment.md, with its "
+                        "source); instead of axles and spacing", "", choices=tuple(VEHICLES),
+                        derived="none (axles and spacing given)"),
+        "axles": Key(list, "axle loads in N for the scene's width, first (leftmost) axle first", None,
+                     derived="the standard vehicle's",
+                     why=f"1 to {MAX_AXLES} axles, each a load from 1e-6 to 1e6 x the ring's weight"),
+        "spacing": Key(list, "distances in m between consecutive axles (one fewer than axles)", None,
+                       derived="the standard vehicle's; none for one axle",
+                       why="each longer than the tyre contact and at most 10 x span"),
+        "contact_length": _length("tyre contact along the road (0: point loads; a patch of this length per axle)",
+                                  1e-3, 1.0, None, zero=True, derived="the standard vehicle's, else 0",
+                                  why="a patch shorter than 1e-3 x span is a point load"),
+        "dispersion": Key(str, "how the rigid-block LP spreads an axle through a fill onto the extrados (the FE "
+                          "carries it through the fill itself)", "boussinesq", choices=DISPERSIONS),
     },
     "fill": {
         "unit_weight": _unit_weight("weight density of the fill"),
@@ -366,566 +257,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
 }
 """Every scene key, by section ("load": the keys of each [[load]] table)."""
-_REQUIRED_SECTIONS = ("arch", "masonry", "joints")
-_OPTIONAL_SECTIONS = ("fill", "abutments")
-
-_KSP_TOLERANCE = dict(unit="", low=0.0, low_open=True, high=1.0)
-PETSC_SCENE_OPTIONS: dict[str, Key] = {
-    "ksp_type": Key(str, "Krylov method (preonly: the direct solve alone)", choices=("preonly", "gmres", "fgmres",
-                                                                                    "bcgs", "richardson")),
-    "pc_type": Key(str, "preconditioner (lu: direct solve)", choices=("lu", "ilu", "jacobi", "sor", "none")),
-    "pc_factor_mat_solver_type": Key(str, "direct solver package", choices=("mumps", "petsc", "superlu_dist")),
-    "pc_factor_mat_ordering_type": Key(str, "fill-reducing ordering of PETSc's own LU",
-                                       choices=("nd", "natural", "rcm", "qmd", "1wd")),
-    "pc_factor_shift_type": Key(str, "pivot shift", choices=("none", "nonzero", "positive_definite", "inblocks")),
-    "pc_factor_shift_amount": Key(float, "pivot shift amount", low=0.0, high=1.0),
-    "ksp_rtol": Key(float, "relative tolerance of an iterative solve", **_KSP_TOLERANCE),
-    "ksp_atol": Key(float, "absolute tolerance of an iterative solve", low=0.0, low_open=True, high=1e10),
-    "ksp_divtol": Key(float, "divergence tolerance of an iterative solve", low=1.0, high=1e30),
-    "ksp_max_it": Key(int, "iterations of an iterative solve", low=1, high=1000000),
-}
-"""PETSc options a scene's [solver.petsc] may set: solver settings only. Viewers, monitors, anything that reads or
-writes a file or opens a display or socket is refused here; the command line (--petsc) may pass any option."""
-MUMPS_ICNTL = {6: (0, 7), 7: (0, 7), 8: (-2, 77), 10: (-100, 100), 12: (0, 3), 13: (-1, 100000), 14: (0, 1000),
-               23: (0, 100000), 24: (0, 1), 25: (-1, 100000), 28: (0, 2), 29: (0, 2), 35: (0, 3), 36: (0, 1),
-               38: (0, 1000)}
-"""MUMPS integer controls a scene may set (mat_mumps_icntl_N: allowed range): orderings, scaling, pivoting,
-workspace (14: extra %, 23: MB, bounded so that a scene cannot ask for the machine's memory), null pivots, low
-rank; not 1-4 (output streams and verbosity) nor 22 (out-of-core files)."""
-MUMPS_CNTL = (1, 2, 3, 4, 5, 7)
-"""MUMPS real controls a scene may set (mat_mumps_cntl_N): pivoting thresholds, refinement, low-rank dropping."""
-
-
-def _petsc_key(name: str) -> Key | None:
-    if name in PETSC_SCENE_OPTIONS:
-        return PETSC_SCENE_OPTIONS[name]
-    m = re.fullmatch(r"mat_mumps_(icntl|cntl)_([0-9]{1,2})", name)
-    if m and m[1] == "icntl" and int(m[2]) in MUMPS_ICNTL:
-        low, high = MUMPS_ICNTL[int(m[2])]
-        return Key(int, f"MUMPS ICNTL({int(m[2])})", low=low, high=high)
-    if m and m[1] == "cntl" and int(m[2]) in MUMPS_CNTL:
-        return Key(float, "MUMPS CNTL", low=-1e30, high=1e30)
-    return None
-
-
-def _petsc_allowed() -> str:
-    return (", ".join(PETSC_SCENE_OPTIONS) + ", mat_mumps_icntl_N (N = " + ", ".join(map(str, MUMPS_ICNTL))
-            + "), mat_mumps_cntl_N (N = " + ", ".join(map(str, MUMPS_CNTL)) + ")")
-
-
-def _default(section: str, key: str) -> Any:
-    """A key's default, from :data:`SCHEMA` (the dataclasses' field defaults)."""
-    return SCHEMA[section][key].default
-
-
-@dataclass(frozen=True)
-class Arch:
-    """The masonry ring: lengths in m measured on the intrados (span, rise); thickness normal to the centreline."""
-
-    shape: str
-    span: float
-    rise: float
-    thickness: float
-    width: float
-    voussoirs: int
-    joint_at_loads: bool = _default("arch", "joint_at_loads")
-
-
-@dataclass(frozen=True)
-class Masonry:
-    """Voussoir material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3) and the joints' compressive
-    strength (Pa; None: infinitely strong)."""
-
-    young: float
-    poisson: float
-    density: float
-    compressive_strength: float | None = _default("masonry", "compressive_strength")
-
-
-@dataclass(frozen=True)
-class JointProperties:
-    """Coulomb friction coefficient of every joint, springings included."""
-
-    friction: float
-
-
-@dataclass(frozen=True)
-class Fill:
-    """Backfill over the ring, in plane strain, between vertical ends and a base at the level of the springings'
-    extrados corners (the rigid abutments below it are not meshed).
-
-    unit_weight (N/m^3); young (Pa), poisson; depth (m): road level above the crown's extrados; extension (m):
-    horizontal reach beyond each springing's extrados corner; material: "elastic" or "mohr-coulomb" (Drucker-Prager
-    cone matched to Mohr-Coulomb in plane strain, see :mod:`bridgefem.laws.soil`) with friction_angle (degrees),
-    cohesion (Pa), tension_cutoff (Pa, limit of the mean stress) and dilation_angle (degrees, 0 to friction_angle;
-    None: equal to friction_angle, associated flow); interface_friction: Coulomb coefficient of
-    the arch-fill interface (the extrados); element_size (m): mesh size away from the ring; loading_beam: patch
-    loads reach the road through rigid loading beams (a test's spreader beam, a wheel's footprint) rather than as a
-    flexible pressure, whose edge a frictional fill cannot carry (q <= c N_c at the edge of a uniform pressure).
-    """
-
-    unit_weight: float
-    young: float
-    depth: float
-    extension: float
-    poisson: float = _default("fill", "poisson")
-    material: str = _default("fill", "material")
-    friction_angle: float = _default("fill", "friction_angle")
-    cohesion: float = _default("fill", "cohesion")
-    tension_cutoff: float = _default("fill", "tension_cutoff")
-    dilation_angle: float | None = _default("fill", "dilation_angle")
-    interface_friction: float = _default("fill", "interface_friction")
-    element_size: float = _default("fill", "element_size")
-    loading_beam: bool = _default("fill", "loading_beam")
-
-
-@dataclass(frozen=True)
-class Abutments:
-    """What carries the ring at its springings, and an optional imposed support movement.
-
-    model: "rigid" (the springing joints bear on the rigid ground; no abutment mesh) or "elastic" (a block below
-    each springing, from the springing line y = 0 down to y = -height (m), reaching ``length`` (m) outwards from
-    the springing's intrados corner, with its own joints: the springing joint to the ring and its base to the
-    rigid ground); young (Pa), poisson, unit_weight (N/m^3) of the blocks; friction: Coulomb coefficient of the
-    base joints. Movement of the ground under ``movement_springing`` ("left", "right" or "both": under the
-    springing joint, or under the abutment's base): movement_horizontal (m, positive = spreading, away from the
-    span), movement_vertical (m, positive = up; a settlement is negative), imposed after the self-weight and
-    before the live load in ``movement_steps`` equal increments.
-    """
-
-    model: str = _default("abutments", "model")
-    height: float | None = None  # this key and the next five: elastic abutments only (None when rigid)
-    length: float | None = None
-    young: float | None = None
-    poisson: float | None = None
-    unit_weight: float | None = None
-    friction: float | None = None
-    movement_springing: str = _default("abutments", "movement_springing")
-    movement_horizontal: float = _default("abutments", "movement_horizontal")
-    movement_vertical: float = _default("abutments", "movement_vertical")
-    movement_steps: int = _default("abutments", "movement_steps")
-
-    @property
-    def elastic(self) -> bool:
-        return self.model == "elastic"
-
-    @property
-    def moves(self) -> bool:
-        return bool(self.movement_horizontal or self.movement_vertical)
-
-
-RIGID_ABUTMENTS = Abutments()
-
-
-@dataclass(frozen=True)
-class Load:
-    """A vertical live load on the extrados, or on the road surface when the scene has a fill; ``position`` is the
-    fraction of the span from the left springing (the centre of a patch), ``length`` the patch length along the
-    span (m), ``factor`` its share of the load pattern (the live load is factor x load level, N)."""
-
-    kind: str
-    position: float
-    length: float = _default("load", "length")
-    factor: float = _default("load", "factor")
-
-    def x_range(self, span: float) -> tuple[float, float]:
-        """Horizontal extent on the extrados (m); a point load has zero length."""
-        x = -span / 2 + self.position * span
-        return x - self.length / 2, x + self.length / 2
-
-
-@dataclass(frozen=True)
-class MeshOptions:
-    """Elements through the ring thickness and Lagrange degree of the displacement field (1 or 2)."""
-
-    elements_through_thickness: int = _default("mesh", "elements_through_thickness")
-    degree: int = _default("mesh", "degree")
-
-
-@dataclass(frozen=True)
-class ModelOptions:
-    """2D idealisation: plane strain (default) or plane stress."""
-
-    plane: str = _default("model", "plane")
-
-
-@dataclass(frozen=True)
-class SolverOptions:
-    """Path following and semismooth Newton settings.
-
-    tolerance: relative width of the limit-load bracket; max_iterations: active-set iterations per step;
-    max_load: live load (N) at which the search stops as "locked" (0: 100 x ring weight);
-    initial_step: first live-load step (N; 0: ring weight / 4); max_steps: load steps in all;
-    petsc: PETSc options for the linear solver (prefix ``bridgefem_``), e.g. {pc_factor_mat_solver_type = "mumps"};
-    preset: the speed-accuracy preset (:data:`PRESETS`, :data:`FILL_PRESETS` with a Mohr-Coulomb fill) that
-    supplied the mesh and tolerance defaults;
-    stiffness_drop: with a fill, a load step whose secant stiffness (load over deflection increment), or tangent
-    stiffness at its converged state, falls below this fraction of the tangent stiffness after self-weight marks the
-    limit (the load-deflection curve is flat: :mod:`bridgefem.search.pathfollow`, *Flat curve*; 0: only a lost equilibrium).
-    """
-
-    tolerance: float = _default("solver", "tolerance")
-    max_iterations: int = _default("solver", "max_iterations")
-    max_load: float = _default("solver", "max_load")
-    initial_step: float = _default("solver", "initial_step")
-    max_steps: int = _default("solver", "max_steps")
-    petsc: dict = field(default_factory=dict)
-    preset: str = _default("solver", "preset")
-    stiffness_drop: float = _default("solver", "stiffness_drop")
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A validated scene; ``gravity`` in m/s^2. ``document``: the dictionary it was validated from (the TOML
-    document as given, before defaults), which an edit re-validates with its changes
-    (:mod:`bridgefem.scene.document`); not part of the scene's value."""
-
-    name: str
-    arch: Arch
-    masonry: Masonry
-    joints: JointProperties
-    loads: tuple[Load, ...]
-    gravity: float = _default("scene", "gravity")
-    fill: Fill | None = None
-    abutments: Abutments = RIGID_ABUTMENTS
-    mesh: MeshOptions = MeshOptions()
-    model: ModelOptions = ModelOptions()
-    solver: SolverOptions = SolverOptions()
-    document: dict | None = field(default=None, compare=False, repr=False)
-
-    def load_edges_x(self) -> list[float]:
-        """Horizontal positions (m) of point loads and patch edges: where joints go by default."""
-        xs: list[float] = []
-        for ld in self.loads:
-            a, b = ld.x_range(self.arch.span)
-            xs.extend([a] if ld.kind == "point" else [a, b])
-        return xs
-
-
-_BIDI = frozenset([0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F), *range(0x2066, 0x206A)])
-
-
-def unsafe_character(text: str) -> str | None:
-    """The first character of ``text`` that must not be in a name bridgefem prints and creates, as "U+202E (...)",
-    or None: C0 and C1 control characters and DEL (a terminal acts on them: ESC and CSI sequences), the Unicode
-    bidirectional-text controls (they reorder how the name is shown: ``arch\\u202egpj.exe`` shows as
-    ``archexe.jpg``), line and paragraph separators (a name in a one-line message) and bytes that are not UTF-8
-    (decoded as lone surrogates, which cannot be printed)."""
-    for c in text:
-        code = ord(c)
-        if code < 0x20 or 0x7F <= code <= 0x9F:
-            what = "a control character"
-        elif code in _BIDI:
-            what = "a bidirectional-text control, which reorders how the name is shown"
-        elif code in (0x2028, 0x2029):
-            what = "a line or paragraph separator"
-        elif 0xD800 <= code <= 0xDFFF:
-            return f"byte 0x{code & 0xFF:02X} (not UTF-8)"
-        else:
-            continue
-        return f"U+{code:04X} ({what})"
-    return None
-
-
-def check_name(name: str, where: str) -> str:
-    """A scene name is a file name: 1 to MAX_NAME characters and MAX_NAME_BYTES bytes, no path separator, no
-    control or bidi character (:func:`unsafe_character`: it is printed and names a folder), not
-    starting with "." (so neither "." nor ".." nor a hidden folder)."""
-    unsafe = unsafe_character(name)
-    bad = (unsafe or not name or len(name) > MAX_NAME or len(name.encode()) > MAX_NAME_BYTES or name.startswith(".")
-           or "/" in name or "\\" in name or name != name.strip())
-    if bad:
-        held = f" (it holds {unsafe})" if unsafe else ""
-        raise SceneError(f"{where} = {_show(name)}{held}: allowed is a file name of 1 to {MAX_NAME} characters "
-                         f"({MAX_NAME_BYTES} bytes in UTF-8) without /, \\, control or bidi characters or surrounding "
-                         "spaces, not starting with \".\"")
-    return name
-
-
-def _section(data: Any, name: str, label: str, scales: dict[str, float]) -> dict[str, Any]:
-    """The section's keys checked and typed, defaults filled in; a key that needs another key's value
-    (:attr:`Key.only`) is refused without it. A relative range is checked against ``scales`` (:data:`SCALES`), to
-    which the [arch] span is added when it is read (the ring's other lengths follow it in the section)."""
-    if not isinstance(data, dict):
-        raise SceneError(f"{label}: expected a table, got {_show(data)}")
-    schema = SCHEMA[name]
-    unknown = sorted(set(data) - set(schema))
-    if unknown:
-        raise SceneError(f"{label}: unknown key {_show(unknown[0])}; {did_you_mean(unknown[0], schema)}allowed keys "
-                         f"are {', '.join(schema)}")
-    out = {}
-    for k, key in schema.items():
-        where = f"{label} {k}"
-        if k in data:
-            out[k] = key.check(where, data[k], scales.get(key.per))
-            if (name, k) == ("arch", "span"):
-                scales["span"] = out[k]
-        elif key.default is REQUIRED:
-            raise SceneError(f"{where}: missing; expected {key.allowed()}")
-        else:
-            out[k] = key.default
-    for k, key in schema.items():
-        if key.only and k in data and out[key.only[0]] != key.only[1]:
-            raise SceneError(f"{label} {k} = {_show(data[k])}: only for {key.only[0]} = \"{key.only[1]}\" "
-                             f"({key.only[0]} is \"{out[key.only[0]]}\")")
-    return out
-
-
-def _petsc(table: dict[str, Any]) -> dict[str, Any]:
-    """The scene's [solver.petsc] table, every key on the allow-list and its value checked."""
-    out = {}
-    for k, v in table.items():
-        key = _petsc_key(k)
-        if key is None:
-            name = k if re.fullmatch(r"[A-Za-z0-9_]{1,60}", k) else _show(k)
-            raise SceneError(f"[solver.petsc] {name}: not an allowed solver option; allowed in a "
-                             f"scene are {_petsc_allowed()} (any other PETSc option only on the command line: --petsc)")
-        out[k] = key.check(f"[solver.petsc] {k}", v)
-    return out
-
-
-def _check_rise(a: dict[str, Any]) -> float:
-    span, rise, shape = a["span"], a["rise"], a["shape"]
-    if shape == "semicircular":
-        if rise is not None and not math.isclose(rise, span / 2, rel_tol=1e-6):
-            raise SceneError(f"[arch] rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = {span / 2:g} m "
-                             "(omit rise, or use shape = \"segmental\" / \"elliptical\")")
-        return span / 2
-    if rise is None:
-        raise SceneError(f"[arch] rise: missing; required for shape = \"{shape}\" "
-                         f"({SCHEMA['arch']['rise'].allowed(span)})")
-    key = SCHEMA["arch"]["rise"]
-    limits = {"segmental": (rise <= span / 2, f"rise from {key.low:g} x span to span/2 = {span / 2:g} m"),
-              "pointed": (rise >= span / 2, f"rise from span/2 = {span / 2:g} m to {key.high:g} x span")}
-    ok, allowed = limits.get(shape, (True, ""))
-    if not ok:
-        raise SceneError(f"[arch] rise = {rise!r}: for shape = \"{shape}\" allowed is {allowed}")
-    return rise
-
-
-def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
-    """Validate a parsed TOML document and build a :class:`Scene`."""
-    unknown = sorted(set(data) - set(SCHEMA) - {"load"})
-    if unknown:
-        hint = did_you_mean(unknown[0], SCHEMA, lambda s: "[[load]]" if s == "load" else f"[{s}]")
-        raise SceneError(f"[{_show(unknown[0])[1:-1]}]: unknown section; {hint}allowed sections are "
-                         + ", ".join(f"[{s}]" for s in SCHEMA if s != "load") + ", [[load]]")
-    for name in _REQUIRED_SECTIONS:
-        if name not in data:
-            raise SceneError(f"[{name}]: missing section; expected the sections "
-                             + ", ".join(f"[{n}]" for n in _REQUIRED_SECTIONS) + " (and others as needed)")
-    scales: dict[str, float] = {}
-    sec: dict[str, dict[str, Any]] = {}
-    for section in SCHEMA:
-        if section == "load" or (section not in data and section in _OPTIONAL_SECTIONS):
-            continue
-        sec[section] = _section(data.get(section, {}), section, f"[{section}]", scales)
-        if section == "arch":
-            sec[section]["rise"] = _check_rise(sec[section])
-        elif section == "masonry":
-            scales["ring weight"] = ring_weight(sec["arch"], sec["masonry"]["density"], sec["scene"]["gravity"])
-    name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
-    preset = sec["solver"]["preset"]
-    plastic_fill = "fill" in sec and sec["fill"]["material"] == "mohr-coulomb"
-    for (section, key), value in (FILL_PRESETS if plastic_fill else PRESETS)[preset].items():
-        if key not in data.get(section, {}):
-            sec[section][key] = value
-    a = sec["arch"]
-    raw_loads = data.get("load", [])
-    if not isinstance(raw_loads, list):
-        raise SceneError(f"[[load]] = {_show(raw_loads)}: expected [[load]] tables (none: self-weight only)")
-    if len(raw_loads) > MAX_LOADS:
-        raise SceneError(f"[[load]]: {len(raw_loads)} tables; allowed are at most {MAX_LOADS}")
-    loads = []
-    for i, raw in enumerate(raw_loads):
-        label = f"[[load]] #{i + 1}"
-        ld = Load(**_section(raw, "load", label, scales))
-        if ld.kind == "point" and ld.length:
-            raise SceneError(f"{label} length = {ld.length!r}: a point load has no length (use kind = \"patch\")")
-        if ld.kind == "patch" and ld.length == 0:
-            patch = replace(SCHEMA["load"]["length"], zero=False).allowed(a["span"])
-            raise SceneError(f"{label} length = {ld.length!r}: a patch load needs a length; allowed is {patch}")
-        lo, hi = ld.x_range(a["span"])
-        if lo < -a["span"] / 2 * (1 + RANGE_RTOL) or hi > a["span"] / 2 * (1 + RANGE_RTOL):
-            raise SceneError(f"{label} position = {ld.position!r}, length = {ld.length!r}: the load spans "
-                             f"x = {lo:g}..{hi:g} m; allowed is a load within the span, x = -{a['span'] / 2:g}..{a['span'] / 2:g} m")
-        loads.append(ld)
-    solver = {**sec["solver"], "petsc": _petsc(sec["solver"]["petsc"])}
-    fill = Fill(**sec["fill"]) if "fill" in sec else None
-    if fill is not None and fill.material == "mohr-coulomb" and fill.friction_angle == 0 and fill.cohesion == 0:
-        raise SceneError("[fill] cohesion = 0.0: a mohr-coulomb fill with friction_angle = 0 needs cohesion > 0")
-    if fill is not None and fill.dilation_angle is not None and fill.dilation_angle > fill.friction_angle:
-        raise SceneError(f"[fill] dilation_angle = {fill.dilation_angle!r}: allowed is an angle from 0 to "
-                         f"friction_angle = {fill.friction_angle:g} degrees")
-    if fill is not None and fill.material == "mohr-coulomb":
-        for i, ld in enumerate(loads):
-            if ld.kind == "point":
-                raise SceneError(f"[[load]] #{i + 1} kind = \"point\": a point force on a Mohr-Coulomb fill has no "
-                                 "finite collapse load; allowed is kind = \"patch\" with the length of the wheel or "
-                                 "loading beam")
-    if fill is not None and fill.loading_beam:
-        _beams_apart(loads, a["span"])
-    abutments = _abutments(sec["abutments"], sec) if "abutments" in sec else RIGID_ABUTMENTS
-    return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments,
-                 arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
-                 loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
-                 solver=SolverOptions(**solver), document=copy.deepcopy(data))
-
-
-def _beams_apart(loads: list[Load], span: float) -> None:
-    """With ``[fill] loading_beam`` each patch has its own rigid beam on the road: two patches may not overlap or
-    touch (their beams would share road or a side)."""
-    ranges = sorted((ld.x_range(span), i) for i, ld in enumerate(loads) if ld.kind == "patch")
-    for ((a0, b0), i), ((a1, b1), j) in zip(ranges[:-1], ranges[1:]):
-        if a1 <= b0:
-            raise SceneError(f"[[load]] #{i + 1} and #{j + 1}: the patches over x = [{a0:.6g}, {b0:.6g}] and "
-                             f"[{a1:.6g}, {b1:.6g}] m touch or overlap, and so would their loading beams; allowed: "
-                             "patches apart, or [fill] loading_beam = false (pressures)")
-
-
-def ring_weight(arch: dict[str, Any], density: float, gravity: float) -> float:
-    """The ring's weight (N) from the scene alone, the scale of the [solver] force keys' ranges: density x gravity x
-    width x the area between the intrados and the extrados (a polygon through 257 points of each: within 1e-4 of
-    the voussoirs' area, 2e-3 at the cap of a tall pointed crown; a scale, not the analysis' weight)."""
-    shape = make_shape(arch["shape"], arch["span"], arch["rise"])
-    p = np.linspace(0.0, 1.0, 257)
-    intrados = shape.point(p)
-    extrados = intrados + arch["thickness"] * shape.normal(p)
-    area = abs(polygon_area_centroid(np.vstack([intrados, extrados[::-1]]))[0])
-    return density * gravity * arch["width"] * area
-
-
-def scene_scales(scene: Scene) -> dict[str, float]:
-    """What the scene's relative ranges are multiples of (:data:`SCALES`): its span (m) and its ring's weight (N)."""
-    return {"span": scene.arch.span,
-            "ring weight": ring_weight(asdict(scene.arch), scene.masonry.density, scene.gravity)}
-
-
-def springing_reach(arch: dict[str, Any]) -> float:
-    """Horizontal distance (m) from a springing's intrados corner to its extrados corner."""
-    shape = make_shape(arch["shape"], arch["span"], arch["rise"])
-    return float(abs(arch["thickness"] * shape.normal(0.0)[0]))
-
-
-def _abutments(ab: dict[str, Any], sec: dict[str, dict[str, Any]]) -> Abutments:
-    """Check the [abutments] keys against each other and fill in the defaults taken from the masonry and joints."""
-    if (ab["movement_horizontal"] or ab["movement_vertical"]) and not ab["movement_springing"]:
-        raise SceneError("[abutments] movement_springing: missing; required with a support movement "
-                         "(" + SCHEMA["abutments"]["movement_springing"].allowed() + ")")
-    if ab["model"] == "rigid":
-        return Abutments(**ab)
-    if ab["height"] is None:
-        raise SceneError("[abutments] height: missing; required for model = \"elastic\" "
-                         f"({SCHEMA['abutments']['height'].allowed(sec['arch']['span'])})")
-    reach = springing_reach(sec["arch"])
-    if ab["length"] is not None and ab["length"] < reach * (1 - 1e-9):
-        raise SceneError(f"[abutments] length = {ab['length']!r}: allowed is a length >= {reach:g} m, the "
-                         "springing joint's horizontal reach (the joint must rest on the abutment)")
-    m = sec["masonry"]
-    defaults = {"length": reach, "young": m["young"], "poisson": m["poisson"],
-                "unit_weight": m["density"] * sec["scene"]["gravity"], "friction": sec["joints"]["friction"]}
-    ab.update({k: v for k, v in defaults.items() if ab[k] is None})
-    return Abutments(**ab)
-
-
-def show_path(path: str | Path) -> str:
-    """A file name for a one-line message: as given, or its repr (cut) when it holds control characters or is
-    long."""
-    text = os.fsdecode(path)
-    return text if len(text) <= 200 and text.isprintable() else _show(text, 200)
-
-
-def read_scene_text(path: str | Path) -> str:
-    """The text of a scene file: a regular file (not a folder, FIFO, device or socket, refused before reading),
-    at most MAX_SCENE_BYTES, in UTF-8."""
-    where = show_path(path)
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # O_NONBLOCK: a FIFO cannot block
-    except FileNotFoundError:
-        raise SceneError(f"{where}: no such scene file") from None
-    except PermissionError:
-        raise SceneError(f"{where}: cannot read the scene file (permission denied)") from None
-    except ValueError:
-        raise SceneError(f"{where}: not a usable file name (it holds a NUL character)") from None
-    except OSError as err:
-        raise SceneError(f"{where}: cannot open the scene file ({err.strerror})") from None
-    try:
-        mode = os.fstat(fd).st_mode
-        if stat.S_ISDIR(mode):
-            raise SceneError(f"{where}: is a folder; expected a scene file (TOML)")
-        if not stat.S_ISREG(mode):
-            raise SceneError(f"{where}: not a regular file (a FIFO, device or socket); expected a scene file (TOML)")
-        chunks, size = [], 0
-        while size <= MAX_SCENE_BYTES and (chunk := os.read(fd, MAX_SCENE_BYTES + 1 - size)):
-            chunks.append(chunk)
-            size += len(chunk)
-        raw = b"".join(chunks)
-    except OSError as err:
-        raise SceneError(f"{where}: cannot read the scene file ({err.strerror})") from None
-    finally:
-        os.close(fd)
-    if len(raw) > MAX_SCENE_BYTES:
-        raise SceneError(f"{where}: larger than {MAX_SCENE_BYTES} bytes; a scene file is a short TOML text")
-    try:
-        return raw.decode("utf-8").removeprefix("\ufeff")
-    except UnicodeDecodeError as err:
-        raise SceneError(f"{where}: not UTF-8 text (byte {err.start}); a scene file is TOML in UTF-8") from None
-
-
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file; the scene name defaults to the file name without extension."""
-    text = read_scene_text(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"{show_path(path)}: not valid TOML ({err})") from None
-    except RecursionError:
-        raise SceneError(f"{show_path(path)}: not valid TOML (nested too deeply)") from None
-    stem = Path(os.fsdecode(path)).stem
-    named = isinstance(data.get("scene"), dict) and "name" in data["scene"]
-    if not named:
-        check_name(stem, f"{show_path(path)}: the file name gives the scene name")
-    return scene_from_dict(data, default_name=stem)
-
-
-# ----------------------------------------------------------------------------- the resolved scene and the keys
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, float) and len(repr(value)) > 12 and float(f"{value:g}") == value:
-        return f"{value:g}"  # 1e+10, not 10000000000.0
-    return repr(value)
-
-
-def resolved_toml(scene: Scene) -> str:
-    """The scene with every key resolved (defaults, preset and derived values filled in), as TOML with each
-    key's unit: what ``bridgefem check`` prints. Reading it back gives the same scene."""
-    objects = {"scene": scene, "arch": scene.arch, "masonry": scene.masonry, "joints": scene.joints,
-               "fill": scene.fill, "abutments": scene.abutments, "mesh": scene.mesh, "model": scene.model,
-               "solver": scene.solver}
-    lines: list[str] = []
-
-    def table(header: str, section: str, obj: Any) -> None:
-        lines.append(header)
-        for k, key in SCHEMA[section].items():
-            value = getattr(obj, k)
-            if k == "petsc" or value is None or value == "" or (key.only and getattr(obj, key.only[0]) != key.only[1]):
-                continue
-            note = "  # " + key.unit if key.unit else ""
-            lines.append(f"{k} = {_toml_value(value)}{note}")
-        lines.append("")
-
-    for section in SCHEMA:
-        if section == "load":
-            for ld in scene.loads:
-                table("[[load]]", "load", ld)
-        elif objects[section] is not None:
-            table(f"[{section}]", section, objects[section])
-    if scene.solver.petsc:
-        lines += ["[solver.petsc]"] + [f"{k} = {_toml_value(v)}" for k, v in scene.solver.petsc.items()] + [""]
-    return "\n".join(lines)
 
 
 def keys_markdown() -> str:
@@ -944,7 +275,7 @@ def keys_markdown() -> str:
                 "| key | default | unit | allowed | meaning | why this range |", "|---|---|---|---|---|---|"]
         for k, key in keys.items():
             default = ("*required*" if key.default is REQUIRED else key.derived if key.derived
-                       else "{}" if key.default == {} else _toml_value(key.default))
+                       else "{}" if key.default == {} else toml_value(key.default))
             only = f" (only with {key.only[0]} = \"{key.only[1]}\")" if key.only else ""
             out.append(f"| `{k}` | {default} | {key.unit} | {key.allowed()} | {key.doc}{only} | {key.why} |")
         out.append("")
@@ -953,19 +284,13 @@ def keys_markdown() -> str:
             "viewers and monitors, only on the command line (`--petsc KEY=VALUE`).", "",
             "| key | allowed | meaning |", "|---|---|---|"]
     out += [f"| `{k}` | {key.allowed()} | {key.doc} |" for k, key in PETSC_SCENE_OPTIONS.items()]
-    out += [f"| `mat_mumps_icntl_{n}` | {_petsc_key(f'mat_mumps_icntl_{n}').allowed()} | MUMPS ICNTL({n}) |"
+    out += [f"| `mat_mumps_icntl_{n}` | {petsc_key(f'mat_mumps_icntl_{n}').allowed()} | MUMPS ICNTL({n}) |"
             for n in MUMPS_ICNTL]
     out += [
-            f"| `mat_mumps_cntl_N`, N = {', '.join(map(str, MUMPS_CNTL))} | {_petsc_key('mat_mumps_cntl_1').allowed()} "
+            f"| `mat_mumps_cntl_N`, N = {', '.join(map(str, MUMPS_CNTL))} | {petsc_key('mat_mumps_cntl_1').allowed()} "
             "| MUMPS real controls |", ""]
     return "\n".join(out)
 
 
 if __name__ == "__main__":
     print(keys_markdown(), end="")
-
-
-def with_mesh(scene: Scene, elements_through_thickness: int) -> Scene:
-    """The scene with its ring (and so its fill) meshed by this many elements through the thickness."""
-    return dataclasses.replace(scene, mesh=dataclasses.replace(scene.mesh,
-                                                               elements_through_thickness=elements_through_thickness))

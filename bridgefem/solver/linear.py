@@ -25,7 +25,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..petsc_start import startup_options
-from ..scene.schema import PETSC_PREFIX, SceneError
+from ..scene.keys import SceneError
+from ..scene.petsc_options import PETSC_PREFIX
 
 DEFAULT_PETSC_OPTIONS = {
     "ksp_type": "preonly",

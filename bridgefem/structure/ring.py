@@ -1,11 +1,31 @@
-"""The ring a scene describes: its voussoirs and joints with the joints placed under the loads, the elastic
-abutments when the scene has them, and the loads' names and moves for messages and results."""
+"""A scene's ring: the blocks and joints its keys describe, built in one place for every model, and the loads'
+names and moves for messages and results.
+
+:func:`scene_ring` reads ``[arch]`` (shape, span, rise, thickness, voussoirs, joint_at_loads), the horizontal
+positions of the point loads and patch edges (:meth:`bridgefem.scene.model.Scene.load_edges_x`) and
+``[abutments]``, and
+
+1. builds the ring of voussoirs and joints (:func:`bridgefem.geometry.ring.build_ring`), with a joint moved under
+   each load when ``joint_at_loads`` asks for it;
+2. with elastic abutments, adds the two abutment blocks and their base joints on the ground
+   (:func:`bridgefem.geometry.ring.add_abutments`).
+
+The FE model (:mod:`bridgefem.fe.mesh` meshes this ring), the rigid-block LP (:mod:`bridgefem.limit.ring_blocks`)
+and the conic bounds (:mod:`bridgefem.limit.bounds_model`) all take their ring from here, so that the LP checks the
+FE on the same joints. Lengths in m; coordinates, numbering and the joints' left/right blocks as in
+:mod:`bridgefem.geometry.ring`: voussoirs 0 .. N - 1 and joints 0 (left springing) .. N (right springing); the
+abutments are blocks N (left) and N + 1 (right) with base joints N + 1 and N + 2. A load layout the geometry cannot
+honour raises :class:`~bridgefem.scene.keys.SceneError` naming the loads in words (:func:`load_labels`), as any
+other bad value of a scene. A point load that acts at the corner of a joint it was not given (within
+``AT_JOINT_TOL`` x span of it) is reported, never silent (:func:`snapped_loads`).
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from ..geometry.ring import AT_JOINT_TOL, ArchRing, add_abutments, build_ring, joint_under
-from ..scene.schema import Scene, SceneError
+from ..scene.keys import SceneError
+from ..scene.model import Scene
 
 
 def load_labels(scene: Scene) -> list[str]:

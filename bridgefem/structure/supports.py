@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.ring import ArchRing
-from ..scene.schema import Scene
+from ..scene.model import Scene
 
 
 def ground_joints(ring: ArchRing) -> dict[int, str]:

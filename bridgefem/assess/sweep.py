@@ -1,0 +1,297 @@
+"""The assessment: the vehicle rolled across the bridge, its critical position and its adequacy factor.
+
+The adequacy factor of a position is the factor by which the vehicle's axle loads (those on the span,
+:mod:`bridgefem.assess.vehicle`) can grow, after the self-weight, before the bridge collapses; the bridge's is the
+least over all positions (LimitState:RING's adequacy factor). Method:
+
+1. **Screen** (rigid-block LP, milliseconds a position): the first axle at every ``step`` m from where the last
+   axle enters the span to where the first leaves it; on a bare ring the LP of the scene with the axles as its loads
+   (:func:`bridgefem.limit.collapse.collapse_load`: joints under the axles as the FE has them, a point axle on a
+   joint carried by the least favourable voussoir), with a fill the ring's LP with the fill as dead load and each
+   axle spread through it (:mod:`bridgefem.assess.dispersion`, ``[vehicle] dispersion``).
+2. **Refine** around each local minimum of the screen: :data:`REFINE_POINTS` positions across two steps on each
+   side of it, then again across two of those new steps, :data:`REFINE_LEVELS` times (a grid of step / 8^levels
+   around each minimum).
+3. **Confirm** with the FE limit analysis (:func:`bridgefem.analysis.runner.run_analysis`; the answer, the LP its
+   check) the least refined minimum and the next local minima within :data:`CONFIRM_MARGIN` of it (up to
+   ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close. The adequacy factor is
+   the least FE bracket; a position whose vehicle cannot collapse the bridge is "locked", never a number.
+
+**Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
+over the ranks (gathered in position order, so the answer does not depend on the ranks); the FE confirmations of all
+the scenes given (``bridgefem assess a.toml b.toml``) go to groups of ranks (``comm.Split``: one group per
+confirmation while there are ranks enough, a group's confirmations one after the other otherwise), each solved on
+its group's communicator, the results gathered on every rank.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+from ..scene.model import Scene
+from ..status import Status
+from .vehicle import Placement, place, positions
+
+STEPS_PER_SPAN = 40  # default screening step: span / this
+REFINE_POINTS = 8  # positions per side of a minimum and refinement level
+REFINE_LEVELS = 2
+CONFIRM = 2  # FE confirmations at most per scene
+CONFIRM_MARGIN = 0.10  # a local minimum of the LP within this fraction above the least is confirmed too
+LOCKED = "locked"
+
+
+@dataclass(frozen=True)
+class PositionLP:
+    """The rigid-block LP at one vehicle position: ``x0`` (m, first axle from the left springing), ``factor`` the
+    vehicle's collapse factor (``math.inf`` when the vehicle cannot collapse the bridge there, 0 when the bridge
+    does not stand; None on an LP failure or with no axle on the span), ``status``, ``hinges``, ``sliding``,
+    ``axles`` on the span and the vehicle ``load`` they carry (N)."""
+
+    x0: float
+    factor: float | None
+    status: str
+    hinges: tuple[int, ...] = ()
+    sliding: tuple[int, ...] = ()
+    axles: tuple[int, ...] = ()
+    load: float = 0.0
+    refined: bool = False
+
+
+@dataclass
+class Confirmation:
+    """The FE limit analysis at one position: ``x0`` (m), the vehicle ``load`` on the span (N), ``status``,
+    ``adequacy`` (lower, upper or None) the FE bracket over that load, ``lp_factor`` the LP's factor there,
+    ``summary`` what :func:`assess` was given to describe the analysis with (results.json's entries), ``seconds``."""
+
+    x0: float
+    load: float
+    status: str
+    adequacy: tuple[float, float | None] | None
+    lp_factor: float | None
+    summary: dict
+    seconds: float
+
+
+@dataclass
+class Assessment:
+    """The assessment of one scene: ``positions`` the LP screen and refinements (sorted by x0), ``lp_factor`` the
+    least LP factor at ``lp_critical_x`` (m), ``confirmations`` the FE runs, ``adequacy`` the least FE bracket
+    (None when locked or failed) at ``critical_x``, ``status`` ("adequacy factor found", "locked", "unstable under
+    self-weight" or a solver failure), ``seconds`` per phase."""
+
+    scene: Scene
+    step: float
+    positions: list[PositionLP]
+    lp_factor: float | None
+    lp_critical_x: float | None
+    confirmations: list[Confirmation] = field(default_factory=list)
+    adequacy: tuple[float, float | None] | None = None
+    critical_x: float | None = None
+    status: str = ""
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def critical(self) -> Confirmation | None:
+        """The confirmation at the critical position (None without one)."""
+        return next((c for c in self.confirmations if c.x0 == self.critical_x), None)
+
+
+def lp_at(scene: Scene, x0: float, refined: bool = False) -> PositionLP:
+    """Step 1 of the module docstring at one position."""
+    from ..limit.collapse import collapse_load  # the LP's public function
+    from ..limit.rigid_block import LPFailure
+    from .dispersion import dispersed_lp
+
+    pl: Placement = place(scene, x0)
+    if pl.scene is None:
+        return PositionLP(x0, None, "no axle on the span", refined=refined)
+    v, span = scene.vehicle, scene.arch.span
+    try:
+        if scene.fill is None:
+            res = collapse_load(pl.scene)
+            scale = 1.0 / max(v.axles)  # the pattern's factors are axle / heaviest axle
+        else:
+            axles = [(ld.factor * max(v.axles), (ld.x_range(span)[0] + ld.x_range(span)[1]) / 2)
+                     for ld in pl.scene.loads]
+            res = dispersed_lp(pl.scene, axles, v.dispersion)
+            scale = 1.0
+    except LPFailure as err:
+        return PositionLP(x0, None, Status.failure(str(err)), axles=pl.on, load=pl.load, refined=refined)
+    if res.status == "no collapse (unbounded)":
+        factor = math.inf
+    elif res.status == "unstable under self-weight":
+        factor = 0.0
+    else:
+        factor = res.level * scale
+    return PositionLP(x0, factor, res.status, tuple(res.hinges), tuple(res.sliding), pl.on, pl.load, refined)
+
+
+def _spread(comm, work: list, fn: Callable) -> list:
+    """``fn`` of every item of ``work``, the items split round-robin over the ranks of ``comm`` and gathered in
+    order on every rank."""
+    mine = [fn(*item) for item in work[comm.rank::comm.size]]
+    parts = comm.allgather(mine)
+    out = [None] * len(work)
+    for r, part in enumerate(parts):
+        out[r::comm.size] = part
+    return out
+
+
+def _value(p: PositionLP) -> float:
+    return math.inf if p.factor is None else p.factor
+
+
+def local_minima(points: list[PositionLP]) -> list[PositionLP]:
+    """The positions (sorted by x0) whose factor is at most their neighbours', least first; a run of equal values
+    counts once."""
+    vals = [_value(p) for p in points]
+    out = []
+    for i, v in enumerate(vals):
+        if not math.isfinite(v):
+            continue
+        left = vals[i - 1] if i > 0 else math.inf
+        right = vals[i + 1] if i + 1 < len(vals) else math.inf
+        if v <= right and v < left:
+            out.append(points[i])
+    return sorted(out, key=_value)
+
+
+def assess(scenes: list[Scene], comm=None, step: float | None = None, confirm: int = CONFIRM,
+           describe: Callable | None = None, fe: bool = True,
+           progress: Callable[[str], None] = lambda line: None) -> list[Assessment]:
+    """Assess every scene (each with a ``[vehicle]``): steps 1-3 of the module docstring (collective over ``comm``,
+    default COMM_WORLD; every rank gets the same assessments). ``step`` (m): the screening step (default span /
+    :data:`STEPS_PER_SPAN`); ``describe(analysis)``: what to keep of each FE analysis, called collectively on its
+    group's ranks (default: :func:`brief`); ``fe=False``: the LP screen alone."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    describe = describe or brief
+    start = time.perf_counter()
+    steps = {s.name: step or s.arch.span / STEPS_PER_SPAN for s in scenes}
+    work = [(s, float(x)) for s in scenes for x in positions(s, steps[s.name])]
+    screened = _spread(comm, work, lp_at)
+    by_scene = {s.name: [p for (sc, _), p in zip(work, screened) if sc.name == s.name] for s in scenes}
+    for level in range(REFINE_LEVELS):
+        h = {s.name: steps[s.name] * 2 / REFINE_POINTS ** (level + 1) for s in scenes}
+        work = []
+        for s in scenes:
+            pts = sorted(by_scene[s.name], key=lambda p: p.x0)
+            known = {round(p.x0, 12) for p in pts}
+            for m in local_minima(pts)[:confirm + 1]:
+                for k in range(-REFINE_POINTS, REFINE_POINTS + 1):
+                    x = m.x0 + k * h[s.name]
+                    if round(x, 12) not in known:
+                        known.add(round(x, 12))
+                        work.append((s, x, True))
+        refined = _spread(comm, work, lp_at)
+        for (s, _, _), p in zip(work, refined):
+            by_scene[s.name].append(p)
+    lp_seconds = time.perf_counter() - start
+    out = []
+    for s in scenes:
+        pts = sorted(by_scene[s.name], key=lambda p: p.x0)
+        minima = local_minima(pts)
+        least = minima[0] if minima else None
+        a = Assessment(s, steps[s.name], pts, least.factor if least else None, least.x0 if least else None)
+        a.seconds["lp"] = lp_seconds
+        if least is None:
+            stood = [p for p in pts if p.factor == math.inf]
+            a.status = LOCKED if stood else Status.failure("no rigid-block LP answer at any position")
+        elif least.factor == 0.0:
+            a.status = "unstable under self-weight"
+        out.append(a)
+    if fe:
+        _confirm(out, comm, confirm, describe, progress)
+    for a in out:
+        a.seconds["total"] = time.perf_counter() - start
+    return out
+
+
+def _candidates(a: Assessment, confirm: int) -> list[PositionLP]:
+    """The positions to confirm with the FE: step 3 of the module docstring."""
+    if a.status:
+        return []
+    minima = local_minima(a.positions)
+    return [m for m in minima[:confirm] if _value(m) <= (1 + CONFIRM_MARGIN) * _value(minima[0])]
+
+
+def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callable, progress) -> None:
+    """Step 3: the FE runs of every assessment, over groups of ranks (module docstring, *Parallel*)."""
+    from ..analysis.runner import run_analysis
+
+    items = [(i, m) for i, a in enumerate(assessments) for m in _candidates(a, confirm)]
+    if not items:
+        return
+    start = time.perf_counter()
+    groups = min(comm.size, len(items))
+    color = comm.rank % groups
+    sub = comm.Split(color, comm.rank)
+    mine = []
+    try:
+        for k in range(color, len(items), groups):
+            i, m = items[k]
+            t0 = time.perf_counter()
+            pl = place(assessments[i].scene, m.x0)
+            an = run_analysis(pl.scene, sub)
+            data = describe(an)
+            lim = data["limit_load"]
+            status = data["status"]
+            adequacy = (lim["lower"] / pl.load, None if lim["upper"] is None else lim["upper"] / pl.load) \
+                if Status.of(status) is Status.LIMIT else None
+            c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0)
+            if sub.rank == 0:
+                mine.append((k, c))
+                progress(_line(assessments[i].scene, c))
+            del an
+    finally:
+        sub.Free()
+    found = dict(kv for part in comm.allgather(mine) for kv in part)
+    for k, (i, _) in enumerate(items):
+        assessments[i].confirmations.append(found[k])
+    for a in assessments:
+        a.seconds["fe"] = time.perf_counter() - start
+        _conclude(a)
+
+
+def _conclude(a: Assessment) -> None:
+    """The adequacy factor and status from the confirmations."""
+    if not a.confirmations:
+        return
+    limits = [c for c in a.confirmations if c.adequacy is not None]
+    failed = [c for c in a.confirmations if Status.of(c.status) is Status.FAILURE]
+    if limits:
+        best = min(limits, key=lambda c: c.adequacy[0])
+        a.adequacy, a.critical_x, a.status = best.adequacy, best.x0, "adequacy factor found"
+    elif failed:
+        a.status, a.critical_x = failed[0].status, failed[0].x0
+    elif any(Status.of(c.status) is Status.UNSTABLE for c in a.confirmations):
+        a.status = "unstable under self-weight"
+    else:
+        a.status, a.critical_x = LOCKED, a.confirmations[0].x0
+
+
+def _line(scene: Scene, c: Confirmation) -> str:
+    """One console line for a confirmed position."""
+    lp = "none" if c.lp_factor is None else f"{c.lp_factor:.4g}"
+    if c.adequacy is not None:
+        fe = f"FE adequacy factor in [{c.adequacy[0]:.4f}, {c.adequacy[1]:.4f}]"
+    else:
+        fe = f"FE: {c.status}"
+    return (f"{scene.name}: first axle at x = {c.x0:.3f} m ({c.load / 1e3:.1f} kN on the span): {fe}, LP "
+            f"{lp} ({c.seconds:.1f} s)")
+
+
+def brief(an) -> dict:
+    """What an assessment keeps of an FE analysis without the results writer: status, limit load (N), mechanism,
+    evidence, warnings, the LP's load and the fill's bounds (collective)."""
+    s, total = an.search, an.load_total
+    return {"status": s.status,
+            "limit_load": {"lower": s.lower * total, "upper": None if s.upper is None else s.upper * total,
+                           "unit": "N", "tolerance": s.tolerance},
+            "mechanism": {"hinges": [j.id for j in an.joints if j.hinge],
+                          "sliding": [j.id for j in an.joints if j.sliding]},
+            "evidence": an.verdict.evidence if an.verdict else "", "warnings": an.warnings,
+            "lp": {"load": an.lp.load}, "fill_bounds": an.fill_bounds}

@@ -1,0 +1,150 @@
+"""The scene's ring as rigid blocks: the :class:`~bridgefem.limit.rigid_block.BlockModel` that the rigid-block LP,
+the collapse loads, the least thickness and the conic bounds solve.
+
+The blocks are the voussoirs of :func:`bridgefem.structure.ring.scene_ring` (then the two elastic abutments, when
+the scene has them), and the joints are the ring's joints: the same layout as the FE mesh, so that the LP checks
+the FE on the same joints (Gilbert & Melbourne 1994, *Rigid-block analysis of masonry structures*, The Structural
+Engineer 72(21):356, the RING model of a ring of voussoirs). Units: m, N and N·m for the scene's whole width;
+x to the right, y up, moments counter-clockwise; loads act downwards (-y).
+
+:func:`ring_model` builds the model in five steps:
+
+1. the ring: :func:`~bridgefem.structure.ring.scene_ring` (a ``thickness`` may override the scene's);
+2. the blocks: each voussoir (and abutment) polygon, its centroid the block's reference point, its weight
+   ``unit weight x area x width`` (N; masonry ``density x gravity``) acting there;
+3. a fill, if any, as dead load only (:func:`_overburden`): on each voussoir the weight of the fill column above
+   its extrados, through the column's centroid; the fill's strength, stiffness and load spreading are ignored;
+4. the live loads for a unit load factor (:func:`live_loads`): ``factor`` N per load, a point load at the extrados
+   point above it, a patch uniform per horizontal metre over its x-range and shared by the voussoirs under it; a
+   point load exactly above a joint acts at the joint's extrados corner, on the voussoir its side names;
+5. the joints from intrados (``joint_a``) to extrados (``joint_b``), their normal from the left block into the right
+   one; the ring's joints take the scene's friction, the abutments' bases the abutments' friction.
+
+Two variants load the same blocks with the FE's own forces, for the FE's checks: :func:`ring_under_forces` (the
+forces a fill transmits across the arch-fill interface) and :func:`ring_with_loads` (the FE's assembled block
+loads).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
+from ..laws.base import JointLaw
+from ..laws.crushing import scene_law
+from ..scene.model import Scene
+from ..structure.ring import scene_ring
+from .rigid_block import BlockModel, generalised_loads
+
+
+def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
+               live: bool = True, law: type[JointLaw] | JointLaw | None = None) -> BlockModel:
+    """The voussoirs of a scene's ring as a :class:`~bridgefem.limit.rigid_block.BlockModel` (the FE model's joint
+    layout).
+
+    Self-weight ``density g area width`` (N) acts at each voussoir centroid (the reference point). Live loads are
+    vertical, downward, ``factor`` N per unit load factor: a point load at the extrados point above its x, a patch
+    uniform per horizontal metre over its x-range. A point load exactly above a joint acts at the joint's extrados
+    corner and is carried as :func:`bridgefem.geometry.ring.point_load_blocks` says for its side: ``load_at_joint`` is
+    one side ("left" | "right" | "split") for every load, or one per scene load (patches ignore theirs).
+    ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
+    only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
+    centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
+    (it does not change the collapse load of rigid blocks). ``law``: the joints' law (default the scene's,
+    :func:`bridgefem.laws.crushing.scene_law`).
+    """
+    a = scene.arch
+    sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
+    if len(sides) != len(scene.loads):
+        raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
+    ring = scene_ring(scene, thickness)
+    blocks = ring.voussoirs + ring.abutments
+    area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
+    ref = np.array(centroid)
+    nb = len(ref)
+    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
+                           + [scene.abutments.unit_weight] * len(ring.abutments))
+    weight = unit_weight * a.width * np.array(area)
+    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
+    if scene.fill is not None:
+        dead = dead + _overburden(ring, scene, ref)
+    live_pattern = live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
+    friction = np.full(len(ring.joints), scene.joints.friction)
+    if ring.bases:
+        friction[[j.id for j in ring.bases]] = scene.abutments.friction
+    return BlockModel(
+        ref=ref, dead=dead, live=live_pattern,
+        joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
+        joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
+        joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
+        friction=friction, law=scene_law(scene) if law is None else law)
+
+
+def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
+    """(nb, 3) generalised live loads (Fx, Fy in N; M in N·m about ``ref``) of a scene's loads for a unit load
+    factor on the voussoirs of ``ring`` (step 4 of the module docstring); ``sides``: one per scene load, the side
+    ("left" | "right" | "split") that carries it when it is a point load on a joint."""
+    ext = np.vstack([v.extrados for v in ring.voussoirs])
+    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
+    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
+    on, xs, fy = [], [], []
+    for ld, side in zip(scene.loads, sides):
+        lo, hi = ld.x_range(scene.arch.span)
+        if ld.kind == "point":
+            carriers = point_load_blocks(ring, lo, side)
+            j = joint_under(ring, lo)
+            on.append(np.array(carriers))
+            xs.append(np.full(len(carriers), lo if j is None else ring.joints[j].extrados[0]))
+            fy.append(np.full(len(carriers), -ld.factor / len(carriers)))
+        else:
+            left, right = np.maximum(x0, lo), np.minimum(x1, hi)
+            k = np.nonzero(right > left)[0]
+            on.append(k)
+            xs.append(0.5 * (left[k] + right[k]))
+            fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
+    if not on:
+        return np.zeros((len(ref), 3))
+    x, f = np.concatenate(xs), np.concatenate(fy)
+    return generalised_loads(ref, np.concatenate(on), np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
+                             np.column_stack([np.zeros(len(f)), f]))
+
+
+def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:
+    """The scene's ring (the joints and blocks of :func:`ring_model`, its self-weight; without the fill's overburden
+    and without the scene's live loads) loaded by given nodal forces instead of a fill.
+
+    ``blocks`` (k,): the voussoir each force acts on; ``points`` (k, 2): where (m); ``dead_forces`` (k, 2): forces
+    (N, x and y, whole width) added to the dead load; ``live_forces`` (k, 2): the live load for a unit load factor
+    (N per unit factor). With the forces a fill transmits across the arch-fill interface at two states of an FE
+    analysis (:func:`bridgefem.analysis.interface.transmitted_load_check`) this is the ring as the FE sees it: the fill
+    then needs no model of its own, whatever its stiffness or strength.
+    """
+    model = ring_model(dataclasses.replace(scene, fill=None), live=False)
+    blocks = np.asarray(blocks, int)
+    return dataclasses.replace(model, dead=model.dead + generalised_loads(model.ref, blocks, points, dead_forces),
+                               live=generalised_loads(model.ref, blocks, points, live_forces))
+
+
+def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> BlockModel:
+    """The blocks and joints of ``model`` (e.g. :func:`ring_model`) under given block loads instead of its own:
+    ``dead``, ``live`` (nb, 3) Fx, Fy (N) and M (N·m, counter-clockwise) about ``model.ref``, ``live`` for a unit
+    load level, e.g. the FE's assembled self-weight and live load
+    (:func:`bridgefem.analysis.static_bound.block_loads`): the rigid blocks loaded as the FE's meshed voussoirs are."""
+    return dataclasses.replace(model, dead=np.asarray(dead, float), live=np.asarray(live, float))
+
+
+def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
+    """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
+    the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
+    spreading are ignored (live loads still act on the extrados below them)."""
+    road = ring.crown_extrados + scene.fill.depth
+    w = scene.fill.unit_weight * scene.arch.width
+    points, forces = [], []
+    for v in ring.voussoirs:
+        x, h = v.extrados[:, 0], road - v.extrados[:, 1]
+        area = np.trapz(h, x)
+        xc = np.trapz(x * h, x) / area
+        points.append(ring.extrados_point(xc))
+        forces.append((0.0, -w * area))
+    return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
