@@ -137,6 +137,20 @@ def draw_option(seed: int, index: int) -> dict:
     return {"name": name, **values}
 
 
+def draw_strength(seed: int, index: int) -> float:
+    """Scene ``index``'s compressive strength in a ``--crushing`` campaign, from its own stream (the base draw is
+    :func:`draw`'s, unchanged), as a multiple of the self-weight stress scale density x g x the reference length
+    (:func:`reference_length`): log-uniform from 2 (weak enough that a ring barely stands, or none does) to 2000
+    (strong: the limit within a few per cent of the infinitely strong ring's)."""
+    rng = np.random.default_rng([seed, index, 2])
+    return float(f"{math.exp(rng.uniform(math.log(2.0), math.log(2000.0))):.3g}")
+
+
+def strength_of(choice: dict) -> float:
+    """The compressive strength (Pa) of a ``--crushing`` draw: its ratio x density x g x the reference length."""
+    return float(f"{choice['strength'] * 2000.0 * 9.81 * reference_length(choice, 0.0):.4g}")
+
+
 def with_option(d: dict, choice: dict) -> dict:
     """The scene dictionary ``d`` of a draw ``choice`` with its ``option`` (:func:`draw_option`): a second load (its
     share of the load pattern ``factor``; a point, or on a Mohr-Coulomb fill a patch as long as the first, on the
@@ -176,7 +190,8 @@ def scene_dict(choice: dict, thickness: float) -> dict:
                   **({} if choice["shape"] == "semicircular" else {"rise": choice["rise"]}),
                   "thickness": round(thickness, 4), "width": 1.0, "voussoirs": choice["voussoirs"],
                   "joint_at_loads": choice["joint_at_loads"]},
-         "masonry": {"young": choice["young"], "poisson": 0.2, "density": 2000.0},
+         "masonry": {"young": choice["young"], "poisson": 0.2, "density": 2000.0,
+                     **({"compressive_strength": strength_of(choice)} if choice.get("strength") else {})},
          "joints": {"friction": choice["friction"]},
          "load": [load]}
     if choice["fill"]:
@@ -441,6 +456,8 @@ def main(argv: list[str] | None = None) -> int:
                         "support movement, a preset, quadratic elements, plane stress)")
     p.add_argument("--vehicles", action="store_true",
                    help="each scene an assessment (bridgefem assess) of a vehicle drawn by draw_vehicle")
+    p.add_argument("--crushing", action="store_true",
+                   help="every scene also gets a compressive strength (draw_strength), from strong to barely standing")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     p.add_argument("--check-only", action="store_true",
@@ -460,6 +477,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.check_only:
         def checked(i):
             choice = draw(args.seed, i)
+            if args.crushing:
+                choice["strength"] = draw_strength(args.seed, i)
             verdict = check_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out)
             print(f"scene {i}: {verdict}", flush=True)
             return verdict
@@ -474,6 +493,8 @@ def main(argv: list[str] | None = None) -> int:
         choice = draw(args.seed, i)
         if args.vehicles:
             choice["vehicle"] = draw_vehicle(args.seed, i, choice["span"], choice["fill"])
+        if args.crushing:
+            choice["strength"] = draw_strength(args.seed, i)
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
                         args.timeout, args.ranks)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)

@@ -45,6 +45,7 @@ from ..fe.pairs import ARCH_FILL, JointPairs, build_pairs, ground_offsets
 from ..geometry.ring import ArchRing, fill_outline
 from ..laws.base import JointLaw
 from ..laws.coulomb import CoulombJoints
+from ..laws.crushing import scene_law_factory
 from ..limit.rigid_block import LPResult
 from ..scene.model import Scene
 from ..solver.newton import ContactSolver
@@ -59,7 +60,8 @@ RING_JOINT_SCALE = 0.1  # Alart-Curnier constant of the ring's joints, of E w L 
 JointLawFactory = Callable[[JointPairs, np.ndarray, np.ndarray, float], JointLaw]
 """Builds the joint law of a run from its pairs, their Coulomb coefficients, Alart-Curnier constants (N/m) and the
 hysteresis (N) (:class:`bridgefem.laws.base.JointLaw`)."""
-DEFAULT_JOINT_LAW = CoulombJoints  # the joints' law of a scene (its ``for_pairs`` builds it)
+DEFAULT_JOINT_LAW = CoulombJoints  # the joints' law of a scene without a compressive strength (its ``for_pairs``
+# builds it); with one, :class:`bridgefem.laws.crushing.CrushingJoints` (:func:`scene_law_factory`)
 
 
 @dataclass
@@ -93,7 +95,7 @@ class BridgeModel:
 def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase: Callable[[str], None],
                 clock: Clock, joint_law: JointLawFactory | None = None) -> BridgeModel:
     """The FE model of ``scene`` (module docstring, steps 1-6) on ``comm``, with the ``petsc_options`` over the
-    scene's and the joints' law that ``joint_law`` builds (:data:`DEFAULT_JOINT_LAW` when None); ``phase(name)``
+    scene's and the joints' law that ``joint_law`` builds (the scene's when None: :func:`scene_law_factory`); ``phase(name)``
     announces each phase, ``clock`` times it. Raises SceneError for voussoirs the ring
     cannot have. Collective."""
     a = scene.arch
@@ -119,7 +121,7 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
     motion = support_motion(scene, ring)
     phase("setting up the solver (first factorisation)")
-    law = (joint_law or DEFAULT_JOINT_LAW.for_pairs)(pairs, friction, c, FORCE_TOL * model.dead_weight)
+    law = (joint_law or scene_law_factory(scene))(pairs, friction, c, FORCE_TOL * model.dead_weight)
     solver = ContactSolver(model.K, model.f_dead, model.f_live, pairs, law, scene.solver.max_iterations,
                            {**scene.solver.petsc, **(petsc_options or {})}, material, ground_offsets(pairs, motion))
     clock.lap("solver setup")

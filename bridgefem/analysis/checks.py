@@ -24,6 +24,7 @@ from mpi4py import MPI
 
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
+from ..laws.crushing import scene_law
 from ..limit.collapse import collapse_load, collapse_state_from
 from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
 from ..scene.model import Scene
@@ -36,12 +37,13 @@ from .mechanism import JointState, joint_states
 
 def rigid_block_check(scene: Scene, comm: MPI.Comm) -> LPResult:
     """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.collapse.collapse_load`,
-    associative friction), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
+    associative friction; with a compressive strength the FE's joint stations' rows,
+    :func:`bridgefem.laws.crushing.fe_stations`), solved on rank 0 and broadcast: the search's guess and the evidence for its verdict. An
     LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
     lp = None
     if comm.rank == 0:
         try:
-            lp = collapse_load(scene)
+            lp = collapse_load(scene, law=scene_law(scene, fe=True))  # with crushing: the FE's own joints
         except (RuntimeError, ValueError) as err:  # the LP is a check: its failure is reported, not raised
             lp = LPResult(None, None, f"LP failed: {err}")
     return comm.bcast(lp, root=0)

@@ -33,8 +33,10 @@ evidence of collapse only when
    that are compressive and within Coulomb's cone; summed per joint (n = sum lam_n, s = sum lam_t, m = sum (p - t/2)
    lam_n about the joint's centre, p the pair's distance from the intrados, 0 <= p <= t) they satisfy the LP's yield
    rows (n >= 0, |s| <= mu n, |m| <= n t/2) and its block equilibrium, so L <= LP_fe: no FE equilibrium exists above
-   LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no crushing and no cohesion, and its rows are exactly the
-   resultants of the pairs' laws (no row is stricter than the FE's law), so the bound holds on every bare ring, abutment
+   LP_fe, and the FE's limit lies in [L, LP_fe]. The LP has no cohesion; with a compressive strength its moment rows
+   are the polygon of the FE's own pairs crushing one after another (:func:`bridgefem.laws.crushing.fe_stations`,
+   the thrust within it by :func:`bridgefem.limit.rigid_block.statics`), and its rows are exactly the resultants of
+   the pairs' laws (no row is stricter than the FE's law), so the bound holds on every bare ring, abutment
    bases included (the abutments are blocks of both). The search never tries a level above LP_fe and ends when a step
    converges within the bracket's width of it; the verdict is then a limit in [L, LP_fe] with the evidence "static
    theorem", after an explicit check (:func:`admissible`) that the converged state's joint resultants satisfy the LP's

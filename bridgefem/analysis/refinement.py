@@ -16,6 +16,9 @@ once from the bonded start, reaches only where the voussoirs are an element long
   under a fill, on voussoirs shorter than an element;
 - a self-weight that failed without proof on voussoirs shorter than an element, where the LP finds the ring
   standing.
+- with a compressive strength, joints whose pairs crush as a polygon more than ``AGREEMENT`` stronger than the
+  rectangular stress block (the rigid-block LP on the FE's joints against the LP on the parabola,
+  :func:`coarse_stress_block`): the FE's answer is then its mesh's, not the strength's.
 
 A self-weight failure on longer voussoirs is not re-run (that is where a PETSc option that breaks the linear solve
 fails, and a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
@@ -59,6 +62,7 @@ from typing import Callable
 from mpi4py import MPI
 
 from ..fe.sizing import MAX_DOFS, check_size
+from ..limit.collapse import collapse_load
 from ..scene.keys import SceneError
 from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
@@ -123,6 +127,9 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
     such voussoirs."""
+    coarse = coarse_stress_block(an)
+    if coarse:
+        return coarse
     if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
         return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
                 f"({ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, the LP "
@@ -144,6 +151,25 @@ def refinement_reason(an: Analysis, ett: int) -> str:
         return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
                 f"the thickness), where the rigid-block LP finds the ring standing")
     return ""
+
+
+def coarse_stress_block(an: Analysis) -> str:
+    """With a compressive strength: why the FE's joints are too coarse a stress block (empty: they are not). The FE's
+    pairs through a joint crush one at a time, a polygon around the rectangular stress block's parabola
+    (:mod:`bridgefem.laws.crushing`); the rigid-block LP on the FE's joints (``an.lp``) and on the parabola (within
+    1/K^2 of it) differ by more than ``AGREEMENT`` where the FE's answer is set by its mesh, not by f_c. On rank 0."""
+    masonry = getattr(an.scene, "masonry", None)  # (a scene's stand-in without one: no strength)
+    if getattr(masonry, "compressive_strength", None) is None or an.lp.status != Status.LIMIT:
+        return ""
+    try:
+        block = collapse_load(an.scene)
+    except (RuntimeError, ValueError):
+        return ""
+    if block.level is None or an.lp.level <= (1 + AGREEMENT) * block.level:
+        return ""
+    return (f"the FE's {an.scene.mesh.elements_through_thickness} elements through the thickness crush a joint "
+            f"{an.lp.level / block.level - 1:.1%} stronger than the rectangular stress block (rigid-block LP on its "
+            f"joints {an.lp.load / 1e3:.6g} kN, on the stress block {block.load / 1e3:.6g} kN)")
 
 
 def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:

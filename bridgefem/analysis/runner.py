@@ -66,12 +66,12 @@ from ..solver.linear import SolveBudgetSpent
 from ..solver.newton import ContactSolver, Iterate
 from ..solver.tresca import TrescaPredictor
 from ..status import Status
-from .build import DEFAULT_JOINT_LAW, BridgeModel, Clock, JointLawFactory, build_model
+from .build import BridgeModel, Clock, JointLawFactory, build_model
 from .checks import collapse_check, slip_check
 from .evidence import confirm
 from .interface import transmitted_load_check
 from .mechanism import collapse_mode, joint_states
-from .refinement import MAX_REFINEMENTS, refine
+from .refinement import MAX_REFINEMENTS, coarse_stress_block, refine
 from .result import Analysis, ConvergedState, user_warnings
 from .static_bound import fe_blocks, static_cap
 
@@ -93,13 +93,13 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                  phase: Callable[[str], None] = lambda name: None,
                  notice: Callable[[str], None] = lambda line: None,
                  max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS,
-                 joint_law: JointLawFactory = DEFAULT_JOINT_LAW.for_pairs) -> Analysis:
+                 joint_law: JointLawFactory | None = None) -> Analysis:
     """Compute the limit load of a scene (module docstring, steps 1-6): the ring, with its fill and elastic
     abutments when the scene has them, after the support movement it imposes. Collective over ``comm``;
     ``petsc_options`` go over the scene's; ``phase(name)`` announces each set-up phase, ``report(step)`` each load
     step and ``notice(line)`` each re-run on a finer mesh, of which there are at most ``max_refinements``, each within
     ``max_dofs`` unknowns (:mod:`bridgefem.analysis.refinement`); ``joint_law`` builds the joints' law
-    (:data:`bridgefem.analysis.build.JointLawFactory`). The last run is returned, the runs it replaced listed in
+    (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's, :func:`bridgefem.laws.crushing.scene_law_factory`). The last run is returned, the runs it replaced listed in
     ``Analysis.refinements``."""
     def analyse(mesh_scene: Scene, coarser: float | None, budget: int | None, path: CoarserPath | None) -> Analysis:
         return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law)
@@ -119,7 +119,9 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
     an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene) if solver_comm.rank == 0 else None, root=0)
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
-    an.warnings = user_warnings(an)
+    coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs
+    an.warnings = user_warnings(an) + ([f"{coarse}: the limit load is the mesh's stress block's, above the "
+                                        "strength's; raise [mesh] elements_through_thickness"] if coarse else [])
     clock.lap("checks")
     an.timings.update(clock.timings)
 
@@ -127,7 +129,7 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
              coarser: float | None = None, budget: int | None = None, path: CoarserPath | None = None,
-             joint_law: JointLawFactory = DEFAULT_JOINT_LAW.for_pairs) -> Analysis:
+             joint_law: JointLawFactory | None = None) -> Analysis:
     """One run of the scene's mesh (module docstring, steps 1-4); ``coarser``: the last converged level (N per unit
     load factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
     ``path`` that run's converged path, a bare ring's (its trials start from it: :mod:`bridgefem.search.coarser_path`);

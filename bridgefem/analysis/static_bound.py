@@ -16,6 +16,8 @@ premise of the theorem, so the check refuses it and the search goes on without t
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -23,6 +25,7 @@ from petsc4py import PETSc
 from ..fe.mesh import BlockMesh
 from ..fe.model import ElasticModel, node_blocks
 from ..fe.pairs import JointPairs
+from ..laws.crushing import scene_law
 from ..limit.rigid_block import BlockModel, LPResult, generalised_loads, solve_blocks, standing_deficit, statics
 from ..limit.ring_blocks import ring_model, ring_with_loads
 from ..scene.model import Scene
@@ -84,8 +87,9 @@ def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: Jo
 
 def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
     """The rigid-block LP's ring on the scene's joints loaded as the FE loads its voussoirs: its assembled
-    self-weight and unit live load summed per block (:func:`block_loads`). Collective."""
-    ring = ring_model(scene, live=False)
+    self-weight and unit live load summed per block (:func:`block_loads`); with a compressive strength its joints'
+    rows are the FE's pairs' own polygon (:func:`bridgefem.laws.crushing.fe_stations`). Collective."""
+    ring = dataclasses.replace(ring_model(scene, live=False), law=scene_law(scene, fe=True))  # the FE's joints
     return ring_with_loads(ring, *block_loads(model, bm, ring.ref))
 
 

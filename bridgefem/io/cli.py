@@ -210,7 +210,8 @@ def _run(args, petsc: dict) -> int:
     out = args.out or Path("results") / scene.name
     from mpi4py import MPI
 
-    from ..analysis.runner import DEFAULT_JOINT_LAW, run_analysis
+    from ..analysis.runner import run_analysis
+    from ..laws.crushing import scene_law
     from ..solver.linear import check_environment_options
     from .results import FILES, write_results
 
@@ -225,7 +226,7 @@ def _run(args, petsc: dict) -> int:
                 _notice(line)
             if announce:
                 print(f"{scene.name}: {size.describe()}", flush=True)
-            report = (lambda s: None) if args.quiet else _progress(total, DEFAULT_JOINT_LAW.STATES)
+            report = (lambda s: None) if args.quiet else _progress(total, scene_law(scene).STATES)
             an = run_analysis(scene, comm, petsc, report=report,
                               phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
             failed = Status.of(an.search.status) is Status.FAILURE

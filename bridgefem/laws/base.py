@@ -31,9 +31,11 @@ one method per stage of the active-set Newton method, as deal.II's step-42 asks 
 
 :class:`bridgefem.laws.coulomb.CoulombJoints` (unilateral contact, Coulomb friction) is the first law; a new law
 (crushing, a tensile strength: ``tests/test_joint_law_seam.py``) is one more subclass and touches no other module.
-Still Coulomb's, whatever law the solver is given: the analysis's evidence (its rigid-block LP check and static
-bound use :class:`bridgefem.limit.rigid_block.BlockModel`'s default law; the static theorem's admissibility check,
-the deficit programmes and the Tresca fixed point read the LP's rows as Coulomb's) and the Tresca predictor.
+The scene chooses the law (:func:`bridgefem.laws.crushing.scene_law`): the rigid-block LP, its deficit programmes
+(:meth:`BlockYield.relaxations`), the static theorem's check (:meth:`JointLaw.moment_capacity`) and the conic bounds
+take the scene's; an injected factory (``run_analysis(..., joint_law=...)``) changes the FE's law only. Still
+Coulomb's, whatever law the solver is given: the Tresca fixed point's frozen shear rows (they replace the law's
+shear rows and keep its others) and the Tresca predictor (:mod:`bridgefem.solver.tresca`: no crushing).
 """
 from __future__ import annotations
 
@@ -91,12 +93,15 @@ class ModeRules(NamedTuple):
     ``backwards``, per pair the factor f such that f d_t > 0 is a slip against the pair's friction force (the friction
     work per unit normal force, mu s), NaN where the pair follows no slip law; ``rough``, the pairs with friction
     (mu > 0: a hinge mode may not slip them); ``tension``, the tension (N) an open pair still carries, whose work on
-    the mode's opening the loads must exceed for a proof of collapse (0 for no-tension joints)."""
+    the mode's opening the loads must exceed for a proof of collapse (0 for no-tension joints); ``crushing``, the
+    compression (N) a crushed pair carries while the mode may close it further (its work on the closing is dissipated
+    too; None: no pair crushes)."""
 
     open: np.ndarray
     backwards: np.ndarray
     rough: np.ndarray
     tension: np.ndarray
+    crushing: np.ndarray | None = None
 
 
 class BlockYield(NamedTuple):
@@ -115,6 +120,22 @@ class BlockYield(NamedTuple):
     def per_joint(self) -> int:
         """The inequalities of one joint."""
         return int(self.rows.max()) + 1
+
+    def relaxations(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint and row (nj, k), the coefficient of the deficit tau (N) of the dead-load programmes
+        (:mod:`bridgefem.limit.rigid_block`): every row on the moment relaxed by tau at the joint's edge, the
+        largest |coefficient of n| of its moment rows (t/2: for Coulomb |m| <= (n + tau) t/2; with crushing the
+        whole polygon raised by tau t/2, n <= N_c + tau among its rows), any other row by the cohesion tau (-1);
+        and the same with the normal force n = nu - tau written in nu >= 0 (the net tension tau allowed)."""
+        nj, k = self.vals.shape[0], self.per_joint
+        normal, moment = np.zeros((nj, k)), np.zeros(k, dtype=bool)
+        for i, (row, col) in enumerate(zip(self.rows, self.cols)):
+            if col == 0:
+                normal[:, row] += self.vals[:, i]
+            moment[row] |= col == 2
+        edge = np.max(np.abs(normal), axis=1, where=moment, initial=0.0)[:, None]
+        deficit = np.where(moment, -edge, -1.0)
+        return deficit, deficit - normal
 
 
 def joint_counts(joint: np.ndarray, masks: tuple[np.ndarray, ...], comm: MPI.Comm) -> np.ndarray:
@@ -265,6 +286,11 @@ class JointLaw(ABC):
         """The tangential forces (N) the sliding rows of ``active`` impose for normal forces ``lam_n``; 0 elsewhere."""
 
     # ----------------------------------------------------------------- 7. limit analysis
+    @abstractmethod
+    def moment_capacity(self, length: np.ndarray, n: np.ndarray) -> np.ndarray:
+        """The largest |m| (N m) that the law's rows let rigid-block joints of ``length`` (m) carry at normal forces
+        ``n`` (N) (the static theorem's check, :func:`bridgefem.limit.rigid_block.statics`)."""
+
     @abstractmethod
     def block_yield(self, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
         """The yield conditions of rigid-block joints of ``length`` (m) and Coulomb coefficients ``mu``, with an

@@ -246,6 +246,11 @@ class CoulombJoints(JointLaw):
 
     # ----------------------------------------------------------------- limit analysis
     @classmethod
+    def moment_capacity(cls, length: np.ndarray, n: np.ndarray) -> np.ndarray:
+        """|m| <= n t/2: the thrust within the joint."""
+        return n * length / 2
+
+    @classmethod
     def block_yield(cls, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
         """Per joint the rows +-m - n t/2 <= 0 and +-s - mu n <= capacity, and n >= 0 (module docstring)."""
         n = len(length)

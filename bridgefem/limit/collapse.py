@@ -31,6 +31,7 @@ import itertools
 import numpy as np
 
 from ..geometry.ring import joint_under
+from ..laws.base import JointLaw
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .rigid_block import LPResult, solve_blocks
@@ -42,8 +43,9 @@ _TIE = 1e-7  # relative: a load on one block must lower the collapse load by mor
 
 
 def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
-                  **options) -> LPResult:
-    """Rigid-block collapse load of a scene's ring; ``friction_model`` and ``options`` go to
+                  law: type[JointLaw] | JointLaw | None = None, **options) -> LPResult:
+    """Rigid-block collapse load of a scene's ring; ``law`` the joints' (default the scene's,
+    :func:`~bridgefem.limit.ring_blocks.ring_model`); ``friction_model`` and ``options`` go to
     :func:`~bridgefem.limit.rigid_block.solve_blocks`.
 
     ``load_at_joint``: the block that carries a point load lying on a joint ("left" | "right" | "split",
@@ -54,7 +56,7 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     span = scene.arch.span
     on_joint = [i for i, ld in enumerate(scene.loads)
                 if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
-    model = ring_model(scene, load_at_joint="split")
+    model = ring_model(scene, load_at_joint="split", law=law)
 
     def solve(choice: dict[int, str]) -> LPResult:
         sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))

@@ -31,7 +31,10 @@ the joints' law, :meth:`bridgefem.laws.base.JointLaw.block_yield`; for :class:`b
     |m_j| <= n_j t_j / 2          no tension: the thrust lies within the joint
     |s_j| <= mu_j n_j + c_j       Coulomb friction (associative: c_j = 0)
 
-The deficit programmes, :func:`statics` and the Tresca fixed point's admissibility test read those rows as Coulomb's.
+With a compressive strength (:mod:`bridgefem.laws.crushing`, the scene's law: :func:`ring_model`) the moment row
+becomes the tangent polygon of |m_j| <= n_j (t_j - n_j / (f_c w)) / 2. The deficit programmes relax each joint's rows
+as :meth:`bridgefem.laws.base.BlockYield.relaxations` says; :func:`statics` reads the law's moment capacity; the
+Tresca fixed point's admissibility test reads the shear rows as Coulomb's.
 
 The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
@@ -284,11 +287,11 @@ class _Programme:
         nj = self.model.n_joints
         if deficit:
             extra_col = sp.csr_matrix((self.A.shape[0], 1))
-            extra_ub = -np.column_stack([self.t / 2, self.t / 2, np.ones(nj), np.ones(nj)]).ravel()
+            extra_ub = self.joint_yield(mu).relaxations()[0].ravel()  # Coulomb: -(t/2, t/2, 1, 1) per joint
             cost_extra = 1.0
         else:
             extra_col = sp.csr_matrix(self.model.live.ravel()[:, None])
-            extra_ub = np.zeros(4 * nj)
+            extra_ub = np.zeros(self.joint_yield(mu).per_joint * nj)
             cost_extra = -1.0
         cost = np.zeros(3 * nj + 1)
         cost[-1] = cost_extra
@@ -453,7 +456,8 @@ class Statics:
     """How far given joint forces are from the programme's constraints at a load level (:func:`statics`):
     ``equilibrium`` (nb, 3), the residual ``A q + level l + d`` of every block (Fx, Fy in N; M in N·m about its
     reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n (N) and
-    ``eccentricity`` = |m| - n t/2 (N·m), each <= 0 where the yield conditions hold."""
+    ``eccentricity`` = |m| - the law's moment capacity (N·m; Coulomb: n t/2, with crushing the tangent polygon of
+    :mod:`bridgefem.laws.crushing`), each <= 0 where the yield conditions hold."""
 
     equilibrium: np.ndarray
     tension: np.ndarray
@@ -469,7 +473,8 @@ def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
     prog = _Programme(model)
     n, s, m = np.asarray(forces, float).T
     residual = prog.A @ np.asarray(forces, float).ravel() + level * model.live.ravel() + model.dead.ravel()
-    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n, np.abs(m) - n * prog.t / 2)
+    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n,
+                   np.abs(m) - model.law.moment_capacity(prog.t, n))
 
 
 def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LPResult:
@@ -518,11 +523,11 @@ def standing_deficit(model: BlockModel) -> float:
     prog = _Programme(model)
     nj = model.n_joints
     mu = np.asarray(model.friction, float)
-    extra = np.column_stack([np.zeros(nj), np.zeros(nj), mu - 1.0, mu - 1.0]).ravel()  # n = nu - tau in the rows
+    extra = prog.joint_yield(mu).relaxations()[1].ravel()  # n = nu - tau in the rows (Coulomb: 0, 0, mu-1, mu-1)
     shift = -np.asarray(prog.A[:, 0::3].sum(axis=1)).ravel()  # ... and in equilibrium
     cost = np.zeros(3 * nj + 1)
     cost[-1] = 1.0
-    sol = linprog(cost, A_ub=prog.yield_rows(mu, extra), b_ub=np.zeros(4 * nj),
+    sol = linprog(cost, A_ub=prog.yield_rows(mu, extra), b_ub=prog.rhs(np.zeros(nj)),
                   A_eq=sp.hstack([prog.A, sp.csr_matrix(shift[:, None])], format="csr"), b_eq=prog.b_eq,
                   bounds=prog.bounds, method=_LP_METHOD)
     if sol.status != 0:

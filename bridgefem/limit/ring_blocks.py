@@ -31,13 +31,15 @@ import dataclasses
 import numpy as np
 
 from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
+from ..laws.base import JointLaw
+from ..laws.crushing import scene_law
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .rigid_block import BlockModel, generalised_loads
 
 
 def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
-               live: bool = True) -> BlockModel:
+               live: bool = True, law: type[JointLaw] | JointLaw | None = None) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`~bridgefem.limit.rigid_block.BlockModel` (the FE model's joint
     layout).
 
@@ -49,7 +51,8 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     ``thickness`` overrides the scene's; ``live=False`` drops the live loads. A scene's fill enters as dead load
     only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
     centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
-    (it does not change the collapse load of rigid blocks).
+    (it does not change the collapse load of rigid blocks). ``law``: the joints' law (default the scene's,
+    :func:`bridgefem.laws.crushing.scene_law`).
     """
     a = scene.arch
     sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
@@ -75,7 +78,7 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
         joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
         joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
         joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
-        friction=friction)
+        friction=friction, law=scene_law(scene) if law is None else law)
 
 
 def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:

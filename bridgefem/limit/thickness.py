@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..laws.crushing import strength_text
 from ..scene.model import Scene
 from ..scene.schema import SCHEMA
 from .rigid_block import LPResult, dead_load_deficit
@@ -80,7 +81,8 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
     if thickest.status != "stable under self-weight":
         how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
         raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
-                                f"self-weight with friction {scene.joints.friction:g} ({friction_model}): {how}")
+                                f"self-weight with friction {scene.joints.friction:g} ({friction_model})"
+                                f"{strength_text(scene)}: {how}")
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
         if analyse(mid).status == "stable under self-weight":

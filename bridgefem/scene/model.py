@@ -31,11 +31,13 @@ class Arch:
 
 @dataclass(frozen=True)
 class Masonry:
-    """Voussoir material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3)."""
+    """Voussoir material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3) and the joints' compressive
+    strength (Pa; None: infinitely strong)."""
 
     young: float
     poisson: float
     density: float
+    compressive_strength: float | None = _default("masonry", "compressive_strength")
 
 
 @dataclass(frozen=True)

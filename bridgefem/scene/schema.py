@@ -143,6 +143,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "young": _modulus("Young's modulus of the voussoirs"),
         "poisson": _poisson("Poisson's ratio of the voussoirs", 0.2),
         "density": _DENSITY,
+        "compressive_strength": Key(float, "compressive strength f_c of every masonry joint (voussoir joints, "
+                                    "springings): a joint crushes under a rectangular stress block of f_c",
+                                    None, "Pa", low=100.0, high=1e9, derived="infinitely strong (no crushing)",
+                                    why="from the self-weight stresses of a laboratory model (about 1 kPa) to "
+                                        "beyond the strongest granite (about 250 MPa)"),
     },
     "joints": {
         "friction": _coefficient("Coulomb coefficient of every joint, springing joints included"),

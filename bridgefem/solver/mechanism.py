@@ -30,8 +30,9 @@ opens) together with the work of the loads on it. :func:`judge` decides, from th
 4. A *proof*: an admissible rigid-block hinge mode, with violation and friction slip below ``PROOF_TOL`` (mu = 0
    pairs may slip) on which the driving load does positive work and the whole load more than the joints can
    dissipate on it (the tension T that the law lets an open pair carry, sum T d_n; none for Coulomb's no-tension
-   joints). By virtual work any equilibrium with joint forces lam_n >= -T would give that work as -sum(lam_n d_n) <= sum T d_n: no
-   equilibrium exists. Only for a linear elastic structure (``provable``; a yielding fill dissipates on the mode).
+   joints; and the crushing force C of a crushed pair, which the mode may close further, sum C max(-d_n, 0)). By
+   virtual work any equilibrium with joint forces -T <= lam_n <= C would give that work as -sum(lam_n d_n) <=
+   sum T d_n + sum C max(-d_n, 0): no equilibrium exists. Only for a linear elastic structure (``provable``; a yielding fill dissipates on the mode).
 
 Every reduction is over ``comm``: the pairs may be spread over MPI ranks.
 """
@@ -131,6 +132,8 @@ def judge(mode: Mode, provable: bool = True, comm: MPI.Comm = MPI.COMM_SELF) -> 
         return Verdict(flaw, repair, False, slides)
     dissipation = comm.allreduce(float(np.sum(np.where(rules.open, rules.tension * np.maximum(orient * d[:, 0], 0.0),
                                                        0.0))))  # the open pairs' tension's work on the opening
+    if rules.crushing is not None:  # the crushed pairs' compression's work on their closing
+        dissipation += comm.allreduce(float(np.sum(rules.crushing * np.maximum(-orient * d[:, 0], 0.0))))
     proof = (provable and value <= PROOF_TOL * span and slip <= PROOF_TOL * span
              and orient * works[1] - dissipation > WORK_TOL * scales[1] and orient * works[0] > 0)
     return Verdict(None, None, bool(proof))

@@ -1,0 +1,79 @@
+"""Crushing in the FE (issue 39): the scene's compressive strength chooses bridgefem.laws.crushing.CrushingJoints;
+its converged equilibria obey the rigid-block rows of the FE's own joint stations, so the FE's limit meets the
+rigid-block LP on the same joints (the static theorem), above the rectangular stress block's LP by the mesh's
+discretisation of the block (refined until within the usual agreement or the refinements run out) and below the
+infinitely strong ring; a crushing mode's proof counts the crushed pairs' work."""
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.laws.base import ModeRules
+from bridgefem.laws.coulomb import CoulombJoints
+from bridgefem.laws.crushing import CrushingJoints, fe_stations, scene_law
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.reader import scene_from_dict
+from bridgefem.solver.mechanism import Mode, judge
+
+RING = {"scene": {"name": "crush"},
+        "arch": {"shape": "semicircular", "span": 6.0, "thickness": 0.4, "voussoirs": 8},
+        "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
+        "joints": {"friction": 0.6},
+        "mesh": {"elements_through_thickness": 16},
+        "load": [{"kind": "point", "position": 0.3}]}
+
+
+def scene(fc=None):
+    masonry = {**RING["masonry"], **({} if fc is None else {"compressive_strength": fc})}
+    return scene_from_dict({**RING, "masonry": masonry})
+
+
+def test_the_stations_of_linear_elements_are_the_tangents_polygon():
+    """16 linear elements: 17 evenly spaced stations with trapezoidal weights, the 16 tangents' polygon."""
+    law = CrushingJoints.blocks(1e6, 1.0, stations=fe_stations(scene(1e6)))
+    a, b = law.polygon()
+    a16, b16 = CrushingJoints.blocks(1e6, 1.0, 16).polygon()
+    assert a == pytest.approx(a16) and b == pytest.approx(b16)
+    assert b16 == pytest.approx(np.arange(17) ** 2 / (2 * 16 ** 2))
+
+
+@pytest.mark.slow
+def test_a_crushing_ring_meets_the_lp_on_its_own_joints():
+    """f_c = 1 MPa on a 6 m semicircle 0.4 m thick: the FE's limit within 0.5 % of the LP on its own joints (16
+    elements: 17 stations), crushed pairs in its last state, below the infinitely strong ring's and above the
+    parabola's LP (the polygon is outside the parabola) by less than 4 %."""
+    sc = scene(1e6)
+    an = run_analysis(sc, MPI.COMM_WORLD, max_refinements=0)
+    assert isinstance(an.solver.law, CrushingJoints)
+    assert an.search.status == "limit load found"
+    own = collapse_load(sc, law=scene_law(sc, fe=True)).level
+    block = collapse_load(sc).level
+    strong = collapse_load(scene()).level
+    assert abs(an.search.lower / own - 1) <= 0.005
+    assert block < an.search.lower < 1.04 * block < strong
+    assert an.search.steps[-1].counts.get("crushed", 0) + an.search.steps[-1].counts.get("crushed-slip", 0) > 0 \
+        or any(s.counts.get("crushed", 0) for s in an.search.steps if s.converged)
+    assert an.verdict.evidence
+    s, w = np.array(fe_stations(sc)).T  # the pairs through joint 4 are the stations
+    at = an.pairs.joint == 4
+    order = np.argsort(an.pairs.position[at])
+    t = sc.arch.thickness
+    assert an.pairs.position[at][order] == pytest.approx(s * t, abs=1e-9 * t)
+    assert an.pairs.length[at][order] == pytest.approx(w * t, rel=1e-6)
+
+
+def test_without_strength_the_scene_law_is_coulombs():
+    from bridgefem.laws.crushing import scene_law_factory
+    assert scene_law_factory(scene()) == CoulombJoints.for_pairs
+    assert scene_law(scene()) is CoulombJoints
+
+
+def test_a_mode_closing_crushed_pairs_must_outwork_their_crushing_force():
+    """Two pairs: one crushed (C = 10 N), one open; the mode opens the open pair by 1 and closes the crushed one by
+    1 (a hinge turning about its crushed edge). Load work 5 < C x 1: no proof; 15 > 10: a proof."""
+    d = np.array([[-1.0, 0.0], [1.0, 0.0]])
+    rules = ModeRules(np.array([False, True]), np.full(2, np.nan), np.array([True, True]), np.zeros(2),
+                      np.array([10.0, 0.0]))
+    for work, proof in ((5.0, False), (15.0, True)):
+        mode = Mode(d, rules, np.array([0, 0]), (work, work), (1.0, 1.0))
+        assert judge(mode).proof is proof
