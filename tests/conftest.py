@@ -12,9 +12,17 @@ from pathlib import Path
 
 import pytest
 
-from bridgefem.petsc_start import start as _start_petsc  # before a test module imports DOLFINx: no rc files
+from bridgefem.petsc_start import start as _start_petsc
 
-_start_petsc()
+
+def pytest_configure(config):
+    """Start PETSc without rc files (:func:`bridgefem.petsc_start.start`) in every process that runs tests, before a
+    test module imports DOLFINx. Not in pytest-xdist's controller, which runs none: the MPI library PETSc starts
+    there would set its singleton environment (OMPI_*, PMIX_*), the workers would inherit it, and an ``mpirun``
+    started from a worker would take itself for part of that job and fail (exit 1, nothing printed)."""
+    if getattr(config.option, "numprocesses", None) and not hasattr(config, "workerinput"):
+        return
+    _start_petsc()
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,6 +60,29 @@ def campaign_scene(index: int, thickness: float, seed: int = 1) -> dict:
     ``thickness`` (m) the campaign gave it (its LP's least thickness and the draw decide it)."""
     campaign = campaign_module()
     return campaign.scene_dict(campaign.draw(seed, index), thickness)
+
+
+SMALL_RING = {"arch": {"shape": "semicircular", "span": 6.0, "thickness": 0.4, "voussoirs": 8},
+              "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
+              "joints": {"friction": 0.6},
+              "load": [{"kind": "point", "position": 0.3}]}
+"""A small semicircular ring (8 voussoirs, a point load at 0.3 of the span) whose limit analysis takes about a second
+on a coarse mesh: the ring of the joint-law tests."""
+
+
+def trap_the_analysis(monkeypatch, parent: Path) -> Path:
+    """An empty working folder ``parent/work`` as the cwd, and the analysis replaced by a trap that fails the test if
+    it is reached (a refusal must come before it)."""
+    import bridgefem.analysis.runner
+
+    def reached(*args, **kwargs):
+        raise AssertionError("the analysis was reached")
+
+    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
+    work = parent / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    return work
 
 
 def write_toml(path: Path, d: dict) -> Path:

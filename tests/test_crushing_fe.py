@@ -5,6 +5,7 @@ discretisation of the block (refined until within the usual agreement or the ref
 infinitely strong ring; a crushing mode's proof counts the crushed pairs' work."""
 import numpy as np
 import pytest
+from conftest import SMALL_RING
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
@@ -15,12 +16,7 @@ from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.mechanism import Mode, judge
 
-RING = {"scene": {"name": "crush"},
-        "arch": {"shape": "semicircular", "span": 6.0, "thickness": 0.4, "voussoirs": 8},
-        "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
-        "joints": {"friction": 0.6},
-        "mesh": {"elements_through_thickness": 16},
-        "load": [{"kind": "point", "position": 0.3}]}
+RING = {**SMALL_RING, "scene": {"name": "crush"}, "mesh": {"elements_through_thickness": 16}}
 
 
 def scene(fc=None):

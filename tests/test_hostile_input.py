@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import bridgefem, scene_dict, write_toml
+from conftest import bridgefem, scene_dict, trap_the_analysis, write_toml
 
 from bridgefem.io import cli
 from bridgefem.scene.reader import scene_from_dict, scene_scales
@@ -174,16 +174,7 @@ def case_dir(cases_root):
 @pytest.fixture
 def trapped(case_dir, monkeypatch):
     """An empty working folder as the cwd, and the analysis replaced by a trap."""
-    import bridgefem.analysis.runner
-
-    def reached(*args, **kwargs):
-        raise AssertionError("the analysis was reached")
-
-    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
-    work = case_dir / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    return work
+    return trap_the_analysis(monkeypatch, case_dir)
 
 
 def assert_refused(capsys, argv: list[str], must_name: str, work: Path) -> str:

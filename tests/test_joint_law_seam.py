@@ -12,6 +12,7 @@ f_t > 0 the ring carries more, as much as the rigid blocks with the same tensile
 from dataclasses import dataclass, replace
 
 import numpy as np
+from conftest import SMALL_RING
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
@@ -72,12 +73,7 @@ def tensile_law(strength: float, width: float):
     return build
 
 
-RING = {"scene": {"name": "seam"},
-        "arch": {"shape": "semicircular", "span": 6.0, "thickness": 0.4, "voussoirs": 8},
-        "masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0},
-        "joints": {"friction": 0.6},
-        "mesh": {"elements_through_thickness": 2},
-        "load": [{"kind": "point", "position": 0.3}]}
+RING = {**SMALL_RING, "scene": {"name": "seam"}, "mesh": {"elements_through_thickness": 2}}
 
 
 def analyse(law=None):

@@ -245,7 +245,7 @@ def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_pat
     results."""
     out = earlier_results(tmp_path / "out")
     before = snapshot(out)
-    scene = ROOT / "demos" / "bare_arch.toml"  # load steps for several seconds on two ranks
+    scene = ROOT / "demos" / "prestwood.toml"  # a plastic fill: load steps for tens of seconds on two ranks
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
     proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.io.cli", "run",
                              str(scene), "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,

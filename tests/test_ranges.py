@@ -18,7 +18,7 @@ from dataclasses import asdict
 
 import numpy as np
 import pytest
-from conftest import REFERENCE_ARCH, campaign_module, scene_dict, write_toml
+from conftest import REFERENCE_ARCH, campaign_module, scene_dict, trap_the_analysis, write_toml
 
 from bridgefem.io import cli
 from bridgefem.limit.collapse import collapse_load
@@ -103,16 +103,7 @@ EDGE_CASES = [(s, k, v, ok) for s, k in numeric_keys() for ok, values in zip((Tr
 @pytest.fixture
 def trapped(tmp_path, monkeypatch):
     """An empty working folder as the cwd and the analysis replaced by a trap (a refusal comes before it)."""
-    import bridgefem.analysis.runner
-
-    def reached(*args, **kwargs):
-        raise AssertionError("the analysis was reached")
-
-    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
-    work = tmp_path / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    return work
+    return trap_the_analysis(monkeypatch, tmp_path)
 
 
 def assert_refused(capsys, argv: list[str], must_hold: list[str], work) -> str:
