@@ -335,7 +335,7 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     mid = 0.5 * (lim["lower"] + lim["upper"]) if lim["upper"] is not None else None
     ratio = mid / lp["load"] if mid and lp["load"] else None
     sliding = bool(data["mechanism"]["sliding"] or lp["mechanism"]["sliding"])
-    # below the associative LP only with a proof or the non-associative rigid-block check (bridgefem/evidence.py)
+    # below the associative LP only with a proof or the non-associative rigid-block check (bridgefem/analysis/evidence.py)
     proved = data.get("evidence", "").startswith(("proof", "agreement: the non-associative"))
     out = {"status": status, "lp_status": lp_status, "fe": mid, "lp": lp["load"], "ratio": ratio,
            "sliding": sliding, "solves": data["solver"]["solves"] + sum(r["solves"] for r in data["mesh_refinements"]),

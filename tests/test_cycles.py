@@ -1,4 +1,4 @@
-"""The condensation of a cycle (bridgefem/cycles.py) on a made-up linear system whose pair compliance is known: C is
+"""The condensation of a cycle (bridgefem/solver/cycles.py) on a made-up linear system whose pair compliance is known: C is
 built column by column from unit-force solves in the pairs' (n, t) order, d0 from one solve with the pairs open, and
 the small problem is solved on them; the 2p + 1 solves are counted as condensation solves."""
 from types import SimpleNamespace

@@ -1,6 +1,6 @@
 """Decisions that must not depend on rounding, which differs between serial and MPI runs (MUMPS orders and rounds
 otherwise on 2 ranks): a cycle's condensation is kept only when its normal block is a P-matrix by more than the
-measured error of its entries (bridgefem/cycles.py, *Rounding*). Checked on made-up cases with known answers: the
+measured error of its entries (bridgefem/solver/cycles.py, *Rounding*). Checked on made-up cases with known answers: the
 refinement's correction is the forward error of a perturbed solution, the P-matrix margin is the least singular
 value of the principal submatrices, and a condensation whose normal entry is within its error is declined whatever
 its sign."""

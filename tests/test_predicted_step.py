@@ -1,5 +1,5 @@
 """Newton iterations that start from a predicted active set, and the ranking of proposed changes for damping
-(bridgefem/solver.py, *Predictor* and step 3; bridgefem/contact.py, ``CoulombJoints.classify``)."""
+(bridgefem/solver/newton.py, *Predictor* and step 3; bridgefem/fe/pairs.py, ``CoulombJoints.classify``)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Every number of a scene has a range a real bridge can have (``bridgefem/scene.py`` SCHEMA, docs/scene-keys.md).
+"""Every number of a scene has a range a real bridge can have (``bridgefem/scene/schema.py`` SCHEMA, docs/scene-keys.md).
 
 Generated from the schema: the ends of every numeric key's range are accepted by ``bridgefem check``, and a value
 just outside them is refused with one line naming the key, the value and the range (exit code 2, nothing written),

@@ -1,4 +1,4 @@
-"""A solution that leaps far beyond the last solved iterate damps the proposal that led to it (bridgefem/solver.py,
+"""A solution that leaps far beyond the last solved iterate damps the proposal that led to it (bridgefem/solver/newton.py,
 *Leaps*): a campaign scene whose trials wandered through nearly singular active sets."""
 import pytest
 from conftest import run_campaign_scene

@@ -1,4 +1,4 @@
-"""Proximal solves of an active set whose system diverges along a rigid sliding mode (bridgefem/solver.py,
+"""Proximal solves of an active set whose system diverges along a rigid sliding mode (bridgefem/solver/newton.py,
 *Proximal solves*): the step is bounded by springs k = PROXIMAL c against the free directions' motion from the
 anchor, and the term vanishes at a fixed point."""
 

@@ -1,4 +1,4 @@
-"""A cycle is condensed with the pairs that churned in the step (bridgefem/solver.py, *Cycles*), and reversed slips
+"""A cycle is condensed with the pairs that churned in the step (bridgefem/solver/newton.py, *Cycles*), and reversed slips
 pass through stick (*Reversed slips*): campaign scenes whose live-load trials failed far below their limit."""
 import pytest
 from conftest import run_campaign_scene

@@ -1,4 +1,4 @@
-"""A reversed slip is proposed as stick (bridgefem/solver.py, *Reversed slips*): a path choice of the Newton method
+"""A reversed slip is proposed as stick (bridgefem/solver/newton.py, *Reversed slips*): a path choice of the Newton method
 that must leave what counts as converged, the fixed points of the joint law's classification, unchanged."""
 import numpy as np
 

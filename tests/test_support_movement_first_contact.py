@@ -1,5 +1,5 @@
 """The repair of an inadmissible diverging mode closes the pairs that close first along it
-(bridgefem.solver.mechanism.first_contact; bridgefem/solver.py, *First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
+(bridgefem.solver.mechanism.first_contact; bridgefem/solver/newton.py, *First contact*): a support movement that closes the span leaves the ring at its maximum thrust, four hinges with
 the thrust line through all four, and the first live-load increment must close one hinge, not two."""
 import json
 
