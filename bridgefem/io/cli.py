@@ -277,7 +277,7 @@ def _print_run(scene, data: dict, out: Path) -> None:
               f"runs with {', '.join(map(str, refined))} (results.json: mesh_refinements)")
     for warning in data["warnings"]:
         print(f"  WARNING: {warning}")
-    print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png)")
+    print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png, report.html)")
 
 
 def _notice(line: str) -> None:
