@@ -9,6 +9,11 @@ face; its eccentricity e is measured from the joint's centre, positive towards t
 1. *Resultants* (:func:`joint_states`): per joint, N and V are the sums of its pairs' multipliers, e = sum(lam_n
    (p - L/2)) / N with p a pair's place from the intrados and L the joint's length, and the open part of its length
    is the tributary length of its open pairs.
+   *Crushing* (a law with a compressive strength, :meth:`bridgefem.laws.base.JointLaw.crushed`): the crushed part of
+   a joint is the tributary length of its crushed pairs (their normal force at the law's bound), its compressed depth
+   that of its closed pairs (the compressed zone of a hinge), and its stress-block depth N / (f_c w) the depth of the
+   rectangular stress block at the strength f_c over the width w that carries N
+   (:meth:`bridgefem.laws.base.JointLaw.stress_block_depth`).
 2. *Hinges* (:func:`_mark_hinges`): a joint is *cracked* when it is open over at least ``HINGE_OPEN_FRACTION`` of
    its length or its thrust lies within ``1/2 - HINGE_ECCENTRICITY`` of the length from a face (with one element
    through the thickness a joint has only two pairs, so the opening alone cannot say it). Consecutive cracked joints
@@ -45,7 +50,11 @@ class JointState:
     """Resultants and state of one joint at a converged step (module docstring; forces in N, lengths in m):
     ``eccentricity`` of the thrust from the joint's centre, ``open_fraction`` of its length, ``opening`` the largest
     normal gap of its pairs (0 when closed), ``sliding`` the sense of the slip of a sliding joint (+1 or -1, the
-    pairs' slip sign; 0: not sliding), ``hinge`` "intrados", "extrados" or "" (no hinge)."""
+    pairs' slip sign; 0: not sliding), ``hinge`` "intrados", "extrados" or "" (no hinge); ``crushed_fraction`` of its
+    length whose pairs are crushed (0..1; 0 without a compressive strength), ``compressed_depth`` (m) the length of
+    its closed pairs (those that carry compression: a hinge's compressed zone), ``stress_block_depth`` (m) N / (f_c w),
+    the depth of the stress block at the compressive strength f_c over the width w that carries N (None without a
+    strength)."""
 
     id: int
     normal_force: float
@@ -55,27 +64,32 @@ class JointState:
     opening: float
     sliding: int
     hinge: str = ""
+    crushed_fraction: float = 0.0
+    compressed_depth: float = 0.0
+    stress_block_depth: float | None = None
 
 
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
-    """Per-joint resultants, hinges and sliding at a converged iterate (identical on every rank)."""
+    """Per-joint resultants, hinges, sliding and crushing at a converged iterate (identical on every rank)."""
     _, lam, d = solver.system.split(it.x)
     law = solver.law
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.length, law.closed(it.active),
-                             law.sliding(it.active), it.active.sign, d[:, 0]])
+                             law.sliding(it.active), it.active.sign, d[:, 0], law.crushed(it.active)])
     table = np.vstack(solver.comm.allgather(local))
     states = []
     for jt in (j for j in ring.joints if not j.free):
         rows = table[table[:, 0] == jt.id]
-        lam_n, lam_t, pos, length, closed, slips, sign, gap = rows[:, 1:9].T
+        lam_n, lam_t, pos, length, closed, slips, sign, gap, crushed = rows[:, 1:10].T
         n_force = lam_n.sum()
         ecc = float((lam_n * (pos - jt.length / 2)).sum() / n_force) if n_force > 0 else 0.0
-        closed, slips = closed.astype(bool), slips.astype(bool)
+        closed, slips, crushed = closed.astype(bool), slips.astype(bool), crushed.astype(bool)
         slip_signs = set(sign[closed & slips])
         sliding = int(slip_signs.pop()) if closed.any() and np.all(slips[closed]) and len(slip_signs) == 1 else 0
         states.append(JointState(jt.id, float(n_force), float(lam_t.sum()), ecc,
                                  float(length[~closed].sum() / length.sum()), float(gap[~closed].max(initial=0.0)),
-                                 sliding))
+                                 sliding, crushed_fraction=float(length[crushed].sum() / length.sum()),
+                                 compressed_depth=float(length[closed].sum()),
+                                 stress_block_depth=law.stress_block_depth(n_force)))
     _mark_hinges(states, ring)
     return states
 

@@ -262,6 +262,8 @@ def _print_run(scene, data: dict, out: Path) -> None:
     elif data["failure_reason"]:
         print(f"  last failed step: {data['failure_reason']}")
     print(f"  hinges at joints {data['mechanism']['hinges']}, sliding joints {data['mechanism']['sliding']}")
+    if scene.masonry.compressive_strength is not None:
+        print(f"  {_crushed_line(data)}")
     lp = data["lp"]
     if lp["load"]:
         ratio = f", FE/LP = {data['fe_lp_ratio']:.4f}" if data["fe_lp_ratio"] else ""
@@ -278,6 +280,15 @@ def _print_run(scene, data: dict, out: Path) -> None:
     for warning in data["warnings"]:
         print(f"  WARNING: {warning}")
     print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png, report.html)")
+
+
+def _crushed_line(data: dict) -> str:
+    """The crushed joints of a run's mechanism and the depth (m) of each one's compressed zone (its closed pairs'
+    length: results.json's ``compressed_depth``)."""
+    crushed = data["mechanism"]["crushed"]
+    depth = {j["id"]: j.get("compressed_depth") for j in data["joints"]}
+    zones = ", ".join(f"{j}: {depth[j]:.3f} m" for j in crushed) or "none"
+    return f"crushed joints {crushed} (compressed zones: {zones})"
 
 
 def _notice(line: str) -> None:

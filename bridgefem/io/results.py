@@ -46,10 +46,11 @@ def versions() -> dict:
 
 UNITS = {
     "force": "N (forces, loads, weights, reactions: for the scene's width)",
-    "length": "m (coordinates, deflections, openings, eccentricities, element size, width)",
+    "length": "m (coordinates, deflections, openings, eccentricities, element size, width, joints' "
+              "compressed_depth and stress_block_depth)",
     "stress": "Pa (fill cohesion)",
     "time": "s (timings, seconds)",
-    "dimensionless": "tolerance, ratios, open_fraction, friction, support_movement (fraction of the movement), "
+    "dimensionless": "tolerance, ratios, open_fraction, crushed_fraction, friction, support_movement (fraction of the movement), "
                      "residual (out-of-balance force over the largest applied nodal force, inf-norms)",
 }
 CONVENTIONS = {
@@ -101,11 +102,14 @@ def summary(an: Analysis) -> dict:
         "units": {**UNITS, **units},
         "conventions": {**CONVENTIONS, **conventions},
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
-                      "sliding": [j.id for j in an.joints if j.sliding]},
+                      "sliding": [j.id for j in an.joints if j.sliding],
+                      "crushed": [j.id for j in an.joints if j.crushed_fraction > 0]},
         "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
                     **({"normal_force": js.normal_force, "shear_force": js.shear_force,
                         "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
-                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding} if js else {})}
+                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding,
+                        "crushed_fraction": js.crushed_fraction, "compressed_depth": js.compressed_depth,
+                        "stress_block_depth": js.stress_block_depth} if js else {})}
                    for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
         "line_of_thrust": thrust_summary(line_of_thrust(an.joints, an.ring)),
         "self_weight": an.model.dead_weight,

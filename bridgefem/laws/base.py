@@ -187,6 +187,16 @@ class JointLaw(ABC):
     def sliding(self, active: ContactState) -> np.ndarray:
         """The closed pairs on their slip branch (sign ``active.sign``)."""
 
+    def crushed(self, active: ContactState) -> np.ndarray:
+        """The closed pairs whose normal force has reached the law's compressive bound (none: the joints are
+        infinitely strong in compression)."""
+        return np.zeros(len(active.state), dtype=bool)
+
+    def stress_block_depth(self, normal_force: float) -> float | None:
+        """The depth (m) of the rectangular stress block at the compressive strength that carries ``normal_force``
+        (N) over the joints' width, N / (f_c w); None for a law without a compressive strength."""
+        return None
+
     @abstractmethod
     def bonded(self, n: int) -> ContactState:
         """``n`` pairs closed and holding (the start of the self-weight step)."""

@@ -116,6 +116,13 @@ class CrushingJoints(CoulombJoints):
     def sliding(self, active: ContactState) -> np.ndarray:
         return (active.state == self.SLIP) | (active.state == self.CRUSHED_SLIP)
 
+    def stress_block_depth(self, normal_force: float) -> float | None:
+        """N / (f_c w) (m): the depth of the rectangular stress block at f_c that carries ``normal_force`` (N); None
+        for an infinite strength."""
+        if not math.isfinite(self.strength):
+            return None
+        return float(normal_force) / (self.strength * self.width)
+
     def _sticking(self, state: np.ndarray) -> np.ndarray:
         return (state == self.STICK) | (state == self.CRUSHED)
 
