@@ -102,21 +102,30 @@ def _checks(data: dict, per: float | None = None) -> list[tuple]:
     return rows
 
 
+def _mechanism(data: dict | None, pictures: dict, mechanism: str, deflection: str) -> str:
+    """The collapse of one FE run (results.json's ``data``; None: no FE run): its hinges, sliding joints, where the
+    line of thrust touches the faces and the evidence in words, then the mechanism and load-deflection pictures
+    with the captions ``mechanism`` and ``deflection``."""
+    text = ""
+    if data:
+        thrust = data.get("line_of_thrust") or {}
+        text = (f"<p>Hinges at joints {_esc(data['mechanism']['hinges'])}, sliding joints "
+                f"{_esc(data['mechanism']['sliding'])}; the line of thrust touches the intrados at joints "
+                f"{_esc(thrust.get('touches_intrados', []))} and the extrados at "
+                f"{_esc(thrust.get('touches_extrados', []))}.</p><p>Evidence: {_esc(data['evidence'])}</p>")
+    return (text + _figure("mechanism", pictures.get("mechanism"), mechanism)
+            + _figure("load_deflection", pictures.get("load_deflection"), deflection))
+
+
 def run_report(data: dict, pictures: dict) -> str:
     """The report of ``bridgefem run``: results.json's ``data`` and its ``pictures`` (name -> PNG bytes or path:
     "mechanism", "load_deflection")."""
     lim = data["limit_load"]
     verdict = f"{_esc(data['status'])}: limit load {_kn(lim['lower'])} to {_kn(lim['upper'])} for a width of " \
               f"{lim['width']:g} m"
-    thrust = data.get("line_of_thrust") or {}
     body = (f"<h1>{_esc(data['scene'])}</h1><p class='verdict'>{verdict}</p>"
-            f"<p>Hinges at joints {_esc(data['mechanism']['hinges'])}, sliding joints "
-            f"{_esc(data['mechanism']['sliding'])}; the line of thrust touches the intrados at joints "
-            f"{_esc(thrust.get('touches_intrados', []))} and the extrados at "
-            f"{_esc(thrust.get('touches_extrados', []))}.</p><p>Evidence: {_esc(data['evidence'])}</p>"
-            + _figure("mechanism", pictures.get("mechanism"), "collapse mechanism, joints numbered from the left "
-                      "springing, line of thrust of the last converged state")
-            + _figure("load_deflection", pictures.get("load_deflection"), "load-deflection curve")
+            + _mechanism(data, pictures, "collapse mechanism, joints numbered from the left springing, line of thrust "
+                         "of the last converged state", "load-deflection curve")
             + "<h2>Checks</h2>" + _table(_checks(data), ("check", "load", ""))
             + "<h2>Warnings</h2>" + _warnings(data["warnings"]) + _tail(data.get("versions", {})))
     return _page(f"bridgefem: {data['scene']}", body)
@@ -151,9 +160,8 @@ def assessment_report(data: dict, pictures: dict) -> str:
             + _figure("elevation", pictures.get("elevation"), "the bridge and the vehicle at the critical position, "
                       "to scale")
             + _figure("adequacy", pictures.get("adequacy"), "adequacy factor against the first axle's position")
-            + _figure("mechanism", pictures.get("mechanism"), "mechanism at the critical position: joints numbered "
-                      "from the left springing, hinges labelled, line of thrust")
-            + _figure("load_deflection", pictures.get("load_deflection"), "load-deflection at the critical position")
+            + _mechanism(fe, pictures, "mechanism at the critical position: joints numbered from the left springing, "
+                         "hinges labelled, line of thrust", "load-deflection at the critical position")
             + "<h2>Confirmed positions (FE)</h2>"
             + _table(confirmed, ("first axle x (m)", "vehicle on span (kN)", "status", "FE factor", "LP factor", "s"))
             + ("<h2>Checks at the critical position</h2>" + _table(_checks(fe, crit["load"]),
