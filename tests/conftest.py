@@ -70,13 +70,13 @@ SMALL_RING = {"arch": {"shape": "semicircular", "span": 6.0, "thickness": 0.4, "
 on a coarse mesh: the ring of the joint-law tests."""
 
 
-def trap_the_analysis(monkeypatch, parent: Path) -> Path:
-    """An empty working folder ``parent/work`` as the cwd, and the analysis replaced by a trap that fails the test if
-    it is reached (a refusal must come before it)."""
+def trap_the_analysis(monkeypatch, parent: Path, error: type[Exception] = AssertionError) -> Path:
+    """An empty working folder ``parent/work`` as the cwd, and the analysis replaced by a trap that raises ``error``
+    if it is reached (by default failing the test: a refusal must come before it)."""
     import bridgefem.analysis.runner
 
     def reached(*args, **kwargs):
-        raise AssertionError("the analysis was reached")
+        raise error("the analysis was reached")
 
     monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
     work = parent / "work"

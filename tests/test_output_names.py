@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import scene_dict, write_toml
+from conftest import scene_dict, trap_the_analysis, write_toml
 
 from bridgefem.io import cli, output
 from bridgefem.io.output import claim, results_folder
@@ -35,16 +35,7 @@ class Reached(Exception):
 @pytest.fixture
 def work(tmp_path, monkeypatch):
     """An empty working folder as the cwd, and the analysis replaced by a trap that raises :class:`Reached`."""
-    import bridgefem.analysis.runner
-
-    def reached(*args, **kwargs):
-        raise Reached()
-
-    monkeypatch.setattr(bridgefem.analysis.runner, "run_analysis", reached)
-    folder = tmp_path / "work"
-    folder.mkdir()
-    monkeypatch.chdir(folder)
-    return folder
+    return trap_the_analysis(monkeypatch, tmp_path, Reached)
 
 
 def tree(folder: Path) -> list[str]:

@@ -113,18 +113,25 @@ def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockMode
                             -np.bincount(joint, moment, size)])
 
 
+def _ring_nodes(model: ElasticModel, bm: BlockMesh, n_blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """This rank's owned nodes on the ring's ``n_blocks`` blocks (voussoirs, abutments): the block of each, their
+    coordinates (m, (n, 2)) and the mask that picks them among the owned nodes."""
+    V = model.V
+    n_owned = V.dofmap.index_map.size_local
+    blk = node_blocks(V, bm)[:n_owned]
+    on = (blk >= 0) & (blk < n_blocks)
+    return blk[on], V.tabulate_dof_coordinates()[:n_owned, :2][on], on
+
+
 def block_extents(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per block of the ring (voussoirs, abutments): its number of nodes and its radius about ``ref`` (nb, 2), the
     largest distance of its nodes from that point (m). Collective."""
-    V, comm = model.V, model.V.mesh.comm
-    n_owned = V.dofmap.index_map.size_local
-    blk = node_blocks(V, bm)[:n_owned]
-    on = (blk >= 0) & (blk < len(ref))
-    x = V.tabulate_dof_coordinates()[:n_owned, :2][on]
-    distance = np.linalg.norm(x - ref[blk[on]], axis=1)
+    comm = model.V.mesh.comm
+    blk, x, _ = _ring_nodes(model, bm, len(ref))
+    distance = np.linalg.norm(x - ref[blk], axis=1)
     radius = np.zeros(len(ref))
-    np.maximum.at(radius, blk[on], distance)
-    return comm.allreduce(np.bincount(blk[on], minlength=len(ref))), np.max(comm.allgather(radius), axis=0)
+    np.maximum.at(radius, blk, distance)
+    return comm.allreduce(np.bincount(blk, minlength=len(ref))), np.max(comm.allgather(radius), axis=0)
 
 
 def block_loads(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -132,13 +139,10 @@ def block_loads(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np
     (nb, 3): Fx, Fy (N) and M (N·m, counter-clockwise) about ``ref`` (nb, 2), the sums of the assembled nodal
     forces (the meshed voussoirs' weight, which the mesh's straight cell edges make differ from the exact
     voussoirs' by O(h^2)). Collective."""
-    V, comm = model.V, model.V.mesh.comm
-    n_owned = V.dofmap.index_map.size_local
-    blk = node_blocks(V, bm)[:n_owned]
-    on = (blk >= 0) & (blk < len(ref))
-    x = V.tabulate_dof_coordinates()[:n_owned, :2][on]
+    comm = model.V.mesh.comm
+    blk, x, on = _ring_nodes(model, bm, len(ref))
 
     def resultants(vec: PETSc.Vec) -> np.ndarray:
-        return comm.allreduce(generalised_loads(ref, blk[on], x, vec.array[:2 * n_owned].reshape(-1, 2)[on]))
+        return comm.allreduce(generalised_loads(ref, blk, x, vec.array[:2 * len(on)].reshape(-1, 2)[on]))
 
     return resultants(model.f_dead), resultants(model.f_live)
