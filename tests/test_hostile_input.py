@@ -52,7 +52,9 @@ def bad_values(key) -> list:
     if key.choices:
         out.append(max(key.choices) + 1)
     scale = scale_of(key)
-    if key.low is not None:
+    if key.low is not None and key.zero:  # 0 is allowed: between it and the range
+        out.append(key.low * scale / 2)
+    elif key.low is not None:
         out.append(key.low - 1 if key.kind is int else key.low * scale - max(1.0, abs(key.low * scale)))
     if key.high is not None:
         out.append(key.high * scale * 10 + 1)

@@ -35,6 +35,7 @@ the outer one (their "extrados").
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,10 +54,18 @@ _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolati
 _EDGE_SAMPLES = 17
 
 
+JOINT_KINDS = ("voussoir", "springing", "ring", "base")
+"""What a joint is: between two voussoirs of a ring, between a ring and its support (the ground or an abutment),
+between two rings (a ring interface, curved), or an abutment's base on the ground."""
+
+
 @dataclass(frozen=True)
 class Joint:
-    """A potential crack between two blocks; ``left``/``right`` are voussoir ids or None for the ground
-    (or, with ``free``, for nothing: an unloaded free face)."""
+    """A potential crack between two blocks; ``left``/``right`` are block ids or None for the ground (or, with
+    ``free``, for nothing: an unloaded free face). ``kind`` is one of :data:`JOINT_KINDS`. A joint runs from its
+    ``intrados`` end to its ``extrados`` end (a ring interface: from its end nearer the right springing to the one
+    nearer the left, so that its normal points outwards); a curved joint (a ring interface) has its ``curve``, a
+    polyline between those ends (m), straight joints have none."""
 
     id: int
     intrados: np.ndarray
@@ -64,25 +73,54 @@ class Joint:
     left: int | None
     right: int | None
     free: bool = False  # a free face (no ground behind the missing block), e.g. the top of a standing block
+    kind: str = "voussoir"
+    curve: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def length(self) -> float:
+        """Length (m): of the chord, or of the curve when the joint is curved."""
+        if self.curve is not None:
+            return float(np.linalg.norm(np.diff(self.curve, axis=0), axis=1).sum())
         return float(np.linalg.norm(self.extrados - self.intrados))
 
     @property
     def tangent(self) -> np.ndarray:
-        """Unit vector along the joint, from intrados to extrados."""
-        return (self.extrados - self.intrados) / self.length
+        """Unit vector along the joint's chord, from its intrados end to its extrados end."""
+        return (self.extrados - self.intrados) / np.linalg.norm(self.extrados - self.intrados)
 
     @property
     def normal(self) -> np.ndarray:
-        """Unit normal from the left block into the right block (the centreline direction)."""
+        """Unit normal of the chord from the left block into the right block (the centreline direction)."""
         t = self.tangent
         return np.array([t[1], -t[0]])
 
     @property
     def centre(self) -> np.ndarray:
         return 0.5 * (self.intrados + self.extrados)
+
+    @property
+    def chords(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint as straight pieces: start and end points (k, 2), m (one piece for a straight joint, the
+        curve's chords for a curved one), in the joint's direction."""
+        pts = np.vstack([self.intrados, self.extrados]) if self.curve is None else self.curve
+        return pts[:-1], pts[1:]
+
+    def frame_at(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For points on the joint (k, 2): their distance along it from the intrados end (m), and the unit normal
+        (left block into right) and tangent there (k, 2): those of the piece of :attr:`chords` nearest each point
+        (of the joint itself when it is straight)."""
+        if self.curve is None:
+            n = len(points)
+            return (points - self.intrados) @ self.tangent, np.tile(self.normal, (n, 1)), np.tile(self.tangent, (n, 1))
+        a, b = self.chords
+        d = b - a
+        seg = np.linalg.norm(d, axis=1)
+        t = np.clip(((points[:, None, :] - a[None]) * d[None]).sum(axis=2) / seg ** 2, 0.0, 1.0)
+        gap = np.linalg.norm(points[:, None, :] - (a[None] + t[..., None] * d[None]), axis=2)
+        k = np.argmin(gap, axis=1)
+        tangent = d[k] / seg[k, None]
+        position = np.concatenate([[0.0], np.cumsum(seg)])[k] + t[np.arange(len(k)), k] * seg[k]
+        return position, np.column_stack([tangent[:, 1], -tangent[:, 0]]), tangent
 
 
 class _Polygonal:
@@ -113,6 +151,7 @@ class Voussoir(_Polygonal):
     extrados: np.ndarray
     intrados_splits: tuple[int, ...] = ()
     extrados_splits: tuple[int, ...] = ()
+    ring: int = 0  # 0: the innermost ring (on the intrados)
 
     @property
     def polygon(self) -> np.ndarray:
@@ -142,12 +181,15 @@ class Abutment(_Polygonal):
 
 @dataclass(frozen=True)
 class ArchRing:
-    """The geometry of a ring of voussoirs on two springings, and its abutments when they are elastic.
+    """The geometry of an arch barrel of one or more rings of voussoirs on two springings, and its abutments when
+    they are elastic.
 
-    ``params`` are the curve parameters of joints 0..N (0 and 1 at the springings); ``joints`` are the ring's
-    joints 0..N followed by the abutments' base joints; ``joints_at_x`` the horizontal positions (m) of the loads and
-    patch edges that a joint was moved under (``joint_at_loads``), so that a load on a joint it did not get can be
-    told from one on its own (:func:`snapped_loads`).
+    ``params`` are the curve parameters of the outer ring's joints (0 and 1 at the springings); ``joints`` are the
+    rings' voussoir joints and springings, ring by ring from the intrados (ring 0: joints 0 .. N0), then the ring
+    interfaces, then the abutments' base joints; ``voussoirs`` ring by ring likewise; ``ring_thicknesses`` (m) the
+    rings' from the intrados out (empty: one ring of ``thickness``); ``joints_at_x`` the horizontal positions (m) of
+    the loads and patch edges that a joint was moved under (``joint_at_loads``), so that a load on a joint it did
+    not get can be told from one on its own (:func:`snapped_loads`).
     """
 
     shape: str
@@ -159,9 +201,15 @@ class ArchRing:
     voussoirs: list[Voussoir] = field(repr=False)
     abutments: list[Abutment] = field(default_factory=list, repr=False)
     joints_at_x: frozenset[float] = frozenset()
+    ring_thicknesses: tuple[float, ...] = ()
+
+    @property
+    def n_rings(self) -> int:
+        return max(1, len(self.ring_thicknesses))
 
     @property
     def n_voussoirs(self) -> int:
+        """Voussoirs of all rings: the block ids 0 .. n_voussoirs - 1."""
         return len(self.voussoirs)
 
     @property
@@ -170,30 +218,39 @@ class ArchRing:
         return len(self.voussoirs) + len(self.abutments)
 
     @property
-    def springings(self) -> tuple[Joint, Joint]:
-        """The left and right springing joints (0 and N)."""
-        return self.joints[0], self.joints[self.n_voussoirs]
+    def outer_voussoirs(self) -> list[Voussoir]:
+        """The voussoirs of the outer ring, left to right: their extrados is the barrel's, where loads act."""
+        return [v for v in self.voussoirs if v.ring == self.n_rings - 1]
+
+    def springings(self, side: str) -> list[Joint]:
+        """The springing joints on ``side`` ("left" | "right"), one per ring from the intrados out."""
+        return [j for j in self.joints if j.kind == "springing" and (j.centre[0] < 0) == (side == "left")]
+
+    @property
+    def ring_joints(self) -> list[Joint]:
+        """The voussoir joints and springings of every ring (the joints a reader numbers on a drawing)."""
+        return [j for j in self.joints if j.kind in ("voussoir", "springing")]
 
     @property
     def bases(self) -> list[Joint]:
-        """The elastic abutments' base joints on the ground (N + 1, N + 2; none on rigid springings)."""
-        return self.joints[self.n_voussoirs + 1:]
+        """The elastic abutments' base joints on the ground (none on rigid springings)."""
+        return [j for j in self.joints if j.kind == "base"]
 
     @property
     def crown_extrados(self) -> float:
         """Height (m) of the highest extrados point."""
-        return max(float(v.extrados[:, 1].max()) for v in self.voussoirs)
+        return max(float(v.extrados[:, 1].max()) for v in self.outer_voussoirs)
 
     def extrados_vertex(self, x: float) -> np.ndarray:
         """The vertex of the voussoirs' extrados polylines nearest to horizontal position x (m): where a point load
         at x acts, since :func:`build_ring` puts a vertex (a mesh node) under every load unless the load is within
         ``AT_JOINT_TOL`` x span of a joint's corner or the pointed crown's apex, where it acts at that corner."""
-        ext = np.vstack([v.extrados for v in self.voussoirs])
+        ext = np.vstack([v.extrados for v in self.outer_voussoirs])
         return ext[np.argmin(np.abs(ext[:, 0] - x))]
 
     def extrados_point(self, x: float) -> np.ndarray:
         """The extrados point above horizontal position x (m)."""
-        ext = np.vstack([v.extrados for v in self.voussoirs])
+        ext = np.vstack([v.extrados for v in self.outer_voussoirs])
         return np.array([x, np.interp(x, ext[:, 0], ext[:, 1])])
 
 
@@ -214,7 +271,7 @@ class FillOutline:
 def fill_outline(ring: ArchRing, depth: float, extension: float, road_x: list[float] = ()) -> FillOutline:
     """The fill over ``ring`` with the road ``depth`` (m) above the crown's extrados, reaching ``extension`` (m)
     beyond each springing's extrados corner."""
-    left, right = (j.extrados for j in ring.springings)
+    left, right = (ring.springings(side)[-1].extrados for side in ("left", "right"))
     return FillOutline(float(left[0]) - extension, float(right[0]) + extension, float(left[1]),
                        ring.crown_extrados + depth,
                        tuple(sorted(set(float(x) for x in road_x))))
@@ -383,11 +440,26 @@ def _joints_at_loads(params: np.ndarray, s_of_p, length: float, xs: np.ndarray, 
     return params, frozenset(float(x) for x, (q, on_curve) in zip(xs, located) if on_curve)
 
 
-def _voussoir(curve: Shape, thickness: float, span: float, i: int, pa: float, pb: float,
-              curve_params: list[float], cap_x: list[float]) -> Voussoir:
-    """Voussoir ``i`` between the joints at curve parameters ``pa`` and ``pb``: its intrados and extrados sampled
-    at ``_EDGE_SAMPLES`` points and at every kink and load point inside it (``curve_params``: the loads' curve
-    parameters on the extrados; ``cap_x``: the positions (m) of loads on a kink's cap, each a vertex on its chord)."""
+RING_BONDS = ("staggered", "aligned")
+
+
+@dataclass(frozen=True)
+class _Samples:
+    """Where a voussoir's edges are sampled: curve parameters ``q`` (its joints' at both ends), which of them are
+    kinks and where the extrados is split (:func:`_voussoir_samples`), and the extrados points that lie on a kink's
+    cap chord rather than on the curve (``chord``: parameter -> point, m)."""
+
+    q: np.ndarray
+    kink_at: np.ndarray
+    split_at: np.ndarray
+    chord: dict
+
+
+def _voussoir_samples(curve: Shape, thickness: float, span: float, pa: float, pb: float, curve_params: list[float],
+                      cap_x: list[float]) -> _Samples:
+    """The samples of the voussoir between the joints at curve parameters ``pa`` and ``pb``: ``_EDGE_SAMPLES``
+    parameters and every kink and load point inside it (``curve_params``: the loads' curve parameters on the
+    extrados; ``cap_x``: the positions (m) of loads on a kink's cap, each a vertex on its chord)."""
 
     def extrados_x(q):
         return _ring_point(curve, thickness, np.asarray(q, float), 1.0)[..., 0]
@@ -402,48 +474,128 @@ def _voussoir(curve: Shape, thickness: float, span: float, i: int, pa: float, pb
         gap = np.abs(regular[1:-1, None] - special[None, :]).min(axis=1)
         regular = np.concatenate([[pa], regular[1:-1][gap > 0.25 * (pb - pa) / (_EDGE_SAMPLES - 1)], [pb]])
     q = np.unique(np.concatenate([regular, special]))
-    intra, extra = _ring_point(curve, thickness, q, 0.0), _ring_point(curve, thickness, q, 1.0)
+    extra = _ring_point(curve, thickness, q, 1.0)
     kink_at, split_at = np.isin(q, kinks), np.isin(q, special)
     # the apex inside this voussoir or at one of its joints (``kinks`` leaves a joint's out: no split there)
     apex = np.flatnonzero(np.isclose(q[:, None], curve.kinks, rtol=0, atol=1e-9).any(axis=1))
     cap = np.concatenate([apex - 1, apex + 1])  # where the cap's chords to the apex begin: straight edges there
     split_at[cap[(cap > 0) & (cap < len(q) - 1)]] = True
+    chord = {}
     for xc in cap_x:  # a load on the cap: a vertex on its chord, the intrados point at the same fraction
         if np.abs(extra[:, 0] - xc).min() <= AT_JOINT_TOL * span or not extra[0, 0] < xc < extra[-1, 0]:
             continue
         k = int(np.searchsorted(extra[:, 0], xc))
         f = (xc - extra[k - 1, 0]) / (extra[k, 0] - extra[k - 1, 0])
         qc = q[k - 1] + f * (q[k] - q[k - 1])
-        intra = np.insert(intra, k, _ring_point(curve, thickness, qc, 0.0), axis=0)
-        extra = np.insert(extra, k, extra[k - 1] + f * (extra[k] - extra[k - 1]), axis=0)
+        chord[float(qc)] = extra[k - 1] + f * (extra[k] - extra[k - 1])
+        extra = np.insert(extra, k, chord[float(qc)], axis=0)
         q, kink_at, split_at = np.insert(q, k, qc), np.insert(kink_at, k, False), np.insert(split_at, k, True)
-    return Voussoir(i, intra, extra, tuple(np.flatnonzero(kink_at).tolist()),
-                    tuple(np.flatnonzero(split_at).tolist()))
+    return _Samples(q, kink_at, split_at, chord)
 
 
-def _ring_joints(curve: Shape, thickness: float, params: np.ndarray) -> list[Joint]:
-    """The joints at curve parameters ``params``, from the intrados to the extrados, voussoir j - 1 on their left
-    and j on their right (the ground beyond the springings)."""
-    n_voussoirs = len(params) - 1
-    joints = []
-    for j, pj in enumerate(params):
-        a = _ring_point(curve, thickness, pj, 0.0)
-        b = _ring_point(curve, thickness, pj, 1.0)
-        joints.append(Joint(j, a, b, j - 1 if j > 0 else None, j if j < n_voussoirs else None))
-    return joints
+def _level_params(rings: list[list[_Samples]], joints: list[np.ndarray], kinks: np.ndarray) -> np.ndarray:
+    """The sample parameters of the interface between two rings, shared by both (``rings``: their voussoirs'
+    samples, inner ring first; ``joints``: their joints' parameters): both rings' joints and the kinks, then every
+    other sample of either ring not within a quarter of its voussoir's sample spacing of one already taken (a
+    spline point that close to another would make a sliver of a mesh element)."""
+    taken = np.unique(np.concatenate([*joints, kinks[(kinks > 0) & (kinks < 1)]]))
+    for samples in (s for ring in rings for s in ring):
+        spacing = 0.25 * (samples.q[-1] - samples.q[0]) / (_EDGE_SAMPLES - 1)
+        near = np.abs(samples.q[:, None] - taken[None, :]).min(axis=1)
+        taken = np.unique(np.concatenate([taken, samples.q[near > spacing]]))
+    return taken
+
+
+def _staggered(params: np.ndarray, p: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Brick bond: the joints of a ring shifted half a voussoir from ``params`` (the curve parameters of the next
+    ring's joints), half-voussoirs at the springings: the springings and the midpoints, along the centreline, of
+    the voussoirs of ``params`` (``p``, ``s``: fine samples of the curve parameter and the centreline length)."""
+    s_joints = np.interp(params, p, s)
+    return np.concatenate([[0.0], np.interp(0.5 * (s_joints[:-1] + s_joints[1:]), s, p), [1.0]])
+
+
+def _between(q: np.ndarray, pa: float, pb: float) -> np.ndarray:
+    return q[(q >= pa) & (q <= pb)]
+
+
+def _splits(q: np.ndarray, cuts: np.ndarray) -> tuple[int, ...]:
+    """The interior indices of ``q`` at the parameters ``cuts``."""
+    return tuple(int(k) for k in np.flatnonzero(np.isin(q, cuts)) if 0 < k < len(q) - 1)
+
+
+def _barrel(curve: Shape, thickness: float, levels: np.ndarray, ring_params: list[np.ndarray],
+            samples: list[list[_Samples]]) -> tuple[list[Voussoir], list[Joint]]:
+    """The voussoirs and joints of rings stacked between the offsets ``levels`` (fractions of ``thickness`` from the
+    intrados; ring r between levels r and r + 1), ring r's joints at the curve parameters ``ring_params[r]`` and its
+    voussoirs sampled at ``samples[r]`` (:func:`_voussoir_samples`).
+
+    1. Each level's sample parameters: the intrados its ring's samples, the extrados the outer ring's, an interface
+       both rings' (:func:`_level_params`); an interface is split at both rings' joints and the kinks.
+    2. Voussoirs ring by ring from the intrados (ids in that order), their edges the levels' points between their
+       joints; the extrados on a kink's cap on its chord.
+    3. Joints ring by ring (springings and voussoir joints, from the ring's intrados to its extrados), then the
+       ring interfaces, one joint per piece between consecutive joints of either ring: its curve the level's points
+       from the right end to the left, so that its normal points from the inner ring into the outer.
+    """
+    n = len(ring_params)
+    kinks = np.asarray(curve.kinks, float)
+    level_q = {r: _level_params(samples[r - 1:r + 1], ring_params[r - 1:r + 1], kinks) for r in range(1, n)}
+    first = np.cumsum([0] + [len(p) - 1 for p in ring_params])  # the first voussoir id of each ring
+
+    def point(q, level):
+        return _ring_point(curve, thickness, q, levels[level])
+
+    voussoirs = []
+    for r, (params, ring_samples) in enumerate(zip(ring_params, samples)):
+        for i, own in enumerate(ring_samples):
+            pa, pb = params[i], params[i + 1]
+            q_in = own.q if r == 0 else _between(level_q[r], pa, pb)
+            q_out = own.q if r == n - 1 else _between(level_q[r + 1], pa, pb)
+            extra = point(q_out, r + 1)
+            if r == n - 1:
+                for k, qk in enumerate(q_out):
+                    extra[k] = own.chord.get(float(qk), extra[k])
+            intra_splits = (tuple(np.flatnonzero(own.kink_at).tolist()) if r == 0
+                            else _splits(q_in, np.concatenate([kinks, ring_params[r - 1]])))
+            extra_splits = (tuple(np.flatnonzero(own.split_at).tolist()) if r == n - 1
+                            else _splits(q_out, np.concatenate([kinks, ring_params[r + 1]])))
+            voussoirs.append(Voussoir(int(first[r] + i), point(q_in, r), extra, intra_splits, extra_splits, r))
+    joints: list[Joint] = []
+    for r, params in enumerate(ring_params):
+        last = len(params) - 1
+        for j, pj in enumerate(params):
+            joints.append(Joint(len(joints), point(pj, r), point(pj, r + 1),
+                                int(first[r] + j - 1) if j > 0 else None, int(first[r] + j) if j < last else None,
+                                kind="springing" if j in (0, last) else "voussoir"))
+    for r in range(1, n):
+        cuts = np.unique(np.concatenate(ring_params[r - 1:r + 1]))
+        for qa, qb in zip(cuts[:-1], cuts[1:]):
+            curve_pts = point(_between(level_q[r], qa, qb)[::-1], r)
+            below = int(first[r - 1] + np.searchsorted(ring_params[r - 1], qa, side="right") - 1)
+            above = int(first[r] + np.searchsorted(ring_params[r], qa, side="right") - 1)
+            joints.append(Joint(len(joints), curve_pts[0], curve_pts[-1], below, above, kind="ring",
+                                curve=curve_pts))
+    return voussoirs, joints
 
 
 def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoirs: int,
-               load_x: list[float] = (), joint_at_loads: bool = True, load_labels: list[str] | None = None) -> ArchRing:
-    """Build joints and voussoirs of a ring (all lengths in m).
+               load_x: list[float] = (), joint_at_loads: bool = True, load_labels: list[str] | None = None,
+               ring_thicknesses: tuple[float, ...] = (), bond: str = "staggered") -> ArchRing:
+    """Build the joints and voussoirs of a barrel of one or more rings (all lengths in m).
 
     ``load_x`` are the horizontal positions of concentrated loads and patch-load edges on the extrados;
     with ``joint_at_loads`` an interior joint is moved under each (:func:`_place_joints_at_loads`; a block
     straddling a concentrated load overstates the limit load). ``load_labels`` name the loads of ``load_x`` in the
-    messages (default: their positions). Raises ValueError, naming the loads and what is allowed, when two load
+    messages (default: their positions). ``ring_thicknesses`` (m, from the intrados out, summing to ``thickness``;
+    empty: one ring) stack rings of ``n_voussoirs`` each: the outer ring's joints are those of a single ring of the
+    whole thickness (moved under the loads), and with ``bond`` "staggered" every other ring inwards is shifted
+    half a voussoir (:func:`_staggered`: one voussoir more, halves at the springings), with "aligned" its joints
+    continue the outer ring's. Raises ValueError, naming the loads and what is allowed, when two load
     positions are closer than the ring can have an edge, when there are more load positions than interior joints
     to put under them, or when a joint moved under a load would leave a voussoir of (almost) no length.
     """
+    if bond not in RING_BONDS:
+        raise ValueError(f"ring bond {bond!r}: allowed are {', '.join(RING_BONDS)}")
     curve = make_shape(shape, span, rise)
     p = _samples(curve)
     s = _centreline_length(curve, thickness, p)
@@ -462,45 +614,54 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     joints_at_x: frozenset[float] = frozenset()
     if joint_at_loads and len(located):
         params, joints_at_x = _joints_at_loads(params, s_of_p, s[-1], xs, located, labels)
-    voussoirs = [_voussoir(curve, thickness, span, i, params[i], params[i + 1], curve_params, cap_x)
-                 for i in range(n_voussoirs)]
-    return ArchRing(shape, span, rise, thickness, params, _ring_joints(curve, thickness, params), voussoirs,
-                    joints_at_x=joints_at_x)
+    n = max(1, len(ring_thicknesses))
+    levels = np.concatenate([[0.0], np.cumsum(ring_thicknesses) / thickness]) if n > 1 else np.array([0.0, 1.0])
+    levels[-1] = 1.0
+    shifted = _staggered(params, p, s) if bond == "staggered" else params
+    ring_params = [shifted if (n - 1 - r) % 2 else params for r in range(n)]
+    samples = [[_voussoir_samples(curve, thickness, span, pa, pb, *((curve_params, cap_x) if r == n - 1 else
+                                                                     ([], [])))
+                for pa, pb in zip(rp[:-1], rp[1:])] for r, rp in enumerate(ring_params)]
+    voussoirs, joints = _barrel(curve, thickness, levels, ring_params, samples)
+    return ArchRing(shape, span, rise, thickness, params, joints, voussoirs, joints_at_x=joints_at_x,
+                    ring_thicknesses=tuple(float(t) for t in ring_thicknesses) if n > 1 else ())
 
 
 def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
-    """The ring on elastic abutments: below each springing a block from the springing line (y = 0) down to
+    """The barrel on elastic abutments: below each springing a block from the springing line (y = 0) down to
     y = -height (m), reaching ``length`` (m) outwards from the springing's intrados corner (at least to its
-    extrados corner). Its top is the springing joint, then a free face at the extrados corner's level; its
-    base is a new joint to the ground. Block and joint ids as in the module docstring."""
-    n = ring.n_voussoirs
+    extrados corner). Its top is the springing joints of every ring, then a free face at the extrados corner's
+    level; its base is a new joint to the ground. Block and joint ids as in the module docstring."""
     joints = list(ring.joints)
     abutments = []
-    for k, (joint, outward) in enumerate(zip(ring.springings, (-1.0, 1.0))):
-        inner, outer = joint.intrados, joint.extrados
+    for k, (side, outward) in enumerate(zip(("left", "right"), (-1.0, 1.0))):
+        springings = ring.springings(side)
+        inner, outer = springings[0].intrados, springings[-1].extrados
         x_out = inner[0] + outward * max(length, abs(outer[0] - inner[0]))
         base = (np.array([inner[0], -height]), np.array([x_out, -height]))
         # a corner above the outer base corner unless it is the springing's extrados corner (up to round-off)
         apart = abs(x_out - outer[0]) > ROUND_OFF * ring.span
-        corners = [base[0], inner, outer] + ([np.array([x_out, outer[1]])] if apart else [])
+        corners = [base[0], inner, *(j.extrados for j in springings)] + ([np.array([x_out, outer[1]])] if apart
+                                                                          else [])
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:
             polygon = polygon[::-1]
-        block = n + k
-        abutments.append(Abutment(block, polygon, ("left", "right")[k]))
-        joints[joint.id] = Joint(joint.id, inner, outer, block if joint.left is None else joint.left,
-                                 block if joint.right is None else joint.right)
-        base_joint = Joint(n + 1 + k, *base, None, None)
+        block = ring.n_voussoirs + k
+        abutments.append(Abutment(block, polygon, side))
+        for joint in springings:
+            joints[joint.id] = dataclasses.replace(joint, left=block if joint.left is None else joint.left,
+                                                   right=block if joint.right is None else joint.right)
+        base_joint = Joint(len(joints), *base, None, None)
         ground_left = base_joint.normal[1] > 0  # the normal points up: from the ground into the block
-        joints.append(Joint(n + 1 + k, *base, None if ground_left else block, block if ground_left else None))
-    return ArchRing(ring.shape, ring.span, ring.rise, ring.thickness, ring.params, joints, ring.voussoirs,
-                    abutments, ring.joints_at_x)
+        joints.append(dataclasses.replace(base_joint, left=None if ground_left else block,
+                                          right=block if ground_left else None, kind="base"))
+    return dataclasses.replace(ring, joints=joints, abutments=abutments)
 
 
 def joint_under(ring: ArchRing, x: float) -> int | None:
     """The interior joint whose extrados corner is at horizontal position x (m), within ``AT_JOINT_TOL`` x span,
     or None (springing corners do not count: a load there is on the end voussoir only)."""
-    inner = ring.joints[1:ring.n_voussoirs]
+    inner = [j for j in ring.joints if j.kind == "voussoir" and j.right in {v.id for v in ring.outer_voussoirs}]
     if not inner:
         return None
     j = min(inner, key=lambda jt: abs(jt.extrados[0] - x))
@@ -520,7 +681,7 @@ def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[in
     if j is not None:
         left, right = ring.joints[j].left, ring.joints[j].right
         return {"left": (left,), "right": (right,), "split": (left, right)}[side]
-    on = [v.id for v in ring.voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
+    on = [v.id for v in ring.outer_voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
     if not on:
         raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
     return (on[0],)

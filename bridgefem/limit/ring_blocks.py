@@ -70,24 +70,26 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     if scene.fill is not None:
         dead = dead + _overburden(ring, scene, ref)
     live_pattern = live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
-    friction = np.full(len(ring.joints), scene.joints.friction)
-    if ring.bases:
-        friction[[j.id for j in ring.bases]] = scene.abutments.friction
+    friction = {"base": scene.abutments.friction, "ring": scene.joints.ring_interface_friction}
+    pieces = [(j, a, b) for j in ring.joints for a, b in zip(*j.chords)]  # a ring interface: its curve's chords
     return BlockModel(
         ref=ref, dead=dead, live=live_pattern,
-        joint_a=np.array([j.intrados for j in ring.joints]), joint_b=np.array([j.extrados for j in ring.joints]),
-        joint_left=np.array([-1 if j.left is None else j.left for j in ring.joints]),
-        joint_right=np.array([-1 if j.right is None else j.right for j in ring.joints]),
-        friction=friction, law=scene_law(scene) if law is None else law)
+        joint_a=np.array([a for _, a, _ in pieces]), joint_b=np.array([b for _, _, b in pieces]),
+        joint_left=np.array([-1 if j.left is None else j.left for j, _, _ in pieces]),
+        joint_right=np.array([-1 if j.right is None else j.right for j, _, _ in pieces]),
+        friction=np.array([friction.get(j.kind, scene.joints.friction) for j, _, _ in pieces]),
+        law=scene_law(scene) if law is None else law)
 
 
 def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
     """(nb, 3) generalised live loads (Fx, Fy in N; M in N·m about ``ref``) of a scene's loads for a unit load
     factor on the voussoirs of ``ring`` (step 4 of the module docstring); ``sides``: one per scene load, the side
     ("left" | "right" | "split") that carries it when it is a point load on a joint."""
-    ext = np.vstack([v.extrados for v in ring.voussoirs])
-    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])  # block k spans x0[k]..x1[k] on the extrados
-    x1 = np.array([v.extrados[-1, 0] for v in ring.voussoirs])
+    outer = ring.outer_voussoirs
+    ext = np.vstack([v.extrados for v in outer])
+    ids = np.array([v.id for v in outer])
+    x0 = np.array([v.extrados[0, 0] for v in outer])  # block ids[k] spans x0[k]..x1[k] on the extrados
+    x1 = np.array([v.extrados[-1, 0] for v in outer])
     on, xs, fy = [], [], []
     for ld, side in zip(scene.loads, sides):
         lo, hi = ld.x_range(scene.arch.span)
@@ -100,7 +102,7 @@ def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> n
         else:
             left, right = np.maximum(x0, lo), np.minimum(x1, hi)
             k = np.nonzero(right > left)[0]
-            on.append(k)
+            on.append(ids[k])
             xs.append(0.5 * (left[k] + right[k]))
             fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
     if not on:
@@ -141,10 +143,10 @@ def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
     road = ring.crown_extrados + scene.fill.depth
     w = scene.fill.unit_weight * scene.arch.width
     points, forces = [], []
-    for v in ring.voussoirs:
+    for v in ring.outer_voussoirs:
         x, h = v.extrados[:, 0], road - v.extrados[:, 1]
         area = np.trapz(h, x)
         xc = np.trapz(x * h, x) / area
         points.append(ring.extrados_point(xc))
         forces.append((0.0, -w * area))
-    return generalised_loads(ref, np.arange(len(ring.voussoirs)), np.array(points), np.array(forces))
+    return generalised_loads(ref, np.array([v.id for v in ring.outer_voussoirs]), np.array(points), np.array(forces))

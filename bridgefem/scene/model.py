@@ -27,6 +27,16 @@ class Arch:
     width: float
     voussoirs: int
     joint_at_loads: bool = _default("arch", "joint_at_loads")
+    rings: int = _default("arch", "rings")
+    ring_thicknesses: tuple[float, ...] | None = _default("arch", "ring_thicknesses")
+    ring_bond: str = _default("arch", "ring_bond")
+
+    @property
+    def ring_layers(self) -> tuple[float, ...]:
+        """The thickness (m) of each ring from the intrados out (one ring: empty)."""
+        if self.ring_thicknesses:
+            return self.ring_thicknesses
+        return (self.thickness / self.rings,) * self.rings if self.rings > 1 else ()
 
 
 @dataclass(frozen=True)
@@ -42,9 +52,16 @@ class Masonry:
 
 @dataclass(frozen=True)
 class JointProperties:
-    """Coulomb friction coefficient of every joint, springings included."""
+    """Coulomb friction coefficient of every joint, springings included; of the interfaces between rings
+    ``ring_friction`` (None: ``friction``) and their cohesion ``ring_cohesion`` (Pa)."""
 
     friction: float
+    ring_friction: float | None = _default("joints", "ring_friction")
+    ring_cohesion: float = _default("joints", "ring_cohesion")
+
+    @property
+    def ring_interface_friction(self) -> float:
+        return self.friction if self.ring_friction is None else self.ring_friction
 
 
 @dataclass(frozen=True)

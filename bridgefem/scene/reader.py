@@ -41,7 +41,7 @@ from .model import (
 )
 from .names import check_name, show_path
 from .petsc_options import check_petsc
-from .schema import FILL_PRESETS, MAX_LOADS, PRESETS, SCHEMA
+from .schema import FILL_PRESETS, MAX_LOADS, MAX_RINGS, PRESETS, SCHEMA
 from .vehicles import MAX_AXLES, VEHICLES
 
 MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
@@ -105,6 +105,26 @@ def _check_rise(a: dict[str, Any]) -> float:
     return rise
 
 
+def _check_rings(a: dict[str, Any], rings_given: bool) -> dict[str, Any]:
+    """``rings`` and ``ring_thicknesses`` agreed: the list has 2 to ``MAX_RINGS`` numbers, each at least 1e-3 of
+    ``thickness``, summing to it (to 1e-6); ``rings``, when given with it, is its length."""
+    given = a["ring_thicknesses"]
+    if given is None:
+        return {}
+    allowed = (f"allowed is a list of 2 to {MAX_RINGS} thicknesses in m, each at least 1e-3 x thickness, summing to "
+               f"thickness = {a['thickness']:.9g} m")
+    if not isinstance(given, list) or not 2 <= len(given) <= MAX_RINGS or any(
+            isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t)
+            or t < 1e-3 * a["thickness"] for t in given):
+        raise SceneError(f"[arch] ring_thicknesses = {show_value(given)}: {allowed}")
+    if abs(sum(given) - a["thickness"]) > 1e-6 * a["thickness"]:
+        raise SceneError(f"[arch] ring_thicknesses = {show_value(given)}: they sum to {sum(given):.9g} m; {allowed}")
+    if rings_given and a["rings"] != len(given):
+        raise SceneError(f"[arch] rings = {a['rings']!r}: ring_thicknesses has {len(given)} rings; allowed is "
+                         f"rings = {len(given)} or no rings key")
+    return {"ring_thicknesses": tuple(float(t) for t in given), "rings": len(given)}
+
+
 def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     """Validate a parsed TOML document and build a :class:`Scene`."""
     unknown = sorted(set(data) - set(SCHEMA) - {"load"})
@@ -124,6 +144,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         sec[section] = _section(data.get(section, {}), section, f"[{section}]", scales)
         if section == "arch":
             sec[section]["rise"] = _check_rise(sec[section])
+            sec[section].update(_check_rings(sec[section], "rings" in data.get("arch", {})))
         elif section == "masonry":
             scales["ring weight"] = ring_weight(sec["arch"], sec["masonry"]["density"], sec["scene"]["gravity"])
     name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..geometry.ring import RING_BONDS
 from ..geometry.shapes import SHAPES
 from .keys import REQUIRED, Key, toml_value
 from .names import MAX_NAME, MAX_NAME_BYTES
@@ -43,6 +44,7 @@ FILL_MATERIALS = ("elastic", "mohr-coulomb")
 ABUTMENT_MODELS = ("rigid", "elastic")
 MOVING_SPRINGINGS = ("left", "right", "both")
 MAX_LOADS = 100  # [[load]] tables in one scene
+MAX_RINGS = 12  # rings of one barrel
 _MC = ("material", "mohr-coulomb")
 _ELASTIC = ("model", "elastic")
 _WHY_MODULUS = ("from rubber-like laboratory blocks (1 MPa) to ten times the stiffest rock (basalt, granite: about "
@@ -138,6 +140,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
                          high=4096, why="from two (one crown joint) to the courses of a brick ring over the longest "
                                         "span"),
         "joint_at_loads": Key(bool, "move the nearest joint under each point load and patch edge", True),
+        "rings": Key(int, "rings of the barrel, laid one over the other, each of equal thickness thickness / rings "
+                     "(brick rings)", 1, low=1, high=MAX_RINGS, derived="1, or the number of ring_thicknesses",
+                     why=f"a single ring to {MAX_RINGS} (the thickest brick barrels have about eight rings)"),
+        "ring_thicknesses": Key(list, "thickness of each ring from the intrados out, summing to thickness; instead "
+                                "of equal rings", None, derived="thickness / rings each",
+                                why=f"2 to {MAX_RINGS} rings, each at least 1e-3 of the barrel's thickness"),
+        "ring_bond": Key(str, "staggered: every other ring shifted half a voussoir (brick bond, half voussoirs at "
+                         "the springings); aligned: every ring's joints continue the outer ring's",
+                         "staggered", choices=RING_BONDS),
     },
     "masonry": {
         "young": _modulus("Young's modulus of the voussoirs"),
@@ -151,6 +162,12 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "joints": {
         "friction": _coefficient("Coulomb coefficient of every joint, springing joints included"),
+        "ring_friction": _coefficient("Coulomb coefficient of the interfaces between rings", None,
+                                      derived="friction"),
+        "ring_cohesion": Key(float, "cohesion (shear strength at no normal stress) of the mortar between rings; "
+                             "no tension across a ring interface either way", 0.0, "Pa", low=1.0, high=1e7,
+                             zero=True, why="0 for unbonded rings, else from 1 Pa to 10 MPa (a strong cement "
+                                            "mortar's bond; weathered lime mortar has tens of kPa)"),
     },
     "load": {
         "kind": Key(str, "a point load or a patch (uniform per horizontal metre)", choices=("point", "patch")),

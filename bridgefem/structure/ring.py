@@ -47,8 +47,9 @@ def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
     ring's. Raises SceneError when the loads cannot have the joints and edges they need (:func:`build_ring`)."""
     a, ab = scene.arch, scene.abutments
     try:
-        ring = build_ring(a.shape, a.span, a.rise, a.thickness if thickness is None else thickness, a.voussoirs,
-                          scene.load_edges_x(), a.joint_at_loads, load_labels(scene))
+        t = a.thickness if thickness is None else thickness
+        ring = build_ring(a.shape, a.span, a.rise, t, a.voussoirs, scene.load_edges_x(), a.joint_at_loads,
+                          load_labels(scene), tuple(r * t / a.thickness for r in a.ring_layers), a.ring_bond)
     except ValueError as err:
         raise SceneError(str(err)) from None
     return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring
