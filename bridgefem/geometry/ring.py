@@ -19,19 +19,30 @@ The intrados curves are those of :mod:`bridgefem.geometry.shapes`; on one, :func
 3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge, keeping the joints in
    their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
    load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
-4. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
+4. stacks the rings (``ring_thicknesses``; one ring by default): ring r between the offsets of the rings inside
+   it; the outer ring's joints are those of steps 2-3, and with a staggered bond every other ring inwards has its
+   joints halfway between them along the centreline (brick bond, half voussoirs at the springings), with an
+   aligned bond the same joints;
+5. draws each voussoir's intrados and extrados as polylines of ``_EDGE_SAMPLES`` points, with a vertex at every
    kink and load point on it (its polygon, for areas and centroids, and its Gmsh splines); a load within
-   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own.
+   ``AT_JOINT_TOL`` x span of a joint's extrados corner acts at the corner and gets no vertex of its own; an
+   interface between two rings is sampled once for both, with a vertex at every joint of either ring
+   (:func:`_barrel`).
 
-Joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its *right* block);
-joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's unit
-normal points from its left block into its right block (the centreline tangent); its unit tangent is
+One ring of N voussoirs: joint ``j`` (0..N) separates voussoir ``j-1`` (its *left* block) from voussoir ``j`` (its
+*right* block); joints 0 and N are the springings, whose outer side is the ground (block id ``None``). A joint's
+unit normal points from its left block into its right block (the centreline tangent); its unit tangent is
 the normal rotated +90 degrees, which points from the intrados towards the extrados at the left springing.
 
-On elastic abutments (:func:`add_abutments`) blocks N (left) and N + 1 (right) stand below the springings:
-joints 0 and N then separate the ring from an abutment, and joints N + 1 (left) and N + 2 (right) are the
-abutments' bases on the ground, drawn from the inner base corner (their "intrados", on the span side) to
-the outer one (their "extrados").
+Several rings: the voussoirs ring by ring from the intrados (ring 0 first), the joints likewise (each ring's
+springings and voussoir joints, from the ring's intrados side to its extrados side), then the ring interfaces
+(``kind`` "ring": one joint per piece between two consecutive joints of either ring, its inner ring's voussoir on
+the left, its outer ring's on the right, curved: :attr:`Joint.curve`).
+
+On elastic abutments (:func:`add_abutments`) blocks N (left) and N + 1 (right), N the number of voussoirs, stand
+below the springings: the springing joints then separate the rings from an abutment, and two more joints (left,
+then right) are the abutments' bases on the ground, drawn from the inner base corner (their "intrados", on the
+span side) to the outer one (their "extrados").
 """
 from __future__ import annotations
 
