@@ -1,31 +1,39 @@
 """Gmsh mesh of the voussoirs, split into blocks with duplicated nodes on every joint, as a DOLFINx mesh.
 
-Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is conformal; each joint has
-``elements_through_thickness`` segments. The mesh is then split: every node gets one copy per block it
-belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
-have a single face, which meets the rigid ground. Lengths in m, coordinates as in :mod:`bridgefem.geometry.ring`.
+Gmsh builds one surface per block sharing the joint curves, so the mesh is conformal; each ring's joints have
+``elements_through_thickness`` segments (per ring: a barrel of n rings has n times as many elements through its
+thickness as one ring of the same thickness, so that every ring interface and each ring's hinges are resolved). The
+mesh is then split: every node gets one copy per block it belongs to, so that a joint becomes a set of coincident
+node pairs (one copy per face). Springing joints have a single face, which meets the rigid ground. Lengths in m,
+coordinates as in :mod:`bridgefem.geometry.ring`.
 
 :func:`build_block_mesh`, on rank 0 (Gmsh: Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309):
 
-1. draws the voussoirs (their polylines as splines, split at kinks and load points), the elastic abutments, the
-   fill and its loading beams as surfaces sharing their boundary curves (:func:`_gmsh_bridge`);
-2. meshes them with triangles: the voussoirs structured (``elements_through_thickness`` across each joint), the
-   rest unstructured with the size fields below;
+1. draws the blocks and joints as data (:func:`_gmsh_bridge`, :class:`_Drawing`): one Gmsh point per distinct
+   location (the joints' ends first), a line per voussoir joint, each voussoir's intrados and extrados as splines
+   split at their splits (kinks, load points, the other ring's joints), a curve shared by two voussoirs (a ring
+   interface) drawn once and reused reversed by the other, each voussoir a surface inside its curves; a ring
+   interface joint is the curves of its inner voussoir's extrados between its ends; then the elastic abutments
+   (their top the springing joints of every ring), the fill over the outer ring's extrados and its loading beams;
+2. meshes them with triangles (:func:`_mesh_voussoirs`): the voussoirs structured where their opposite sides have
+   equal numbers of segments (always for one ring: the mesh of a single ring is the one it always was), else
+   unstructured from their curves' segments; the rest unstructured with the size fields below;
 3. splits the nodes per block (:func:`split_blocks`: a loading beam counts as the fill's block, bonded to it) and
    tags the joint faces, the extrados and the fill's boundaries;
 
 then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
-Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
-``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
-segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
-size within the fill's depth of the extrados, graded to the far fill's size beyond. The road's load points (patch
-edges, point loads) get ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill,
-whose depth, not the ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
+Under a fill the extrados (shared by the outer ring and fill) is divided at :func:`extrados_element_size` (of the
+outer ring's thickness), at most ``FILL_DEPTH_SHARE`` x the fill's depth over the crown /
+``elements_through_thickness`` (the voussoirs get as many segments along, their joints keep
+``elements_through_thickness``), and a Gmsh size field keeps the fill at that size within the fill's depth of the
+extrados, graded to the far fill's size beyond. The road's load points (patch edges, point loads) get
+``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill, whose depth, not the
+ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
 
-Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice the
-ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
-single face, like a springing on rigid ground. Without them no abutment is meshed.
+Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice
+the smallest ring's element size; their top shares the springing joints' curves with the rings, their base is a
+joint with a single face, like a springing on rigid ground. Without them no abutment is meshed.
 
 Tags on the DOLFINx mesh:
 - cell tag = voussoir id, abutment id, or ``fill_block`` (= number of voussoirs and abutments) for the fill;
@@ -435,7 +443,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
                      beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
-    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size);
+    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the outer ring's element size);
     ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
@@ -443,8 +451,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beams = beams if fill is not None else ()
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
-        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring_element_sizes(ring, per_thickness)[-1],
-                           beams)
+        h_fill = fill_element_size or 2 * ring_element_sizes(ring, per_thickness)[-1]
+        raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
         facets, values = [], []

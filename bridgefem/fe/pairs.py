@@ -37,7 +37,7 @@ from .model import node_blocks
 
 GROUND = -1
 ARCH_FILL = -2  # joint id of the arch-fill interface pairs
-FILL_KIND = "fill"  # kind of the arch-fill interface pairs (the joints' kinds: :data:`bridgefem.geometry.ring.JOINT_KINDS`)
+FILL_KIND = "fill"  # kind of the arch-fill interface pairs (the joints': geometry.ring.JOINT_KINDS)
 
 
 @dataclass
@@ -81,20 +81,47 @@ def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
 
 def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
     """Rows (tag, global blocked node, x, y, tributary length, block) of the owned nodes on each facet tag,
-    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
+    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets).
+
+    A node's tributary length is its length on that tag's faces alone, also where it lies on the faces of two tags
+    (a voussoir's corner on a ring interface and a voussoir joint, an abutment's corner under two rings'
+    springings): the tags are coloured so that no two tags of one colour share a node (:func:`_colours`), and the
+    lengths are integrated colour by colour (one colour, one integration, when no node is shared)."""
     comm = bm.mesh.comm
     imap = V.dofmap.index_map
-    weights = _tributary_lengths(V, bm, tags)
     blocks = node_blocks(V, bm)
     coords = V.tabulate_dof_coordinates()[:, :2]
-    rows = []
+    located = []
     for tag in tags:
         facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
         nodes = fem.locate_dofs_topological(V, 1, facets)
-        nodes = nodes[nodes < imap.size_local]
-        g = imap.local_to_global(nodes.astype(np.int32))
-        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes], blocks[nodes]]))
+        located.append(nodes[nodes < imap.size_local])
+    owned = [imap.local_to_global(nodes.astype(np.int32)) for nodes in located]
+    members = [np.concatenate(per_tag) for per_tag in zip(*comm.allgather(owned))] if tags else []
+    colour = _colours(members)
+    weights = {c: _tributary_lengths(V, bm, [t for t, k in zip(tags, colour) if k == c]) for c in sorted(set(colour))}
+    rows = [np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[k][nodes], blocks[nodes]])
+            for tag, nodes, g, k in zip(tags, located, owned, colour)]
     return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 6))))
+
+
+def _colours(members: list[np.ndarray]) -> list[int]:
+    """A colour per set of ``members`` (global nodes per tag) such that no two sets of one colour share a member:
+    greedily, each set the least colour that none of the earlier sets it meets has."""
+    tag = np.concatenate([np.full(len(m), i) for i, m in enumerate(members)]) if members else np.zeros(0, int)
+    node = np.concatenate(members) if members else np.zeros(0, int)
+    order = np.argsort(node, kind="stable")
+    _, start, count = np.unique(node[order], return_index=True, return_counts=True)
+    meets: dict[int, set[int]] = {}
+    for first, n in zip(start[count > 1], count[count > 1]):  # the few nodes on the faces of several tags
+        together = {int(t) for t in tag[order[first:first + n]]}
+        for t in together:
+            meets.setdefault(t, set()).update(together - {t})
+    colour: list[int] = []
+    for i in range(len(members)):
+        used = {colour[j] for j in meets.get(i, ()) if j < i}
+        colour.append(next(c for c in range(len(members)) if c not in used))
+    return colour
 
 
 def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:

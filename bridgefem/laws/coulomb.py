@@ -230,9 +230,9 @@ class CoulombJoints(JointLaw):
 
     def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """None where a pair has cohesion (its shear bound drops to zero when it opens: no LCP of this form; the
-        condensation enumerates the states). Else the law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart &
-        Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta) with
-        lam_t = lam_+ - lam_- and the slip magnitude beta:
+        condensation enumerates the states). Else the law at the pairs on ``d = d0 + C lam`` as the LCP
+        ``w = q + M z``, w, z >= 0, w z = 0 (Stewart & Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns
+        per pair (lam_n, lam_+, lam_-, beta) with lam_t = lam_+ - lam_- and the slip magnitude beta:
 
             d_n                        >= 0  _|_  lam_n >= 0     (contact)
             Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
