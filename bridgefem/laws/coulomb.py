@@ -11,7 +11,8 @@ with Delta d_t the slip since the last converged load step (``slip_ref``: increm
 the pair's cohesion k (N; zero but on the ring interfaces of a scene with ``[joints] ring_cohesion``: k = that
 cohesion (Pa) x the width x the pair's tributary length, :meth:`CoulombJoints.for_pairs`): the shear a closed pair
 carries at no normal force. It holds no tension: an open pair carries no force at all (a Mohr-Coulomb line with a
-tension cut-off at zero).
+tension cut-off at zero), so a cohesive pair that opens loses its cohesion at once: the law is not monotone there,
+unlike the rigid-block rows' |s| <= mu n + k, n >= 0, which let an opening joint keep k.
 
 **States.** ``OPEN`` (lam = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s (mu lam_n +
 k) with the slip sign s: the slip goes the other way, -s).
