@@ -252,12 +252,13 @@ class CoulombJoints(JointLaw):
         return self.CANDIDATES + (self.OPEN_SLIDES if np.any(self.cohesion > 0) else ())
 
     def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart & Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns
-        per pair (lam_n, lam_+, lam_-, beta) with lam_t = lam_+ - lam_- and the slip magnitude beta:
+        """The law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart &
+        Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta) with
+        lam_t = lam_+ - lam_- and the slip magnitude beta:
 
-            d_n                        >= 0  _|_  lam_n >= 0     (contact)
-            Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
-            -Delta d_t + beta          >= 0  _|_  lam_- >= 0     (lam_t = -mu lam_n only when slipping by +beta)
+            d_n                          >= 0  _|_  lam_n >= 0   (contact)
+            Delta d_t + beta             >= 0  _|_  lam_+ >= 0   (lam_t = +(mu lam_n + k) only when slipping by -beta)
+            -Delta d_t + beta            >= 0  _|_  lam_- >= 0   (lam_t = -(mu lam_n + k) only when slipping by +beta)
             mu lam_n + k - lam_+ - lam_- >= 0  _|_  beta  >= 0   (slip only on the friction bound)
 
         equilibrated: each force component i is measured in units of 1 / sqrt(|C_ii|) N and each displacement in
