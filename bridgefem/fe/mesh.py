@@ -9,7 +9,8 @@ have a single face, which meets the rigid ground. Lengths in m, coordinates as i
 
 1. draws the voussoirs (their polylines as splines, split at kinks and load points), the elastic abutments, the
    fill and its loading beams as surfaces sharing their boundary curves (:func:`_gmsh_bridge`);
-2. meshes them with triangles: the voussoirs structured (``elements_through_thickness`` across each joint), the
+2. meshes them with triangles: the voussoirs structured (``elements_through_thickness`` across each joint, or
+   elements between given ``joint_nodes``: each ring joint then a chain of segments, :func:`_joint_curves`), the
    rest unstructured with the size fields below;
 3. splits the nodes per block (:func:`split_blocks`: a loading beam counts as the fill's block, bonded to it) and
    tags the joint faces, the extrados and the fill's boundaries;
@@ -92,6 +93,7 @@ class BlockMesh:
     fill_block: int | None = None
     abutment_blocks: tuple[int, ...] = ()
     beam_blocks: tuple[int, ...] = ()
+    joint_nodes: tuple[float, ...] | None = None  # the ring joints' element ends (fractions of the depth), None: even
 
 
 def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
@@ -133,10 +135,23 @@ class _RawMesh:
     h: float
 
 
+def _joint_curves(geo, a: int, b: int, joint, nodes: tuple[float, ...] | None) -> list[int]:
+    """The ring ``joint`` from its Gmsh points ``a`` (intrados) to ``b`` (extrados) as lines: one (meshed with even
+    elements) when ``nodes`` is None, else one per element between the fractions ``nodes`` of its length."""
+    if nodes is None:
+        return [geo.addLine(a, b)]
+    pa, pb = np.asarray(joint.intrados, float), np.asarray(joint.extrados, float)
+    inner = [geo.addPoint(*(pa + f * (pb - pa)), 0.0) for f in nodes[1:-1]]
+    chain = [a, *inner, b]
+    return [geo.addLine(p, q) for p, q in zip(chain[:-1], chain[1:])]
+
+
 def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
-                 beams: tuple[tuple[float, float], ...] = ()) -> _RawMesh:
+                 beams: tuple[tuple[float, float], ...] = (), joint_nodes: tuple[float, ...] | None = None
+                 ) -> _RawMesh:
     """Mesh the ring, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
-    ``beams``), with Gmsh (rank 0 only)."""
+    ``beams``), with Gmsh (rank 0 only); the ring joints' element ends at ``joint_nodes`` (fractions of the depth
+    from the intrados; None: ``per_thickness`` even elements)."""
     import gmsh
 
     gmsh.initialize([], readConfigFiles=False)
@@ -150,13 +165,14 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         arch_joints = ring.joints[:ring.n_voussoirs + 1]
         inner = [geo.addPoint(*j.intrados, 0.0) for j in arch_joints]
         outer = [geo.addPoint(*j.extrados, 0.0) for j in arch_joints]
-        joint_curves = [geo.addLine(a, b) for a, b in zip(inner, outer)]
+        joint_curves = [_joint_curves(geo, a, b, j, joint_nodes) for a, b, j in zip(inner, outer, arch_joints)]
         surfaces, extrados_curves = [], []
         for v in ring.voussoirs:
             i = v.id
             intra = _add_polyline_side(geo, v.intrados, v.intrados_splits, inner[i], inner[i + 1])
             extra = _add_polyline_side(geo, v.extrados, v.extrados_splits, outer[i], outer[i + 1])
-            loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
+            loop = geo.addCurveLoop(intra + joint_curves[i + 1] + [-c for c in extra[::-1]]
+                                    + [-c for c in joint_curves[i][::-1]])
             surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
             extrados_curves += extra
         abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
@@ -171,8 +187,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
             _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
                                       max(h_fill, h_extrados), depth)
-        for c in joint_curves[:len(arch_joints)]:
-            mesh.setTransfiniteCurve(c, per_thickness + 1)
+        for c in (c for curves in joint_curves[:len(arch_joints)] for c in curves):
+            mesh.setTransfiniteCurve(c, per_thickness + 1 if joint_nodes is None else 2)
         for s, intra, extra, i in surfaces:
             centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
             length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
@@ -201,7 +217,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         cells = [elements(2, s, 3) for s, _ in block_surfaces]
         blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
         return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
-                        {j: elements(1, c, 2) for j, c in enumerate(joint_curves)},
+                        {j: np.vstack([elements(1, c, 2) for c in curves]) for j, curves in enumerate(joint_curves)},
                         np.vstack([elements(1, c, 2) for c in extrados_curves]),
                         {tag: np.vstack([elements(1, c, 2) for c in curves]) for tag, curves in fill_curves.items()},
                         h)
@@ -275,8 +291,8 @@ def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list
 
 
 def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], outer: list[int],
-                  joint_curves: list[int], size: float) -> int:
-    """The Gmsh surface of an abutment. Its top uses the springing joint's points and curve; its base line is
+                  joint_curves: list[list[int]], size: float) -> int:
+    """The Gmsh surface of an abutment. Its top uses the springing joint's points and curves; its base line is
     appended to ``joint_curves`` (at the base joint's id). ``size`` (m): mesh size at its other corners."""
     side = 0 if abutment.side == "left" else 1
     springing, base = ring.springings[side], ring.joints[ring.n_voussoirs + 1 + side]
@@ -287,14 +303,14 @@ def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], out
     tag = {key(springing.intrados): inner[springing.id], key(springing.extrados): outer[springing.id]}
     points = [tag.get(key(p)) or geo.addPoint(*p, 0.0, size) for p in abutment.polygon]
     tag.update(zip(map(key, abutment.polygon), points))
-    joint_curves.append(geo.addLine(tag[key(base.intrados)], tag[key(base.extrados)]))
+    joint_curves.append([geo.addLine(tag[key(base.intrados)], tag[key(base.extrados)])])
     directed = {(tag[key(j.intrados)], tag[key(j.extrados)]): joint_curves[j.id] for j in (springing, base)}
     curves = []
     for a, b in zip(points, points[1:] + points[:1]):
         if (a, b) in directed:
-            curves.append(directed[a, b])
+            curves += directed[a, b]
         elif (b, a) in directed:
-            curves.append(-directed[b, a])
+            curves += [-c for c in directed[b, a][::-1]]
         else:
             curves.append(geo.addLine(a, b))
     return geo.addPlaneSurface([geo.addCurveLoop(curves)])
@@ -325,11 +341,14 @@ def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
 
 def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD,
                      fill: FillOutline | None = None, fill_element_size: float = 0.0,
-                     beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
+                     beams: tuple[tuple[float, float], ...] = (),
+                     joint_nodes: tuple[float, ...] | None = None) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
     ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size);
-    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
+    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping);
+    ``joint_nodes``: the ring joints' element ends, fractions of the depth from the intrados, 0 to 1 (None:
+    ``per_thickness`` even elements, whose size is the ring's element size either way).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
     fill_block = ring.n_blocks if fill is not None else None
@@ -337,7 +356,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
         raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness,
-                           beams)
+                           beams, joint_nodes)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
         facets, values = [], []
@@ -369,7 +388,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
     return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments),
-                     beam_blocks)
+                     beam_blocks, joint_nodes)
 
 
 def _create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, domain: ufl.Mesh) -> Mesh:
