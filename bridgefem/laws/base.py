@@ -305,3 +305,9 @@ class JointLaw(ABC):
     def block_yield(self, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
         """The yield conditions of rigid-block joints of ``length`` (m) and Coulomb coefficients ``mu``, with an
         added shear ``capacity`` (N; the Tresca fixed point's fixed capacities)."""
+
+    @classmethod
+    def inside(cls) -> "type[JointLaw] | JointLaw":
+        """The law whose rigid-block rows lie inside the exact yield set (the static bound's rows,
+        :mod:`bridgefem.limit.bounds_lower`): the law itself where its rows are exact."""
+        return cls
