@@ -307,7 +307,14 @@ class JointLaw(ABC):
         added shear ``capacity`` (N; the Tresca fixed point's fixed capacities)."""
 
     @classmethod
-    def inside(cls) -> "type[JointLaw] | JointLaw":
-        """The law whose rigid-block rows lie inside the exact yield set (the static bound's rows,
-        :mod:`bridgefem.limit.bounds_lower`): the law itself where its rows are exact."""
+    def conic(cls) -> "type[JointLaw] | JointLaw":
+        """The law of the conic bounds' joints (:func:`bridgefem.limit.bounds_model.joint_rows`): its linear rows
+        (:meth:`block_yield`) with its cones (:meth:`block_cones`) there; the law itself where its rows are exact."""
         return cls
+
+    @classmethod
+    def block_cones(cls, length: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        """Second-order cones on the resultants of rigid-block joints of ``length`` (m): per joint the local rows,
+        columns (0: n, 1: s, 2: m), values and right-hand sides of consecutive triples (s_0 >= |(s_1, s_2)| for
+        s = rhs - A q, :meth:`bridgefem.limit.conic.ConicProgramme.add`); None: no cones."""
+        return None

@@ -40,9 +40,12 @@ neighbouring tangents meet halfway, where they exceed the parabola by delta = (N
 (8 K^2), 1/K^2 of the joint's largest moment f_c w t^2/8, and nowhere more. So the LP's collapse load is an upper
 bound on the exact parabola's and exceeds it by at most sum_j delta_j |theta_j| per unit live-load work on the exact
 mechanism (theta_j its hinge rotations; the support functions differ by at most delta |theta|). Shear rows: Coulomb's.
-The static (lower) bound needs rows inside the parabola (:meth:`CrushingJoints.inside`): its K chords between the
-same n_i, rows +-m - (t/2 - (n_i + n_{i+1})/(2 f_c w)) n <= n_i n_{i+1} / (2 f_c w), below it by at most the same
-delta (at the chords' middles) and exact at the n_i, n = 0 and n = N_c included.
+The conic bounds take the parabola exactly (:meth:`CrushingJoints.conic`, :meth:`CrushingJoints.block_cones`):
++-m <= n t/2 - n^2/(2 f_c w) is n^2 <= 2 u v with u = f_c w t/sqrt2 and v = sqrt2 (n t/2 -+ m)/t (u v = f_c w (n t/2
+-+ m); u and v both of the order of N_c), the second-order cone |(sqrt2 n, u - v)| <= u + v, one per sign, with the
+tangents at n = 0 and n = N_c as linear rows (exact with the cones): no row set then overstates or understates
+the stress block, so the static bound stays a lower bound, and the programme stays small (128 tangents slow the
+interior-point solver down).
 
 The FE's pairs are this same polygon: p + 1 evenly spaced pairs per joint with trapezoidal tributary lengths (ends
 t/(2p)), filled at C from one edge, give the joint resultants (n, m) whose hull is exactly the tangent polygon with
@@ -81,14 +84,13 @@ class CrushingJoints(CoulombJoints):
     """Coulomb friction and the compressive ``strength`` f_c (Pa) over the joints' ``width`` w (m) (module
     docstring); ``capacity``: each pair's crushing force C = f_c w l (N); ``tangents``: the tangent intervals K of the
     rigid-block rows, or ``stations``: the (position, weight) fractions of the depth whose polygon they are
-    (:meth:`polygon`); ``chords``: the rows are the K chords of the parabola instead (:meth:`inside`)."""
+    (:meth:`polygon`)."""
 
     strength: float = math.inf
     width: float = 1.0
     capacity: np.ndarray | None = None
     tangents: int = TANGENTS
     stations: tuple[tuple[float, float], ...] | None = None
-    chords: bool = False
 
     CRUSHED: ClassVar[int] = 3
     CRUSHED_SLIP: ClassVar[int] = 4
@@ -111,11 +113,11 @@ class CrushingJoints(CoulombJoints):
 
     @classmethod
     def blocks(cls, strength: float, width: float, tangents: int = TANGENTS,
-               stations: tuple[tuple[float, float], ...] | None = None, chords: bool = False) -> "CrushingJoints":
+               stations: tuple[tuple[float, float], ...] | None = None) -> "CrushingJoints":
         """The law for rigid-block joints only (:attr:`bridgefem.limit.rigid_block.BlockModel.law`): no pairs."""
         empty = np.zeros(0)
         return cls(empty, empty, 0.0, strength=float(strength), width=float(width), capacity=empty,
-                   tangents=int(tangents), stations=stations, chords=chords)
+                   tangents=int(tangents), stations=stations)
 
     # ----------------------------------------------------------------- vocabulary
     def crushed(self, active: ContactState) -> np.ndarray:
@@ -228,22 +230,34 @@ class CrushingJoints(CoulombJoints):
         return np.where(self.sliding(active), active.sign * self.mu * lam_n, 0.0)
 
     # ----------------------------------------------------------------- limit analysis
-    def inside(self) -> "CrushingJoints":
-        """The same joints with the parabola's K chords for rows (module docstring): inside it, for the static
-        bound."""
-        return CrushingJoints.blocks(self.strength, self.width, self.tangents, chords=True)
+    def conic(self) -> "CrushingJoints":
+        """The conic bounds' joints (module docstring): the tangents at n = 0 and N_c as rows (K = 1), the parabola
+        itself as cones (:meth:`block_cones`)."""
+        return CrushingJoints.blocks(self.strength, self.width, 1)
+
+    def block_cones(self, length: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Per joint of depth t (``length``, m) the two cones |(sqrt2 n, u - v)| <= u + v, u = f_c w t/sqrt2, v =
+        sqrt2 (n t/2 - sign m)/t, sign = +1, -1 (module docstring), as s = rhs - A q: s_0 = u + v, s_1 = sqrt2 n,
+        s_2 = u - v; local rows 0-2 and 3-5, columns 0 (n) and 2 (m)."""
+        t = np.asarray(length, float)[:, None]
+        r2 = math.sqrt(2.0)
+        one = np.ones_like(t)
+        per_sign = []
+        for sign in (1.0, -1.0):  # v = n/sqrt2 - sign sqrt2 m / t
+            per_sign.append(np.hstack([-one / r2, sign * r2 / t, -r2 * one, one / r2, -sign * r2 / t]))
+        vals = np.hstack(per_sign)
+        rows = np.tile([0, 0, 1, 2, 2, 3, 3, 4, 5, 5], (len(t), 1))
+        cols = np.tile([0, 2, 0, 0, 2, 0, 2, 0, 0, 2], (len(t), 1))
+        u = self.strength * self.width * t / r2
+        return rows, cols, vals, np.hstack([u, 0 * u, u, u, 0 * u, u])
 
     def polygon(self) -> tuple[np.ndarray, np.ndarray]:
         """The moment rows of a joint of unit depth and unit crushing force: per row the slope a_k and intercept
-        b_k of |m| <= t a_k n + f_c w t^2 b_k (module docstring). With ``chords``, the chords between nu_k = k/K
-        (n = nu f_c w t) of g = nu (1 - nu)/2: a_k = (1 - nu_k - nu_{k+1})/2, b_k = nu_k nu_{k+1}/2. Otherwise the
-        joint's stations (``stations``, default K + 1 evenly spaced ones with trapezoidal weights) are filled at
-        f_c from the extrados edge one after another: station k at s_k (fraction of t from the intrados) fills along
-        a_k = s_k - 1/2 from the corner (N_k, M_k) of the stations before it, so b_k = sum_{i<k} w_i a_i - a_k
-        sum_{i<k} w_i. For a layout symmetric about the middle the intrados' rows are the same."""
-        if self.chords:
-            nu = np.linspace(0.0, 1.0, self.tangents + 1)
-            return (1 - nu[:-1] - nu[1:]) / 2, nu[:-1] * nu[1:] / 2
+        b_k of |m| <= t a_k n + f_c w t^2 b_k (module docstring). The joint's stations (``stations``, default K + 1
+        evenly spaced ones with trapezoidal weights) are filled at f_c from the extrados edge one after another:
+        station k at s_k (fraction of t from the intrados) fills along a_k = s_k - 1/2 from the corner (N_k, M_k) of
+        the stations before it, so b_k = sum_{i<k} w_i a_i - a_k sum_{i<k} w_i. For a layout symmetric about the
+        middle the intrados' rows are the same."""
         s, w = (np.array(self.stations, float).T if self.stations is not None else uniform_stations(self.tangents))
         order = np.argsort(-s, kind="stable")
         s, w = s[order], w[order] / w.sum()

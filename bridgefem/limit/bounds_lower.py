@@ -14,16 +14,13 @@ stress triangles).
    any traction (only the soil's cones bound it). The resultant (linear along the edge: consistent nodal forces
    ``L (t_a/3 + t_b/6)`` at ``a``) acts, reversed, on the block.
 6. Every block is in equilibrium under its dead and live loads, the joint forces (the rigid-block LP's) and the
-   interface forces; joint forces within their yield limits (rows inside them: a crushing joint's parabola by its
-   chords, :meth:`bridgefem.laws.base.JointLaw.inside`); Mohr-Coulomb cones at the triangle vertices (the
+   interface forces; joint forces within their yield limits; Mohr-Coulomb cones at the triangle vertices (the
    stress is linear and the cone convex, so it then holds everywhere).
 
 Maximise the load factor ``lambda >= 0``: every feasible point is statically admissible, so the optimum is a
-lower bound of the collapse load factor. Without soil this is the rigid-block LP itself (with crushing, on the chords).
+lower bound of the collapse load factor. Without soil this is the rigid-block LP itself.
 """
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 
@@ -43,7 +40,6 @@ def lower_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     """Solve the static programme; returns the solution and the column layout {"joints", "stress", "factor"}
     (stress columns: ``9 triangle + 3 vertex + component``)."""
     blocks, mesh = problem.blocks, problem.mesh
-    blocks = dataclasses.replace(blocks, law=blocks.law.inside())  # rows inside the joints' yield sets
     nj = blocks.n_joints
     ne = mesh.n_triangles if mesh is not None else 0
     cs, lam = 3 * nj, 3 * nj + 9 * ne
