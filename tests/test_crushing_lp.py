@@ -59,6 +59,34 @@ def test_the_tangent_rows_overstate_the_moment_by_at_most_their_stated_bound():
     assert gap.min() >= -1e-9 and gap.max() == pytest.approx(fc * b ** 2 / (8 * 64), rel=1e-9)
 
 
+def test_the_conic_bounds_take_the_parabola_exactly():
+    """The toppling block as a bare problem of the conic bounds (no soil: both bounds the rigid-block programme on
+    the law's conic rows, CrushingJoints.conic and its cones): W (b - W/(f_c w)) / (2 H) to 1e-6, both."""
+    from bridgefem.limit.bounds import problem_bounds
+    from bridgefem.limit.bounds_model import LimitProblem
+    b, H, W, fc = 0.6, 1.2, 5e3, 2e5
+    exact = W * (b - W / fc) / (2 * H)
+    bounds = problem_bounds(LimitProblem(block_on_ground(b, H, W, fc, tangents=8), 1.0, 1.0))
+    assert bounds.lower.load == pytest.approx(exact, rel=1e-6)
+    assert bounds.upper.load == pytest.approx(exact, rel=1e-6)
+    assert CoulombJoints.conic() is CoulombJoints and CoulombJoints.block_cones(np.ones(2)) is None
+
+
+def test_a_bare_crushing_ring_lies_between_its_conic_bounds():
+    """Without a fill both conic bounds take the exact parabola, so they agree (1e-6) and the LP on its 128 tangents
+    lies above them by at most sum_j delta_j |theta_j| (delta_j = f_c w t_j^2 / (8 K^2); theta_j the LP mechanism's
+    hinge rotations per unit live-load work)."""
+    from bridgefem.limit.bounds import collapse_bounds
+    from bridgefem.structure.ring import scene_ring
+    sc = ring(1e6)
+    b = collapse_bounds(sc)
+    lp = collapse_load(sc)
+    assert b.lower.load == pytest.approx(b.upper.load, rel=1e-6)
+    t = np.array([j.length for j in scene_ring(sc).joints])[:len(lp.joint_rotation)]
+    delta = 1e6 * sc.arch.width * t ** 2 / (8 * 128 ** 2)
+    assert 0 <= lp.load - b.upper.load <= np.sum(delta * np.abs(lp.joint_rotation)) / lp.work_live
+
+
 def test_a_joint_with_its_thrust_at_the_middle_crushes_at_fc_h_b():
     """The block pressed on its top's middle: n = W + P, m = 0, crushing at n = f_c b w exactly (any K)."""
     b, W, fc, w = 0.6, 5e3, 2e5, 1.5

@@ -52,6 +52,7 @@ from ..solver.newton import ContactSolver
 from ..structure.ring import scene_ring
 from ..structure.supports import support_motion
 from .checks import rigid_block_check
+from .stress_block import joint_nodes
 
 FORCE_TOL = 1e-10  # contact-state hysteresis as a fraction of the ring's weight (N/N)
 RING_JOINT_SCALE = 0.1  # Alart-Curnier constant of the ring's joints, of E w L / h (module docstring)
@@ -104,10 +105,11 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     outline = (fill_outline(ring, fill.depth, fill.extension, scene.load_edges_x()) if fill is not None else None)
     clock.lap("geometry")
     phase("meshing")
+    nodes = joint_nodes(scene, comm)  # with crushing: the joints graded for the stress block
     bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm, outline,
-                          fill.element_size if fill is not None else 0.0, loading_beams(scene))
+                          fill.element_size if fill is not None else 0.0, loading_beams(scene), nodes)
     clock.lap("mesh")
-    lp = rigid_block_check(scene, comm)  # the search's guess, the verdict's evidence, the side of a load on a joint
+    lp = rigid_block_check(scene, comm, nodes)  # the search's guess, the verdict's evidence, a load's side on a joint
     clock.lap("rigid-block LP")
     phase("assembling")
     model = build_elastic_model(bm, ring, scene, lp.load_sides if fill is None and lp.load_sides else None)

@@ -88,8 +88,9 @@ def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: Jo
 def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
     """The rigid-block LP's ring on the scene's joints loaded as the FE loads its voussoirs: its assembled
     self-weight and unit live load summed per block (:func:`block_loads`); with a compressive strength its joints'
-    rows are the FE's pairs' own polygon (:func:`bridgefem.laws.crushing.fe_stations`). Collective."""
-    ring = dataclasses.replace(ring_model(scene, live=False), law=scene_law(scene, fe=True))  # the FE's joints
+    rows are the FE's pairs' own polygon on the mesh's joint nodes (:func:`bridgefem.laws.crushing.fe_stations`).
+    Collective."""
+    ring = dataclasses.replace(ring_model(scene, live=False), law=scene_law(scene, fe=True, nodes=bm.joint_nodes))
     return ring_with_loads(ring, *block_loads(model, bm, ring.ref))
 
 

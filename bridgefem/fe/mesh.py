@@ -10,7 +10,8 @@ coordinates as in :mod:`bridgefem.geometry.ring`.
 :func:`build_block_mesh`, on rank 0 (Gmsh: Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309):
 
 1. draws the blocks and joints as data (:func:`_gmsh_bridge`, :class:`_Drawing`): one Gmsh point per distinct
-   location (the joints' ends first), a line per voussoir joint, each voussoir's intrados and extrados as splines
+   location (the joints' ends first), a line per voussoir joint (with a compressive strength a chain of lines
+   between the graded ``joint_nodes``, one element each: :mod:`bridgefem.analysis.stress_block`), each voussoir's intrados and extrados as splines
    split at their splits (kinks, load points, the other ring's joints), a curve shared by two voussoirs (a ring
    interface) drawn once and reused reversed by the other, each voussoir a surface inside its curves; a ring
    interface joint is the curves of its inner voussoir's extrados between its ends; then the elastic abutments
@@ -100,6 +101,7 @@ class BlockMesh:
     fill_block: int | None = None
     abutment_blocks: tuple[int, ...] = ()
     beam_blocks: tuple[int, ...] = ()
+    joint_nodes: tuple[float, ...] | None = None  # the ring joints' element ends (fractions of the depth), None: even
 
 
 class _Drawing:
@@ -111,6 +113,7 @@ class _Drawing:
         self.geo, self.tol = geo, tol
         self.points: dict[tuple[int, int], int] = {}
         self.curves: dict[tuple[int, int], int] = {}
+        self.chains: dict[tuple[int, int], list[int]] = {}
 
     def find(self, xy) -> int | None:
         """The point at ``xy`` (m), or None."""
@@ -138,6 +141,22 @@ class _Drawing:
         if found is None:
             found = self.curves[a, b] = self.geo.addLine(a, b)
         return found
+
+    def chain(self, points: np.ndarray) -> list[int]:
+        """Straight lines through ``points`` (m) in turn, drawn if new, kept as one path between its ends."""
+        tags = [self.point(p) for p in points]
+        lines = [self.line(a, b) for a, b in zip(tags[:-1], tags[1:])]
+        self.chains[tags[0], tags[-1]] = lines
+        return lines
+
+    def path(self, a: int, b: int) -> list[int]:
+        """The curves from point ``a`` to point ``b``: a :meth:`chain` between them (in either direction), else the
+        straight line."""
+        if (a, b) in self.chains:
+            return self.chains[a, b]
+        if (b, a) in self.chains:
+            return [-c for c in self.chains[b, a][::-1]]
+        return [self.line(a, b)]
 
     def side(self, points: np.ndarray, splits: tuple[int, ...]) -> list[tuple[int, int, int]]:
         """The curves of a block's side through ``points`` (m), splines broken at the indices ``splits``, as
@@ -197,10 +216,12 @@ def ring_element_sizes(ring: ArchRing, per_thickness: int) -> tuple[float, ...]:
 
 
 def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
-                 beams: tuple[tuple[float, float], ...] = ()) -> _RawMesh:
+                 beams: tuple[tuple[float, float], ...] = (), joint_nodes: tuple[float, ...] | None = None
+                 ) -> _RawMesh:
     """Mesh the barrel, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
     ``beams``), with Gmsh (rank 0 only); the steps of the module docstring. ``h`` of the result: the smallest ring's
-    element size."""
+    element size. ``joint_nodes``: the element ends of every ring's voussoir joints and springings, fractions of each
+    joint's depth from its intrados end (None: ``per_thickness`` even elements)."""
     import gmsh
 
     gmsh.initialize([], readConfigFiles=False)
@@ -217,12 +238,15 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         for end in ("intrados", "extrados"):
             for j in ring_joints:
                 draw.point(getattr(j, end))
-        joint_curves = {j.id: [draw.line(draw.point(j.intrados), draw.point(j.extrados))] for j in ring_joints}
+        fractions = np.asarray(joint_nodes if joint_nodes is not None else (0.0, 1.0))
+        joint_curves = {j.id: draw.chain(j.intrados + fractions[:, None] * (j.extrados - j.intrados))
+                        for j in ring_joints}
         sides, surfaces = {}, []
         for v in ring.voussoirs:
             intra, extra = draw.side(v.intrados, v.intrados_splits), draw.side(v.extrados, v.extrados_splits)
-            left, right = (draw.curve(draw.point(v.intrados[k]), draw.point(v.extrados[k])) for k in (0, -1))
-            loop = geo.addCurveLoop([c for *_, c in intra] + [right] + [-c for *_, c in extra[::-1]] + [-left])
+            left, right = (draw.path(draw.point(v.intrados[k]), draw.point(v.extrados[k])) for k in (0, -1))
+            loop = geo.addCurveLoop([c for *_, c in intra] + right + [-c for *_, c in extra[::-1]]
+                                    + [-c for c in left[::-1]])
             surfaces.append(geo.addPlaneSurface([loop]))
             sides[v.id] = (intra, extra)
         for j in ring.joints:
@@ -246,8 +270,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
             _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
                                       max(h_fill, h_extrados), depth)
-        for j in ring_joints:
-            mesh.setTransfiniteCurve(joint_curves[j.id][0], per_thickness + 1)
+        for c in (c for j in ring_joints for c in joint_curves[j.id]):
+            mesh.setTransfiniteCurve(abs(c), per_thickness + 1 if joint_nodes is None else 2)
         _mesh_voussoirs(ring, sides, surfaces, sizes, h_extrados if outline is not None else None)
         mesh.generate(2)
         tags, xyz, _ = mesh.getNodes()
@@ -411,7 +435,7 @@ def _add_abutment(draw: _Drawing, abutment: Abutment, ring: ArchRing, joint_curv
     base = next(j for j in ring.bases if abutment.id in (j.left, j.right))
     points = [draw.point(p, size) for p in abutment.polygon]
     joint_curves[base.id] = [draw.line(draw.point(base.intrados), draw.point(base.extrados))]
-    loop = [draw.line(a, b) for a, b in zip(points, points[1:] + points[:1])]
+    loop = [c for a, b in zip(points, points[1:] + points[:1]) for c in draw.path(a, b)]
     return draw.geo.addPlaneSurface([draw.geo.addCurveLoop(loop)])
 
 
@@ -440,11 +464,14 @@ def split_blocks(x: np.ndarray, cells: np.ndarray, blocks: np.ndarray):
 
 def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.COMM_WORLD,
                      fill: FillOutline | None = None, fill_element_size: float = 0.0,
-                     beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
+                     beams: tuple[tuple[float, float], ...] = (),
+                     joint_nodes: tuple[float, ...] | None = None) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
     ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the outer ring's element size);
-    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
+    ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping);
+    ``joint_nodes``: the ring joints' element ends, fractions of the depth from the intrados, 0 to 1 (None:
+    ``per_thickness`` even elements, whose size is the ring's element size either way).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
     fill_block = ring.n_blocks if fill is not None else None
@@ -452,7 +479,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
         h_fill = fill_element_size or 2 * ring_element_sizes(ring, per_thickness)[-1]
-        raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams)
+        raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams, joint_nodes)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
         facets, values = [], []
@@ -484,7 +511,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
     return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments),
-                     beam_blocks)
+                     beam_blocks, joint_nodes)
 
 
 def _create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, domain: ufl.Mesh) -> Mesh:

@@ -306,3 +306,16 @@ class JointLaw(ABC):
     def block_yield(self, length: np.ndarray, mu: np.ndarray, capacity: np.ndarray) -> BlockYield:
         """The yield conditions of rigid-block joints of ``length`` (m) and Coulomb coefficients ``mu``, with an
         added shear ``capacity`` (N; the Tresca fixed point's fixed capacities)."""
+
+    @classmethod
+    def conic(cls) -> "type[JointLaw] | JointLaw":
+        """The law of the conic bounds' joints (:func:`bridgefem.limit.bounds_model.joint_rows`): its linear rows
+        (:meth:`block_yield`) with its cones (:meth:`block_cones`) there; the law itself where its rows are exact."""
+        return cls
+
+    @classmethod
+    def block_cones(cls, length: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        """Second-order cones on the resultants of rigid-block joints of ``length`` (m): per joint the local rows,
+        columns (0: n, 1: s, 2: m), values and right-hand sides of consecutive triples (s_0 >= |(s_1, s_2)| for
+        s = rhs - A q, :meth:`bridgefem.limit.conic.ConicProgramme.add`); None: no cones."""
+        return None

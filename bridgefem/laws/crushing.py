@@ -40,12 +40,23 @@ neighbouring tangents meet halfway, where they exceed the parabola by delta = (N
 (8 K^2), 1/K^2 of the joint's largest moment f_c w t^2/8, and nowhere more. So the LP's collapse load is an upper
 bound on the exact parabola's and exceeds it by at most sum_j delta_j |theta_j| per unit live-load work on the exact
 mechanism (theta_j its hinge rotations; the support functions differ by at most delta |theta|). Shear rows: Coulomb's.
+The conic bounds take the parabola exactly (:meth:`CrushingJoints.conic`, :meth:`CrushingJoints.block_cones`):
++-m <= n t/2 - n^2/(2 f_c w) is n^2 <= 2 u v with u = f_c w t/sqrt2 and v = sqrt2 (n t/2 -+ m)/t (u v = f_c w (n t/2
+-+ m); u and v both of the order of N_c), the second-order cone |(sqrt2 n, u - v)| <= u + v, one per sign, with the
+tangents at n = 0 and n = N_c as linear rows (exact with the cones): no row set then overstates or understates
+the stress block, so the static bound stays a lower bound, and the programme stays small (128 tangents slow the
+interior-point solver down).
 
 The FE's pairs are this same polygon: p + 1 evenly spaced pairs per joint with trapezoidal tributary lengths (ends
 t/(2p)), filled at C from one edge, give the joint resultants (n, m) whose hull is exactly the tangent polygon with
 K = p (its vertices sit where one more pair has crushed, delta above the parabola). The static theorem's LP on the
-FE's own joints therefore takes the FE's stations (:func:`fe_stations`; for degree 2, Simpson's weights): the FE's equilibria obey its rows
-exactly, and the FE converges to the parabola as the mesh is refined.
+FE's own joints therefore takes the FE's stations (:func:`fe_stations`; for degree 2, Simpson's weights): the FE's
+equilibria obey its rows exactly, and the FE converges to the parabola as the mesh is refined. A compressed zone
+thinner than the edge pair's tributary length sits on the edge pair alone, as if infinitely strong; the joints are
+therefore graded towards both edges where the stress block needs it (:func:`graded_nodes`, chosen from the LP's
+hinges by :mod:`bridgefem.analysis.stress_block`): spacing that grows from the edge keeps the polygon outside the
+parabola up to the joint's middle, by about f_c w (2 s_k^2 - s_0^2)/8 at a vertex (s_k the local spacing, s_0 the
+edge's).
 """
 from __future__ import annotations
 
@@ -219,6 +230,27 @@ class CrushingJoints(CoulombJoints):
         return rules._replace(crushing=np.where(self.crushed(active), self.capacity, 0.0))
 
     # ----------------------------------------------------------------- limit analysis
+    def conic(self) -> "CrushingJoints":
+        """The conic bounds' joints (module docstring): the tangents at n = 0 and N_c as rows (K = 1), the parabola
+        itself as cones (:meth:`block_cones`)."""
+        return CrushingJoints.blocks(self.strength, self.width, 1)
+
+    def block_cones(self, length: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Per joint of depth t (``length``, m) the two cones |(sqrt2 n, u - v)| <= u + v, u = f_c w t/sqrt2, v =
+        sqrt2 (n t/2 - sign m)/t, sign = +1, -1 (module docstring), as s = rhs - A q: s_0 = u + v, s_1 = sqrt2 n,
+        s_2 = u - v; local rows 0-2 and 3-5, columns 0 (n) and 2 (m)."""
+        t = np.asarray(length, float)[:, None]
+        r2 = math.sqrt(2.0)
+        one = np.ones_like(t)
+        per_sign = []
+        for sign in (1.0, -1.0):  # v = n/sqrt2 - sign sqrt2 m / t
+            per_sign.append(np.hstack([-one / r2, sign * r2 / t, -r2 * one, one / r2, -sign * r2 / t]))
+        vals = np.hstack(per_sign)
+        rows = np.tile([0, 0, 1, 2, 2, 3, 3, 4, 5, 5], (len(t), 1))
+        cols = np.tile([0, 2, 0, 0, 2, 0, 2, 0, 0, 2], (len(t), 1))
+        u = self.strength * self.width * t / r2
+        return rows, cols, vals, np.hstack([u, 0 * u, u, u, 0 * u, u])
+
     def polygon(self) -> tuple[np.ndarray, np.ndarray]:
         """The moment rows of a joint of unit depth and unit crushing force: per row the slope a_k and intercept
         b_k of |m| <= t a_k n + f_c w t^2 b_k (module docstring). The joint's stations (``stations``, default K + 1
@@ -276,30 +308,78 @@ def uniform_stations(k: int) -> tuple[np.ndarray, np.ndarray]:
     return np.linspace(0.0, 1.0, k + 1), w
 
 
-def fe_stations(scene: Scene) -> tuple[tuple[float, float], ...]:
-    """The FE's pairs through a joint (module docstring) as (position, weight) fractions of the depth: the nodes of
-    ``elements_through_thickness`` even elements of ``degree`` 1 (trapezoidal weights) or 2 (Simpson's: 1/6, 2/3,
-    1/6 of an element)."""
-    e, degree = scene.mesh.elements_through_thickness, scene.mesh.degree
-    if degree == 1:
-        s, w = uniform_stations(e)
+def fe_stations(scene: Scene, nodes: tuple[float, ...] | None = None) -> tuple[tuple[float, float], ...]:
+    """The FE's pairs through a joint (module docstring) as (position, weight) fractions of the depth: the joint's
+    element ends ``nodes`` (fractions of the depth from the intrados, increasing from 0 to 1; None:
+    ``elements_through_thickness`` even elements) with elements of ``degree`` 1 (trapezoidal weights) or 2 (a node
+    at each element's middle too, Simpson's weights: 1/6, 2/3, 1/6 of the element)."""
+    ends = np.asarray(nodes, float) if nodes is not None else \
+        np.linspace(0.0, 1.0, scene.mesh.elements_through_thickness + 1)
+    size = np.diff(ends)
+    if scene.mesh.degree == 1:
+        s, w = ends, np.zeros(len(ends))
+        w[:-1] += size / 2
+        w[1:] += size / 2
     else:
-        s = np.linspace(0.0, 1.0, 2 * e + 1)
-        w = np.zeros(2 * e + 1)
-        w[0:-1:2] += 1.0 / (6 * e)
-        w[2::2] += 1.0 / (6 * e)
-        w[1::2] = 4.0 / (6 * e)
+        s = np.zeros(2 * len(size) + 1)
+        s[0::2], s[1::2] = ends, (ends[:-1] + ends[1:]) / 2
+        w = np.zeros(len(s))
+        w[0:-1:2] += size / 6
+        w[2::2] += size / 6
+        w[1::2] = 4 * size / 6
     return tuple(zip(s.tolist(), w.tolist()))
 
 
-def scene_law(scene: Scene, fe: bool = False) -> type[JointLaw] | JointLaw:
+GROWTH = 1.5  # the largest ratio of neighbouring elements' sizes where a graded joint coarsens towards its middle
+
+
+def graded_nodes(elements: int, tolerance: float, zones: tuple[float, float]) -> tuple[float, ...]:
+    """The element ends (fractions of a joint's depth t from the intrados, 0 to 1) of a joint whose pairs resolve
+    the stress block to ``tolerance`` at every compressed zone from ``zones[0]`` to twice ``zones[1]`` deep (fractions
+    of t, the hinges' thinnest and deepest zones), with at most the even spacing 1/``elements`` elsewhere.
+
+    Pairs at spacing s (a fraction of t) around a compressed zone of depth x overstate the joint's moment by about
+    f_c w (s t)^2 / 8 (the polygon's vertex above the parabola, module docstring), a fraction s^2 / (4 x) of the
+    hinge moment n t / 2 (n = f_c w x t); a zone shallower than the first spacing sits on the edge pair, overstating
+    the moment by its whole stress block, a fraction x / 2 or less (so a zone shallower than ``tolerance`` needs no
+    resolving, and the thinnest zone is taken at least that deep). So:
+
+    1. the spacing allowed at depth x is s(x) = 2 sqrt(``tolerance`` max(x, zones[0])) up to 2 zones[1] (the FE's
+       hinges may carry more than the LP's), beyond it ``GROWTH`` times the spacing before; at most 1/``elements``;
+    2. from each edge the nodes are marched x_{k+1} = x_k + s while s < 1/``elements`` and x_{k+1} is short of the
+       joint's middle;
+    3. the rest, between the two graded ends, is divided evenly: into pieces of at most 1/``elements`` where the
+       march reached that spacing, else into pieces as near s as a whole number gives (a rest shorter than half of
+       s joins the last graded piece on each side).
+
+    Where no grading is needed (2 sqrt(tolerance zones[0]) >= 1/elements) these are ``elements`` even elements."""
+    even, thinnest, cover = 1.0 / elements, max(zones[0], tolerance), 2.0 * zones[1]
+    ends, step = [0.0], 0.0
+    while True:
+        x = ends[-1]
+        step = min(even, 2.0 * math.sqrt(tolerance * max(x, thinnest)) if x <= cover else GROWTH * step)
+        if step >= even or x + step >= 0.5:
+            break
+        ends.append(x + step)
+    if step < even and 1.0 - 2.0 * ends[-1] < step / 2 and len(ends) > 1:
+        ends.pop()
+    edge = np.array(ends)
+    width = 1.0 - 2.0 * edge[-1]
+    pieces = math.ceil(width / even - 1e-9) if step >= even else max(1, round(width / step))
+    middle = np.linspace(edge[-1], 1.0 - edge[-1], pieces + 1)
+    return tuple(np.concatenate([edge[:-1], middle, 1.0 - edge[-2::-1]]).tolist())
+
+
+def scene_law(scene: Scene, fe: bool = False, nodes: tuple[float, ...] | None = None
+              ) -> type[JointLaw] | JointLaw:
     """The rigid-block joints' law of a scene: Coulomb's (a class) without ``[masonry] compressive_strength``,
     else :class:`CrushingJoints` with that strength over the arch's width, with ``TANGENTS`` tangents or (``fe``)
-    the FE's stations (:func:`fe_stations`: the FE's own joints, the static theorem's rows)."""
+    the FE's stations on its joints' element ends ``nodes`` (:func:`fe_stations`; None: even elements): the FE's
+    own joints, the static theorem's rows."""
     strength = scene.masonry.compressive_strength
     if strength is None:
         return CoulombJoints
-    return CrushingJoints.blocks(strength, scene.arch.width, stations=fe_stations(scene) if fe else None)
+    return CrushingJoints.blocks(strength, scene.arch.width, stations=fe_stations(scene, nodes) if fe else None)
 
 
 def scene_law_factory(scene: Scene):

@@ -94,10 +94,12 @@ def block_rows(blocks: BlockModel, block, point, fx_cols, fx_vals, fy_cols, fy_v
 
 def joint_rows(prog: ConicProgramme, blocks: BlockModel) -> np.ndarray:
     """The joints' yield conditions on the forces ``q = (n, s, m)`` at columns 0 .. 3 nj - 1 (the rigid-block LP's,
-    their law's :meth:`bridgefem.laws.base.JointLaw.block_yield`; for Coulomb ``|m| <= n t/2``, ``|s| <= mu n``,
-    ``n >= 0``); returns the equilibrium matrix of the blocks (3 nb, 3 nj): the generalised forces the joints exert
-    on the blocks."""
-    lp = _Programme(blocks)
+    the rows of their law for the conic bounds, :meth:`bridgefem.laws.base.JointLaw.conic`: its
+    :meth:`~bridgefem.laws.base.JointLaw.block_yield`, for Coulomb ``|m| <= n t/2``, ``|s| <= mu n``, ``n >= 0``,
+    and its :meth:`~bridgefem.laws.base.JointLaw.block_cones`, a crushing joint's parabola); returns the equilibrium
+    matrix of the blocks (3 nb, 3 nj): the generalised forces the joints exert on the blocks."""
+    law = blocks.law.conic()
+    lp = _Programme(dataclasses.replace(blocks, law=law))
     nj = blocks.n_joints
     if nj:
         mu = np.asarray(blocks.friction, float)
@@ -106,6 +108,11 @@ def joint_rows(prog: ConicProgramme, blocks: BlockModel) -> np.ndarray:
         keep = g.col < 3 * nj
         prog.add(NONNEG, g.row[keep], g.col[keep], g.data[keep], rules.rhs.ravel())
         prog.add(NONNEG, np.arange(nj), 3 * np.arange(nj), -np.ones(nj), 0.0 - rules.n_min)
+        cones = law.block_cones(lp.t)
+        if cones is not None:
+            rows, cols, vals, rhs = cones
+            j = np.arange(nj)[:, None]
+            prog.add(SOC, rows + rhs.shape[1] * j, cols + 3 * j, vals, rhs)
     return lp.A
 
 
