@@ -113,8 +113,7 @@ def lp_at(scene: Scene, x0: float, refined: bool = False) -> PositionLP:
             res = collapse_load(pl.scene)
             scale = 1.0 / max(v.axles)  # the pattern's factors are axle / heaviest axle
         else:
-            axles = [(ld.factor * max(v.axles), (ld.x_range(span)[0] + ld.x_range(span)[1]) / 2)
-                     for ld in pl.scene.loads]
+            axles = [(ld.factor * max(v.axles), *ld.x_range(span)) for ld in pl.scene.loads]
             res = dispersed_lp(pl.scene, axles, v.dispersion)
             scale = 1.0
     except LPFailure as err:

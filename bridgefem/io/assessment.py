@@ -24,7 +24,7 @@ from .output import claim, results_folder
 
 FILES = ("assessment.json", "report.html")
 JSON_KEYS = ("scene", "status", "adequacy_factor", "lp_adequacy_factor", "critical_x",
-             "lp_critical_x", "warnings")
+             "lp_critical_x", "bounds_factor", "warnings")
 
 
 def _number(x: float | None) -> float | None:
@@ -36,6 +36,18 @@ def _position(p) -> dict:
     return {"x0": p.x0, "factor": _number(p.factor), "status": status, "hinges": list(p.hinges),
             "sliding": list(p.sliding), "axles_on_span": list(p.axles), "vehicle_load": p.load,
             "refined": p.refined}
+
+
+def _bounds_factor(crit: dict | None) -> dict | None:
+    """The conic bounds of the bridge with its fill at the critical position (results.json's ``fill_bounds``, N)
+    as factors of the vehicle load there, and whether the FE bracket lies within them; None without both bounds."""
+    b = (crit or {}).get("results", {}).get("fill_bounds") or {}
+    if not (b.get("lower") and b.get("upper")) or crit["adequacy"] is None:
+        return None
+    lo, hi = b["lower"] / crit["load"], b["upper"] / crit["load"]
+    fe = crit["adequacy"]
+    return {"lower": lo, "upper": hi,
+            "fe_inside": fe["upper"] is not None and lo <= fe["upper"] and fe["lower"] <= hi}
 
 
 def assessment_data(a: Assessment) -> dict:
@@ -59,6 +71,7 @@ def assessment_data(a: Assessment) -> dict:
         "adequacy_factor": None if lo is None else {"lower": lo[0], "upper": lo[1]},
         "critical_x": a.critical_x,
         "lp_adequacy_factor": _number(a.lp_factor), "lp_critical_x": a.lp_critical_x,
+        "bounds_factor": _bounds_factor(crit),
         "vehicle": {"axles": list(v.axles), "spacing": list(v.spacing), "contact_length": v.contact_length,
                     "standard": v.standard, "dispersion": v.dispersion if a.scene.fill is not None else None},
         "step": a.step,
@@ -160,6 +173,10 @@ def _print(data: dict, folder: Path) -> None:
               f"x = {data['critical_x']:.3f} m from the left springing; rigid-block LP {lp_text}")
         crit = data["critical"]
         print(f"  hinges at joints {crit['hinges']}, sliding joints {crit['sliding']}")
+        b = data["bounds_factor"]
+        if b:
+            print(f"  conic bounds of the bridge with its fill there: [{b['lower']:.4f}, {b['upper']:.4f}], the FE "
+                  + ("inside them" if b["fe_inside"] else "OUTSIDE them"))
     else:
         print(f"{data['scene']}: {data['status']}; rigid-block LP {lp_text}")
     for w in data["warnings"]:
