@@ -13,10 +13,11 @@ from scipy.integrate import quad
 
 import bridgefem
 from bridgefem.assess.dispersion import SPREAD, strip_stress
-from bridgefem.assess.sweep import lp_at
+from bridgefem.assess.sweep import CONFIRM, _candidates, assess, lp_at
 from bridgefem.assess.vehicle import place
 from bridgefem.limit.rigid_block import generalised_loads, solve_blocks
 from bridgefem.limit.ring_blocks import ring_model
+from bridgefem.scene.vehicles import DISPERSIONS
 from bridgefem.structure.ring import scene_ring
 from conftest import ROOT
 
@@ -121,6 +122,24 @@ def test_point_axle_without_spreading_is_a_point_load_on_the_extrados():
     pl = place(s, x0)
     model = ring_model(pl.scene)  # the axle, 1 N per unit level, on the extrados: half on each side at a joint
     assert lp_at(s, x0).factor == pytest.approx(solve_blocks(model).level / 100e3, rel=1e-7)
+
+
+@pytest.mark.slow
+def test_fill_screens_every_rule_and_the_fe_confirms_each_rules_least_position():
+    """With a fill each dispersion rule screens the roll: its least LP factor and position are those of the
+    assessment whose scene has that rule, and every rule's least position is confirmed by the FE (within a step
+    of a candidate), each candidate carrying the scene rule's LP factor there."""
+    s = _prestwood(axles=[100e3, 100e3], spacing=[1.2], contact_length=0.3)
+    [a] = assess([s], step=0.3, fe=False)
+    assert set(a.dispersion_minima) == set(DISPERSIONS)
+    for rule, m in a.dispersion_minima.items():
+        [own] = assess([bridgefem.edit(s, vehicle={"dispersion": rule})], step=0.3, fe=False)
+        assert (m.factor, m.x0) == pytest.approx((own.lp_factor, own.lp_critical_x), rel=1e-12)
+    candidates = _candidates(a, CONFIRM)
+    for m in a.dispersion_minima.values():
+        assert min(abs(m.x0 - c.x0) for c, _ in candidates) <= a.step
+    for c, _ in candidates:
+        assert c.factor == pytest.approx(lp_at(s, c.x0).factor, rel=1e-12)
 
 
 @pytest.fixture(scope="module")

@@ -44,10 +44,10 @@ def _bounds_factor(crit: dict | None) -> dict | None:
     b = (crit or {}).get("results", {}).get("fill_bounds") or {}
     if not (b.get("lower") and b.get("upper")) or crit["adequacy"] is None:
         return None
-    lo, hi = b["lower"] / crit["load"], b["upper"] / crit["load"]
+    lo, hi = float(b["lower"] / crit["load"]), float(b["upper"] / crit["load"])
     fe = crit["adequacy"]
     return {"lower": lo, "upper": hi,
-            "fe_inside": fe["upper"] is not None and lo <= fe["upper"] and fe["lower"] <= hi}
+            "fe_inside": bool(fe["upper"] is not None and lo <= fe["upper"] and fe["lower"] <= hi)}
 
 
 def assessment_data(a: Assessment) -> dict:
@@ -58,6 +58,7 @@ def assessment_data(a: Assessment) -> dict:
         s = {k: val for k, val in c.summary.items() if k != "pictures"}
         confirmations.append({
             "x0": c.x0, "load": c.load, "status": c.status, "lp_factor": _number(c.lp_factor),
+            "proposed_by": c.proposed_by or "the scene's LP screen",
             "adequacy": None if c.adequacy is None else {"lower": c.adequacy[0], "upper": c.adequacy[1]},
             "hinges": s["mechanism"]["hinges"], "sliding": s["mechanism"]["sliding"], "evidence": s["evidence"],
             "warnings": s["warnings"], "seconds": c.seconds, "results": s})
@@ -72,6 +73,8 @@ def assessment_data(a: Assessment) -> dict:
         "critical_x": a.critical_x,
         "lp_adequacy_factor": _number(a.lp_factor), "lp_critical_x": a.lp_critical_x,
         "bounds_factor": _bounds_factor(crit),
+        "dispersion_screens": {rule: {"lp_factor": _number(m.factor), "lp_critical_x": m.x0}
+                               for rule, m in a.dispersion_minima.items()} or None,
         "vehicle": {"axles": list(v.axles), "spacing": list(v.spacing), "contact_length": v.contact_length,
                     "standard": v.standard, "dispersion": v.dispersion if a.scene.fill is not None else None},
         "step": a.step,
