@@ -173,3 +173,26 @@ def test_fill_assessment_fe_within_its_conic_bounds(prestwood_assessed):
     assert b["fe_inside"]
     factors = [p["factor"] for p in data["positions"] if p["factor"] is not None]
     assert data["lp_adequacy_factor"] == pytest.approx(min(factors), rel=1e-12)
+
+
+@pytest.mark.parametrize("carried, stands", [(1.8, True), (1.5, False)])
+def test_a_failed_confirmation_is_reported_with_what_it_carried(carried, stands):
+    """An FE confirmation that ends in a solver failure is named in the warnings with the vehicle factor it had
+    carried (its last converged load over the vehicle load), and whether the adequacy factor of the other
+    confirmations stands (it does when the failed run had carried more)."""
+    from bridgefem.assess.sweep import Assessment, Confirmation
+    from bridgefem.io.assessment import assessment_data
+
+    s = _prestwood(axles=[100e3], contact_length=0.3)
+    load = 100e3
+
+    def summary(lower, status):
+        return {"status": status, "limit_load": {"lower": lower, "upper": None}, "evidence": "",
+                "mechanism": {"hinges": [], "sliding": []}, "warnings": []}
+    ok = Confirmation(2.0, load, "limit load found", (1.7, 1.71), 1.0, summary(1.7 * load, "limit load found"), 1.0)
+    failed = Confirmation(4.0, load, "solver failure: test", None, 1.0, summary(carried * load, "solver failure"),
+                          1.0, "none")
+    a = Assessment(s, 0.1, [], 1.0, 2.0, [ok, failed], adequacy=(1.7, 1.71), critical_x=2.0,
+                   status="adequacy factor found")
+    [w] = [w for w in assessment_data(a)["warnings"] if "x = 4.000 m" in w]
+    assert f"vehicle x {carried:.4f}" in w and ("stands" in w) == stands

@@ -64,6 +64,12 @@ def assessment_data(a: Assessment) -> dict:
             "warnings": s["warnings"], "seconds": c.seconds, "results": s})
     crit = next((c for c in confirmations if c["x0"] == a.critical_x), None)
     warnings = list(crit["warnings"]) if crit else []
+    for c in confirmations:
+        if Status.of(c["status"]) is Status.FAILURE and a.adequacy is not None:
+            carried = c["results"]["limit_load"]["lower"] / c["load"]
+            warnings.append(f"the FE at first-axle x = {c['x0']:.3f} m ended in {c['status']}, having carried the "
+                            f"vehicle x {carried:.4f}" + (": above the adequacy factor, which stands" if carried >=
+                                                          a.adequacy[0] else ": the adequacy factor may be lower"))
     if a.status == LOCKED:
         warnings.append("the vehicle cannot collapse the bridge at any position screened (locked): no adequacy factor")
     lo = a.adequacy
