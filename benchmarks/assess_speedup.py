@@ -7,9 +7,10 @@
    of the whole command, CPU time of all its processes (user + system), and the assessment's own time (its
    assessment.json ``seconds.total``). Each pair gives its ratios, serial / parallel; the median is quoted.
 3. Every parallel answer must be the serial one: the same critical x, LP factor and FE bracket (to 1e-9).
-4. The start-up every process pays before it computes (``python -c "import bridgefem.io.cli"``: the imports and
-   the MPI and PETSc start, serial and under ``mpirun -n 2``) is timed the same way, and with it the best ratio two
-   ranks could reach for this work (Amdahl): serial / (start-up + (serial - start-up) / 2).
+4. The start-up every process pays whatever it computes (``python -c "import bridgefem.io.cli, gmsh,
+   matplotlib.pyplot"``: the imports, the MPI and PETSc start, Gmsh's library and matplotlib, which the first FE
+   run and the first picture load) is timed the same way, serial and under ``mpirun -n 2``, and with it the best
+   ratio two ranks could reach for this work (Amdahl): serial / (start-up + (serial - start-up) / 2).
 
 The machine's load average is printed before and after: on a shared 2-core machine another job slows the 2-rank run
 most, so read the ratios with it. Run:
@@ -33,7 +34,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import git_state, machine_line, write_outputs  # noqa: E402
+from harness import machine_line, write_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1.7
@@ -98,8 +99,8 @@ def main(argv: list[str] | None = None) -> int:
     py = [sys.executable]
     load_before = os.getloadavg()
     start = time.perf_counter()
-    startup = pairs(py + ["-c", "import bridgefem.io.cli"], MPI + py + ["-c", "import bridgefem.io.cli"],
-                    args.repeat, env)
+    imports = ["-c", "import bridgefem.io.cli, gmsh, matplotlib.pyplot"]
+    startup = pairs(py + imports, MPI + py + imports, args.repeat, env)
     f1 = statistics.median(s[0] for s, _ in startup)
     f2 = statistics.median(q[0] for _, q in startup)
     rows, lines = [], []
@@ -137,11 +138,12 @@ def main(argv: list[str] | None = None) -> int:
                          f"{own[1]:.2f} | {cpu1:.2f} / {cpu2:.2f} | {bound:.2f} | "
                          f"{'yes' if rows[-1]['same_answer'] else '**NO**'} |")
     load_after = os.getloadavg()
-    md = (f"# `bridgefem assess`: serial against `mpirun -n 2`, side by side\n\n{machine_line()}; {git_state()}; "
+    md = (f"# `bridgefem assess`: serial against `mpirun -n 2`, side by side\n\n{machine_line()}; "
           f"load average (1 min) {load_before[0]:.2f} before and {load_after[0]:.2f} after on {os.cpu_count()} "
           f"CPUs; {args.repeat} alternating pairs per step after a warm-up of each; medians; benchmark wall time "
           f"{time.perf_counter() - start:.0f} s.\n\n"
-          f"Start-up of a process (`import bridgefem.io.cli`: imports, MPI and PETSc): {f1:.2f} s serial, "
+          f"Start-up of a process (`import bridgefem.io.cli, gmsh, matplotlib.pyplot`: imports, MPI, PETSc, Gmsh, "
+          f"matplotlib): {f1:.2f} s serial, "
           f"{f2:.2f} s under `mpirun -n 2`.\n\n"
           "| step (m) | whole command, serial / 2 ranks (s) | ratio, median (min-max) | the assessment's own "
           "ratio (assessment.json) | CPU s, serial / 2 ranks | best 2-rank ratio for this start-up (Amdahl) | "
