@@ -17,8 +17,8 @@ least over all positions (LimitState:RING's adequacy factor). Method:
 3. **Confirm** with the FE limit analysis (:func:`bridgefem.analysis.runner.run_analysis`; the answer, the LP its
    check) the least refined minimum and the next local minima within :data:`CONFIRM_MARGIN` of it (up to
    ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close; with a fill, also each
-   other rule's least position more than a step from those (the FE, which carries the axles through the fill
-   itself, may be least where another rule's LP is). The adequacy factor is the least FE bracket; a position whose
+   other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
+   carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
    vehicle cannot collapse the bridge is "locked", never a number.
 
 **Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
@@ -231,6 +231,12 @@ def assess(scenes: list[Scene], comm=None, step: float | None = None, confirm: i
     return out
 
 
+def _finest(step: float) -> float:
+    """The spacing (m) of the last refinement's grid (step 2 of the module docstring): positions closer than this
+    are one position."""
+    return step * 2 / REFINE_POINTS ** REFINE_LEVELS
+
+
 def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | None]]:
     """The positions to confirm with the FE (step 3 of the module docstring), each with the dispersion rule whose
     screen proposed it (None: the scene's own screen); a position another rule proposes carries the scene rule's
@@ -240,7 +246,7 @@ def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | Non
     minima = local_minima(a.positions)
     out = [(m, None) for m in minima[:confirm] if _value(m) <= (1 + CONFIRM_MARGIN) * _value(minima[0])]
     for rule, m in a.dispersion_minima.items():
-        if rule != a.scene.vehicle.dispersion and all(abs(m.x0 - c.x0) > a.step for c, _ in out):
+        if rule != a.scene.vehicle.dispersion and all(abs(m.x0 - c.x0) > _finest(a.step) for c, _ in out):
             out.append((lp_at(a.scene, m.x0, refined=True), rule))
     return out
 
