@@ -69,6 +69,28 @@ def test_standard_vehicle_and_axles_off_the_span():
     assert pl.load == pytest.approx(200e3)
 
 
+def test_every_library_vehicle_is_documented_with_its_numbers():
+    """docs/assessment.md's library table has a row for every standard vehicle, giving its axle loads (kN), spacings
+    and tyre contact (m) as the library has them; CS 454's tonnes are 9.80665 kN; each resolves in a scene."""
+    import re
+
+    from bridgefem.scene.vehicles import VEHICLES
+
+    rows = {m.group(1): m.group(2) for m in re.finditer(r"^\| `([^`]+)` \| ([^|]+) \|", (ROOT / "docs" /
+                                                                                        "assessment.md").read_text(),
+                                                        re.M)}
+    assert set(rows) == set(VEHICLES)
+    assert VEHICLES["CS454-single-11.5t"]["axles"] == (pytest.approx(11.5 * 9.80665e3),)
+    for name, v in VEHICLES.items():
+        numbers = [float(x) for x in re.findall(r"\d+(?:\.\d+)?", rows[name])]
+        for value in [a / 1e3 for a in v["axles"]] + list(v["spacing"]) + [v["contact_length"]] * (
+                v["contact_length"] > 0):
+            assert any(abs(n - value) <= 0.005 for n in numbers), (name, value, rows[name])
+        assert (v["contact_length"] > 0) == ("contact not given" not in rows[name]), rows[name]
+        s = _vehicle_scene(standard=name, contact_length=v["contact_length"] or 0.3)
+        assert s.vehicle.axles == v["axles"] and s.vehicle.spacing == v["spacing"]
+
+
 def test_assess_refuses_a_scene_without_vehicle(tmp_path, capsys):
     """bridgefem assess on a scene without [vehicle]: exit 2, one line, nothing written."""
     out = tmp_path / "out"

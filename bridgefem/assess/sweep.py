@@ -8,14 +8,18 @@ least over all positions (LimitState:RING's adequacy factor). Method:
    axle enters the span to where the first leaves it; on a bare ring the LP of the scene with the axles as its loads
    (:func:`bridgefem.limit.collapse.collapse_load`: joints under the axles as the FE has them, a point axle on a
    joint carried by the least favourable voussoir), with a fill the ring's LP with the fill as dead load and each
-   axle spread through it (:mod:`bridgefem.assess.dispersion`, ``[vehicle] dispersion``).
-2. **Refine** around each local minimum of the screen: :data:`REFINE_POINTS` positions across two steps on each
-   side of it, then again across two of those new steps, :data:`REFINE_LEVELS` times (a grid of step / 8^levels
-   around each minimum).
+   axle spread through it (:mod:`bridgefem.assess.dispersion`) by the scene's ``[vehicle] dispersion`` -- and, as
+   a second screen each, by every other rule: how the load reaches the ring through the fill is what the LP does
+   not know, and the rules put the least LP factor at different positions.
+2. **Refine** around the ``confirm + 1`` least local minima of each screen: :data:`REFINE_POINTS` positions across
+   two steps on each side of each, then again across two of those new steps, :data:`REFINE_LEVELS` times (a grid
+   of step / 8^levels around each minimum).
 3. **Confirm** with the FE limit analysis (:func:`bridgefem.analysis.runner.run_analysis`; the answer, the LP its
    check) the least refined minimum and the next local minima within :data:`CONFIRM_MARGIN` of it (up to
-   ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close. The adequacy factor is
-   the least FE bracket; a position whose vehicle cannot collapse the bridge is "locked", never a number.
+   ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close; with a fill, also each
+   other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
+   carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
+   vehicle cannot collapse the bridge is "locked", never a number.
 
 **Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
 over the ranks (gathered in position order, so the answer does not depend on the ranks); the FE confirmations of all
@@ -30,7 +34,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
+from ..scene.document import edit
 from ..scene.model import Scene
+from ..scene.vehicles import DISPERSIONS
 from ..status import Status
 from .vehicle import Placement, place, positions
 
@@ -63,7 +69,8 @@ class PositionLP:
 class Confirmation:
     """The FE limit analysis at one position: ``x0`` (m), the vehicle ``load`` on the span (N), ``status``,
     ``adequacy`` (lower, upper or None) the FE bracket over that load, ``lp_factor`` the LP's factor there,
-    ``summary`` what :func:`assess` was given to describe the analysis with (results.json's entries), ``seconds``."""
+    ``summary`` what :func:`assess` was given to describe the analysis with (results.json's entries), ``seconds``,
+    ``proposed_by`` the dispersion rule whose LP screen proposed the position when it is not the scene's (None)."""
 
     x0: float
     load: float
@@ -72,12 +79,14 @@ class Confirmation:
     lp_factor: float | None
     summary: dict
     seconds: float
+    proposed_by: str | None = None
 
 
 @dataclass
 class Assessment:
     """The assessment of one scene: ``positions`` the LP screen and refinements (sorted by x0), ``lp_factor`` the
-    least LP factor at ``lp_critical_x`` (m), ``confirmations`` the FE runs, ``adequacy`` the least FE bracket
+    least LP factor at ``lp_critical_x`` (m), ``confirmations`` the FE runs, ``dispersion_minima`` (with a fill)
+    each dispersion rule's least LP position, the scene's own rule's included, ``adequacy`` the least FE bracket
     (None when locked or failed) at ``critical_x``, ``status`` ("adequacy factor found", "locked", "unstable under
     self-weight" or a solver failure), ``seconds`` per phase."""
 
@@ -87,6 +96,7 @@ class Assessment:
     lp_factor: float | None
     lp_critical_x: float | None
     confirmations: list[Confirmation] = field(default_factory=list)
+    dispersion_minima: dict[str, PositionLP] = field(default_factory=dict)
     adequacy: tuple[float, float | None] | None = None
     critical_x: float | None = None
     status: str = ""
@@ -113,8 +123,7 @@ def lp_at(scene: Scene, x0: float, refined: bool = False) -> PositionLP:
             res = collapse_load(pl.scene)
             scale = 1.0 / max(v.axles)  # the pattern's factors are axle / heaviest axle
         else:
-            axles = [(ld.factor * max(v.axles), (ld.x_range(span)[0] + ld.x_range(span)[1]) / 2)
-                     for ld in pl.scene.loads]
+            axles = [(ld.factor * max(v.axles), *ld.x_range(span)) for ld in pl.scene.loads]
             res = dispersed_lp(pl.scene, axles, v.dispersion)
             scale = 1.0
     except LPFailure as err:
@@ -158,44 +167,56 @@ def local_minima(points: list[PositionLP]) -> list[PositionLP]:
     return sorted(out, key=_value)
 
 
+def _screens(s: Scene) -> list[tuple[str | None, Scene]]:
+    """The LP screens of a scene (step 1 of the module docstring): (dispersion rule, the scene with that rule), the
+    scene's own first; a bare ring's one screen has no rule."""
+    if s.fill is None:
+        return [(None, s)]
+    own = s.vehicle.dispersion
+    return [(own, s)] + [(rule, edit(s, vehicle={"dispersion": rule})) for rule in DISPERSIONS if rule != own]
+
+
 def assess(scenes: list[Scene], comm=None, step: float | None = None, confirm: int = CONFIRM,
            describe: Callable | None = None, fe: bool = True,
            progress: Callable[[str], None] = lambda line: None) -> list[Assessment]:
     """Assess every scene (each with a ``[vehicle]``): steps 1-3 of the module docstring (collective over ``comm``,
     default COMM_WORLD; every rank gets the same assessments). ``step`` (m): the screening step (default span /
     :data:`STEPS_PER_SPAN`); ``describe(analysis)``: what to keep of each FE analysis, called collectively on its
-    group's ranks (default: :func:`brief`); ``fe=False``: the LP screen alone."""
+    group's ranks (default: :func:`brief`); ``fe=False``: the LP screens alone."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
     describe = describe or brief
     start = time.perf_counter()
-    steps = {s.name: step or s.arch.span / STEPS_PER_SPAN for s in scenes}
-    work = [(s, float(x)) for s in scenes for x in positions(s, steps[s.name])]
-    screened = _spread(comm, work, lp_at)
-    by_scene = {s.name: [p for (sc, _), p in zip(work, screened) if sc.name == s.name] for s in scenes}
-    for level in range(REFINE_LEVELS):
-        h = {s.name: steps[s.name] * 2 / REFINE_POINTS ** (level + 1) for s in scenes}
+    steps = [step or s.arch.span / STEPS_PER_SPAN for s in scenes]
+    screens = [(i, rule, sc) for i, s in enumerate(scenes) for rule, sc in _screens(s)]
+    found: list[list[PositionLP]] = [[] for _ in screens]
+    work = [(k, float(x)) for k, (i, _, sc) in enumerate(screens) for x in positions(sc, steps[i])]
+    for level in range(REFINE_LEVELS + 1):
+        done = _spread(comm, [(screens[k][2], x, level > 0) for k, x in work], lp_at)
+        for (k, _), p in zip(work, done):
+            found[k].append(p)
+        if level == REFINE_LEVELS:
+            break
         work = []
-        for s in scenes:
-            pts = sorted(by_scene[s.name], key=lambda p: p.x0)
-            known = {round(p.x0, 12) for p in pts}
-            for m in local_minima(pts)[:confirm + 1]:
-                for k in range(-REFINE_POINTS, REFINE_POINTS + 1):
-                    x = m.x0 + k * h[s.name]
+        for k, (i, _, _) in enumerate(screens):
+            h = steps[i] * 2 / REFINE_POINTS ** (level + 1)
+            known = {round(p.x0, 12) for p in found[k]}
+            for m in local_minima(sorted(found[k], key=lambda p: p.x0))[:confirm + 1]:
+                for j in range(-REFINE_POINTS, REFINE_POINTS + 1):
+                    x = m.x0 + j * h
                     if round(x, 12) not in known:
                         known.add(round(x, 12))
-                        work.append((s, x, True))
-        refined = _spread(comm, work, lp_at)
-        for (s, _, _), p in zip(work, refined):
-            by_scene[s.name].append(p)
+                        work.append((k, x))
     lp_seconds = time.perf_counter() - start
     out = []
-    for s in scenes:
-        pts = sorted(by_scene[s.name], key=lambda p: p.x0)
+    for i, s in enumerate(scenes):
+        mine = [(rule, sorted(found[k], key=lambda p: p.x0)) for k, (j, rule, _) in enumerate(screens) if j == i]
+        pts = mine[0][1]
         minima = local_minima(pts)
         least = minima[0] if minima else None
-        a = Assessment(s, steps[s.name], pts, least.factor if least else None, least.x0 if least else None)
+        a = Assessment(s, steps[i], pts, least.factor if least else None, least.x0 if least else None)
+        a.dispersion_minima = {rule: local_minima(p)[0] for rule, p in mine if rule is not None and local_minima(p)}
         a.seconds["lp"] = lp_seconds
         if least is None:
             stood = [p for p in pts if p.factor == math.inf]
@@ -210,19 +231,31 @@ def assess(scenes: list[Scene], comm=None, step: float | None = None, confirm: i
     return out
 
 
-def _candidates(a: Assessment, confirm: int) -> list[PositionLP]:
-    """The positions to confirm with the FE: step 3 of the module docstring."""
+def _finest(step: float) -> float:
+    """The spacing (m) of the last refinement's grid (step 2 of the module docstring): positions closer than this
+    are one position."""
+    return step * 2 / REFINE_POINTS ** REFINE_LEVELS
+
+
+def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | None]]:
+    """The positions to confirm with the FE (step 3 of the module docstring), each with the dispersion rule whose
+    screen proposed it (None: the scene's own screen); a position another rule proposes carries the scene rule's
+    LP factor there."""
     if a.status:
         return []
     minima = local_minima(a.positions)
-    return [m for m in minima[:confirm] if _value(m) <= (1 + CONFIRM_MARGIN) * _value(minima[0])]
+    out = [(m, None) for m in minima[:confirm] if _value(m) <= (1 + CONFIRM_MARGIN) * _value(minima[0])]
+    for rule, m in a.dispersion_minima.items():
+        if rule != a.scene.vehicle.dispersion and all(abs(m.x0 - c.x0) > _finest(a.step) for c, _ in out):
+            out.append((lp_at(a.scene, m.x0, refined=True), rule))
+    return out
 
 
 def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callable, progress) -> None:
     """Step 3: the FE runs of every assessment, over groups of ranks (module docstring, *Parallel*)."""
     from ..analysis.runner import run_analysis
 
-    items = [(i, m) for i, a in enumerate(assessments) for m in _candidates(a, confirm)]
+    items = [(i, m, rule) for i, a in enumerate(assessments) for m, rule in _candidates(a, confirm)]
     if not items:
         return
     start = time.perf_counter()
@@ -232,7 +265,7 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
     mine = []
     try:
         for k in range(color, len(items), groups):
-            i, m = items[k]
+            i, m, rule = items[k]
             t0 = time.perf_counter()
             pl = place(assessments[i].scene, m.x0)
             an = run_analysis(pl.scene, sub)
@@ -241,7 +274,7 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
             status = data["status"]
             adequacy = (lim["lower"] / pl.load, None if lim["upper"] is None else lim["upper"] / pl.load) \
                 if Status.of(status) is Status.LIMIT else None
-            c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0)
+            c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0, rule)
             if sub.rank == 0:
                 mine.append((k, c))
                 progress(_line(assessments[i].scene, c))
@@ -249,7 +282,7 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
     finally:
         sub.Free()
     found = dict(kv for part in comm.allgather(mine) for kv in part)
-    for k, (i, _) in enumerate(items):
+    for k, (i, _, _) in enumerate(items):
         assessments[i].confirmations.append(found[k])
     for a in assessments:
         a.seconds["fe"] = time.perf_counter() - start
@@ -280,7 +313,8 @@ def _line(scene: Scene, c: Confirmation) -> str:
         fe = f"FE adequacy factor in [{c.adequacy[0]:.4f}, {c.adequacy[1]:.4f}]"
     else:
         fe = f"FE: {c.status}"
-    return (f"{scene.name}: first axle at x = {c.x0:.3f} m ({c.load / 1e3:.1f} kN on the span): {fe}, LP "
+    why = f", the position the {c.proposed_by} screen proposed" if c.proposed_by else ""
+    return (f"{scene.name}: first axle at x = {c.x0:.3f} m ({c.load / 1e3:.1f} kN on the span{why}): {fe}, LP "
             f"{lp} ({c.seconds:.1f} s)")
 
 

@@ -24,7 +24,7 @@ from .output import claim, results_folder
 
 FILES = ("assessment.json", "report.html")
 JSON_KEYS = ("scene", "status", "adequacy_factor", "lp_adequacy_factor", "critical_x",
-             "lp_critical_x", "warnings")
+             "lp_critical_x", "bounds_factor", "warnings")
 
 
 def _number(x: float | None) -> float | None:
@@ -38,6 +38,18 @@ def _position(p) -> dict:
             "refined": p.refined}
 
 
+def _bounds_factor(crit: dict | None) -> dict | None:
+    """The conic bounds of the bridge with its fill at the critical position (results.json's ``fill_bounds``, N)
+    as factors of the vehicle load there, and whether the FE bracket lies within them; None without both bounds."""
+    b = (crit or {}).get("results", {}).get("fill_bounds") or {}
+    if not (b.get("lower") and b.get("upper")) or crit["adequacy"] is None:
+        return None
+    lo, hi = float(b["lower"] / crit["load"]), float(b["upper"] / crit["load"])
+    fe = crit["adequacy"]
+    return {"lower": lo, "upper": hi,
+            "fe_inside": bool(fe["upper"] is not None and lo <= fe["upper"] and fe["lower"] <= hi)}
+
+
 def assessment_data(a: Assessment) -> dict:
     """assessment.json of one assessment (every rank holds the same)."""
     v = a.scene.vehicle
@@ -46,11 +58,18 @@ def assessment_data(a: Assessment) -> dict:
         s = {k: val for k, val in c.summary.items() if k != "pictures"}
         confirmations.append({
             "x0": c.x0, "load": c.load, "status": c.status, "lp_factor": _number(c.lp_factor),
+            "proposed_by": c.proposed_by or "the scene's LP screen",
             "adequacy": None if c.adequacy is None else {"lower": c.adequacy[0], "upper": c.adequacy[1]},
             "hinges": s["mechanism"]["hinges"], "sliding": s["mechanism"]["sliding"], "evidence": s["evidence"],
             "warnings": s["warnings"], "seconds": c.seconds, "results": s})
     crit = next((c for c in confirmations if c["x0"] == a.critical_x), None)
     warnings = list(crit["warnings"]) if crit else []
+    for c in confirmations:
+        if Status.of(c["status"]) is Status.FAILURE and a.adequacy is not None:
+            carried = c["results"]["limit_load"]["lower"] / c["load"]
+            warnings.append(f"the FE at first-axle x = {c['x0']:.3f} m ended in {c['status']}, having carried the "
+                            f"vehicle x {carried:.4f}" + (": above the adequacy factor, which stands" if carried >=
+                                                          a.adequacy[0] else ": the adequacy factor may be lower"))
     if a.status == LOCKED:
         warnings.append("the vehicle cannot collapse the bridge at any position screened (locked): no adequacy factor")
     lo = a.adequacy
@@ -59,6 +78,9 @@ def assessment_data(a: Assessment) -> dict:
         "adequacy_factor": None if lo is None else {"lower": lo[0], "upper": lo[1]},
         "critical_x": a.critical_x,
         "lp_adequacy_factor": _number(a.lp_factor), "lp_critical_x": a.lp_critical_x,
+        "bounds_factor": _bounds_factor(crit),
+        "dispersion_screens": {rule: {"lp_factor": _number(m.factor), "lp_critical_x": m.x0}
+                               for rule, m in a.dispersion_minima.items()} or None,
         "vehicle": {"axles": list(v.axles), "spacing": list(v.spacing), "contact_length": v.contact_length,
                     "standard": v.standard, "dispersion": v.dispersion if a.scene.fill is not None else None},
         "step": a.step,
@@ -160,6 +182,10 @@ def _print(data: dict, folder: Path) -> None:
               f"x = {data['critical_x']:.3f} m from the left springing; rigid-block LP {lp_text}")
         crit = data["critical"]
         print(f"  hinges at joints {crit['hinges']}, sliding joints {crit['sliding']}")
+        b = data["bounds_factor"]
+        if b:
+            print(f"  conic bounds of the bridge with its fill there: [{b['lower']:.4f}, {b['upper']:.4f}], the FE "
+                  + ("inside them" if b["fe_inside"] else "OUTSIDE them"))
     else:
         print(f"{data['scene']}: {data['status']}; rigid-block LP {lp_text}")
     for w in data["warnings"]:

@@ -50,6 +50,10 @@ def _figure(name: str, source: bytes | Path | None, caption: str) -> str:
             f"<figcaption>{_esc(caption)}</figcaption></figure>")
 
 
+def _factor(f: float | None) -> str:
+    return "none" if f is None else f"{f:.4f}"
+
+
 def _kn(n: float | None) -> str:
     return "none" if n is None else f"{n / 1e3:.3f} kN"
 
@@ -149,9 +153,12 @@ def assessment_report(data: dict, pictures: dict) -> str:
              ("" if p["factor"] is None else f"{p['factor']:.4f}"), _esc(p["status"]), "yes" if p["refined"] else "")
             for p in data["positions"]]
     confirmed = [(f"{c['x0']:.3f}", f"{c['load'] / 1e3:.1f}", _esc(c["status"]),
-                  "" if c["adequacy"] is None else f"{c['adequacy']['lower']:.4f} to {c['adequacy']['upper']:.4f}",
-                  "" if c["lp_factor"] is None else f"{c['lp_factor']:.4f}", f"{c['seconds']:.1f}")
+                  "" if c["adequacy"] is None else f"{c['adequacy']['lower']:.4f} to {_factor(c['adequacy']['upper'])}",
+                  "" if c["lp_factor"] is None else f"{c['lp_factor']:.4f}", _esc(c["proposed_by"]),
+                  f"{c['seconds']:.1f}")
                  for c in data["confirmations"]]
+    screens = [(_esc(rule), _factor(m["lp_factor"]), f"{m['lp_critical_x']:.3f}")
+               for rule, m in (data.get("dispersion_screens") or {}).items()]
     fe = crit.get("results")
     body = (f"<h1>{_esc(data['scene'])}: assessment</h1><p class='verdict'>{verdict}</p>"
             f"<p>Vehicle: {_esc(v['standard'] or 'user-defined')}, axles {axles} kN, spacing {_esc(v['spacing'])} m, "
@@ -163,7 +170,10 @@ def assessment_report(data: dict, pictures: dict) -> str:
             + _mechanism(fe, pictures, "mechanism at the critical position: joints numbered from the left springing, "
                          "hinges labelled, line of thrust", "load-deflection at the critical position")
             + "<h2>Confirmed positions (FE)</h2>"
-            + _table(confirmed, ("first axle x (m)", "vehicle on span (kN)", "status", "FE factor", "LP factor", "s"))
+            + _table(confirmed, ("first axle x (m)", "vehicle on span (kN)", "status", "FE factor", "LP factor",
+                                 "position proposed by", "s"))
+            + ("<h2>LP screens by dispersion rule (the fill as dead load)</h2>"
+               + _table(screens, ("dispersion", "least LP factor", "at first axle x (m)")) if screens else "")
             + ("<h2>Checks at the critical position</h2>" + _table(_checks(fe, crit["load"]),
                                                                       ("check", "load", "vehicle factor"))
                if fe else "")
