@@ -50,11 +50,12 @@ def strip_stress(q: float, c: float, xi: np.ndarray, z: np.ndarray) -> np.ndarra
 
 
 def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float]], rule: str) -> tuple[np.ndarray, ...]:
-    """(blocks, points, forces): the vertical forces (N) on the voussoirs' extrados of ``axles`` (load N, x in the
+    """(blocks, points, forces): the vertical forces (N) on the outer ring's voussoirs' extrados of ``axles`` (load N, x in the
     scene's coordinates, m from midspan) spread by ``rule`` through the fill (module docstring)."""
     span, c = scene.arch.span, scene.vehicle.contact_length
     road = ring.crown_extrados + scene.fill.depth
-    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])
+    outer = ring.outer_voussoirs  # the barrel's extrados, under the fill
+    x0 = np.array([v.extrados[0, 0] for v in outer])
     edges = np.linspace(-span / 2, span / 2, CELLS + 1)
     mid, dx = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
     depth = np.array([road - ring.extrados_point(x)[1] for x in mid])
@@ -76,7 +77,8 @@ def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float]], rule:
             pressure += load / (hi - lo) * overlap / dx
     force = pressure * dx
     keep = force > 0
-    blocks = np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0, len(ring.voussoirs) - 1)
+    blocks = np.array([outer[k].id for k in np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0,
+                                                      len(outer) - 1)], int)
     points = np.array([ring.extrados_point(x) for x in mid[keep]]).reshape(-1, 2)
     forces = np.column_stack([np.zeros(keep.sum()), -force[keep]])
     return blocks, points, forces

@@ -337,8 +337,10 @@ def _lp(args) -> int:
         print(json.dumps(lp_summary(res)))
     else:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
+        mech = res.by_joint
+        separated = f", separated ring interfaces {mech.separated}" if mech.separated else ""
         print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
-              f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+              f"hinges {mech.hinges}, sliding {mech.sliding}{separated} ({res.time_s:.3f} s)")
         sides = [f"load {i + 1} on the {s} voussoir" if s != "split" else f"load {i + 1} shared by both voussoirs"
                  for i, s in enumerate(res.load_sides) if s is not None]
         if sides:

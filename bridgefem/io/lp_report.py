@@ -21,9 +21,11 @@ def rigid_block_result(scene: Scene, friction_model: str = "associative") -> LPR
 
 
 def mechanism_summary(lp: LPResult) -> dict:
-    """The JSON form of a rigid-block mechanism: hinge joints, where each hinge sits, sliding joints."""
-    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-            "sliding": sorted(lp.sliding)}
+    """The JSON form of a rigid-block mechanism by the structure's joint ids (``LPResult.by_joint``): hinge joints,
+    where each hinge sits, sliding joints, separated ring interfaces."""
+    mech = lp.by_joint
+    return {"hinges": mech.hinges, "hinge_positions": {str(k): v for k, v in sorted(mech.hinge_positions.items())},
+            "sliding": mech.sliding, "separated": mech.separated}
 
 
 def lp_summary(lp: LPResult) -> dict:

@@ -18,7 +18,10 @@ x to the right, y up, moments counter-clockwise; loads act downwards (-y).
    point above it, a patch uniform per horizontal metre over its x-range and shared by the voussoirs under it; a
    point load exactly above a joint acts at the joint's extrados corner, on the voussoir its side names;
 5. the joints from intrados (``joint_a``) to extrados (``joint_b``), their normal from the left block into the right
-   one; the ring's joints take the scene's friction, the abutments' bases the abutments' friction.
+   one; the ring's joints take the scene's friction, the abutments' bases the abutments' friction; a ring
+   interface (curved) is its chords (``BlockModel.joint_ids`` maps them back), each an *interface* piece that never
+   crushes, with the ring friction and the shear capacity ``ring_cohesion x chord length x width`` (N) at no
+   normal force (``BlockModel.cohesion``).
 
 Two variants load the same blocks with the FE's own forces, for the FE's checks: :func:`ring_under_forces` (the
 forces a fill transmits across the arch-fill interface) and :func:`ring_with_loads` (the FE's assembled block
@@ -72,13 +75,18 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     live_pattern = live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
     friction = {"base": scene.abutments.friction, "ring": scene.joints.ring_interface_friction}
     pieces = [(j, a, b) for j in ring.joints for a, b in zip(*j.chords)]  # a ring interface: its curve's chords
+    joint_a, joint_b = np.array([a for _, a, _ in pieces]), np.array([b for _, _, b in pieces])
+    interface = np.array([j.kind == "ring" for j, _, _ in pieces])
     return BlockModel(
-        ref=ref, dead=dead, live=live_pattern,
-        joint_a=np.array([a for _, a, _ in pieces]), joint_b=np.array([b for _, _, b in pieces]),
+        ref=ref, dead=dead, live=live_pattern, joint_a=joint_a, joint_b=joint_b,
         joint_left=np.array([-1 if j.left is None else j.left for j, _, _ in pieces]),
         joint_right=np.array([-1 if j.right is None else j.right for j, _, _ in pieces]),
         friction=np.array([friction.get(j.kind, scene.joints.friction) for j, _, _ in pieces]),
-        law=scene_law(scene) if law is None else law)
+        law=scene_law(scene) if law is None else law,
+        **({} if not interface.any() else dict(
+            joint_ids=np.array([j.id for j, _, _ in pieces]), interface=interface,
+            cohesion=np.where(interface, scene.joints.ring_cohesion * a.width
+                              * np.linalg.norm(joint_b - joint_a, axis=1), 0.0))))
 
 
 def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
