@@ -1,11 +1,13 @@
 """The rigid-block LP and the conic bounds on barrels of several rings (#41) against independent values: the
 monolithic ring, closed forms of one or two blocks, and the least thickness of one ring."""
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from conftest import scene_dict
 
+from bridgefem.analysis.thrust import line_of_thrust
 from bridgefem.assess.dispersion import dispersed_forces, dispersed_lp
 from bridgefem.laws.crushing import CrushingJoints
 from bridgefem.limit.bounds import collapse_bounds
@@ -174,3 +176,27 @@ def test_dispersed_wheel_loads_act_on_the_outer_ring():
     assert set(blocks.tolist()) <= {v.id for v in ring.outer_voussoirs} and forces[:, 1].sum() == pytest.approx(-1e4)
     assert dispersed_lp(scene, [(1e4, -1.0)], "spread-2:1").level == pytest.approx(
         dispersed_lp(monolithic(**WHEEL), [(1e4, -1.0)], "spread-2:1").level, rel=1e-6)
+
+
+def test_the_barrel_line_of_thrust_is_the_monolithic_rings_at_collapse():
+    """At collapse (a four-hinge mechanism: statically determinate) aligned rings that cannot slide carry the
+    monolithic ring's thrust: the barrel's line of thrust (each section's resultant over every ring, read from the
+    rings' own LP joint forces) crosses every outer-ring joint where the monolithic ring's LP thrust crosses its
+    joint, touching the faces at its hinges."""
+    mono, rings = collapse_load(monolithic()), collapse_load(barrel(2, ring_friction=100.0))
+    mono_line = line_of_thrust(lp_states(mono, N + 1), scene_ring(monolithic()))
+    line = line_of_thrust(lp_states(rings, 2 * (N + 1)), scene_ring(barrel(2, ring_friction=100.0)))
+    assert [p.joint for p in line] == [N + 1 + p.joint for p in mono_line]
+    for p, q in zip(line, mono_line):
+        assert (p.x, p.y) == pytest.approx((q.x, q.y), abs=1e-6)
+        assert p.normal_force == pytest.approx(q.normal_force, rel=1e-6)
+    touching = {p.joint - (N + 1): p.touches for p in line if p.touches}
+    assert touching == {q.joint: q.touches for q in mono_line if q.touches}
+    assert mono.by_joint.hinge_positions.items() <= touching.items()
+
+
+def lp_states(res, n_joints):
+    """The LP's forces on the first ``n_joints`` joints (the rings' joints: one piece each) as joint states."""
+    f = res.joint_forces
+    return [SimpleNamespace(id=j, normal_force=f["n"][j], shear_force=f["s"][j],
+                            eccentricity=f["m"][j] / f["n"][j] if f["n"][j] > 0 else 0.0) for j in range(n_joints)]
