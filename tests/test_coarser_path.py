@@ -4,7 +4,7 @@ makes cheaper."""
 import numpy as np
 from mpi4py import MPI
 
-from bridgefem.fe.pairs import ARCH_FILL, JointPairs
+from bridgefem.fe.pairs import ARCH_FILL, FILL_KIND, JointPairs
 from bridgefem.search.coarser_path import CoarserPath
 
 THICKNESS = 0.6  # m, every joint's length
@@ -20,7 +20,8 @@ def joint_pairs(per_joint: int, joints: int = 3, fill: int = 0) -> JointPairs:
                                                                          (length, 0.1)))
     n = len(joint)
     zeros = np.zeros((n, 2))
-    return JointPairs(joint, np.zeros(n, int), np.zeros(n, int), zeros, zeros, length, position, 0, n)
+    kind = np.where(joint == ARCH_FILL, FILL_KIND, "voussoir")
+    return JointPairs(joint, kind, np.zeros(n, int), np.zeros(n, int), zeros, zeros, length, position, 0, n)
 
 
 def fields(pairs: JointPairs, level: float) -> tuple[np.ndarray, np.ndarray]:

@@ -115,7 +115,7 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     phase("pairing the joints")
     pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)  # coincident joint nodes, up to round-off
     clock.lap("pairing")
-    young, friction = pair_properties(scene, ring, pairs)
+    young, friction = pair_properties(scene, pairs)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness,
     c[pairs.joint != ARCH_FILL] *= RING_JOINT_SCALE  # scaled down at the ring's joints (see the constant)
     material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
@@ -137,17 +137,17 @@ def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:
 
 
 
-def pair_properties(scene: Scene, ring: ArchRing, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:
+def pair_properties(scene: Scene, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:
     """Per local pair: the Young's modulus (Pa) of the softer side and the Coulomb coefficient. Ring joints:
-    the masonry's and the joints' mu; on elastic abutments the springing and base joints take the softer of
-    masonry and abutment, and the bases the abutments' mu; the arch-fill interface: the fill's."""
+    the masonry's and the joints' mu; ring interfaces the ring friction (``[joints] ring_friction``); on elastic
+    abutments the springing and base joints take the softer of masonry and abutment, and the bases the abutments'
+    mu; the arch-fill interface: the fill's."""
     young = np.full(len(pairs), scene.masonry.young)
-    friction = np.full(len(pairs), scene.joints.friction)
+    friction = np.where(pairs.kind == "ring", scene.joints.ring_interface_friction, scene.joints.friction)
     ab, fill = scene.abutments, scene.fill
     if ab.elastic:
-        bases = [j.id for j in ring.bases]
-        young[np.isin(pairs.joint, [j.id for j in ring.springings] + bases)] = min(ab.young, scene.masonry.young)
-        friction[np.isin(pairs.joint, bases)] = ab.friction
+        young[np.isin(pairs.kind, ("springing", "base"))] = min(ab.young, scene.masonry.young)
+        friction[pairs.kind == "base"] = ab.friction
     if fill is not None:
         interface = pairs.joint == ARCH_FILL
         young[interface], friction[interface] = fill.young, fill.interface_friction

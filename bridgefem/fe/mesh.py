@@ -1,31 +1,39 @@
 """Gmsh mesh of the voussoirs, split into blocks with duplicated nodes on every joint, as a DOLFINx mesh.
 
-Gmsh builds one surface per voussoir sharing the joint curves, so the mesh is conformal; each joint has
-``elements_through_thickness`` segments. The mesh is then split: every node gets one copy per block it
-belongs to, so that a joint becomes a set of coincident node pairs (one copy per face). Springing joints
-have a single face, which meets the rigid ground. Lengths in m, coordinates as in :mod:`bridgefem.geometry.ring`.
+Gmsh builds one surface per block sharing the joint curves, so the mesh is conformal; each ring's joints have
+``elements_through_thickness`` segments (per ring: a barrel of n rings has n times as many elements through its
+thickness as one ring of the same thickness, so that every ring interface and each ring's hinges are resolved). The
+mesh is then split: every node gets one copy per block it belongs to, so that a joint becomes a set of coincident
+node pairs (one copy per face). Springing joints have a single face, which meets the rigid ground. Lengths in m,
+coordinates as in :mod:`bridgefem.geometry.ring`.
 
 :func:`build_block_mesh`, on rank 0 (Gmsh: Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309):
 
-1. draws the voussoirs (their polylines as splines, split at kinks and load points), the elastic abutments, the
-   fill and its loading beams as surfaces sharing their boundary curves (:func:`_gmsh_bridge`);
-2. meshes them with triangles: the voussoirs structured (``elements_through_thickness`` across each joint), the
-   rest unstructured with the size fields below;
+1. draws the blocks and joints as data (:func:`_gmsh_bridge`, :class:`_Drawing`): one Gmsh point per distinct
+   location (the joints' ends first), a line per voussoir joint, each voussoir's intrados and extrados as splines
+   split at their splits (kinks, load points, the other ring's joints), a curve shared by two voussoirs (a ring
+   interface) drawn once and reused reversed by the other, each voussoir a surface inside its curves; a ring
+   interface joint is the curves of its inner voussoir's extrados between its ends; then the elastic abutments
+   (their top the springing joints of every ring), the fill over the outer ring's extrados and its loading beams;
+2. meshes them with triangles (:func:`_mesh_voussoirs`): the voussoirs structured where their opposite sides have
+   equal numbers of segments (always for one ring: the mesh of a single ring is the one it always was), else
+   unstructured from their curves' segments; the rest unstructured with the size fields below;
 3. splits the nodes per block (:func:`split_blocks`: a loading beam counts as the fill's block, bonded to it) and
    tags the joint faces, the extrados and the fill's boundaries;
 
 then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
-Under a fill the extrados (shared by ring and fill) is divided at :func:`extrados_element_size`, at most
-``FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as many
-segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
-size within the fill's depth of the extrados, graded to the far fill's size beyond. The road's load points (patch
-edges, point loads) get ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill,
-whose depth, not the ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
+Under a fill the extrados (shared by the outer ring and fill) is divided at :func:`extrados_element_size` (of the
+outer ring's thickness), at most ``FILL_DEPTH_SHARE`` x the fill's depth over the crown /
+``elements_through_thickness`` (the voussoirs get as many segments along, their joints keep
+``elements_through_thickness``), and a Gmsh size field keeps the fill at that size within the fill's depth of the
+extrados, graded to the far fill's size beyond. The road's load points (patch edges, point loads) get
+``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill, whose depth, not the
+ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
 
-Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice the
-ring's element size; their top shares the springing joint's curve with the ring, their base is a joint with a
-single face, like a springing on rigid ground. Without them no abutment is meshed.
+Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice
+the smallest ring's element size; their top shares the springing joints' curves with the rings, their base is a
+joint with a single face, like a springing on rigid ground. Without them no abutment is meshed.
 
 Tags on the DOLFINx mesh:
 - cell tag = voussoir id, abutment id, or ``fill_block`` (= number of voussoirs and abutments) for the fill;
@@ -49,7 +57,7 @@ from dolfinx import cpp as _cpp
 from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_from_entities
 from mpi4py import MPI
 
-from ..geometry.ring import Abutment, ArchRing, FillOutline
+from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline
 
 EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
 FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
@@ -94,11 +102,61 @@ class BlockMesh:
     beam_blocks: tuple[int, ...] = ()
 
 
-def _add_polyline_side(geo, points: np.ndarray, splits: tuple[int, ...], first: int, last: int) -> list[int]:
-    """Splines through ``points`` between existing Gmsh points ``first`` and ``last``, broken at ``splits``."""
-    tags = [first] + [geo.addPoint(x, y, 0.0) for x, y in points[1:-1]] + [last]
-    cuts = [0, *splits, len(points) - 1]
-    return [geo.addSpline(tags[a:b + 1]) for a, b in zip(cuts[:-1], cuts[1:])]
+class _Drawing:
+    """The Gmsh entities of the blocks, each drawn once: one point per distinct location (two points closer than
+    ``tol`` m are one), one curve per pair of end points, found again in either direction (a curve shared by two
+    blocks is drawn by the first and reused, reversed when it runs the other way, by the second)."""
+
+    def __init__(self, geo, tol: float):
+        self.geo, self.tol = geo, tol
+        self.points: dict[tuple[int, int], int] = {}
+        self.curves: dict[tuple[int, int], int] = {}
+
+    def find(self, xy) -> int | None:
+        """The point at ``xy`` (m), or None."""
+        i, j = (int(np.floor(v / self.tol)) for v in xy)
+        return next((self.points[i + a, j + b] for a in (0, 1, -1) for b in (0, 1, -1) if (i + a, j + b) in
+                     self.points), None)
+
+    def point(self, xy, size: float = 0.0) -> int:
+        """The point at ``xy`` (m), drawn with the mesh ``size`` (m; 0: from its curves) if it is new."""
+        tag = self.find(xy)
+        if tag is None:
+            tag = self.geo.addPoint(float(xy[0]), float(xy[1]), 0.0, size)
+            self.points[tuple(int(np.floor(v / self.tol)) for v in xy)] = tag
+        return tag
+
+    def curve(self, a: int, b: int) -> int | None:
+        """The curve from point ``a`` to point ``b`` (negative: drawn from b to a), or None."""
+        if (a, b) in self.curves:
+            return self.curves[a, b]
+        return -self.curves[b, a] if (b, a) in self.curves else None
+
+    def line(self, a: int, b: int) -> int:
+        """The straight curve from point ``a`` to ``b``, drawn if it is new."""
+        found = self.curve(a, b)
+        if found is None:
+            found = self.curves[a, b] = self.geo.addLine(a, b)
+        return found
+
+    def side(self, points: np.ndarray, splits: tuple[int, ...]) -> list[tuple[int, int, int]]:
+        """The curves of a block's side through ``points`` (m), splines broken at the indices ``splits``, as
+        (first point, last point, curve) in the side's direction: the pieces already drawn (by a neighbouring block,
+        the same points) are reused; the new pieces' inner points are drawn in the side's order, then their
+        splines."""
+        cuts = [0, *splits, len(points) - 1]
+        ends = {k: self.point(points[k]) if k in (0, len(points) - 1) else self.find(points[k]) for k in cuts}
+        new = [(a, b) for a, b in zip(cuts[:-1], cuts[1:])
+               if ends[a] is None or ends[b] is None or self.curve(ends[a], ends[b]) is None]
+        tags = dict(ends)
+        for k in range(1, len(points) - 1):
+            if k in ends:
+                tags[k] = ends[k] if ends[k] is not None else self.point(points[k])
+            elif any(a < k < b for a, b in new):
+                tags[k] = self.geo.addPoint(float(points[k, 0]), float(points[k, 1]), 0.0)
+        for a, b in new:
+            self.curves[tags[a], tags[b]] = self.geo.addSpline([tags[k] for k in range(a, b + 1)])
+        return [(tags[a], tags[b], self.curve(tags[a], tags[b])) for a, b in zip(cuts[:-1], cuts[1:])]
 
 
 def _segment_counts(lengths: list[float], total: int) -> list[int]:
@@ -133,10 +191,16 @@ class _RawMesh:
     h: float
 
 
+def ring_element_sizes(ring: ArchRing, per_thickness: int) -> tuple[float, ...]:
+    """The element size (m) of each ring, from the intrados out: its thickness / ``per_thickness``."""
+    return tuple(t / per_thickness for t in (ring.ring_thicknesses or (ring.thickness,)))
+
+
 def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
                  beams: tuple[tuple[float, float], ...] = ()) -> _RawMesh:
-    """Mesh the ring, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
-    ``beams``), with Gmsh (rank 0 only)."""
+    """Mesh the barrel, and the fill over it when ``outline`` is given (with a loading beam over each x-range of
+    ``beams``), with Gmsh (rank 0 only); the steps of the module docstring. ``h`` of the result: the smallest ring's
+    element size."""
     import gmsh
 
     gmsh.initialize([], readConfigFiles=False)
@@ -144,25 +208,36 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("bridge")
         geo = gmsh.model.geo
-        h = ring.thickness / per_thickness
+        sizes = ring_element_sizes(ring, per_thickness)
+        h = min(sizes)
         depth = outline.y_road - ring.crown_extrados if outline is not None else None
-        h_extrados = extrados_element_size(ring.thickness, per_thickness, depth)
-        arch_joints = ring.joints[:ring.n_voussoirs + 1]
-        inner = [geo.addPoint(*j.intrados, 0.0) for j in arch_joints]
-        outer = [geo.addPoint(*j.extrados, 0.0) for j in arch_joints]
-        joint_curves = [geo.addLine(a, b) for a, b in zip(inner, outer)]
-        surfaces, extrados_curves = [], []
+        h_extrados = extrados_element_size(sizes[-1] * per_thickness, per_thickness, depth)
+        draw = _Drawing(geo, ROUND_OFF * ring.span)
+        ring_joints = ring.ring_joints
+        for end in ("intrados", "extrados"):
+            for j in ring_joints:
+                draw.point(getattr(j, end))
+        joint_curves = {j.id: [draw.line(draw.point(j.intrados), draw.point(j.extrados))] for j in ring_joints}
+        sides, surfaces = {}, []
         for v in ring.voussoirs:
-            i = v.id
-            intra = _add_polyline_side(geo, v.intrados, v.intrados_splits, inner[i], inner[i + 1])
-            extra = _add_polyline_side(geo, v.extrados, v.extrados_splits, outer[i], outer[i + 1])
-            loop = geo.addCurveLoop(intra + [joint_curves[i + 1]] + [-c for c in extra[::-1]] + [-joint_curves[i]])
-            surfaces.append((geo.addPlaneSurface([loop]), intra, extra, i))
-            extrados_curves += extra
-        abutment_surfaces = [(_add_abutment(geo, ab, ring, inner, outer, joint_curves, 2 * h), ab.id)
-                             for ab in ring.abutments]
-        fill_curves = (_add_fill(geo, outline, outer, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados, beams)
-                       if outline is not None else {})
+            intra, extra = draw.side(v.intrados, v.intrados_splits), draw.side(v.extrados, v.extrados_splits)
+            left, right = (draw.curve(draw.point(v.intrados[k]), draw.point(v.extrados[k])) for k in (0, -1))
+            loop = geo.addCurveLoop([c for *_, c in intra] + [right] + [-c for *_, c in extra[::-1]] + [-left])
+            surfaces.append(geo.addPlaneSurface([loop]))
+            sides[v.id] = (intra, extra)
+        for j in ring.joints:
+            if j.kind == "ring":  # the inner block's extrados pieces from the joint's left end to its right end
+                pieces = sides[j.left][1]
+                first = next(k for k, (a, _, _) in enumerate(pieces) if a == draw.point(j.extrados))
+                last = next(k for k, (_, b, _) in enumerate(pieces) if b == draw.point(j.intrados))
+                joint_curves[j.id] = [c for *_, c in pieces[first:last + 1]]
+        extrados_curves = [c for v in ring.outer_voussoirs for *_, c in sides[v.id][1]]
+        abutment_surfaces = [(_add_abutment(draw, ab, ring, joint_curves, 2 * h), ab.id) for ab in ring.abutments]
+        fill_curves = {}
+        if outline is not None:  # the fill's base begins at the outer ring's springings' extrados corners
+            corners = [draw.point(ring.springings(side)[-1].extrados) for side in ("left", "right")]
+            fill_curves = _add_fill(geo, outline, corners, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados,
+                                    beams)
         geo.synchronize()
         if outline is not None or ring.abutments:
             gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
@@ -171,42 +246,97 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
             boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
             _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
                                       max(h_fill, h_extrados), depth)
-        for c in joint_curves[:len(arch_joints)]:
-            mesh.setTransfiniteCurve(c, per_thickness + 1)
-        for s, intra, extra, i in surfaces:
-            centre = 0.5 * (ring.voussoirs[i].intrados + ring.voussoirs[i].extrados)
-            length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
-            # segments along: about one per element size h (1e-9: a length of exactly k h gives k), one per
-            # h_extrados along the extrados under a thin fill (its nodes are the fill's), and at least one per curve
-            # of an edge split at a load point or crown kink (each curve needs a segment)
-            n_fill = sum(int(np.ceil(_curve_length(c) / h_extrados - 1e-9)) for c in extra) if h_extrados < h else 0
-            n_along = max(int(np.ceil(length / h - 1e-9)), n_fill, len(intra), len(extra))
-            for side in (intra, extra):
-                lengths = [_curve_length(c) for c in side] if len(side) > 1 else [1.0]  # one curve: all n_along
-                for c, n in zip(side, _segment_counts(lengths, n_along)):
-                    mesh.setTransfiniteCurve(c, n + 1)
-            mesh.setTransfiniteSurface(s, "Alternate", [inner[i], inner[i + 1], outer[i + 1], outer[i]])
+        for j in ring_joints:
+            mesh.setTransfiniteCurve(joint_curves[j.id][0], per_thickness + 1)
+        _mesh_voussoirs(ring, sides, surfaces, sizes, h_extrados if outline is not None else None)
         mesh.generate(2)
         tags, xyz, _ = mesh.getNodes()
         order = np.zeros(int(tags.max()) + 1, dtype=np.int64)
         order[tags.astype(np.int64)] = np.arange(len(tags))
 
         def elements(dim, entity, nodes_per):
-            return order[np.asarray(mesh.getElements(dim, entity)[2][0], dtype=np.int64)].reshape(-1, nodes_per)
+            return order[np.asarray(mesh.getElements(dim, abs(entity))[2][0], dtype=np.int64)].reshape(-1, nodes_per)
 
-        block_surfaces = [(s, i) for s, _, _, i in surfaces] + abutment_surfaces
+        block_surfaces = [(s, v.id) for s, v in zip(surfaces, ring.voussoirs)] + abutment_surfaces
         if outline is not None:
             block_surfaces.append((fill_curves.pop("surface"), ring.n_blocks))
             block_surfaces += [(b, ring.n_blocks + 1 + k) for k, b in enumerate(fill_curves.pop("beams"))]
         cells = [elements(2, s, 3) for s, _ in block_surfaces]
         blocks = [np.full(len(c), i, dtype=np.int32) for c, (_, i) in zip(cells, block_surfaces)]
         return _RawMesh(xyz.reshape(-1, 3)[:, :2], np.vstack(cells), np.concatenate(blocks),
-                        {j: elements(1, c, 2) for j, c in enumerate(joint_curves)},
+                        {j: np.vstack([elements(1, c, 2) for c in curves]) for j, curves in joint_curves.items()},
                         np.vstack([elements(1, c, 2) for c in extrados_curves]),
                         {tag: np.vstack([elements(1, c, 2) for c in curves]) for tag, curves in fill_curves.items()},
                         h)
     finally:
         gmsh.finalize()
+
+
+def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: tuple[float, ...],
+                    h_extrados: float | None) -> None:
+    """The segments of the voussoirs' intrados and extrados curves (``sides``: per voussoir its two sides' (first
+    point, last point, curve) pieces; ``surfaces``: the voussoirs' surfaces in id order), and which voussoirs are
+    structured. ``sizes``: each ring's element size (m); ``h_extrados``: the element size along the extrados under a
+    fill (m; None: no fill).
+
+    1. A curve shared by two voussoirs (between two rings) gets one segment per element size of the finer ring,
+       ceil(length / h).
+    2. A voussoir with no shared side (a single ring) gets n_along segments along both sides: about one per element
+       size h of its centreline, one per ``h_extrados`` along a fill's extrados when that is finer, at least one per
+       curve; each side's curves share them in proportion to their lengths (:func:`_segment_counts`).
+    3. A voussoir with one shared side gives its other side as many segments as the shared one, in proportion to
+       its curves' lengths, if that is at least the other side's own least (its curves, a fill's extrados size);
+       else the other side's curves get ceil(length / h) each (h: the ring's, or ``h_extrados`` on a fill's
+       extrados).
+    4. A voussoir whose opposite sides have equal counts is meshed structured (transfinite, ``Alternate``
+       triangles) between its four corners, any other unstructured from its boundary's segments.
+    """
+    import gmsh
+
+    mesh = gmsh.model.mesh
+    counts: dict[int, int] = {}
+    users: dict[int, list[int]] = {}
+    for v in ring.voussoirs:
+        for side in sides[v.id]:
+            for *_, c in side:
+                users.setdefault(abs(c), []).append(v.ring)
+    for c, rings in users.items():
+        if len(rings) > 1:
+            counts[c] = max(1, int(np.ceil(_curve_length(c) / min(sizes[r] for r in rings) - 1e-9)))
+            mesh.setTransfiniteCurve(c, counts[c] + 1)
+    outer = ring.n_rings - 1
+    for s, v in zip(surfaces, ring.voussoirs):
+        h = sizes[v.ring]
+        intra, extra = ([abs(c) for *_, c in side] for side in sides[v.id])
+        fill_size = h_extrados if v.ring == outer and h_extrados is not None and h_extrados < h else None
+        # segments along the extrados that a fill's size asks for (its nodes are the fill's)
+        n_fill = sum(int(np.ceil(_curve_length(c) / fill_size - 1e-9)) for c in extra) if fill_size else 0
+        known = [all(c in counts for c in side) for side in (intra, extra)]
+        if not any(known):
+            centre = 0.5 * (v.intrados + v.extrados)
+            length = np.linalg.norm(np.diff(centre, axis=0), axis=1).sum()
+            # 1e-9: a length of exactly k h gives k
+            n_along = max(int(np.ceil(length / h - 1e-9)), n_fill, len(intra), len(extra))
+            plan = [(side, _shares(side, n_along)) for side in (intra, extra)]
+        elif all(known):
+            plan = []
+        else:
+            shared, other = (intra, extra) if known[0] else (extra, intra)
+            total = sum(counts[c] for c in shared)
+            plan = [(other, _shares(other, total) if total >= max(len(other), n_fill) else
+                     [int(np.ceil(_curve_length(c) / (fill_size or h) - 1e-9)) for c in other])]
+        for side, along in plan:
+            for c, m in zip(side, along):
+                counts[c] = m
+                mesh.setTransfiniteCurve(c, m + 1)
+        if sum(counts[c] for c in intra) == sum(counts[c] for c in extra):
+            below, above = sides[v.id]
+            mesh.setTransfiniteSurface(s, "Alternate", [below[0][0], below[-1][1], above[-1][1], above[0][0]])
+
+
+def _shares(curves: list[int], total: int) -> list[int]:
+    """``total`` segments over ``curves`` in proportion to their lengths (:func:`_segment_counts`)."""
+    return _segment_counts([_curve_length(c) for c in curves] if len(curves) > 1 else [1.0], total)
 
 
 def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
@@ -241,7 +371,7 @@ def _grade_fill_from_extrados(surface: int, boundary: list[int], extrados_curves
     field.setAsBackgroundMesh(restricted)
 
 
-def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list[int], h_fill: float,
+def _add_fill(geo, outline: FillOutline, corners: list[int], extrados_curves: list[int], h_fill: float,
               h_load: float, beams: tuple[tuple[float, float], ...] = ()) -> dict:
     """The fill surface over the extrados and the loading beams on its road (one per x-range of ``beams``, whose
     ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
@@ -255,7 +385,7 @@ def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list
     road_x = [o.x_right, *sorted((x for x in o.road_x if o.x_left < x < o.x_right), reverse=True), o.x_left]
     road = [geo.addPoint(x, o.y_road, 0.0, h_fill if i in (0, len(road_x) - 1) else h_load)
             for i, x in enumerate(road_x)]
-    bases = [geo.addLine(base_left, outer[0]), geo.addLine(outer[-1], base_right)]
+    bases = [geo.addLine(base_left, corners[0]), geo.addLine(corners[1], base_right)]
     ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
     road_lines = [geo.addLine(a, b) for a, b in zip(road[:-1], road[1:])]
     loop = geo.addCurveLoop([bases[0], *extrados_curves, bases[1], ends[0], *road_lines, ends[1]])
@@ -274,30 +404,15 @@ def _add_fill(geo, outline: FillOutline, outer: list[int], extrados_curves: list
             **({BEAM_TOP_TAG: tops} if beams else {})}
 
 
-def _add_abutment(geo, abutment: Abutment, ring: ArchRing, inner: list[int], outer: list[int],
-                  joint_curves: list[int], size: float) -> int:
-    """The Gmsh surface of an abutment. Its top uses the springing joint's points and curve; its base line is
-    appended to ``joint_curves`` (at the base joint's id). ``size`` (m): mesh size at its other corners."""
-    side = 0 if abutment.side == "left" else 1
-    springing, base = ring.springings[side], ring.joints[ring.n_voussoirs + 1 + side]
-
-    def key(p):
-        return tuple(float(v) for v in p)
-
-    tag = {key(springing.intrados): inner[springing.id], key(springing.extrados): outer[springing.id]}
-    points = [tag.get(key(p)) or geo.addPoint(*p, 0.0, size) for p in abutment.polygon]
-    tag.update(zip(map(key, abutment.polygon), points))
-    joint_curves.append(geo.addLine(tag[key(base.intrados)], tag[key(base.extrados)]))
-    directed = {(tag[key(j.intrados)], tag[key(j.extrados)]): joint_curves[j.id] for j in (springing, base)}
-    curves = []
-    for a, b in zip(points, points[1:] + points[:1]):
-        if (a, b) in directed:
-            curves.append(directed[a, b])
-        elif (b, a) in directed:
-            curves.append(-directed[b, a])
-        else:
-            curves.append(geo.addLine(a, b))
-    return geo.addPlaneSurface([geo.addCurveLoop(curves)])
+def _add_abutment(draw: _Drawing, abutment: Abutment, ring: ArchRing, joint_curves: dict, size: float) -> int:
+    """The Gmsh surface of an abutment: its polygon's corners as points (the springing joints' corners are the
+    rings'; ``size`` (m) the mesh size at the others), its sides the springing joints' curves where they are one,
+    its base a new line, set in ``joint_curves`` at the base joint's id, and lines elsewhere."""
+    base = next(j for j in ring.bases if abutment.id in (j.left, j.right))
+    points = [draw.point(p, size) for p in abutment.polygon]
+    joint_curves[base.id] = [draw.line(draw.point(base.intrados), draw.point(base.extrados))]
+    loop = [draw.line(a, b) for a, b in zip(points, points[1:] + points[:1])]
+    return draw.geo.addPlaneSurface([draw.geo.addCurveLoop(loop)])
 
 
 def _curve_length(curve: int) -> float:
@@ -328,7 +443,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
                      beams: tuple[tuple[float, float], ...] = ()) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
-    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the ring's element size);
+    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the outer ring's element size);
     ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping).
     """
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
@@ -336,8 +451,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beams = beams if fill is not None else ()
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
-        raw = _gmsh_bridge(ring, per_thickness, fill, fill_element_size or 2 * ring.thickness / per_thickness,
-                           beams)
+        h_fill = fill_element_size or 2 * ring_element_sizes(ring, per_thickness)[-1]
+        raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))
         facets, values = [], []

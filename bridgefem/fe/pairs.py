@@ -27,6 +27,8 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
 from petsc4py import PETSc
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..geometry.ring import ArchRing
@@ -35,18 +37,23 @@ from .model import node_blocks
 
 GROUND = -1
 ARCH_FILL = -2  # joint id of the arch-fill interface pairs
+FILL_KIND = "fill"  # kind of the arch-fill interface pairs (the joints': geometry.ring.JOINT_KINDS)
 
 
 @dataclass
 class JointPairs:
     """The node pairs of this rank (a contiguous share ``offset .. offset + len`` of ``total`` pairs).
 
-    ``left``/``right`` are global blocked node indices of the vector space (``GROUND`` for the rigid ground);
-    ``length`` is the tributary length (m) of the pair along its joint; ``position`` its distance from the
-    intrados (m), or its x (m) on the arch-fill interface (joint id ``ARCH_FILL``).
+    ``kind`` is its joint's kind (:data:`bridgefem.geometry.ring.JOINT_KINDS`, ``FILL_KIND`` on the arch-fill
+    interface); ``left``/``right`` are global blocked node indices of the vector space (``GROUND`` for the rigid
+    ground); ``normal`` and ``tangent`` the unit vectors at the pair (the joint's, or on a curved ring interface and
+    the arch-fill interface the curve's there); ``length`` is the tributary length (m) of the pair along its joint;
+    ``position`` its distance along the joint from its intrados end (m), or its x (m) on the arch-fill interface
+    (joint id ``ARCH_FILL``).
     """
 
     joint: np.ndarray
+    kind: np.ndarray
     left: np.ndarray
     right: np.ndarray
     normal: np.ndarray
@@ -74,20 +81,47 @@ def _tributary_lengths(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> 
 
 def _gather_face_nodes(V: fem.FunctionSpace, bm: BlockMesh, tags: list[int]) -> np.ndarray:
     """Rows (tag, global blocked node, x, y, tributary length, block) of the owned nodes on each facet tag,
-    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets)."""
+    gathered from all ranks (every rank calls the collective dof location for every tag, with or without facets).
+
+    A node's tributary length is its length on that tag's faces alone, also where it lies on the faces of two tags
+    (a voussoir's corner on a ring interface and a voussoir joint, an abutment's corner under two rings'
+    springings): the tags are coloured so that no two tags of one colour share a node (:func:`_colours`), and the
+    lengths are integrated colour by colour (one colour, one integration, when no node is shared)."""
     comm = bm.mesh.comm
     imap = V.dofmap.index_map
-    weights = _tributary_lengths(V, bm, tags)
     blocks = node_blocks(V, bm)
     coords = V.tabulate_dof_coordinates()[:, :2]
-    rows = []
+    located = []
     for tag in tags:
         facets = bm.facet_tags.indices[bm.facet_tags.values == tag]
         nodes = fem.locate_dofs_topological(V, 1, facets)
-        nodes = nodes[nodes < imap.size_local]
-        g = imap.local_to_global(nodes.astype(np.int32))
-        rows.append(np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[nodes], blocks[nodes]]))
+        located.append(nodes[nodes < imap.size_local])
+    owned = [imap.local_to_global(nodes.astype(np.int32)) for nodes in located]
+    members = [np.concatenate(per_tag) for per_tag in zip(*comm.allgather(owned))] if tags else []
+    colour = _colours(members)
+    weights = {c: _tributary_lengths(V, bm, [t for t, k in zip(tags, colour) if k == c]) for c in sorted(set(colour))}
+    rows = [np.column_stack([np.full(len(nodes), tag), g, coords[nodes], weights[k][nodes], blocks[nodes]])
+            for tag, nodes, g, k in zip(tags, located, owned, colour)]
     return np.vstack(comm.allgather(np.vstack(rows) if rows else np.zeros((0, 6))))
+
+
+def _colours(members: list[np.ndarray]) -> list[int]:
+    """A colour per set of ``members`` (global nodes per tag) such that no two sets of one colour share a member:
+    greedily, each set the least colour that none of the earlier sets it meets has."""
+    tag = np.concatenate([np.full(len(m), i) for i, m in enumerate(members)]) if members else np.zeros(0, int)
+    node = np.concatenate(members) if members else np.zeros(0, int)
+    order = np.argsort(node, kind="stable")
+    _, start, count = np.unique(node[order], return_index=True, return_counts=True)
+    meets: dict[int, set[int]] = {}
+    for first, n in zip(start[count > 1], count[count > 1]):  # the few nodes on the faces of several tags
+        together = {int(t) for t in tag[order[first:first + n]]}
+        for t in together:
+            meets.setdefault(t, set()).update(together - {t})
+    colour: list[int] = []
+    for i in range(len(members)):
+        used = {colour[j] for j in meets.get(i, ()) if j < i}
+        colour.append(next(c for c in range(len(members)) if c not in used))
+    return colour
 
 
 def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> dict:
@@ -114,7 +148,7 @@ def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> d
     tangent /= np.linalg.norm(tangent, axis=1)[:, None]
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     n = len(fill_rows)
-    return {"joint": np.full(n, ARCH_FILL), "left": ring_node.astype(np.int64),
+    return {"joint": np.full(n, ARCH_FILL), "kind": np.full(n, FILL_KIND), "left": ring_node.astype(np.int64),
             "right": fill_rows[:, 1].astype(np.int64), "normal": normal,
             "tangent": np.column_stack([-normal[:, 1], normal[:, 0]]), "length": fill_rows[:, 4],
             "position": x[:, 0]}
@@ -122,37 +156,53 @@ def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> d
 
 def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: float) -> JointPairs:
     """Pair the nodes of both faces of every joint by position along the joint (any degree, any partition),
-    and, with a fill, the ring and fill nodes of the extrados (joint id ``ARCH_FILL``).
+    and, with a fill, the ring and fill nodes of the extrados (joint id ``ARCH_FILL``, kind ``FILL_KIND``).
 
-    Owned face nodes of all ranks are gathered (only joint nodes: small), paired identically on every rank,
-    then split evenly over the ranks. ``match_tol`` (m) is the largest allowed distance within a pair.
+    1. The owned face nodes of all ranks are gathered (only joint nodes: small), and every rank pairs them the same
+       way.
+    2. Each joint's face nodes are sorted by their position along it (:meth:`bridgefem.geometry.ring.Joint.frame_at`:
+       along its chord, or along its curve on a ring interface) and paired in that order; each pair takes the
+       joint's unit normal and tangent there (a curved joint's, of its piece nearest the pair) and the mean of its
+       two nodes' tributary lengths.
+    3. Where three or more copies of a node meet (a ring interface's end at a voussoir joint of either ring, or at
+       the springings on the ground or on an abutment), the pairs there would close a cycle, and with the pairs'
+       hard constraints the system of a closed cycle is singular: only a forest of them is kept
+       (:func:`_forest`), the redundant pair of a ring interface dropped and its tributary length given to the
+       kept interface pair at that point (on the same interface: the same normal), where there is one.
+    4. The pairs are split evenly over the ranks. ``match_tol`` (m) is the largest allowed distance within a pair.
     """
     comm = bm.mesh.comm
     local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t not in BOUNDARY_TAGS]
     table = _gather_face_nodes(V, bm, sorted(set(comm.allreduce(local_tags))))
 
-    cols = {k: [] for k in ("joint", "left", "right", "normal", "tangent", "length", "position")}
+    cols = {k: [] for k in ("joint", "kind", "left", "right", "normal", "tangent", "length", "position", "point")}
     for jt in (j for j in ring.joints if not j.free):
         faces = []
         for side in (0, 1):
             sel = table[table[:, 0] == joint_face_tag(jt.id, side)]
-            s = (sel[:, 2:4] - jt.intrados) @ jt.tangent
-            faces.append((sel[np.argsort(s)], np.sort(s)))
-        present = [f for f in faces if len(f[0])]
-        if len(present) == 2 and len(present[0][0]) != len(present[1][0]):
-            raise RuntimeError(f"joint {jt.id}: {len(present[0][0])} and {len(present[1][0])} nodes on its faces")
-        if len(present) == 2 and np.abs(present[0][0][:, 2:4] - present[1][0][:, 2:4]).max() > match_tol:
+            faces.append(sel[np.argsort(jt.frame_at(sel[:, 2:4])[0], kind="stable")])
+        present = [f for f in faces if len(f)]
+        if len(present) == 2 and len(present[0]) != len(present[1]):
+            raise RuntimeError(f"joint {jt.id}: {len(present[0])} and {len(present[1])} nodes on its faces")
+        if len(present) == 2 and np.abs(present[0][:, 2:4] - present[1][:, 2:4]).max() > match_tol:
             raise RuntimeError(f"joint {jt.id}: face nodes do not coincide")
-        ref, s = present[0]
+        ref = present[0]
         n = len(ref)
-        side_nodes = [f[0][:, 1].astype(np.int64) if len(f[0]) else np.full(n, GROUND) for f in faces]
+        position, normal, tangent = jt.frame_at(ref[:, 2:4])
+        side_nodes = [f[:, 1].astype(np.int64) if len(f) else np.full(n, GROUND) for f in faces]
         cols["joint"].append(np.full(n, jt.id))
+        cols["kind"].append(np.full(n, jt.kind))
         cols["left"].append(side_nodes[0])
         cols["right"].append(side_nodes[1])
-        cols["normal"].append(np.tile(jt.normal, (n, 1)))
-        cols["tangent"].append(np.tile(jt.tangent, (n, 1)))
-        cols["length"].append(np.mean([f[0][:, 4] for f in present], axis=0))
-        cols["position"].append(s)
+        cols["normal"].append(normal)
+        cols["tangent"].append(tangent)
+        cols["length"].append(np.mean([f[:, 4] for f in present], axis=0))
+        cols["position"].append(position)
+        cols["point"].append(ref[:, 2:4])
+    keep, length = _forest(*(np.concatenate(cols[k]) for k in ("kind", "left", "right", "length", "point")),
+                           match_tol)
+    cols = {k: [np.concatenate(v)[keep]] for k, v in cols.items() if k != "point"}
+    cols["length"] = [length[keep]]
     if bm.fill_block is not None:
         for k, v in _interface_pairs(V, bm, match_tol).items():
             cols[k].append(v)
@@ -160,6 +210,50 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
     share = np.array_split(np.arange(total), comm.size)[comm.rank]
     lo, hi = (int(share[0]), int(share[-1]) + 1) if len(share) else (0, 0)
     return JointPairs(**{k: np.concatenate(v)[lo:hi] for k, v in cols.items()}, offset=lo, total=total)
+
+
+def _forest(kind: np.ndarray, left: np.ndarray, right: np.ndarray, length: np.ndarray, point: np.ndarray,
+            tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Which joint pairs to keep so that no pairs close a cycle of node copies at one point, and the tributary
+    lengths (m) after the dropped pairs gave theirs.
+
+    ``kind``, ``left``, ``right`` (global node copies, ``GROUND`` for the ground), ``length``: per pair, in the
+    joints' order; ``point`` (m): where the pair is; pairs within ``tol`` (m) are at one point. At each point with
+    more than one pair:
+
+    1. the pairs are taken in their order, ring-interface pairs (kind "ring") after all others, and a pair is kept
+       unless its two copies are already joined by the pairs kept before it at that point (a union-find of the
+       copies, the ground one copy: a cycle through the ground at two points is no cycle of constraints);
+    2. a dropped ring-interface pair gives its tributary length to the first kept ring-interface pair at that point.
+
+    The order is the joints' and their pairs' along them, never the node numbering, so every partition keeps the same
+    pairs. Returns the mask of kept pairs and the lengths."""
+    keep, length = np.ones(len(kind), dtype=bool), length.copy()
+    close = cKDTree(point).query_pairs(tol, output_type="ndarray")
+    groups = connected_components(coo_matrix((np.ones(len(close)), (close[:, 0], close[:, 1])),
+                                             shape=(len(kind), len(kind))), directed=False)[1]
+    shared = np.flatnonzero(np.bincount(groups)[groups] > 1)
+    for group in np.unique(groups[shared]):
+        members = shared[groups[shared] == group]
+        members = members[np.argsort(kind[members] == "ring", kind="stable")]
+        parent: dict[int, int] = {}
+
+        def root(node: int) -> int:
+            while parent.get(node, node) != node:
+                node = parent[node]
+            return node
+
+        for k in members:
+            a, b = root(int(left[k])), root(int(right[k]))
+            if a == b:
+                keep[k] = False
+            else:
+                parent[a] = b
+        interface = members[kind[members] == "ring"]
+        kept = interface[keep[interface]]
+        if len(kept):
+            length[kept[0]] += length[interface[~keep[interface]]].sum()
+    return keep, length
 
 
 def ground_offsets(pairs: JointPairs, motion: dict[int, np.ndarray]) -> np.ndarray:

@@ -3,7 +3,7 @@ memory of the direct solver, so that a run far beyond the machine is refused wit
 swapping for minutes, and a long one is announced.
 
 Cells follow the mesher's rules (:mod:`bridgefem.fe.mesh`): element size h = thickness / elements_through_thickness
-in the ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
+in each ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
 cut into two triangles (more along under a thin fill: one per extrados element size); the fill and the abutments
 unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
 is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
@@ -47,25 +47,37 @@ class SizeEstimate:
 
 
 def estimate_size(scene: Scene) -> SizeEstimate:
-    """The model's size from the scene alone (no mesh is built)."""
+    """The model's size from the scene alone (no mesh is built): per ring (the ring's element size h its thickness
+    / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, each ring interface's
+    pairs (one per h of the finer ring along it), then the fill and the abutments."""
     a, ett, degree = scene.arch, scene.mesh.elements_through_thickness, scene.mesh.degree
     shape = make_shape(a.shape, a.span, a.rise)
     p = np.linspace(0.0, 1.0, 257)
-    centre = shape.point(p) + 0.5 * a.thickness * shape.normal(p)
-    length = float(np.linalg.norm(np.diff(centre, axis=0), axis=1).sum())
-    extrados = shape.point(p) + a.thickness * shape.normal(p)
-    extrados_length = float(np.linalg.norm(np.diff(extrados, axis=0), axis=1).sum())
-    h = a.thickness / ett
-    h_extrados = extrados_element_size(a.thickness, ett, scene.fill.depth if scene.fill is not None else None)
-    along = max(1, math.ceil(length / a.voussoirs / h),
-                math.ceil(extrados_length / a.voussoirs / h_extrados) if h_extrados < h else 0)
-    n = a.voussoirs
-    cells = 2 * n * ett * along
-    nodes = n * (degree * ett + 1) * (degree * along + 1)
-    pairs = (n + 1) * (degree * ett + 1)
+
+    def offset_length(offset: float) -> float:
+        curve = shape.point(p) + offset * shape.normal(p)
+        return float(np.linalg.norm(np.diff(curve, axis=0), axis=1).sum())
+
+    layers = a.ring_layers or (a.thickness,)
+    levels = np.concatenate([[0.0], np.cumsum(layers)])
+    sizes = [t / ett for t in layers]
+    extrados_length = offset_length(a.thickness)
+    h = min(sizes)
+    h_extrados = extrados_element_size(layers[-1], ett, scene.fill.depth if scene.fill is not None else None)
+    cells = nodes = pairs = 0.0
+    for r, (t, h_r) in enumerate(zip(layers, sizes)):
+        n = a.voussoirs + (1 if len(layers) > 1 and a.ring_bond == "staggered" and (len(layers) - 1 - r) % 2 else 0)
+        fill_along = (math.ceil(extrados_length / n / h_extrados) if h_extrados < h_r and r == len(layers) - 1
+                      else 0)
+        along = max(1, math.ceil(offset_length(levels[r] + t / 2) / n / h_r), fill_along)
+        cells += 2 * n * ett * along
+        nodes += n * (degree * ett + 1) * (degree * along + 1)
+        pairs += (n + 1) * (degree * ett + 1)
+    for r in range(1, len(layers)):  # the ring interfaces
+        pairs += degree * offset_length(levels[r]) / min(sizes[r - 1], sizes[r])
     if scene.fill is not None:
         f = scene.fill
-        hf = f.element_size or 2 * h
+        hf = f.element_size or 2 * sizes[-1]  # the outer ring's (mesh.py)
         box = (a.span + 2 * a.thickness + 2 * f.extension) * (a.rise + a.thickness + f.depth)
         area = max(box - math.pi / 4 * (a.span + 2 * a.thickness) * (a.rise + a.thickness), 0.2 * box)
         band = min(extrados_length * EXTRADOS_BAND * f.depth, area)  # kept at h_extrados (mesh.py)

@@ -497,8 +497,12 @@ def _level_params(rings: list[list[_Samples]], joints: list[np.ndarray], kinks: 
     """The sample parameters of the interface between two rings, shared by both (``rings``: their voussoirs'
     samples, inner ring first; ``joints``: their joints' parameters): both rings' joints and the kinks, then every
     other sample of either ring not within a quarter of its voussoir's sample spacing of one already taken (a
-    spline point that close to another would make a sliver of a mesh element)."""
-    taken = np.unique(np.concatenate([*joints, kinks[(kinks > 0) & (kinks < 1)]]))
+    spline point that close to another would make a sliver of a mesh element). A kink within 1e-9 of a joint is at
+    the joint (as in :func:`_voussoir_samples`): taken too, its point would be a round-off away from the joint's."""
+    at_joints = np.unique(np.concatenate(joints))
+    inner = kinks[(kinks > 0) & (kinks < 1)]
+    inner = inner[np.abs(inner[:, None] - at_joints[None, :]).min(axis=1) > 1e-9]
+    taken = np.unique(np.concatenate([at_joints, inner]))
     for samples in (s for ring in rings for s in ring):
         spacing = 0.25 * (samples.q[-1] - samples.q[0]) / (_EDGE_SAMPLES - 1)
         near = np.abs(samples.q[:, None] - taken[None, :]).min(axis=1)

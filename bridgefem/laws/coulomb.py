@@ -4,20 +4,26 @@ Per pair, with d = [d_n, d_t] (m; d_n > 0 opens) and lam = [lam_n, lam_t] (N; la
 :mod:`bridgefem.fe.pairs` (the seed paper, eqs. 1-6):
 
     d_n >= 0,  lam_n >= 0,  lam_n d_n = 0                          (no penetration, no tension)
-    |lam_t| <= mu lam_n;  Delta d_t = 0 while |lam_t| < mu lam_n;  lam_t = -mu lam_n sign(Delta d_t) when it slips
+    |lam_t| <= mu lam_n + k;  Delta d_t = 0 while |lam_t| < mu lam_n + k;
+    lam_t = -(mu lam_n + k) sign(Delta d_t) when it slips;  lam_t = 0 when open
 
-with Delta d_t the slip since the last converged load step (``slip_ref``: incremental friction, path following).
+with Delta d_t the slip since the last converged load step (``slip_ref``: incremental friction, path following) and
+the pair's cohesion k (N; zero but on the ring interfaces of a scene with ``[joints] ring_cohesion``: k = that
+cohesion (Pa) x the width x the pair's tributary length, :meth:`CoulombJoints.for_pairs`): the shear a closed pair
+carries at no normal force. It holds no tension: an open pair carries no force at all (a Mohr-Coulomb line with a
+tension cut-off at zero).
 
-**States.** ``OPEN`` (lam = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s mu lam_n
-with the slip sign s: the slip goes the other way, -s).
+**States.** ``OPEN`` (lam = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s (mu lam_n +
+k) with the slip sign s: the slip goes the other way, -s).
 
 **Classification** (Alart & Curnier 1991, *A mixed formulation for frictional contact problems prone to Newton like
 solution methods*, CMAME 92): with the constant c (N/m per pair)
 
     sigma_n = lam_n - c d_n,   sigma_t = lam_t - c Delta d_t
 
-a pair is closed iff sigma_n > 0 and slips iff |sigma_t| > mu sigma_n, in the direction s = sign(sigma_t). The law
-holds iff lam_n = max(sigma_n, 0) and lam_t = clip(sigma_t, -mu lam_n, mu lam_n) (:meth:`CoulombJoints.residual`):
+a pair is closed iff sigma_n > 0 and slips iff |sigma_t| > mu sigma_n + k, in the direction s = sign(sigma_t). The
+law holds iff lam_n = max(sigma_n, 0) and lam_t = clip(sigma_t, -b, b) with the shear bound b = mu lam_n + k where
+sigma_n >= 0 (in contact), 0 where sigma_n < 0 (open) (:meth:`CoulombJoints.residual`):
 a semismooth equation, whose Newton method is the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002,
 SIAM J. Optim. 13; with Coulomb friction Hüeber, Stadler & Wohlmuth 2008, SIAM J. Sci. Comput. 30). A hysteresis of ``force_tol`` keeps a pair that carries no
 force from chattering between states.
@@ -48,7 +54,10 @@ from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules, joint_
 @dataclass
 class CoulombJoints(JointLaw):
     """Unilateral contact with Coulomb friction at every pair (module docstring), with the Coulomb coefficients
-    ``mu``, the Alart-Curnier constants ``c`` (N/m per pair) and a hysteresis ``force_tol`` (N) against chattering."""
+    ``mu``, the Alart-Curnier constants ``c`` (N/m per pair), a hysteresis ``force_tol`` (N) against chattering and
+    the ``cohesion`` k (N per pair; None: none)."""
+
+    cohesion: np.ndarray | None = None
 
     OPEN: ClassVar[int] = 0
     STICK: ClassVar[int] = 1
@@ -58,11 +67,22 @@ class CoulombJoints(JointLaw):
     CANDIDATES: ClassVar[tuple[tuple[int, int], ...]] = ((OPEN, 0), (STICK, 0), (SLIP, 1), (SLIP, -1))
     """(state, slip sign) each pair may take: open, stick, slip +, slip -."""
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.cohesion is None:
+            self.cohesion = np.zeros(len(self.mu))
+
     @classmethod
-    def for_pairs(cls, pairs, friction: float | np.ndarray, c: np.ndarray, force_tol: float) -> "CoulombJoints":
+    def for_pairs(cls, pairs, friction: float | np.ndarray, c: np.ndarray, force_tol: float, *,
+                  ring_cohesion: float = 0.0, width: float = 1.0) -> "CoulombJoints":
         """The law at ``pairs`` (a :class:`bridgefem.fe.pairs.JointPairs`) with the Coulomb coefficient(s)
-        ``friction`` (one, or one per pair), the Alart-Curnier constants ``c`` and the hysteresis ``force_tol``."""
-        return cls(np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),)).copy(), c, force_tol)
+        ``friction`` (one, or one per pair), the Alart-Curnier constants ``c`` and the hysteresis ``force_tol``; the
+        pairs of the ring interfaces (kind "ring") have the cohesion k = ``ring_cohesion`` (Pa) x ``width`` (m) x
+        their tributary length, the others none."""
+        law = cls(np.broadcast_to(np.asarray(friction, dtype=float), (len(pairs),)).copy(), c, force_tol)
+        if ring_cohesion:
+            law.cohesion = ring_cohesion * width * np.where(pairs.kind == "ring", pairs.length, 0.0)
+        return law
 
     # ----------------------------------------------------------------- vocabulary
     def closed(self, active: ContactState) -> np.ndarray:
@@ -90,7 +110,7 @@ class CoulombJoints(JointLaw):
         tol = self.force_tol
         was_closed = prev.state != self.OPEN
         closed = np.where(was_closed, sig_n >= -tol, sig_n > tol)
-        excess = np.abs(sig_t) - self.mu * np.maximum(sig_n, 0.0)
+        excess = np.abs(sig_t) - (self.mu * np.maximum(sig_n, 0.0) + self.cohesion)
         was_slip = prev.state == self.SLIP
         sign = np.sign(sig_t).astype(np.int8)
         reversed_slip = was_slip & (sign != prev.sign)
@@ -101,22 +121,38 @@ class CoulombJoints(JointLaw):
 
     def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:
         """Alart-Curnier residual (N) per pair: zero iff the law holds."""
-        sig_n = np.maximum(lam[:, 0] - self.c * d[:, 0], 0.0)
+        return self._residual(lam, d, slip_ref, np.inf)
+
+    def _residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray, capacity) -> np.ndarray:
+        """The residual (N) with the normal force projected on [0, ``capacity``] (N) and the shear on the bound
+        mu lam_n + k in contact, 0 open (module docstring)."""
+        raw = lam[:, 0] - self.c * d[:, 0]
+        sig_n = np.clip(raw, 0.0, capacity)
+        bound = self.mu * sig_n + np.where(raw >= 0.0, self.cohesion, 0.0)
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
-        return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -self.mu * sig_n, self.mu * sig_n)])
+        return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -bound, bound)])
 
     def rows(self, active: ContactState) -> LawRows:
         """The law's rows for an active set: closed pairs keep d_n (open ones carry lam_n = 0), sticking pairs keep
-        d_t, sliding pairs carry lam_t = s mu lam_n (open ones lam_t = 0)."""
+        d_t, sliding pairs carry lam_t = s (mu lam_n + k) (open ones lam_t = 0; the s k in :meth:`rhs`)."""
         closed, stick = active.state != self.OPEN, active.state == self.STICK
         return LawRows(closed.astype(float), stick.astype(float), (~closed).astype(float), (~stick).astype(float),
                        -self.mu * active.sign * (active.state == self.SLIP))
 
     def rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Right-hand sides (r_n, r_t) of the rows: a closed pair's gap and a sticking pair's slip stay those of the
-        last converged step, d = G u + ``ground`` (the imposed ground movement, m, (m, 2))."""
-        return (np.where(active.state != self.OPEN, -self.c * ground[:, 0], 0.0),
-                np.where(active.state == self.STICK, self.c * (slip_ref - ground[:, 1]), 0.0))
+        last converged step, d = G u + ``ground`` (the imposed ground movement, m, (m, 2)); a sliding pair's shear
+        has the cohesion's part s k (N)."""
+        return (np.where(active.state != self.OPEN, -self.c * ground[:, 0], 0.0), self._shear_rhs(active, slip_ref,
+                                                                                                    ground))
+
+    def _shear_rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> np.ndarray:
+        """r_t: c (slip_ref - ground_t) at the holding pairs, s k at the sliding ones (s = 0 elsewhere)."""
+        return np.where(self._sticking(active.state), self.c * (slip_ref - ground[:, 1]), active.sign * self.cohesion)
+
+    def _sticking(self, state: np.ndarray) -> np.ndarray:
+        """The pairs whose shear row holds d_t."""
+        return state == self.STICK
 
     def free_directions(self, active: ContactState) -> tuple[np.ndarray, np.ndarray]:
         """Open pairs are free in both directions, sliding ones tangentially."""
@@ -192,10 +228,11 @@ class CoulombJoints(JointLaw):
     def candidates(self) -> tuple[tuple[int, int], ...]:
         return self.CANDIDATES
 
-    def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart &
-        Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta) with
-        lam_t = lam_+ - lam_- and the slip magnitude beta:
+    def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """None where a pair has cohesion (its shear bound drops to zero when it opens: no LCP of this form; the
+        condensation enumerates the states). Else the law at the pairs on ``d = d0 + C lam`` as the LCP
+        ``w = q + M z``, w, z >= 0, w z = 0 (Stewart & Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns
+        per pair (lam_n, lam_+, lam_-, beta) with lam_t = lam_+ - lam_- and the slip magnitude beta:
 
             d_n                        >= 0  _|_  lam_n >= 0     (contact)
             Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
@@ -207,6 +244,8 @@ class CoulombJoints(JointLaw):
         million times C_tt), the friction coefficient becomes mu sqrt(|C_tt| / |C_nn|) per pair, and q is divided by
         its largest entry (the problem is homogeneous in (q, z)). The solution's zero pattern, hence its active set,
         is that of the unscaled problem."""
+        if np.any(self.cohesion > 0):
+            return None
         p = len(d0)
         scale = 1.0 / np.sqrt(np.maximum(np.abs(np.diag(C)), 1e-300))  # N per unit force, per pair and direction
         compliance = scale[:, None] * C * scale[None, :]
@@ -236,13 +275,15 @@ class CoulombJoints(JointLaw):
     def mode_rules(self, active: ContactState) -> ModeRules:
         """A mode may not close an open pair, nor slip a sliding pair against its friction force: s d_t > 0 (the
         slip law assumes a slip of sign -s), measured by mu s d_t, the friction's work per unit normal force (mu = 0
-        pairs slip freely). An open pair carries no tension."""
-        return ModeRules(active.state == self.OPEN, np.where(active.state == self.SLIP, self.mu * active.sign, np.nan),
-                         self.mu > 0, np.zeros(len(active.state)))
+        pairs slip freely), and on a cohesive pair by at least s d_t (its cohesion works on any slip). Pairs with
+        friction or cohesion are rough: a hinge mode may not slip them. An open pair carries no tension."""
+        factor = np.where(self.cohesion > 0, np.maximum(self.mu, 1.0), self.mu)
+        return ModeRules(active.state == self.OPEN, np.where(self.sliding(active), factor * active.sign, np.nan),
+                         (self.mu > 0) | (self.cohesion > 0), np.zeros(len(active.state)))
 
     def sliding_forces(self, active: ContactState, lam_n: np.ndarray) -> np.ndarray:
-        """lam_t = s mu lam_n at the sliding pairs."""
-        return np.where(active.state == self.SLIP, active.sign * self.mu * lam_n, 0.0)
+        """lam_t = s (mu lam_n + k) at the sliding pairs."""
+        return np.where(self.sliding(active), active.sign * (self.mu * lam_n + self.cohesion), 0.0)
 
     # ----------------------------------------------------------------- limit analysis
     @classmethod

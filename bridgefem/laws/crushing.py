@@ -49,6 +49,7 @@ exactly, and the FE converges to the parabola as the mesh is refined.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
@@ -63,6 +64,9 @@ if TYPE_CHECKING:
 from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules
 from .coulomb import CoulombJoints
 
+CRUSHING_KINDS = ("voussoir", "springing", "base")
+"""The kinds of joint (:data:`bridgefem.geometry.ring.JOINT_KINDS`) whose pairs crush: the faces of masonry blocks; a
+ring interface (the mortar between two rings) and the arch-fill interface never do."""
 TANGENTS = 128
 """Tangent intervals K of the rigid-block rows (module docstring): a joint's moment capacity overstated by at most
 1/K^2 (6.1e-5) of its largest, far below the LP's agreement with the FE (0.5 %); 2K + 4 rows per joint."""
@@ -91,13 +95,14 @@ class CrushingJoints(CoulombJoints):
 
     @classmethod
     def for_pairs(cls, pairs, friction, c: np.ndarray, force_tol: float, *, strength: float = math.inf,
-                  width: float = 1.0) -> "CrushingJoints":
+                  width: float = 1.0, ring_cohesion: float = 0.0) -> "CrushingJoints":
         """The law at ``pairs`` (:class:`bridgefem.fe.pairs.JointPairs`): C = ``strength`` x ``width`` x each pair's
-        tributary length; the rest as :meth:`CoulombJoints.for_pairs`."""
-        law = super().for_pairs(pairs, friction, c, force_tol)
+        tributary length on the joints of :data:`CRUSHING_KINDS`, infinite elsewhere; the rest as
+        :meth:`CoulombJoints.for_pairs`."""
+        law = super().for_pairs(pairs, friction, c, force_tol, ring_cohesion=ring_cohesion, width=width)
         law.strength, law.width = float(strength), float(width)
-        ring = np.asarray(pairs.joint) >= 0  # the arch-fill interface keeps its own law: it never crushes
-        law.capacity = np.where(ring, law.strength * law.width * np.asarray(pairs.length, float), np.inf)
+        masonry = np.isin(pairs.kind, CRUSHING_KINDS)
+        law.capacity = np.where(masonry, law.strength * law.width * np.asarray(pairs.length, float), np.inf)
         return law
 
     @classmethod
@@ -124,6 +129,7 @@ class CrushingJoints(CoulombJoints):
         return float(normal_force) / (self.strength * self.width)
 
     def _sticking(self, state: np.ndarray) -> np.ndarray:
+        """The pairs whose shear row holds d_t: sticking and crushed ones."""
         return (state == self.STICK) | (state == self.CRUSHED)
 
     def _coulomb(self, active: ContactState) -> ContactState:
@@ -155,13 +161,11 @@ class CrushingJoints(CoulombJoints):
 
     def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:
         """Alart-Curnier residual (N) per pair with the normal force projected on [0, C]."""
-        sig_n = np.clip(lam[:, 0] - self.c * d[:, 0], 0.0, self.capacity)
-        sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
-        return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -self.mu * sig_n, self.mu * sig_n)])
+        return self._residual(lam, d, slip_ref, self.capacity)
 
     def rows(self, active: ContactState) -> LawRows:
         """Contact pairs keep d_n, crushed and open pairs carry a fixed lam_n (C, 0); sticking and crushed pairs
-        keep d_t, sliding ones carry lam_t = s mu lam_n."""
+        keep d_t, sliding ones carry lam_t = s (mu lam_n + k)."""
         contact = (active.state == self.STICK) | (active.state == self.SLIP)
         stick = self._sticking(active.state)
         return LawRows(contact.astype(float), stick.astype(float), (~contact).astype(float), (~stick).astype(float),
@@ -169,10 +173,10 @@ class CrushingJoints(CoulombJoints):
 
     def rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A contact pair's gap and a sticking pair's slip stay those of the last converged step (d = G u +
-        ``ground``); a crushed pair carries lam_n = C."""
+        ``ground``); a crushed pair carries lam_n = C; a sliding pair's shear has the cohesion's part s k (N)."""
         contact = (active.state == self.STICK) | (active.state == self.SLIP)
         r_n = np.where(contact, -self.c * ground[:, 0], np.where(self.crushed(active), self.capacity, 0.0))
-        return r_n, np.where(self._sticking(active.state), self.c * (slip_ref - ground[:, 1]), 0.0)
+        return r_n, self._shear_rhs(active, slip_ref, ground)
 
     def free_directions(self, active: ContactState) -> tuple[np.ndarray, np.ndarray]:
         """Open pairs are free in both directions, crushed ones normally, sliding ones tangentially."""
@@ -213,10 +217,6 @@ class CrushingJoints(CoulombJoints):
         """Coulomb's rules on the tangential states; a crushed pair may close, doing work against its force C."""
         rules = super().mode_rules(self._coulomb(active))
         return rules._replace(crushing=np.where(self.crushed(active), self.capacity, 0.0))
-
-    def sliding_forces(self, active: ContactState, lam_n: np.ndarray) -> np.ndarray:
-        """lam_t = s mu lam_n at the sliding and crushed-sliding pairs."""
-        return np.where(self.sliding(active), active.sign * self.mu * lam_n, 0.0)
 
     # ----------------------------------------------------------------- limit analysis
     def polygon(self) -> tuple[np.ndarray, np.ndarray]:
@@ -304,14 +304,13 @@ def scene_law(scene: Scene, fe: bool = False) -> type[JointLaw] | JointLaw:
 
 def scene_law_factory(scene: Scene):
     """The FE's joint-law factory of a scene (:data:`bridgefem.analysis.build.JointLawFactory`): Coulomb's
-    ``for_pairs`` without a compressive strength, else :class:`CrushingJoints` at the scene's strength and width."""
-    strength = scene.masonry.compressive_strength
-    if strength is None:
+    ``for_pairs`` without a compressive strength, else :class:`CrushingJoints` at the scene's strength, with the
+    ring interfaces' cohesion ``[joints] ring_cohesion`` over the arch's width when it has one."""
+    strength, cohesion = scene.masonry.compressive_strength, scene.joints.ring_cohesion
+    if strength is None and not cohesion:
         return CoulombJoints.for_pairs
-
-    def build(pairs, friction, c, force_tol) -> CrushingJoints:
-        return CrushingJoints.for_pairs(pairs, friction, c, force_tol, strength=strength, width=scene.arch.width)
-    return build
+    law, strong = (CoulombJoints, {}) if strength is None else (CrushingJoints, {"strength": strength})
+    return functools.partial(law.for_pairs, ring_cohesion=cohesion, width=scene.arch.width, **strong)
 
 
 def strength_text(scene: Scene) -> str:

@@ -247,7 +247,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                               low=1, high=1000, why="one to a thousand increments"),
     },
     "mesh": {
-        "elements_through_thickness": Key(int, "elements through the ring thickness",
+        "elements_through_thickness": Key(int, "elements through the thickness of each ring",
                                           _preset("mesh", "elements_through_thickness"), low=1, high=64,
                                           why="from one to a mesh finer than any mesh study needs"),
         "degree": Key(int, "Lagrange degree of the displacement", _preset("mesh", "degree"), choices=(1, 2)),
