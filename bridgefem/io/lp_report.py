@@ -36,8 +36,12 @@ def lp_summary(lp: LPResult) -> dict:
 
 def lp_label(scene: Scene) -> str:
     """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
-    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
+    blocks, several rings with their interfaces as chords; it ignores a support movement (small support movements do
+    not change a rigid-block collapse load)."""
     label = "fill as dead load only" if scene.fill else "bare ring"
+    rings = len(scene.arch.ring_layers)
+    if rings > 1:
+        label += f", {rings} rings (each ring interface as the chords of its curve)"
     if scene.abutments.elastic:
         label += ", abutments as rigid blocks"
     if scene.abutments.moves:
