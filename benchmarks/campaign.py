@@ -453,6 +453,11 @@ def report(rows: list[dict]) -> str:
         mine = [r for r in rows if (r.get("option") or {}).get("name") == name and r["class"] != "rejected"]
         if mine:
             lines.append(f"  {name:18}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    for rings in sorted({(r["rings"]["rings"], r["rings"]["bond"]) for r in rows if r.get("rings")}):
+        mine = [r for r in rows if r.get("rings") and (r["rings"]["rings"], r["rings"]["bond"]) == rings
+                and r["class"] != "rejected"]
+        lines.append(f"  {rings[0]} {rings[1]} rings: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of "
+                     f"{len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
         if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)"):
