@@ -29,6 +29,7 @@ from ..status import Status  # noqa: E402
 BAND_MIN = 0.015  # the bracket band is drawn at least this fraction of the load axis high (1e-4 wide is invisible)
 MODE_SIZE = 0.08  # the collapse mode is amplified until its largest block motion is this fraction of the span
 TITLE_WIDTH = 70  # characters per title line
+LEGEND_WIDTH = 60  # characters per legend line
 
 
 def bracket_decimals(width: float) -> int:
@@ -183,7 +184,8 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
                                   label="line of thrust (diamonds: touches a face)"))
     if lp:
         handles.append(plt.Line2D([], [], marker="o", mfc="none", mec="k", ls="", ms=10,
-                                  label=f"rigid-block LP hinge ({lp.get('model', 'bare ring')})"))
+                                  label=textwrap.fill(f"rigid-block LP hinge ({lp.get('model', 'bare ring')})",
+                                                      LEGEND_WIDTH)))
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.25)
