@@ -84,7 +84,8 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
     lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
     thickest = analyse(hi)
     if thickest.status != "stable under self-weight":
-        how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
+        mech = thickest.by_joint
+        how = f"joints {mech.sliding} slide" if mech.sliding else f"hinges form at joints {mech.hinges}"
         raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
                                 f"self-weight with friction {scene.joints.friction:g} ({friction_model})"
                                 f"{strength_text(scene)}: {how}")
