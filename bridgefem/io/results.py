@@ -209,7 +209,8 @@ def _reactions(an: Analysis) -> list[dict]:
         return []
     ring = an.ring
     on_ground = [js.id for js in an.joints if ring.joints[js.id].left is None or ring.joints[js.id].right is None]
-    names = {j.id: f"{side} springing" for side in ("left", "right") for j in ring.springings(side)}
+    names = {j.id: f"{side} springing" + (f" of ring {k}" if ring.n_rings > 1 else "")
+             for side in ("left", "right") for k, j in enumerate(ring.springings(side))}
     if an.scene.abutments.elastic:
         names = {j.id: f"{side} abutment base" for j, side in zip(ring.bases, ("left", "right"))}
     return [{"joint": jid, "at": names.get(jid, "ground"), "horizontal": float(h), "vertical": float(v)}
