@@ -59,14 +59,15 @@ def rebuilt_load(data: dict) -> float:
 
 @pytest.fixture(scope="module")
 def small_ring():
-    """The small ring of conftest, analysed: its results.json."""
-    scene = bridgefem.scene_from_dict(SMALL_RING)
+    """The small ring of conftest on elastic abutments, analysed: its results.json."""
+    scene = bridgefem.scene_from_dict({**SMALL_RING, "abutments": {"model": "elastic", "height": 1.0, "length": 1.5}})
     return json.loads(bridgefem.analyse(scene).to_json())
 
 
 def test_results_rebuild_the_rigid_block_model(small_ring):
-    """The LP of the model rebuilt from results.json is results.json's LP."""
+    """The LP of the model rebuilt from results.json (voussoirs, abutments and their bases) is results.json's LP."""
     data = small_ring
+    assert {b["kind"] for b in data["blocks"]} == {"voussoir", "abutment"}
     assert data["lp"]["load"] == pytest.approx(rebuilt_load(data), rel=1e-9)
 
 
@@ -75,8 +76,10 @@ def test_results_describe_each_joint_and_load(small_ring):
     data = small_ring
     kinds = [j["kind"] for j in data["joints"]]
     n = SMALL_RING["arch"]["voussoirs"]
-    assert kinds == ["springing"] + ["voussoir"] * (n - 1) + ["springing"]
-    assert [j["blocks"] for j in data["joints"]] == [[None, 0]] + [[i, i + 1] for i in range(n - 1)] + [[n - 1, None]]
+    assert kinds == ["springing"] + ["voussoir"] * (n - 1) + ["springing", "base", "base"]
+    assert [j["blocks"] for j in data["joints"]][:n + 1] == ([[n, 0]] + [[i, i + 1] for i in range(n - 1)]
+                                                             + [[n - 1, n + 1]])
+    assert [set(j["blocks"]) for j in data["joints"][n + 1:]] == [{None, n}, {None, n + 1}]
     assert all(j["friction"] == 0.6 and j["cohesion"] == 0.0 for j in data["joints"])
     (load,) = data["loads"]
     assert load["point"][0] == pytest.approx(-3.0 + 0.3 * 6.0)
