@@ -99,14 +99,19 @@ def test_an_interface_never_crushes():
 
 
 def test_a_ring_interface_separates_or_slides_and_is_never_a_hinge():
-    """Staggered rings with ring friction 0.6: the LP's chords map back to the ring's joints; the interfaces that
-    move are reported as separated or sliding, the hinges are voussoir joints and springings."""
+    """Staggered rings with ring friction 0.6: the LP's chords map back to the ring's joints, the interface chords
+    marked as such (no crushing) with the ring cohesion over their length; the interfaces that move are reported as
+    separated or sliding, the hinges are voussoir joints and springings."""
     scene = barrel(2, "staggered")
     ring = scene_ring(scene)
     model = ring_model(scene)
     assert model.n_joints > len(ring.joints)  # the interfaces are their chords
     assert sorted(set(model.joint_ids.tolist())) == [j.id for j in ring.joints]
     kind = {j.id: j.kind for j in ring.joints}
+    assert model.interface.tolist() == [kind[j] == "ring" for j in model.joint_ids]
+    bonded = ring_model(barrel(2, "staggered", ring_cohesion=3e3))  # 3 kPa over each chord's length, 1 m wide
+    chords = np.linalg.norm(bonded.joint_b - bonded.joint_a, axis=1)
+    assert bonded.cohesion == pytest.approx(np.where(bonded.interface, 3e3 * chords, 0.0))
     res = collapse_load(scene)
     by = res.by_joint
     assert res.status == "limit load found"
