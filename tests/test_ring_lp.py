@@ -229,3 +229,14 @@ def test_the_readme_rings_example_prints_what_the_readme_shows(capsys):
     bonded = collapse_load(bridgefem.edit(scene, joints={"ring_cohesion": 20e3})).load
     assert f"({mono / 1e3:.3f} kN, `rings = 1`)" in section
     assert f"`ring_cohesion = 20e3` Pa between them raises it to {bonded / 1e3:.3f} kN" in section
+
+
+def test_aligned_rings_that_cannot_slide_crush_as_the_monolithic_ring():
+    """With a compressive strength (2 MPa: the hinges' stress blocks a few cm deep) aligned rings that cannot slide
+    collapse as the monolithic ring: a stress block deeper than the outer ring's joint crushes it whole and goes on
+    in the inner one, as in the monolithic joint (up to the tangent polygon, 1/128^2 of the largest moment)."""
+    strength = {"masonry": {"young": 10e9, "poisson": 0.2, "density": 2000.0, "compressive_strength": 2e6}}
+    mono = collapse_load(monolithic(**strength))
+    res = collapse_load(barrel(2, ring_friction=100.0, **strength))
+    assert mono.load < 0.99 * collapse_load(monolithic()).load  # the strength matters here
+    assert res.load == pytest.approx(mono.load, rel=1e-3)
