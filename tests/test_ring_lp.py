@@ -240,3 +240,15 @@ def test_aligned_rings_that_cannot_slide_crush_as_the_monolithic_ring():
     res = collapse_load(barrel(2, ring_friction=100.0, **strength))
     assert mono.load < 0.99 * collapse_load(monolithic()).load  # the strength matters here
     assert res.load == pytest.approx(mono.load, rel=1e-3)
+
+
+def test_a_point_along_a_ring_interface_is_on_the_chord_that_holds_it():
+    """The midpoint of every chord, given by its distance along its ring interface's curve (the FE pairs'
+    ``position``), is found on that chord, half its length from its start."""
+    model = ring_model(barrel(3, "staggered"))
+    t = np.linalg.norm(model.joint_b - model.joint_a, axis=1)
+    ids = model.joint_ids
+    before = np.array([t[:k][ids[:k] == ids[k]].sum() for k in range(model.n_joints)])  # chords before, same joint
+    piece, along = model.pieces_at(ids, before + t / 2)
+    assert piece.tolist() == list(range(model.n_joints))
+    assert along == pytest.approx(t / 2)

@@ -183,6 +183,25 @@ class BlockModel:
         """(nj,) shear capacity at no normal force, N (``cohesion``, or zeros)."""
         return np.zeros(self.n_joints) if self.cohesion is None else np.asarray(self.cohesion, float)
 
+    def pieces_at(self, joints: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For points ``position`` (m) along the structure's ``joints`` (from their start), the LP joint that holds
+        each (the piece of its joint whose stretch of the summed chord lengths contains it; the last piece beyond)
+        and the point's distance (m) from that piece's start."""
+        joints, position = np.asarray(joints, int), np.asarray(position, float)
+        if self.joint_ids is None:
+            return joints, position
+        ids = self.structure_joints
+        t = self.frames()[0]
+        start = np.zeros(self.n_joints)  # each piece's distance from its joint's start
+        for j in np.unique(ids):
+            k = np.flatnonzero(ids == j)
+            start[k] = np.concatenate([[0.0], np.cumsum(t[k])[:-1]])
+        piece = np.empty(len(joints), int)
+        for j in np.unique(joints):
+            at, k = joints == j, np.flatnonzero(ids == j)
+            piece[at] = k[np.clip(np.searchsorted(start[k], position[at], side="right") - 1, 0, len(k) - 1)]
+        return piece, position - start[piece]
+
     def frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Joint lengths t (m), centres c, unit tangents T and unit normals N (arrays over joints)."""
         d = self.joint_b - self.joint_a
