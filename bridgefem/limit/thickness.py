@@ -127,8 +127,8 @@ def least_ring_friction(scene: Scene, highest: float = 10.0, atol: float = 1e-5,
 
     1. a friction stands when the dead-load deficit of the scene's blocks with it is zero
        (:func:`~bridgefem.limit.rigid_block.dead_load_deficit`);
-    2. frictionless interfaces (each ring on its own but for the cohesion) and ``highest`` are analysed first:
-       if the first stands or the second falls, :class:`NoRingFriction`;
+    2. frictionless interfaces (the rings press on each other but share no shear beyond the cohesion) and
+       ``highest`` are analysed first: if the first stands or the second falls, :class:`NoRingFriction`;
     3. the bracket (0, ``highest``) is halved until its width is below ``atol``;
     4. its stable end is the least friction; the deficit LP at its unstable end gives the mechanism.
     """
