@@ -18,7 +18,7 @@ from bridgefem.limit.bounds import collapse_bounds
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import BlockModel, dead_load_deficit, solve_blocks, standing_deficit
 from bridgefem.limit.ring_blocks import ring_model
-from bridgefem.limit.thickness import least_ring_friction, min_thickness
+from bridgefem.limit.thickness import NoRingFriction, least_ring_friction, min_thickness
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
 
@@ -252,3 +252,13 @@ def test_a_point_along_a_ring_interface_is_on_the_chord_that_holds_it():
     piece, along = model.pieces_at(ids, before + t / 2)
     assert piece.tolist() == list(range(model.n_joints))
     assert along == pytest.approx(t / 2)
+
+
+def test_no_least_ring_friction_where_friction_does_not_decide():
+    """Rings of 0.75 m each (above the least thickness, 0.51 m) stand without friction between them, and the thin
+    staggered rings do not stand with a ring friction of 0.1 (below their least ring friction, about 0.35): neither
+    has a least ring friction in the range searched."""
+    with pytest.raises(NoRingFriction, match="frictionless"):
+        least_ring_friction(barrel(2, "staggered", thickness=1.5))
+    with pytest.raises(NoRingFriction, match="ring friction 0.1"):
+        least_ring_friction(barrel(**STAGGERED), highest=0.1)
