@@ -211,7 +211,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         sizes = ring_element_sizes(ring, per_thickness)
         h = min(sizes)
         depth = outline.y_road - ring.crown_extrados if outline is not None else None
-        h_extrados = extrados_element_size(sizes[-1] * per_thickness, per_thickness, depth)
+        h_extrados = extrados_element_size((ring.ring_thicknesses or (ring.thickness,))[-1], per_thickness, depth)
         draw = _Drawing(geo, ROUND_OFF * ring.span)
         ring_joints = ring.ring_joints
         for end in ("intrados", "extrados"):

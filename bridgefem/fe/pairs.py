@@ -13,6 +13,11 @@ tau = n rotated +90 degrees:
   cone; slip in either direction with ``lam_t = -mu lam_n sign(Delta d_t)`` (friction opposes the slip of the
   right face). ``Delta d_t`` is the slip since the last converged load step (incremental, path following).
 
+A ring interface (between two rings of a barrel) is a curved joint: its pairs take the normal and tangent of the
+curve where they are (:meth:`bridgefem.geometry.ring.Joint.frame_at`), the ring friction, and a cohesion (shear
+strength at no normal force) that the law adds to the friction bound (:class:`bridgefem.laws.coulomb.CoulombJoints`).
+Where three or more block copies meet, the pairs there are thinned to a forest (:func:`build_pairs`, step 3).
+
 The laws are written as Alart-Curnier complementarity functions with the constant c (N/m per pair):
 ``sigma_n = lam_n - c d_n`` (contact iff > 0), ``sigma_t = lam_t - c Delta d_t`` (stick iff |sigma_t| <= mu
 sigma_n), in the law object :class:`bridgefem.laws.coulomb.CoulombJoints`. Their semismooth Newton method is the

@@ -55,7 +55,8 @@ Law = TypeVar("Law", bound="JointLaw")
 @dataclass
 class ContactState:
     """The active set of this rank's pairs: ``state``, the law's state code of each pair (int8), and ``sign``, the
-    slip sign (+1 / -1) of a sliding pair, 0 otherwise."""
+    slip sign (+1 / -1) of a sliding pair (for Coulomb's law also of an open pair with cohesion whose shear slides;
+    2 for a released pair, :meth:`JointLaw.release`), 0 otherwise."""
 
     state: np.ndarray
     sign: np.ndarray

@@ -5,16 +5,19 @@ Per pair, with d = [d_n, d_t] (m; d_n > 0 opens) and lam = [lam_n, lam_t] (N; la
 
     d_n >= 0,  lam_n >= 0,  lam_n d_n = 0                          (no penetration, no tension)
     |lam_t| <= mu lam_n + k;  Delta d_t = 0 while |lam_t| < mu lam_n + k;
-    lam_t = -(mu lam_n + k) sign(Delta d_t) when it slips;  lam_t = 0 when open
+    lam_t = -(mu lam_n + k) sign(Delta d_t) when it slips
 
 with Delta d_t the slip since the last converged load step (``slip_ref``: incremental friction, path following) and
 the pair's cohesion k (N; zero but on the ring interfaces of a scene with ``[joints] ring_cohesion``: k = that
-cohesion (Pa) x the width x the pair's tributary length, :meth:`CoulombJoints.for_pairs`): the shear a closed pair
-carries at no normal force. It holds no tension: an open pair carries no force at all (a Mohr-Coulomb line with a
-tension cut-off at zero).
+cohesion (Pa) x the width x the pair's tributary length, :meth:`CoulombJoints.for_pairs`): the shear a pair carries
+at no normal force. It holds no tension, and the shear bound is the same open or closed: a Mohr-Coulomb line with a
+tension cut-off at zero, the convex set of the rigid-block rows |s| <= mu n + k, n >= 0 (an opening cohesive pair
+keeps its shear strength k; without cohesion an open pair carries no force at all).
 
-**States.** ``OPEN`` (lam = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s (mu lam_n +
-k) with the slip sign s: the slip goes the other way, -s).
+**States.** ``OPEN`` (lam_n = 0), ``STICK`` (closed: d_n and Delta d_t held) and ``SLIP`` (closed, lam_t = s (mu lam_n
++ k) with the slip sign s: the slip goes the other way, -s). The slip sign also gives an open pair's shear: an open
+pair with cohesion holds Delta d_t with sign 0 and slides with lam_t = s k with sign s; without cohesion it carries
+lam_t = 0 (sign 0). Sign ``RELEASED`` marks a pair free in both directions (:meth:`CoulombJoints.release`).
 
 **Classification** (Alart & Curnier 1991, *A mixed formulation for frictional contact problems prone to Newton like
 solution methods*, CMAME 92): with the constant c (N/m per pair)
@@ -22,8 +25,8 @@ solution methods*, CMAME 92): with the constant c (N/m per pair)
     sigma_n = lam_n - c d_n,   sigma_t = lam_t - c Delta d_t
 
 a pair is closed iff sigma_n > 0 and slips iff |sigma_t| > mu sigma_n + k, in the direction s = sign(sigma_t). The
-law holds iff lam_n = max(sigma_n, 0) and lam_t = clip(sigma_t, -b, b) with the shear bound b = mu lam_n + k where
-sigma_n >= 0 (in contact), 0 where sigma_n < 0 (open) (:meth:`CoulombJoints.residual`):
+law holds iff lam_n = max(sigma_n, 0) and lam_t = clip(sigma_t, -b, b) with the shear bound b = mu lam_n + k
+(:meth:`CoulombJoints.residual`):
 a semismooth equation, whose Newton method is the primal-dual active-set method (Hintermüller, Ito & Kunisch 2002,
 SIAM J. Optim. 13; with Coulomb friction Hüeber, Stadler & Wohlmuth 2008, SIAM J. Sci. Comput. 30). A hysteresis of ``force_tol`` keeps a pair that carries no
 force from chattering between states.
@@ -66,6 +69,10 @@ class CoulombJoints(JointLaw):
     OUTPUT_CODES: ClassVar[dict[str, int]] = {"stick": 1, "slip": 2, "open": 3}
     CANDIDATES: ClassVar[tuple[tuple[int, int], ...]] = ((OPEN, 0), (STICK, 0), (SLIP, 1), (SLIP, -1))
     """(state, slip sign) each pair may take: open, stick, slip +, slip -."""
+    OPEN_SLIDES: ClassVar[tuple[tuple[int, int], ...]] = ((OPEN, 1), (OPEN, -1))
+    """The candidates an open pair with cohesion adds: open and sliding either way."""
+    RELEASED: ClassVar[int] = 2
+    """The slip sign of a released pair: free in both directions."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -111,13 +118,14 @@ class CoulombJoints(JointLaw):
         was_closed = prev.state != self.OPEN
         closed = np.where(was_closed, sig_n >= -tol, sig_n > tol)
         excess = np.abs(sig_t) - (self.mu * np.maximum(sig_n, 0.0) + self.cohesion)
-        was_slip = prev.state == self.SLIP
+        was_slip = np.abs(prev.sign) == 1
         sign = np.sign(sig_t).astype(np.int8)
         reversed_slip = was_slip & (sign != prev.sign)
         slip = np.where(was_slip & ~reversed_slip, excess > -tol, excess > tol)
         state = np.where(~closed, self.OPEN, np.where(slip, self.SLIP, self.STICK)).astype(np.int8)
         violation = np.where(closed != was_closed, np.abs(sig_n), np.abs(excess))
-        return ContactState(state, np.where(state == self.SLIP, sign, 0).astype(np.int8)), violation
+        shears = closed | (self.cohesion > 0)
+        return ContactState(state, np.where(slip & shears, sign, 0).astype(np.int8)), violation
 
     def residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray) -> np.ndarray:
         """Alart-Curnier residual (N) per pair: zero iff the law holds."""
@@ -125,17 +133,16 @@ class CoulombJoints(JointLaw):
 
     def _residual(self, lam: np.ndarray, d: np.ndarray, slip_ref: np.ndarray, capacity) -> np.ndarray:
         """The residual (N) with the normal force projected on [0, ``capacity``] (N) and the shear on the bound
-        mu lam_n + k in contact, 0 open (module docstring)."""
-        raw = lam[:, 0] - self.c * d[:, 0]
-        sig_n = np.clip(raw, 0.0, capacity)
-        bound = self.mu * sig_n + np.where(raw >= 0.0, self.cohesion, 0.0)
+        mu lam_n + k (module docstring)."""
+        sig_n = np.clip(lam[:, 0] - self.c * d[:, 0], 0.0, capacity)
+        bound = self.mu * sig_n + self.cohesion
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
         return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -bound, bound)])
 
     def rows(self, active: ContactState) -> LawRows:
         """The law's rows for an active set: closed pairs keep d_n (open ones carry lam_n = 0), sticking pairs keep
         d_t, sliding pairs carry lam_t = s (mu lam_n + k) (open ones lam_t = 0; the s k in :meth:`rhs`)."""
-        closed, stick = active.state != self.OPEN, active.state == self.STICK
+        closed, stick = active.state != self.OPEN, self._holding(active)
         return LawRows(closed.astype(float), stick.astype(float), (~closed).astype(float), (~stick).astype(float),
                        -self.mu * active.sign * (active.state == self.SLIP))
 
@@ -147,35 +154,49 @@ class CoulombJoints(JointLaw):
                                                                                                     ground))
 
     def _shear_rhs(self, active: ContactState, slip_ref: np.ndarray, ground: np.ndarray) -> np.ndarray:
-        """r_t: c (slip_ref - ground_t) at the holding pairs, s k at the sliding ones (s = 0 elsewhere)."""
-        return np.where(self._sticking(active.state), self.c * (slip_ref - ground[:, 1]), active.sign * self.cohesion)
+        """r_t: c (slip_ref - ground_t) at the holding pairs, s k at the sliding ones (open or closed), 0 elsewhere."""
+        return np.where(self._holding(active), self.c * (slip_ref - ground[:, 1]),
+                        np.where(self._slides(active), active.sign * self.cohesion, 0.0))
 
     def _sticking(self, state: np.ndarray) -> np.ndarray:
-        """The pairs whose shear row holds d_t."""
+        """The closed pairs whose shear row holds d_t."""
         return state == self.STICK
 
+    def _holding(self, active: ContactState) -> np.ndarray:
+        """The pairs whose shear row holds d_t: the sticking ones and the open ones with cohesion and sign 0."""
+        cohesive_open = (active.state == self.OPEN) & (self.cohesion > 0)
+        return self._sticking(active.state) | (cohesive_open & (active.sign == 0))
+
+    def _slides(self, active: ContactState) -> np.ndarray:
+        """The pairs whose shear is on its bound, s (mu lam_n + k): the sliding ones and the open ones with cohesion
+        and a slip sign."""
+        return np.abs(active.sign) == 1
+
     def free_directions(self, active: ContactState) -> tuple[np.ndarray, np.ndarray]:
-        """Open pairs are free in both directions, sliding ones tangentially."""
-        return active.state == self.OPEN, active.state != self.STICK
+        """Open pairs are free normally, all but the holding ones (:meth:`_holding`) tangentially."""
+        return active.state == self.OPEN, ~self._holding(active)
 
     # ----------------------------------------------------------------- the solver's safeguards
     def hold(self, active: ContactState, pairs: np.ndarray) -> None:
-        """The closed ones of ``pairs`` stick; open ones stay open."""
+        """The closed ones of ``pairs`` stick; open ones stay open, holding their shear if they have cohesion."""
         fix = pairs & (active.state != self.OPEN)
-        active.state[fix], active.sign[fix] = self.STICK, 0
+        active.state[fix] = self.STICK
+        active.sign[pairs] = 0
 
     def bond(self, active: ContactState, pairs: np.ndarray) -> None:
         """``pairs`` closed and sticking."""
         active.state[pairs], active.sign[pairs] = self.STICK, 0
 
     def release(self, active: ContactState, pairs: np.ndarray) -> None:
-        active.state[pairs], active.sign[pairs] = self.OPEN, 0
+        """``pairs`` open and free in both directions (sign ``RELEASED``), whatever their cohesion."""
+        active.state[pairs], active.sign[pairs] = self.OPEN, self.RELEASED
 
     def hold_reversals(self, new: ContactState, old: ContactState) -> None:
         """A pair that slid in ``old`` and is proposed to slide the other way sticks instead: the reversal passes
         through stick, and the next classification proposes the reversed slip if the stick force leaves the cone."""
-        reversed_slip = (old.state == self.SLIP) & (new.state == self.SLIP) & (new.sign != old.sign)
-        new.state[reversed_slip], new.sign[reversed_slip] = self.STICK, 0
+        reversed_slip = self._slides(old) & self._slides(new) & (new.sign != old.sign)
+        new.sign[reversed_slip] = 0
+        new.state[reversed_slip & (new.state == self.SLIP)] = self.STICK
 
     def hold_opposed_slips(self, new: ContactState, old: ContactState, joint: np.ndarray, comm: MPI.Comm) -> None:
         """The pairs of ``new`` that still slip as in ``old`` on a ring joint whose closed pairs all slip, some
@@ -226,26 +247,25 @@ class CoulombJoints(JointLaw):
         return fixed
 
     def candidates(self) -> tuple[tuple[int, int], ...]:
-        return self.CANDIDATES
+        """:data:`CANDIDATES`, and with cohesion at some pair :data:`OPEN_SLIDES` (an open state the others may not
+        take: their rows are those of open)."""
+        return self.CANDIDATES + (self.OPEN_SLIDES if np.any(self.cohesion > 0) else ())
 
-    def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """None where a pair has cohesion (its shear bound drops to zero when it opens: no LCP of this form; the
-        condensation enumerates the states). Else the law at the pairs on ``d = d0 + C lam`` as the LCP
-        ``w = q + M z``, w, z >= 0, w z = 0 (Stewart & Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns
-        per pair (lam_n, lam_+, lam_-, beta) with lam_t = lam_+ - lam_- and the slip magnitude beta:
+    def complementarity(self, d0: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The law at the pairs on ``d = d0 + C lam`` as the LCP ``w = q + M z``, w, z >= 0, w z = 0 (Stewart &
+        Trinkle 1996; exact in 2-D), (M (4p, 4p), q (4p,)), unknowns per pair (lam_n, lam_+, lam_-, beta) with
+        lam_t = lam_+ - lam_- and the slip magnitude beta:
 
-            d_n                        >= 0  _|_  lam_n >= 0     (contact)
-            Delta d_t + beta           >= 0  _|_  lam_+ >= 0     (lam_t = +mu lam_n only when slipping by -beta)
-            -Delta d_t + beta          >= 0  _|_  lam_- >= 0     (lam_t = -mu lam_n only when slipping by +beta)
-            mu lam_n - lam_+ - lam_-   >= 0  _|_  beta  >= 0     (slip only on the friction cone)
+            d_n                          >= 0  _|_  lam_n >= 0   (contact)
+            Delta d_t + beta             >= 0  _|_  lam_+ >= 0   (lam_t = +(mu lam_n + k) only when slipping by -beta)
+            -Delta d_t + beta            >= 0  _|_  lam_- >= 0   (lam_t = -(mu lam_n + k) only when slipping by +beta)
+            mu lam_n + k - lam_+ - lam_- >= 0  _|_  beta  >= 0   (slip only on the friction bound)
 
         equilibrated: each force component i is measured in units of 1 / sqrt(|C_ii|) N and each displacement in
         sqrt(|C_ii|) m, so that the compliance has a unit diagonal (a pair that is nearly a mechanism has C_nn a
         million times C_tt), the friction coefficient becomes mu sqrt(|C_tt| / |C_nn|) per pair, and q is divided by
         its largest entry (the problem is homogeneous in (q, z)). The solution's zero pattern, hence its active set,
         is that of the unscaled problem."""
-        if np.any(self.cohesion > 0):
-            return None
         p = len(d0)
         scale = 1.0 / np.sqrt(np.maximum(np.abs(np.diag(C)), 1e-300))  # N per unit force, per pair and direction
         compliance = scale[:, None] * C * scale[None, :]
@@ -262,28 +282,32 @@ class CoulombJoints(JointLaw):
         q = np.zeros(4 * p)
         gap = scale.reshape(p, 2) * d0
         q[0::4], q[1::4], q[2::4] = gap[:, 0], gap[:, 1], -gap[:, 1]
+        q[3::4] = self.cohesion / scale[1::2]  # k in the shear's unit
         return M, q / max(np.abs(q).max(), 1e-300)
 
     def lcp_state(self, z: np.ndarray, tol: float) -> ContactState:
-        """Closed where lam_n > ``tol``, sliding where beta > ``tol`` with the sign of lam_t."""
+        """Closed where lam_n > ``tol``, sliding where beta > ``tol`` with the sign of lam_t (open pairs too, where
+        they have cohesion)."""
         lam_n, lam_t, beta = z[0::4], z[1::4] - z[2::4], z[3::4]
         closed, slip = lam_n > tol, beta > tol
         state = np.where(~closed, self.OPEN, np.where(slip, self.SLIP, self.STICK)).astype(np.int8)
-        return ContactState(state, np.where(state == self.SLIP, np.sign(lam_t), 0).astype(np.int8))
+        shears = closed | (self.cohesion > 0)
+        return ContactState(state, np.where(slip & shears, np.sign(lam_t), 0).astype(np.int8))
 
     # ----------------------------------------------------------------- verdicts
     def mode_rules(self, active: ContactState) -> ModeRules:
-        """A mode may not close an open pair, nor slip a sliding pair against its friction force: s d_t > 0 (the
-        slip law assumes a slip of sign -s), measured by mu s d_t, the friction's work per unit normal force (mu = 0
-        pairs slip freely), and on a cohesive pair by at least s d_t (its cohesion works on any slip). Pairs with
-        friction or cohesion are rough: a hinge mode may not slip them. An open pair carries no tension."""
+        """A mode may not close an open pair, nor slip a sliding pair (open or closed) against its friction force:
+        s d_t > 0 (the slip law assumes a slip of sign -s), measured by mu s d_t, the friction's work per unit normal
+        force (mu = 0 pairs slip freely), and on a cohesive pair by at least s d_t (its cohesion works on any slip).
+        Pairs with friction or cohesion are rough: a hinge mode may not slip them. An open pair carries no
+        tension."""
         factor = np.where(self.cohesion > 0, np.maximum(self.mu, 1.0), self.mu)
-        return ModeRules(active.state == self.OPEN, np.where(self.sliding(active), factor * active.sign, np.nan),
+        return ModeRules(active.state == self.OPEN, np.where(self._slides(active), factor * active.sign, np.nan),
                          (self.mu > 0) | (self.cohesion > 0), np.zeros(len(active.state)))
 
     def sliding_forces(self, active: ContactState, lam_n: np.ndarray) -> np.ndarray:
-        """lam_t = s (mu lam_n + k) at the sliding pairs."""
-        return np.where(self.sliding(active), active.sign * (self.mu * lam_n + self.cohesion), 0.0)
+        """lam_t = s (mu lam_n + k) at the sliding pairs, open or closed."""
+        return np.where(self._slides(active), active.sign * (self.mu * lam_n + self.cohesion), 0.0)
 
     # ----------------------------------------------------------------- limit analysis
     @classmethod

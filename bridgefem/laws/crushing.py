@@ -167,7 +167,7 @@ class CrushingJoints(CoulombJoints):
         """Contact pairs keep d_n, crushed and open pairs carry a fixed lam_n (C, 0); sticking and crushed pairs
         keep d_t, sliding ones carry lam_t = s (mu lam_n + k)."""
         contact = (active.state == self.STICK) | (active.state == self.SLIP)
-        stick = self._sticking(active.state)
+        stick = self._holding(active)
         return LawRows(contact.astype(float), stick.astype(float), (~contact).astype(float), (~stick).astype(float),
                        -self.mu * active.sign * self.sliding(active))
 
@@ -180,7 +180,7 @@ class CrushingJoints(CoulombJoints):
 
     def free_directions(self, active: ContactState) -> tuple[np.ndarray, np.ndarray]:
         """Open pairs are free in both directions, crushed ones normally, sliding ones tangentially."""
-        return (active.state == self.OPEN) | self.crushed(active), ~self._sticking(active.state)
+        return (active.state == self.OPEN) | self.crushed(active), ~self._holding(active)
 
     # ----------------------------------------------------------------- the solver's safeguards
     def hold(self, active: ContactState, pairs: np.ndarray) -> None:
