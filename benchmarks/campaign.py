@@ -47,6 +47,14 @@ summed over all its runs, the coarser meshes an automatic refinement replaced in
     ./run nice python benchmarks/campaign.py --count 300 --seed 1 --jobs 2 --out /tmp/campaign
     ./run nice python benchmarks/campaign.py --count 150 --seed 1 --jobs 2 --options --out /tmp/campaign-options
 
+With ``--rings`` every scene is a barrel of rings (:func:`draw_rings`, its own stream): 2-4 rings of equal
+thickness, staggered or aligned, ring friction 0-0.8, ring cohesion 0 (a third of the scenes: unbonded) or 1-100 kPa
+(log-uniform), at most ``RING_VOUSSOIRS`` voussoirs per ring; its thickness drawn as above from the least thickness of
+the whole barrel (every ring scaled; to ``RING_RTOL``), judged as above against the LP on the same joints (the ring interfaces as their
+chords)::
+
+    ./run nice python benchmarks/campaign.py --count 100 --seed S --jobs 1 --rings --out /tmp/campaign-rings
+
 ``--check-only`` writes the scenes and runs ``bridgefem check`` on each instead (no analysis; the LP still sets each
 thickness): the scenes a campaign would reject as bad input, in a few minutes.
 """
@@ -78,6 +86,9 @@ BOUND_TOL = 0.005  # the FE bracket's upper end at most this fraction above the 
 MPIRUN_ENV = {"OMPI_MCA_rmaps_base_oversubscribe": "1"}  # --ranks: Open MPI may count fewer slots than ranks (a
 # container's CPU limit), and then refuses to start; the rest of mpirun's environment is Python's copy of this
 # process's, without the job variables (PMIX_*, OMPI_MCA_ess, ...) an MPI singleton sets in the C environment
+RING_VOUSSOIRS = 32  # --rings: voussoirs per ring at most (4 rings of 64 make an LP of 3300 joints, 12 s, the ring
+# interfaces being their chords; 256 would make 1024 blocks)
+RING_RTOL = 1e-2  # --rings: the least thickness to 1 % (each LP of a barrel costs seconds; the draw needs no more)
 TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
 
 
@@ -137,6 +148,17 @@ def draw_option(seed: int, index: int) -> dict:
     return {"name": name, **values}
 
 
+def draw_rings(seed: int, index: int) -> dict:
+    """Scene ``index``'s rings in a ``--rings`` campaign, from their own stream (the base draw is :func:`draw`'s,
+    unchanged): 2-4 rings, "staggered" or "aligned", ring friction uniform 0-0.8, ring cohesion 0 for a third of the
+    scenes, else log-uniform 1-100 kPa."""
+    rng = np.random.default_rng([seed, index, 41])
+    rings, bond = int(rng.integers(2, 5)), ("staggered", "aligned")[rng.integers(2)]
+    friction = round(float(rng.uniform(0.0, 0.8)), 3)
+    cohesion = 0.0 if rng.random() < 1 / 3 else float(f"{math.exp(rng.uniform(math.log(1e3), math.log(1e5))):.3g}")
+    return {"rings": rings, "bond": bond, "friction": friction, "cohesion": cohesion}
+
+
 def draw_strength(seed: int, index: int) -> float:
     """Scene ``index``'s compressive strength in a ``--crushing`` campaign, from its own stream (the base draw is
     :func:`draw`'s, unchanged), as a multiple of the self-weight stress scale density x g x the reference length
@@ -194,6 +216,10 @@ def scene_dict(choice: dict, thickness: float) -> dict:
                      **({"compressive_strength": strength_of(choice)} if choice.get("strength") else {})},
          "joints": {"friction": choice["friction"]},
          "load": [load]}
+    if choice.get("rings"):
+        r = choice["rings"]
+        d["arch"].update(rings=r["rings"], ring_bond=r["bond"], voussoirs=min(choice["voussoirs"], RING_VOUSSOIRS))
+        d["joints"].update(ring_friction=r["friction"], ring_cohesion=r["cohesion"])
     if choice["fill"]:
         d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * choice["span"], 3),
                      "extension": round(0.2 * choice["span"], 3), "material": choice["fill"],
@@ -218,7 +244,9 @@ def thickness_of(choice: dict) -> tuple[float, float | None]:
 
     try:
         bare = {**choice, "patch": 0.0, "joint_at_loads": False, "fill": None, "option": None}  # nor do loads
-        least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"]))).thickness
+        # (a barrel of rings: the least thickness of the whole barrel, every ring scaled)
+        least = min_thickness(scene_from_dict(scene_dict(bare, 0.1 * choice["rise"])),
+                              rtol=RING_RTOL if choice.get("rings") else 1e-4).thickness
     except (RuntimeError, ValueError):  # no thickness stands at this mu
         least = None
     return thickness_above(choice, least), least
@@ -390,6 +418,11 @@ def failure_cause(row: dict) -> str:
     return text[:80]
 
 
+def ring_text(rings: dict) -> str:
+    """A ``--rings`` draw in words: "3 staggered rings, mu 0.42, c 12 kPa"."""
+    return f"{rings['rings']} {rings['bond']} rings, mu {rings['friction']:g}, c {rings['cohesion'] / 1e3:g} kPa"
+
+
 def report(rows: list[dict]) -> str:
     """The table, the classes, the success rate, solves per limit and the worst cases."""
     lines = [f"{'#':>4} {'shape':12} {'span':>6} {'t':>6} {'t_min':>6} {'n':>4} {'mu':>6} {'E':>8} {'load':>12} "
@@ -402,7 +435,8 @@ def report(rows: list[dict]) -> str:
                      f"{r['voussoirs']:4d} {r['friction']:6.3f} {r['young']:8.2g} {load:>12} "
                      f"{'T' if r['joint_at_loads'] else 'F':>3} {str(r['fill'] or '-')[:5]:>5} "
                      f"{r['status'][:28]:28} {ratio:>7} {str(r.get('solves') or '-'):>6} {r['seconds']:6.1f}  "
-                     f"{r['class']}{'  (' + r['option']['name'] + ')' if r.get('option') else ''}")
+                     f"{r['class']}{'  (' + r['option']['name'] + ')' if r.get('option') else ''}"
+                     f"{'  (' + ring_text(r['rings']) + ')' if r.get('rings') else ''}")
     n = len(rows)
     classes = {c: sum(r["class"] == c for r in rows)
                for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash")}
@@ -419,6 +453,11 @@ def report(rows: list[dict]) -> str:
         mine = [r for r in rows if (r.get("option") or {}).get("name") == name and r["class"] != "rejected"]
         if mine:
             lines.append(f"  {name:18}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    for rings in sorted({(r["rings"]["rings"], r["rings"]["bond"]) for r in rows if r.get("rings")}):
+        mine = [r for r in rows if r.get("rings") and (r["rings"]["rings"], r["rings"]["bond"]) == rings
+                and r["class"] != "rejected"]
+        lines.append(f"  {rings[0]} {rings[1]} rings: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of "
+                     f"{len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
         if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)"):
@@ -458,6 +497,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="each scene an assessment (bridgefem assess) of a vehicle drawn by draw_vehicle")
     p.add_argument("--crushing", action="store_true",
                    help="every scene also gets a compressive strength (draw_strength), from strong to barely standing")
+    p.add_argument("--rings", action="store_true",
+                   help="every scene a barrel of 2-4 rings (draw_rings: bond, ring friction, ring cohesion)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     p.add_argument("--check-only", action="store_true",
@@ -479,6 +520,8 @@ def main(argv: list[str] | None = None) -> int:
             choice = draw(args.seed, i)
             if args.crushing:
                 choice["strength"] = draw_strength(args.seed, i)
+            if args.rings:
+                choice["rings"] = draw_rings(args.seed, i)
             verdict = check_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out)
             print(f"scene {i}: {verdict}", flush=True)
             return verdict
@@ -495,6 +538,8 @@ def main(argv: list[str] | None = None) -> int:
             choice["vehicle"] = draw_vehicle(args.seed, i, choice["span"], choice["fill"])
         if args.crushing:
             choice["strength"] = draw_strength(args.seed, i)
+        if args.rings:
+            choice["rings"] = draw_rings(args.seed, i)
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
                         args.timeout, args.ranks)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)

@@ -54,7 +54,10 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     """The non-associative rigid-block check (:func:`slip_state`) of an unproven limit with sliding joints that the
     associative LP does not confirm (:func:`bridgefem.analysis.evidence.needs_slip_check`), from the joint forces of
     the last converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check).
-    Collective; None when no check is needed."""
+    Collective; None when no check is needed, and on blocks whose joints are pieces of the FE's (a ring interface's
+    chords: :func:`per_piece`)."""
+    if not per_piece(blocks):
+        return None
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, any(j.sliding for j in joints)):
         return None
@@ -86,6 +89,13 @@ def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointSta
     return comm.bcast(out, root=0)
 
 
+def per_piece(blocks: BlockModel | None) -> bool:
+    """Whether the FE's joint states are the ``blocks``' joints one for one, as the frozen LP needs them: not without
+    blocks (a fill), nor where a joint is several LP joints (a ring interface's chords, whose normal forces the FE's
+    resultant of the whole joint does not give)."""
+    return blocks is not None and blocks.joint_ids is None
+
+
 def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.ndarray, LPResult, tuple[int, ...]]:
     """The ``blocks`` with each joint's shear capacity frozen at mu x its normal force in ``joints``
     (:func:`bridgefem.limit.rigid_block.frozen_capacity_collapse`): the normal forces (N per joint), the LP's result
@@ -107,9 +117,9 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
     (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
     bracket [``lower``, ``trial``] of relative width ``tolerance``
     (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`), with the check in words (``unit``: N of live load per
-    unit level), on the rigid ``blocks`` loaded as the FE loads them. None with a fill (``blocks`` None) or without an
-    LP limit (evidence 3 does not apply). Collective."""
-    if blocks is None or lp.status != Status.LIMIT or lp.level is None:
+    unit level), on the rigid ``blocks`` loaded as the FE loads them. None with a fill (``blocks`` None), on a barrel
+    of rings (:func:`per_piece`) or without an LP limit (evidence 3 does not apply). Collective."""
+    if not per_piece(blocks) or lp.status != Status.LIMIT or lp.level is None:
         return None
 
     def level(state: Iterate) -> float | None:

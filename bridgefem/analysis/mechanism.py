@@ -14,12 +14,13 @@ face; its eccentricity e is measured from the joint's centre, positive towards t
    that of its closed pairs (the compressed zone of a hinge), and its stress-block depth N / (f_c w) the depth of the
    rectangular stress block at the strength f_c over the width w that carries N
    (:meth:`bridgefem.laws.base.JointLaw.stress_block_depth`).
-2. *Hinges* (:func:`_mark_hinges`): a joint is *cracked* when it is open over at least ``HINGE_OPEN_FRACTION`` of
+2. *Hinges* (:func:`_mark_hinges`), on voussoir joints, springings and bases: a joint is *cracked* when it is open over at least ``HINGE_OPEN_FRACTION`` of
    its length or its thrust lies within ``1/2 - HINGE_ECCENTRICITY`` of the length from a face (with one element
    through the thickness a joint has only two pairs, so the opening alone cannot say it). Consecutive cracked joints
    that share a block and whose thrusts lie on the same side form a run; the hinge is the joint of the run with the
    largest |e| (the thrust line touches the ring there), at the intrados when e < 0 and at the extrados when e > 0
-   (for an abutment's base: at its inner and outer edge).
+   (for an abutment's base: at its inner and outer edge). A ring interface is never a hinge: it is *separated*
+   when it is open over at least ``HINGE_OPEN_FRACTION`` of its length.
 3. *Sliding* (:func:`joint_states`): a joint slides when every closed pair of it slips, all the same way.
 4. *Reactions* (:func:`springing_reactions`): the ground's force on the structure at each joint on the ground.
 5. *Rigid motion* (:func:`voussoir_motion`, :func:`collapse_mode`): the least-squares rigid motion of each block
@@ -54,7 +55,7 @@ class JointState:
     length whose pairs are crushed (0..1; 0 without a compressive strength), ``compressed_depth`` (m) the length of
     its closed pairs (those that carry compression: a hinge's compressed zone), ``stress_block_depth`` (m) N / (f_c w),
     the depth of the stress block at the compressive strength f_c over the width w that carries N (None without a
-    strength)."""
+    strength); ``separated``: a ring interface open over at least ``HINGE_OPEN_FRACTION`` of its length."""
 
     id: int
     normal_force: float
@@ -67,6 +68,7 @@ class JointState:
     crushed_fraction: float = 0.0
     compressed_depth: float = 0.0
     stress_block_depth: float | None = None
+    separated: bool = False
 
 
 def joint_states(solver: ContactSolver, pairs: JointPairs, ring: ArchRing, it: Iterate) -> list[JointState]:
@@ -113,9 +115,11 @@ def springing_reactions(joints: list[JointState], ring: ArchRing) -> np.ndarray:
 
 def _mark_hinges(states: list[JointState], ring: ArchRing) -> None:
     """Set ``hinge`` on the joint of each run of cracked joints in ``states`` (in joint order) whose thrust is the
-    most eccentric (module docstring, step 2)."""
-    cracked = [s.open_fraction >= HINGE_OPEN_FRACTION
-               or abs(s.eccentricity) >= HINGE_ECCENTRICITY * ring.joints[s.id].length for s in states]
+    most eccentric, and ``separated`` on the open ring interfaces (module docstring, step 2)."""
+    for s in states:
+        s.separated = ring.joints[s.id].kind == "ring" and s.open_fraction >= HINGE_OPEN_FRACTION
+    cracked = [ring.joints[s.id].kind != "ring" and (s.open_fraction >= HINGE_OPEN_FRACTION
+               or abs(s.eccentricity) >= HINGE_ECCENTRICITY * ring.joints[s.id].length) for s in states]
 
     def adjacent(a: JointState, b: JointState) -> bool:
         blocks = {ring.joints[a.id].left, ring.joints[a.id].right} & {ring.joints[b.id].left, ring.joints[b.id].right}

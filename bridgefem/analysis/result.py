@@ -136,9 +136,10 @@ class Analysis:
 
     @property
     def shortest_voussoir(self) -> float:
-        """The shortest distance between neighbouring joint centres (m)."""
-        centres = np.array([jt.centre for jt in self.ring.joints[:self.ring.n_voussoirs + 1]])
-        return float(np.linalg.norm(np.diff(centres, axis=0), axis=1).min())
+        """The shortest distance between the centres of a voussoir's two joints, over every ring (m)."""
+        joints = self.ring.ring_joints
+        return min(float(np.linalg.norm(b.centre - a.centre)) for a, b in zip(joints[:-1], joints[1:])
+                   if a.right is not None and a.right == b.left)
 
 
 def user_warnings(an: Analysis) -> list[str]:

@@ -98,12 +98,15 @@ def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockMode
     """Per joint of ``blocks`` the resultant of the FE's pair forces at an iterate as the LP's joint forces (nj, 3):
     n, s (N) along the joint's normal and tangent, the force on its right block, and m (N·m) = -(moment about the
     joint's centre), the LP's convention (:mod:`bridgefem.limit.rigid_block`); joints without pairs carry none. Every
-    pair acts at its place on the joint, ``position`` from the intrados. Identical on every rank (collective)."""
+    pair acts at its place on the joint, ``position`` from the intrados (on a ring interface: on the chord of the
+    piece that holds it, :meth:`bridgefem.limit.rigid_block.BlockModel.pieces_at`). Identical on every rank
+    (collective)."""
     _, lam, _ = solver.system.split(it.x)
     ring = pairs.joint >= 0
     local = np.column_stack([pairs.joint, lam, pairs.position, pairs.normal, pairs.tangent])[ring]
     table = np.vstack(solver.comm.allgather(local))
-    joint, lam_n, lam_t, position = table[:, 0].astype(int), table[:, 1], table[:, 2], table[:, 3]
+    joint, position = blocks.pieces_at(table[:, 0].astype(int), table[:, 3])  # a ring interface: its chords
+    lam_n, lam_t = table[:, 1], table[:, 2]
     force = lam_n[:, None] * table[:, 4:6] + lam_t[:, None] * table[:, 6:8]  # on the right face (N)
     _, centre, tangent, normal = blocks.frames()
     arm = blocks.joint_a[joint] + position[:, None] * table[:, 6:8] - centre[joint]

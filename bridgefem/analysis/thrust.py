@@ -13,11 +13,27 @@ Method (for every joint of the ring that carries a force, springings and abutmen
    Heyman 1982, The Masonry Arch, ch. 3; between two joints the true line bends under each voussoir's weight and
    loads, which the polyline does not show). A joint without compression (``N <= 0``, fully open) has no crossing.
 
-Lengths in m, forces in N, for the scene's width.
+A barrel of several rings has one line of thrust through its whole depth (:func:`_section_point`): at each joint of
+the outer ring, the resultant of the forces that everything left of a section through the barrel exerts on
+everything right of it, where it crosses that joint's line extended to the intrados:
+
+5. the section: the outer-ring joint and, in each inner ring, that ring's joint whose centre is nearest to the outer
+   joint's; left of it lie those rings' voussoirs left of their section joints, the left abutment and, for a joint
+   on the ground left of midspan, the ground;
+6. the joints that cross it (one block left of the section, the other right: the section's joints and the ring
+   interfaces between them) add their resultants ``N n + V t`` (n, t: their chord's normal and tangent), each at
+   ``c + e T``, into the force ``S`` and moment ``M`` (about the origin) of the left side on the right;
+7. the crossing point is where the line of action of ``S`` meets the outer joint's line ``E - s u`` (E its extrados
+   end, u its unit tangent, s from 0 to the barrel's thickness t): ``e = s - t/2`` is its eccentricity in the
+   barrel's depth, ``S . n`` and ``S . u`` its normal and shear force.
+
+The abutments' bases keep steps 1-4. Lengths in m, forces in N, for the scene's width.
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+
+import numpy as np
 
 TOUCH = 0.98  # |e| / (t/2) from which the thrust touches a face: the FE's hinge reading (HINGE_ECCENTRICITY 0.49 t)
 
@@ -39,21 +55,64 @@ class ThrustPoint:
 
 
 def line_of_thrust(joints, ring) -> list[ThrustPoint]:
-    """The crossing points of the thrust at every joint of ``joints`` (JointState rows of one converged state:
-    ``id``, ``normal_force``, ``shear_force``, ``eccentricity``) on ``ring`` (its geometry), in joint order; joints
-    without compression are left out."""
+    """The crossing points of the thrust on ``ring`` (its geometry) for ``joints`` (JointState rows of one converged
+    state: ``id``, ``normal_force``, ``shear_force``, ``eccentricity``), in joint order: at every joint of a single
+    ring and every abutment base (steps 1-4), at every outer-ring joint's section of a barrel of several rings
+    (steps 5-7); crossings without compression are left out."""
+    by_id = {js.id: js for js in joints or []}
     out = []
-    for js in sorted(joints or [], key=lambda j: j.id):
-        if not js.normal_force > 0:
+    for jt in ring.joints:
+        js = by_id.get(jt.id)
+        if js is None or jt.kind == "ring" or (ring.n_rings > 1 and jt.kind != "base"):
             continue
-        jt = ring.joints[js.id]
-        half = jt.length / 2
-        point = 0.5 * (jt.intrados + jt.extrados) + js.eccentricity * jt.tangent
-        rel = js.eccentricity / half
-        touches = "" if abs(rel) < TOUCH else ("extrados" if rel > 0 else "intrados")
-        out.append(ThrustPoint(int(js.id), float(point[0]), float(point[1]), float(js.eccentricity), float(rel),
-                               touches, float(js.normal_force), float(js.shear_force)))
-    return out
+        out.append(_point(jt.id, jt.centre, jt.tangent, jt.length, js.eccentricity, js.normal_force,
+                          js.shear_force))
+    if ring.n_rings > 1:
+        outer = {v.id for v in ring.outer_voussoirs}
+        out += [_section_point(ring, jt, by_id) for jt in ring.ring_joints if {jt.left, jt.right} & outer]
+    return sorted((p for p in out if p.normal_force > 0), key=lambda p: p.joint)
+
+
+def _point(joint: int, centre: np.ndarray, tangent: np.ndarray, depth: float, e: float, normal: float,
+           shear: float) -> ThrustPoint:
+    """The crossing at eccentricity ``e`` (m) from ``centre`` along ``tangent`` of a section ``depth`` (m) deep."""
+    point = centre + e * tangent
+    rel = e / (depth / 2)
+    touches = "" if abs(rel) < TOUCH else ("extrados" if rel > 0 else "intrados")
+    return ThrustPoint(int(joint), float(point[0]), float(point[1]), float(e), float(rel), touches, float(normal),
+                       float(shear))
+
+
+def _section_point(ring, outer_joint, by_id: dict) -> ThrustPoint:
+    """The barrel's thrust at the section through ``outer_joint`` (steps 5-7 of the module docstring); a section
+    whose force has no compression across the joint gets normal force <= 0 (left out by the caller)."""
+    left_abutment = {a.id for a in ring.abutments if a.side == "left"}
+    body = set(left_abutment)
+    for r in range(ring.n_rings):
+        ids = {v.id for v in ring.voussoirs if v.ring == r}
+        joints = [j for j in ring.ring_joints if {j.left, j.right} & ids]
+        cut = min(joints, key=lambda j: float(np.linalg.norm(j.centre - outer_joint.centre)))
+        body |= {v for v in ids if v < cut.right} if cut.right in ids else ids
+
+    def left_of(block, jt) -> bool:
+        return block in body if block is not None else bool(jt.centre[0] < 0)
+
+    force, moment = np.zeros(2), 0.0
+    for jt in ring.joints:
+        js = by_id.get(jt.id)
+        if js is None or left_of(jt.left, jt) == left_of(jt.right, jt):
+            continue
+        sign = 1.0 if left_of(jt.left, jt) else -1.0
+        f = sign * (js.normal_force * jt.normal + js.shear_force * jt.tangent)
+        p = jt.centre + js.eccentricity * jt.tangent
+        force += f
+        moment += p[0] * f[1] - p[1] * f[0]
+    u, t = outer_joint.tangent, ring.thickness
+    start = outer_joint.extrados - t * u  # the section's intrados end
+    across = u[0] * force[1] - u[1] * force[0]
+    s = (moment - (start[0] * force[1] - start[1] * force[0])) / across if across else t / 2
+    normal = np.array([u[1], -u[0]])
+    return _point(outer_joint.id, start + 0.5 * t * u, u, t, s - t / 2, float(force @ normal), float(force @ u))
 
 
 def thrust_summary(points: list[ThrustPoint]) -> dict:
@@ -63,4 +122,7 @@ def thrust_summary(points: list[ThrustPoint]) -> dict:
             "touches_extrados": [p.joint for p in points if p.touches == "extrados"],
             "touch": TOUCH,
             "method": "the resultant of each joint's contact forces at the last converged state, crossing the joint "
-                      "at its eccentricity; touches a face where |e| >= touch x t/2"}
+                      "at its eccentricity; touches a face where |e| >= touch x t/2; a barrel of several rings: at each "
+                      "outer-ring joint the resultant across a section through every ring (that joint, each inner "
+                      "ring's nearest joint and the ring interfaces between them), where it crosses the joint's line "
+                      "through the barrel's depth t"}

@@ -55,7 +55,7 @@ def strip_stress(q: float, c: float, xi: np.ndarray, z: np.ndarray) -> np.ndarra
 
 def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]],
                      rule: str) -> tuple[np.ndarray, ...]:
-    """(blocks, points, forces): the vertical forces (N) on the voussoirs' extrados of ``axles`` spread by ``rule``
+    """(blocks, points, forces): the vertical forces (N) on the outer ring's extrados of ``axles`` spread by ``rule``
     through the fill (module docstring). Each axle is (load N, lo, hi): its tyre patch on the road from ``lo`` to
     ``hi`` (m from midspan; lo == hi: a point axle).
 
@@ -71,9 +71,10 @@ def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]]
        (:func:`bridgefem.geometry.ring.point_load_blocks`).
     """
     road = ring.crown_extrados + scene.fill.depth
-    ext = np.vstack([v.extrados for v in ring.voussoirs])
+    outer = ring.outer_voussoirs  # the barrel's extrados, under the fill
+    ext = np.vstack([v.extrados for v in outer])
     left, right = ext[0, 0], ext[-1, 0]  # the extrados' ends: beyond them the fill stands on the abutments
-    ends = [x for v in ring.voussoirs for x in (v.extrados[0, 0], v.extrados[-1, 0])]
+    ends = [x for v in outer for x in (v.extrados[0, 0], v.extrados[-1, 0])]
     spreads = []
     for load, lo, hi in axles:
         h = road - ring.extrados_point(float(np.clip((lo + hi) / 2, left, right)))[1]
@@ -99,8 +100,9 @@ def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]]
             point_load.append(load)
     force = pressure * dx
     keep = force > 0
-    x0 = np.array([v.extrados[0, 0] for v in ring.voussoirs])
-    blocks = [np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0, len(ring.voussoirs) - 1)]
+    x0 = np.array([v.extrados[0, 0] for v in outer])
+    ids = np.array([v.id for v in outer])
+    blocks = [ids[np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0, len(outer) - 1)]]
     xs, fy = [mid[keep]], [force[keep]]
     for x, load in zip(point_x, point_load):
         on = point_load_blocks(ring, x, "split")

@@ -332,13 +332,14 @@ def _check(args, petsc: dict) -> int:
 def _lp(args) -> int:
     from .lp_report import lp_summary, rigid_block_result
 
-    res = rigid_block_result(load_scene(args.scene), args.friction_model)
+    scene = load_scene(args.scene)
+    res = rigid_block_result(scene, args.friction_model)
     if args.json:
         print(json.dumps(lp_summary(res)))
     else:
         load = "none" if res.load is None else f"{res.load / 1e3:.3f} kN"
         print(f"rigid-block LP ({res.friction_model} friction): {res.status}; collapse load {load}; "
-              f"hinges {sorted(res.hinges)}, sliding {sorted(res.sliding)} ({res.time_s:.3f} s)")
+              f"{_mechanism_text(res.by_joint, scene)} ({res.time_s:.3f} s)")
         sides = [f"load {i + 1} on the {s} voussoir" if s != "split" else f"load {i + 1} shared by both voussoirs"
                  for i, s in enumerate(res.load_sides) if s is not None]
         if sides:
@@ -348,6 +349,20 @@ def _lp(args) -> int:
             print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN; "
                   f"non-associative: {fixed} (one collapse state of several, not a bound: docs/joints-and-lp.md)")
     return 1 if Status.of(res.status) is Status.FAILURE else 0
+
+
+def _mechanism_text(mech, scene) -> str:
+    """A rigid-block mechanism (``LPResult.by_joint``) in words: its hinges and sliding joints by id, and with rings
+    how many of the ring interfaces separate and slide."""
+    from ..structure.ring import scene_ring
+
+    interfaces = {j.id for j in scene_ring(scene).joints if j.kind == "ring"}
+    text = f"hinges {mech.hinges}, sliding {[j for j in mech.sliding if j not in interfaces]}"
+    if interfaces:
+        slide = sum(j in interfaces for j in mech.sliding)
+        text += (f"; of {len(interfaces)} ring interfaces {len(mech.separated)} separate, {slide} slide "
+                 "(--json: their ids)")
+    return text
 
 
 def _min_thickness(args) -> int:

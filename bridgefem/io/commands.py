@@ -71,8 +71,10 @@ def bounds_command(scene: Scene, as_json: bool, refine: float = 1.0, plot: Path 
         print(f"{scene.name}: collapse load in [{kn(b.lower)}, {kn(b.upper)}] "
               f"(lower: {b.lower.status}, upper: {b.upper.status}; {mesh}; {b.timings['total']:.2f} s)")
         if data["mechanism"]:
-            print(f"  upper-bound mechanism: hinges at joints {data['mechanism']['hinges']}, sliding joints "
-                  f"{data['mechanism']['sliding']}")
+            mech = data["mechanism"]
+            separated = f", separated ring interfaces {mech['separated']}" if mech["separated"] else ""
+            print(f"  upper-bound mechanism: hinges at joints {mech['hinges']}, sliding joints {mech['sliding']}"
+                  f"{separated}")
         for name, x in (("lower", b.lower), ("upper", b.upper)):
             s = x.sizes
             print(f"  {name}: {s['unknowns']} unknowns, {s['equalities']} equalities, {s['inequalities']} "

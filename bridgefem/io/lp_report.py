@@ -21,9 +21,11 @@ def rigid_block_result(scene: Scene, friction_model: str = "associative") -> LPR
 
 
 def mechanism_summary(lp: LPResult) -> dict:
-    """The JSON form of a rigid-block mechanism: hinge joints, where each hinge sits, sliding joints."""
-    return {"hinges": sorted(lp.hinges), "hinge_positions": {str(k): v for k, v in lp.hinge_positions.items()},
-            "sliding": sorted(lp.sliding)}
+    """The JSON form of a rigid-block mechanism by the structure's joint ids (``LPResult.by_joint``): hinge joints,
+    where each hinge sits, sliding joints, separated ring interfaces."""
+    mech = lp.by_joint
+    return {"hinges": mech.hinges, "hinge_positions": {str(k): v for k, v in sorted(mech.hinge_positions.items())},
+            "sliding": mech.sliding, "separated": mech.separated}
 
 
 def lp_summary(lp: LPResult) -> dict:
@@ -34,8 +36,12 @@ def lp_summary(lp: LPResult) -> dict:
 
 def lp_label(scene: Scene) -> str:
     """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
-    blocks; it ignores a support movement (small support movements do not change a rigid-block collapse load)."""
+    blocks, several rings with their interfaces as chords; it ignores a support movement (small support movements do
+    not change a rigid-block collapse load)."""
     label = "fill as dead load only" if scene.fill else "bare ring"
+    rings = len(scene.arch.ring_layers)
+    if rings > 1:
+        label += f", {rings} rings (each ring interface as the chords of its curve)"
     if scene.abutments.elastic:
         label += ", abutments as rigid blocks"
     if scene.abutments.moves:

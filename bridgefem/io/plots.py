@@ -29,6 +29,7 @@ from ..status import Status  # noqa: E402
 BAND_MIN = 0.015  # the bracket band is drawn at least this fraction of the load axis high (1e-4 wide is invisible)
 MODE_SIZE = 0.08  # the collapse mode is amplified until its largest block motion is this fraction of the span
 TITLE_WIDTH = 70  # characters per title line
+LEGEND_WIDTH = 60  # characters per legend line
 
 
 def bracket_decimals(width: float) -> int:
@@ -92,14 +93,37 @@ def _hinge_point(ring: ArchRing, joint: int, where: str) -> np.ndarray:
     return jt.extrados if where == "extrados" else jt.intrados
 
 
+def _joint_line(jt) -> np.ndarray:
+    """The points (m) to draw a joint through: its curve (a ring interface) or its two ends."""
+    return jt.curve if jt.curve is not None else np.array([jt.intrados, jt.extrados])
+
+
+def _label_joints(ax, ring: ArchRing) -> None:
+    """Every voussoir joint's and springing's number: the inner ring's inside its intrados, the outer ring's (a
+    single ring's) outside its extrados, a middle ring's at the joint's centre on a white ground."""
+    ring_of = {v.id: v.ring for v in ring.voussoirs}
+    outer = ring.n_rings - 1
+    for jt in ring.ring_joints:
+        r = ring_of[jt.left if jt.left in ring_of else jt.right]
+        if r == outer:
+            at, box = jt.extrados + 0.06 * ring.span * jt.tangent, None
+        elif r == 0:
+            at, box = jt.intrados - 0.04 * ring.span * jt.tangent, None
+        else:
+            at, box = jt.centre, dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8)
+        ax.text(*at, str(jt.id), fontsize=6 if ring.n_rings == 1 else 5, ha="center", va="center", color="0.35",
+                bbox=box, zorder=8)
+
+
 def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Path,
                    fill: np.ndarray | None = None) -> None:
     """The collapse mechanism: the ring and elastic abutments (grey outline), the fill (``fill``: its region,
     m), the blocks moved by ``mode`` (their rigid motion over the last converged load increment: rows ux m, uy m,
     rotation rad; amplified to be seen), FE hinges (red dots, labelled with their joint numbers), sliding joints
-    (blue), the rigid-block LP's hinges (black rings), the line of thrust of the last converged state (purple,
-    diamonds where it touches the intrados or extrados: ``data["line_of_thrust"]``), every joint's number beside
-    its extrados corner, and the live loads as arrows."""
+    (blue, a ring interface along its curve), separated ring interfaces (orange, dashed), the rigid-block LP's
+    hinges (black rings), the line of thrust of the last converged state (purple, diamonds where it touches the
+    intrados or extrados: ``data["line_of_thrust"]``), every voussoir joint's number (:func:`_label_joints`), and
+    the live loads as arrows."""
     fig, ax = plt.subplots(figsize=(8, 5))
     if fill is not None:
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.15, lw=0)
@@ -122,9 +146,7 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
         ax.plot([p["x"] for p in thrust], [p["y"] for p in thrust], "-", color="tab:purple", lw=1.4, zorder=4)
         touching = [p for p in thrust if p["touches"]]
         ax.plot([p["x"] for p in touching], [p["y"] for p in touching], "D", color="tab:purple", ms=5, zorder=6)
-    for jt in ring.joints[:ring.n_voussoirs + 1]:  # every joint's number, outside the extrados
-        out = jt.extrados + 0.06 * ring.span * jt.tangent
-        ax.text(*out, str(jt.id), fontsize=6, ha="center", va="center", color="0.35")
+    _label_joints(ax, ring)
     mech = data["mechanism"]
     for jid, where in mech["hinge_positions"].items():
         p = _hinge_point(ring, int(jid), where)
@@ -134,8 +156,9 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
         ax.annotate(f"hinge {jid}", p, p + 0.12 * ring.span * side, fontsize=8, color="red", ha="center",
                     arrowprops=dict(arrowstyle="-", color="red", lw=0.6), zorder=7)
     for jid in mech["sliding"]:
-        jt = ring.joints[jid]
-        ax.plot(*np.array([jt.intrados, jt.extrados]).T, color="tab:blue", lw=3, zorder=5)
+        ax.plot(*_joint_line(ring.joints[jid]).T, color="tab:blue", lw=3, zorder=5)
+    for jid in mech.get("separated", []):
+        ax.plot(*_joint_line(ring.joints[jid]).T, color="tab:orange", lw=2, ls="--", zorder=5)
     lp = data.get("lp")
     if lp and lp.get("mechanism"):
         for jid, where in lp["mechanism"].get("hinge_positions", {}).items():
@@ -154,12 +177,15 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
                           label=f"blocks moved by the last converged load increment x {scale:.3g}"),
                plt.Line2D([], [], marker="o", color="red", ls="", label="FE hinge"),
                plt.Line2D([], [], color="tab:blue", lw=3, label="FE sliding joint")]
+    if ring.n_rings > 1:
+        handles.append(plt.Line2D([], [], color="tab:orange", lw=2, ls="--", label="FE separated ring interface"))
     if thrust:
         handles.append(plt.Line2D([], [], color="tab:purple", marker="D", ms=4, lw=1.4,
                                   label="line of thrust (diamonds: touches a face)"))
     if lp:
         handles.append(plt.Line2D([], [], marker="o", mfc="none", mec="k", ls="", ms=10,
-                                  label=f"rigid-block LP hinge ({lp.get('model', 'bare ring')})"))
+                                  label=textwrap.fill(f"rigid-block LP hinge ({lp.get('model', 'bare ring')})",
+                                                      LEGEND_WIDTH)))
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.25)

@@ -18,8 +18,9 @@ from ..analysis.mechanism import springing_reactions
 from ..analysis.result import Analysis
 from ..analysis.runner import quiet_compiler
 from ..analysis.thrust import line_of_thrust, thrust_summary
-from ..geometry.ring import fill_outline
+from ..geometry.ring import Voussoir, fill_outline
 from ..laws.base import JointLaw
+from ..limit.ring_blocks import block_weights, load_forces
 from ..structure.ring import snapped_loads
 from .lp_report import lp_entry, mechanism_summary
 from .output import results_folder
@@ -55,8 +56,15 @@ UNITS = {
 }
 CONVENTIONS = {
     "coordinates": "x to the right, y up; origin at the midpoint of the springing line on the intrados",
-    "joints": "numbered from the left springing (0) to the right springing (N voussoirs: joint N); voussoir i lies "
-              "between joints i and i+1; elastic abutments: blocks N, N+1, their base joints N+1, N+2",
+    "joints": "one ring of N voussoirs: numbered from the left springing (0) to the right springing (joint N); "
+              "voussoir i lies between joints i and i+1; several rings: each ring's joints and voussoirs in turn from "
+              "the intrados out, then the ring interfaces, then the abutments' bases; every joint names its kind, its "
+              "blocks (left, right; null: the ground) and its points (blocks and joints: the structure)",
+    "blocks": "voussoirs then elastic abutments, each a counter-clockwise polygon with its weight (N, unit weight x "
+              "area x width) acting at its centroid",
+    "ring_interface": "a curved joint between an inner-ring voussoir (left) and an outer-ring one (right), from its "
+                      "end nearer the right springing to the other; its curve the polyline of its chords; it never "
+                      "hinges: it separates (opens) or slides",
     "normal_force": "compression positive",
     "shear_force": "along the joint's tangent (intrados -> extrados end turned -90 degrees)",
     "eccentricity": "of the thrust from the joint's centre, positive towards the extrados (the base's outer edge)",
@@ -103,14 +111,10 @@ def summary(an: Analysis) -> dict:
         "conventions": {**CONVENTIONS, **conventions},
         "mechanism": {"hinges": [j.id for j in hinges], "hinge_positions": {str(j.id): j.hinge for j in hinges},
                       "sliding": [j.id for j in an.joints if j.sliding],
+                      "separated": [j.id for j in an.joints if j.separated],
                       "crushed": [j.id for j in an.joints if j.crushed_fraction > 0]},
-        "joints": [{"id": jt.id, "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
-                    **({"normal_force": js.normal_force, "shear_force": js.shear_force,
-                        "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
-                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding,
-                        "crushed_fraction": js.crushed_fraction, "compressed_depth": js.compressed_depth,
-                        "stress_block_depth": js.stress_block_depth} if js else {})}
-                   for jt, js in zip(an.ring.joints, an.joints or [None] * len(an.ring.joints))],
+        "blocks": block_entries(an.scene, an.ring),
+        "joints": joint_entries(an.scene, an.ring, an.joints),
         "line_of_thrust": thrust_summary(line_of_thrust(an.joints, an.ring)),
         "self_weight": an.model.dead_weight,
         "fill_weight": an.model.fill_weight,
@@ -134,20 +138,68 @@ def summary(an: Analysis) -> dict:
     }
 
 
+def block_entries(scene, ring) -> list[dict]:
+    """The ``blocks`` entry of results.json: per block its ``id``, ``kind`` ("voussoir" | "abutment"), ``ring`` (0:
+    the innermost; None for an abutment), ``span`` (0: the one span), ``polygon`` (counter-clockwise, m) and
+    ``weight`` (N: :func:`bridgefem.limit.ring_blocks.block_weights`, the rigid-block LP's)."""
+    weights = block_weights(scene, ring)
+    return [{"id": b.id, "kind": "voussoir" if isinstance(b, Voussoir) else "abutment",
+             "ring": b.ring if isinstance(b, Voussoir) else None, "span": 0, "polygon": b.polygon.tolist(),
+             "weight": float(w)} for b, w in zip(ring.voussoirs + ring.abutments, weights)]
+
+
+def joint_entries(scene, ring, states) -> list[dict]:
+    """The ``joints`` entry of results.json: per joint of ``ring`` its ``id``, ``kind``, ``blocks`` (left, right;
+    None: the ground), ``points`` (its intrados and extrados ends, m; a ring interface also its ``curve``), its law's
+    ``friction``, ``cohesion`` (Pa) and ``compressive_strength`` (Pa; None where it does not crush: no strength, a
+    ring interface), and the resultants and state of ``states`` (JointState rows of the last converged step, when
+    there is one: :func:`bridgefem.analysis.mechanism.joint_states`)."""
+    by_id = {js.id: js for js in states or []}
+    j = scene.joints
+    friction = {"base": scene.abutments.friction, "ring": j.ring_interface_friction}
+    out = []
+    for jt in ring.joints:
+        js = by_id.get(jt.id)
+        out.append({"id": jt.id, "kind": jt.kind, "blocks": [jt.left, jt.right],
+                    "points": [jt.intrados.tolist(), jt.extrados.tolist()],
+                    **({"curve": jt.curve.tolist()} if jt.curve is not None else {}),
+                    "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
+                    "friction": friction.get(jt.kind, j.friction),
+                    "cohesion": j.ring_cohesion if jt.kind == "ring" else 0.0,
+                    "compressive_strength": None if jt.kind == "ring" else scene.masonry.compressive_strength,
+                    **({"normal_force": js.normal_force, "shear_force": js.shear_force,
+                        "eccentricity": js.eccentricity, "open_fraction": js.open_fraction,
+                        "opening": js.opening, "hinge": js.hinge, "sliding": js.sliding, "separated": js.separated,
+                        "crushed_fraction": js.crushed_fraction, "compressed_depth": js.compressed_depth,
+                        "stress_block_depth": js.stress_block_depth} if js else {})})
+    return out
+
+
 def load_entries(scene, ring, sides: list[str | None]) -> list[dict]:
     """The ``loads`` entry of results.json: each [[load]] table with its centre ``x`` (m); ``side``: the voussoir
     that carries a point load on a joint ("left" | "right" of the joint, "split": both; ``sides``, the rigid-block
-    LP's least favourable choice; None off the joints, and over a fill, where the loads act on the road);
+    LP's least favourable choice; None off the joints, and over a fill, where the loads act on the road); ``point``
+    [x, y] (m): where it acts, on the extrados (a point load; a patch: its centre, on the road over a fill);
+    ``forces``: how the rigid-block LP applies it on a bare ring, per carrying voussoir its ``block``, ``point``
+    [x, y] and vertical ``force`` (N per unit load level; :func:`bridgefem.limit.ring_blocks.load_forces`);
     ``snapped_to_joint`` and ``moved_by`` (m): the joint a point load was moved onto and how far
     (:func:`bridgefem.structure.ring.snapped_loads`; None and 0 for a load that acts where it was given)."""
     snapped = {s.index: s for s in snapped_loads(scene, ring)}
+    chosen = tuple((sides[i] if i < len(sides) else None) or "split" for i in range(len(scene.loads)))
+    parts = load_forces(scene, ring, chosen)
+    road = None if scene.fill is None else ring.crown_extrados + scene.fill.depth
     out = []
-    for i, ld in enumerate(scene.loads):
+    for i, (ld, (blocks, points, forces)) in enumerate(zip(scene.loads, parts)):
         s = snapped.get(i)
         side = sides[i] if scene.fill is None and i < len(sides) else None
-        out.append({"kind": ld.kind, "position": ld.position, "x": sum(ld.x_range(scene.arch.span)) / 2,
+        x = sum(ld.x_range(scene.arch.span)) / 2
+        where = [x, road] if road is not None else ([float(points[:, 0].mean()), float(points[:, 1].mean())]
+                                                    if ld.kind == "point" else ring.extrados_point(x).tolist())
+        out.append({"kind": ld.kind, "position": ld.position, "x": x, "point": where,
                     "length": ld.length, "factor": ld.factor, "side": side,
-                    "snapped_to_joint": s.joint if s else None, "moved_by": s.moved_by if s else 0.0})
+                    "snapped_to_joint": s.joint if s else None, "moved_by": s.moved_by if s else 0.0,
+                    "forces": [{"block": int(b), "point": p.tolist(), "force": float(f[1])}
+                               for b, p, f in zip(blocks, points, forces)]})
     return out
 
 
@@ -157,7 +209,8 @@ def _reactions(an: Analysis) -> list[dict]:
         return []
     ring = an.ring
     on_ground = [js.id for js in an.joints if ring.joints[js.id].left is None or ring.joints[js.id].right is None]
-    names = {ring.joints[0].id: "left springing", ring.joints[ring.n_voussoirs].id: "right springing"}
+    names = {j.id: f"{side} springing" + (f" of ring {k}" if ring.n_rings > 1 else "")
+             for side in ("left", "right") for k, j in enumerate(ring.springings(side))}
     if an.scene.abutments.elastic:
         names = {j.id: f"{side} abutment base" for j, side in zip(ring.bases, ("left", "right"))}
     return [{"joint": jid, "at": names.get(jid, "ground"), "horizontal": float(h), "vertical": float(v)}
@@ -339,7 +392,7 @@ def _fill_polygon(an: Analysis) -> np.ndarray | None:
     if fill is None:
         return None
     box = fill_outline(an.ring, fill.depth, fill.extension)
-    extrados = np.vstack([v.extrados for v in an.ring.voussoirs])
+    extrados = np.vstack([v.extrados for v in an.ring.outer_voussoirs])
     extrados = extrados[np.argsort(-extrados[:, 0])]
     corners = [[box.x_left, box.y_base], [box.x_left, box.y_road], [box.x_right, box.y_road],
                [box.x_right, box.y_base]]

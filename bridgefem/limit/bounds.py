@@ -32,7 +32,7 @@ from ..scene.model import Scene
 from .bounds_lower import lower_bound
 from .bounds_model import LimitProblem, bridge_problem
 from .bounds_upper import upper_bound
-from .rigid_block import joint_motion
+from .rigid_block import joint_mechanism, joint_motion
 
 BOUNDS_MODEL = ("rigid voussoirs with no-tension Coulomb joints (associative), the fill a plane-strain "
                 "Mohr-Coulomb continuum (associated flow; cut-off on the in-plane mean stress), no-tension Coulomb "
@@ -113,14 +113,14 @@ def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
 
 
 def upper_mechanism(b: Bounds) -> dict | None:
-    """The upper bound's mechanism of the blocks: joints with a relative rotation (hinges) or slip (sliding),
-    as the rigid-block LP reports them, relative to the largest block or fill speed (a local failure of the fill
+    """The upper bound's mechanism of the blocks by the structure's joints: joints with a relative rotation (hinges)
+    or slip (sliding), ring interfaces that open (separated), as the rigid-block LP reports them, relative to the largest block or fill speed (a local failure of the fill
     moves no joint; None without an upper bound)."""
     if b.block_velocities is None or not b.problem.blocks.n_joints:
         return None
     fill = 0.0 if b.soil_velocities is None else float(np.linalg.norm(b.soil_velocities, axis=1).max())
-    motion = joint_motion(b.problem.blocks, b.block_velocities, fill)
-    return {"hinges": motion.hinges, "sliding": motion.sliding}
+    mech = joint_mechanism(b.problem.blocks, joint_motion(b.problem.blocks, b.block_velocities, fill))
+    return {"hinges": mech.hinges, "sliding": mech.sliding, "separated": mech.separated}
 
 
 def bounds_summary(b: Bounds) -> dict:

@@ -216,10 +216,11 @@ def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) ->
 
 
 def _extrados_points(ring: ArchRing, size: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the voussoirs' extrados polylines, left to right, about ``size`` apart (m), and the voussoir
-    of each segment between consecutive points (kinks kept)."""
-    pts, owner = [ring.voussoirs[0].extrados[:1]], []
-    for v in ring.voussoirs:
+    """Points of the outer ring's voussoirs' extrados polylines (the barrel's, under the fill), left to right, about
+    ``size`` apart (m), and the voussoir of each segment between consecutive points (kinks kept)."""
+    outer = ring.outer_voussoirs
+    pts, owner = [outer[0].extrados[:1]], []
+    for v in outer:
         e = v.extrados
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(e, axis=0), axis=1))])
         k = max(1, int(math.ceil(s[-1] / size - 1e-9)))

@@ -36,6 +36,14 @@ becomes the tangent polygon of |m_j| <= n_j (t_j - n_j / (f_c w)) / 2. The defic
 as :meth:`bridgefem.laws.base.BlockYield.relaxations` says; :func:`statics` reads the law's moment capacity; the
 Tresca fixed point's admissibility test reads the shear rows as Coulomb's.
 
+**Interfaces and cohesion.** A joint may be one straight *piece* of a longer joint of the structure
+(``BlockModel.joint_ids``: a curved ring interface is its chords, each an LP joint). A piece of an *interface*
+(``BlockModel.interface``: the bed between two rings) never crushes: whatever the law, its moment rows are the
+no-tension rows ``|m_j| <= n_j t_j / 2`` (a row of the law on the moment keeps its shear coefficient and takes
+``-t_j / 2`` on ``n`` and 0 on the right-hand side). ``BlockModel.cohesion`` (N per joint, default 0) is a shear
+capacity at no normal force, ``|s_j| <= mu_j n_j + c_j``, in every programme (a ring interface's mortar bond:
+``ring_cohesion`` x chord length x width).
+
 The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
 programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
 decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
@@ -59,7 +67,11 @@ the right block with respect to the left one is described by the relative rotati
 ``T . [v]`` and the opening ``N . [v](e) = N . [v](c) - e [omega]``. Since the opening is nonnegative along the
 joint, a hinge with ``[omega] > 0`` is at the end ``b`` (extrados) and one with ``[omega] < 0`` at ``a`` (intrados).
 Virtual work: ``d . u + lambda l . u = D`` where ``D = sum c_j |z_j|`` is the cohesive dissipation (zero for the
-associative programme, hence ``d . u = -lambda``).
+associative programme without cohesion, hence ``d . u = -lambda``). The mechanism by the structure's joints
+(:func:`joint_mechanism`, ``LPResult.by_joint``): a joint of one piece is a hinge or slides as above; a joint of
+interface pieces (a ring interface) *separates* where a piece opens beyond the dilatancy of its slip,
+``max_e N . [v](e) - mu |T . [v]| = N . [v](c) + |[omega]| t/2 - mu |slip| > 0``, and slides where a piece slips;
+it is never a hinge.
 
 **Non-associative friction** (Gilbert, Casapulla & Ahmed 2006, Computers & Structures 84:873): associative
 friction lets sliding joints dilate and overestimates the collapse load. The *Tresca fixed point* replaces the
@@ -128,7 +140,11 @@ class BlockModel:
     dead, live: (nb, 3) generalised loads (Fx, Fy in N; M in N·m, counter-clockwise), live for unit load factor;
     joint_a, joint_b: (nj, 2) joint start and end points (m); the normal (T_y, -T_x) must point left -> right;
     joint_left, joint_right: (nj,) block ids (-1: ground); friction: (nj,) Coulomb coefficients;
-    law: the joints' law, whose :meth:`bridgefem.laws.base.JointLaw.block_yield` gives their yield rows.
+    law: the joints' law, whose :meth:`bridgefem.laws.base.JointLaw.block_yield` gives their yield rows;
+    joint_ids: (nj,) the structure's joint each joint is a piece of (None: joint k is the structure's joint k);
+    interface: (nj,) bool, the pieces of interfaces between rings, which never crush and separate rather than hinge
+    (None: none); cohesion: (nj,) shear capacity at no normal force, N (None: none). Module docstring,
+    *Interfaces and cohesion*.
     """
 
     ref: np.ndarray
@@ -140,6 +156,9 @@ class BlockModel:
     joint_right: np.ndarray
     friction: np.ndarray
     law: type[JointLaw] | JointLaw = CoulombJoints
+    joint_ids: np.ndarray | None = None
+    interface: np.ndarray | None = None
+    cohesion: np.ndarray | None = None
 
     @property
     def n_blocks(self) -> int:
@@ -148,6 +167,40 @@ class BlockModel:
     @property
     def n_joints(self) -> int:
         return len(self.joint_a)
+
+    @property
+    def structure_joints(self) -> np.ndarray:
+        """(nj,) the structure's joint id of each joint (``joint_ids``, or 0 .. nj - 1)."""
+        return np.arange(self.n_joints) if self.joint_ids is None else np.asarray(self.joint_ids, int)
+
+    @property
+    def interfaces(self) -> np.ndarray:
+        """(nj,) bool: the pieces of interfaces between rings (``interface``, or none)."""
+        return np.zeros(self.n_joints, bool) if self.interface is None else np.asarray(self.interface, bool)
+
+    @property
+    def cohesions(self) -> np.ndarray:
+        """(nj,) shear capacity at no normal force, N (``cohesion``, or zeros)."""
+        return np.zeros(self.n_joints) if self.cohesion is None else np.asarray(self.cohesion, float)
+
+    def pieces_at(self, joints: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For points ``position`` (m) along the structure's ``joints`` (from their start), the LP joint that holds
+        each (the piece of its joint whose stretch of the summed chord lengths contains it; the last piece beyond)
+        and the point's distance (m) from that piece's start."""
+        joints, position = np.asarray(joints, int), np.asarray(position, float)
+        if self.joint_ids is None:
+            return joints, position
+        ids = self.structure_joints
+        t = self.frames()[0]
+        start = np.zeros(self.n_joints)  # each piece's distance from its joint's start
+        for j in np.unique(ids):
+            k = np.flatnonzero(ids == j)
+            start[k] = np.concatenate([[0.0], np.cumsum(t[k])[:-1]])
+        piece = np.empty(len(joints), int)
+        for j in np.unique(joints):
+            at, k = joints == j, np.flatnonzero(ids == j)
+            piece[at] = k[np.clip(np.searchsorted(start[k], position[at], side="right") - 1, 0, len(k) - 1)]
+        return piece, position - start[piece]
 
     def frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Joint lengths t (m), centres c, unit tangents T and unit normals N (arrays over joints)."""
@@ -167,6 +220,18 @@ def generalised_loads(ref: np.ndarray, blocks, points, forces) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class JointMechanism:
+    """A mechanism by the structure's joints (:attr:`BlockModel.joint_ids`): the ids of the joints that are hinges,
+    where each hinge sits ("intrados": at its start point, "extrados": at its end), the joints that slide and the
+    interfaces that separate."""
+
+    hinges: list[int] = field(default_factory=list)
+    hinge_positions: dict[int, str] = field(default_factory=dict)
+    sliding: list[int] = field(default_factory=list)
+    separated: list[int] = field(default_factory=list)
+
+
 @dataclass
 class LPResult:
     """Outcome of a rigid-block analysis (all arrays over joints/blocks in model order).
@@ -177,14 +242,15 @@ class LPResult:
     level_seeded: non-associative runs, the level of the first Tresca LP (shear capacities mu x the seed's normal
     forces; None without an optimum);
     status: "limit load found" | "unstable under self-weight" | "no collapse (unbounded)";
-    hinges / sliding: joint ids with a relative rotation / slip in the mechanism; hinge_positions: joint id ->
+    hinges / sliding: the model's joints with a relative rotation / slip in the mechanism; hinge_positions: joint ->
     "intrados" (start point a) | "extrados" (end point b); joint_forces: n (N), s (N), m (N·m);
     block_velocities: (nb, 3) u, v (m/s-like) and omega (rad) at the reference points, live-load work = 1
     (dead-load-only problems: largest block speed = 1); joint_rotation, joint_slip: relative motions;
     work_dead, work_live: d.u and l.u; dissipation: cohesive dissipation of the last non-associative LP;
     iterations: LPs solved; converged: False if the non-associative iteration hit its limit; time_s: wall time (s);
     load_sides: per scene load, the block ("left" | "right" | "split") that carries it when it lies on a joint,
-    else None (:func:`bridgefem.limit.collapse.collapse_load`).
+    else None (:func:`bridgefem.limit.collapse.collapse_load`); by_joint: the mechanism by the structure's joints
+    (:func:`joint_mechanism`: a ring interface's chords are one joint, which separates or slides).
     """
 
     load: float | None
@@ -207,6 +273,7 @@ class LPResult:
     converged: bool = True
     time_s: float = 0.0
     load_sides: list[str | None] = field(default_factory=list)
+    by_joint: JointMechanism = field(default_factory=JointMechanism)
 
     def to_dict(self) -> dict:
         """JSON-serialisable copy (arrays become lists, joint ids stay ints)."""
@@ -219,6 +286,8 @@ class LPResult:
                 return [conv(x) for x in v]
             if isinstance(v, np.generic):
                 return v.item()
+            if isinstance(v, JointMechanism):
+                return conv(v.__dict__)
             return v
         return {k: conv(v) for k, v in self.__dict__.items()}
 
@@ -258,9 +327,12 @@ class _Programme:
 
     def joint_yield(self, mu: np.ndarray, capacity: np.ndarray | None = None) -> BlockYield:
         """The joints' yield rows (their law's, :meth:`bridgefem.laws.base.JointLaw.block_yield`) with the Coulomb
-        coefficients ``mu`` and the added shear ``capacity`` (N; default none)."""
-        nj = self.model.n_joints
-        return self.model.law.block_yield(self.t, mu, np.zeros(nj) if capacity is None else capacity)
+        coefficients ``mu`` and the shear capacity at no normal force of the model's cohesion plus ``capacity`` (N;
+        default none); on interface pieces the no-tension moment rows (:func:`_no_crushing`)."""
+        model = self.model
+        shear = model.cohesions if capacity is None else model.cohesions + capacity
+        rules = model.law.block_yield(self.t, mu, shear)
+        return _no_crushing(rules, self.t, model.interfaces) if model.interfaces.any() else rules
 
     def yield_rows(self, mu: np.ndarray, extra: np.ndarray) -> sp.csr_matrix:
         """The yield rows of every joint (for Coulomb ``+-m - n t/2`` and ``+-s - mu n``, 4 per joint), then
@@ -300,9 +372,23 @@ class _Programme:
                        bounds=self.bounds, method=_LP_METHOD)
 
 
-def relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Relative rotation [omega] and slip T.[v] of the right block with respect to the left one at each joint."""
-    _, c, tang, _ = model.frames()
+def _no_crushing(rules: BlockYield, t: np.ndarray, interface: np.ndarray) -> BlockYield:
+    """``rules`` with the moment rows of the ``interface`` joints made the no-tension rows: each row on the moment
+    m takes ``-t/2`` on the normal force and 0 on its right-hand side, so that it reads ``+-m - n t/2 <= 0`` (t: the
+    joints' lengths, m) whatever the law's compressive strength; their least normal force is 0."""
+    moment = np.zeros(rules.per_joint, bool)
+    moment[rules.rows[rules.cols == 2]] = True
+    on_n = (rules.cols == 0) & moment[rules.rows]
+    vals, rhs = rules.vals.copy(), rules.rhs.astype(float)
+    vals[np.ix_(interface, on_n)] = -t[interface, None] / 2
+    rhs[np.ix_(interface, moment)] = 0.0
+    return rules._replace(vals=vals, rhs=rhs, n_min=np.where(interface, 0.0, rules.n_min))
+
+
+def _relative_velocity(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative velocity [v] (nj, 2) at each joint's centre and relative rotation [omega] (nj,) of the right block
+    with respect to the left one, for block velocities ``vel`` (nb, 3)."""
+    _, c, _, _ = model.frames()
     padded = np.vstack([vel, np.zeros(3)])  # index -1: the ground, at rest
     ref = np.vstack([model.ref, np.zeros(2)])
 
@@ -313,29 +399,58 @@ def relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.
 
     v_r, w_r = at_centre(model.joint_right)
     v_l, w_l = at_centre(model.joint_left)
-    return w_r - w_l, np.einsum("ij,ij->i", v_r - v_l, tang)
+    return v_r - v_l, w_r - w_l
+
+
+def relative_motion(model: BlockModel, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative rotation [omega] and slip T.[v] of the right block with respect to the left one at each joint."""
+    dv, rot = _relative_velocity(model, vel)
+    return rot, np.einsum("ij,ij->i", dv, model.frames()[2])
 
 
 @dataclass(frozen=True)
 class JointMotion:
     """What a mechanism does at the joints: ``rotation`` [omega] (rad) and ``slip`` T.[v] (m) per joint
-    (:func:`relative_motion`), and the ids of the joints that rotate (``hinges``) and slide (``sliding``)."""
+    (:func:`relative_motion`), and the ids of the joints that rotate (``hinges``: not interface pieces), slide
+    (``sliding``) and, interface pieces, open beyond their slip's dilatancy (``separated``; module docstring)."""
 
     rotation: np.ndarray
     slip: np.ndarray
     hinges: list[int]
     sliding: list[int]
+    separated: list[int] = field(default_factory=list)
 
 
 def joint_motion(model: BlockModel, vel: np.ndarray, other_speed: float = 0.0) -> JointMotion:
     """The joints that the block velocities ``vel`` (nb, 3) move. A joint is a hinge (sliding) where its relative
     rotation times the model's extent (its slip) exceeds ``MECHANISM_TOL`` x the largest motion: the largest such
-    rotation or slip, or ``other_speed`` (e.g. the largest speed of a fill that moves with the blocks)."""
-    rot, slip = relative_motion(model, vel)
+    rotation or slip, or ``other_speed`` (e.g. the largest speed of a fill that moves with the blocks); an interface
+    piece is no hinge but separated where its largest opening beyond its slip's dilatancy,
+    ``N.[v](c) + |[omega]| t/2 - mu |slip|``, exceeds the same."""
+    dv, rot = _relative_velocity(model, vel)
+    t, _, tang, nrm = model.frames()
+    slip = np.einsum("ij,ij->i", dv, tang)
     size = np.ptp(np.vstack([model.joint_a, model.joint_b]), axis=0).max()  # extent of the model, m
     scale = max(np.abs(rot).max() * size, np.abs(slip).max(), other_speed, 1e-300)
-    return JointMotion(rot, slip, [int(j) for j in np.nonzero(np.abs(rot) * size > MECHANISM_TOL * scale)[0]],
-                       [int(j) for j in np.nonzero(np.abs(slip) > MECHANISM_TOL * scale)[0]])
+    interface = model.interfaces
+    opening = np.einsum("ij,ij->i", dv, nrm) + np.abs(rot) * t / 2 - model.friction * np.abs(slip)
+    return JointMotion(rot, slip,
+                       [int(j) for j in np.nonzero((np.abs(rot) * size > MECHANISM_TOL * scale) & ~interface)[0]],
+                       [int(j) for j in np.nonzero(np.abs(slip) > MECHANISM_TOL * scale)[0]],
+                       [int(j) for j in np.nonzero((opening > MECHANISM_TOL * scale) & interface)[0]])
+
+
+def joint_mechanism(model: BlockModel, motion: JointMotion) -> JointMechanism:
+    """``motion`` by the structure's joints: a joint is a hinge, slides or separates when one of its pieces does
+    (a joint of one piece: its hinge's position from the sign of its rotation)."""
+    ids = model.structure_joints
+
+    def mapped(joints):
+        return sorted({int(ids[j]) for j in joints})
+
+    return JointMechanism(mapped(motion.hinges),
+                          {int(ids[j]): ("extrados" if motion.rotation[j] > 0 else "intrados") for j in motion.hinges},
+                          mapped(motion.sliding), mapped(motion.separated))
 
 
 def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesion: np.ndarray) -> None:
@@ -351,6 +466,7 @@ def _fill_result(res: LPResult, model: BlockModel, prog: _Programme, sol, cohesi
     res.block_velocities, res.joint_rotation, res.joint_slip = vel, motion.rotation, motion.slip
     res.hinges, res.sliding = motion.hinges, motion.sliding
     res.hinge_positions = {j: ("extrados" if motion.rotation[j] > 0 else "intrados") for j in res.hinges}
+    res.by_joint = joint_mechanism(model, motion)
     res.work_dead = float(model.dead.ravel() @ vel.ravel())
     res.work_live = float(model.live.ravel() @ vel.ravel())
     z = np.asarray(sol.ineqlin.marginals)
@@ -411,16 +527,17 @@ def _solve(prog: _Programme, deficit: bool, friction_model: str, beta: float, rt
         seeded = history[0] * prog.fref
         last = history[-_WINDOW:]
         steady = len(last) == _WINDOW and max(last) - min(last) <= rtol * max(abs(last[-1]), 1.0)
-        if steady and _coulomb_excess(sol.x, mu) <= rtol:
+        if steady and _coulomb_excess(sol.x, mu, prog.model.cohesions / prog.fref) <= rtol:
             return sol, cohesion, iterations, True, (first, seeded)
         n_tilde = n_tilde + beta * (n - n_tilde)
     return sol, cohesion, iterations, False, (first, seeded)
 
 
-def _coulomb_excess(x: np.ndarray, mu: np.ndarray) -> float:
-    """Largest excess of a state's shear over its own Coulomb limit, ``max(|s| - mu n)`` / the largest ``n``."""
+def _coulomb_excess(x: np.ndarray, mu: np.ndarray, cohesion: np.ndarray) -> float:
+    """Largest excess of a state's shear over its own Coulomb limit, ``max(|s| - mu n - c)`` / the largest ``n``
+    (``x`` and the ``cohesion`` c in the programme's scaled forces)."""
     q = x[:-1].reshape(-1, 3)
-    return float(np.max(np.abs(q[:, 1]) - mu * q[:, 0]) / max(q[:, 0].max(), 1e-300))
+    return float(np.max(np.abs(q[:, 1]) - mu * q[:, 0] - cohesion) / max(q[:, 0].max(), 1e-300))
 
 
 def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed: np.ndarray | None = None,
@@ -455,9 +572,9 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
 class Statics:
     """How far given joint forces are from the programme's constraints at a load level (:func:`statics`):
     ``equilibrium`` (nb, 3), the residual ``A q + level l + d`` of every block (Fx, Fy in N; M in N·m about its
-    reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n (N) and
-    ``eccentricity`` = |m| - the law's moment capacity (N·m; Coulomb: n t/2, with crushing the tangent polygon of
-    :mod:`bridgefem.laws.crushing`), each <= 0 where the yield conditions hold."""
+    reference point; zero in equilibrium); per joint ``tension`` = -n (N), ``friction`` = |s| - mu n - c (N, c the cohesion)
+    and ``eccentricity`` = |m| - the law's moment capacity (N·m; Coulomb and interface pieces: n t/2, with crushing
+    the tangent polygon of :mod:`bridgefem.laws.crushing`), each <= 0 where the yield conditions hold."""
 
     equilibrium: np.ndarray
     tension: np.ndarray
@@ -473,8 +590,9 @@ def statics(model: BlockModel, level: float, forces: np.ndarray) -> Statics:
     prog = _Programme(model)
     n, s, m = np.asarray(forces, float).T
     residual = prog.A @ np.asarray(forces, float).ravel() + level * model.live.ravel() + model.dead.ravel()
-    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n,
-                   np.abs(m) - model.law.moment_capacity(prog.t, n))
+    capacity = np.where(model.interfaces, n * prog.t / 2, model.law.moment_capacity(prog.t, n))
+    return Statics(residual.reshape(-1, 3), -n, np.abs(s) - model.friction * n - model.cohesions,
+                   np.abs(m) - capacity)
 
 
 def frozen_capacity_collapse(model: BlockModel, normal_forces: np.ndarray) -> LPResult:

@@ -18,7 +18,10 @@ x to the right, y up, moments counter-clockwise; loads act downwards (-y).
    point above it, a patch uniform per horizontal metre over its x-range and shared by the voussoirs under it; a
    point load exactly above a joint acts at the joint's extrados corner, on the voussoir its side names;
 5. the joints from intrados (``joint_a``) to extrados (``joint_b``), their normal from the left block into the right
-   one; the ring's joints take the scene's friction, the abutments' bases the abutments' friction.
+   one; the ring's joints take the scene's friction, the abutments' bases the abutments' friction; a ring
+   interface (curved) is its chords (``BlockModel.joint_ids`` maps them back), each an *interface* piece that never
+   crushes, with the ring friction and the shear capacity ``ring_cohesion x chord length x width`` (N) at no
+   normal force (``BlockModel.cohesion``).
 
 Two variants load the same blocks with the FE's own forces, for the FE's checks: :func:`ring_under_forces` (the
 forces a fill transmits across the arch-fill interface) and :func:`ring_with_loads` (the FE's assembled block
@@ -59,57 +62,73 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     if len(sides) != len(scene.loads):
         raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
     ring = scene_ring(scene, thickness)
-    blocks = ring.voussoirs + ring.abutments
-    area, centroid = zip(*(polygon_area_centroid(b.polygon) for b in blocks))
-    ref = np.array(centroid)
+    ref = np.array([polygon_area_centroid(b.polygon)[1] for b in ring.voussoirs + ring.abutments])
     nb = len(ref)
-    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
-                           + [scene.abutments.unit_weight] * len(ring.abutments))
-    weight = unit_weight * a.width * np.array(area)
-    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -weight]))
+    dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -block_weights(scene, ring)]))
     if scene.fill is not None:
         dead = dead + _overburden(ring, scene, ref)
     live_pattern = live_loads(scene, ring, ref, sides) if live else np.zeros((nb, 3))
     friction = {"base": scene.abutments.friction, "ring": scene.joints.ring_interface_friction}
     pieces = [(j, a, b) for j in ring.joints for a, b in zip(*j.chords)]  # a ring interface: its curve's chords
+    joint_a, joint_b = np.array([a for _, a, _ in pieces]), np.array([b for _, _, b in pieces])
+    interface = np.array([j.kind == "ring" for j, _, _ in pieces])
     return BlockModel(
-        ref=ref, dead=dead, live=live_pattern,
-        joint_a=np.array([a for _, a, _ in pieces]), joint_b=np.array([b for _, _, b in pieces]),
+        ref=ref, dead=dead, live=live_pattern, joint_a=joint_a, joint_b=joint_b,
         joint_left=np.array([-1 if j.left is None else j.left for j, _, _ in pieces]),
         joint_right=np.array([-1 if j.right is None else j.right for j, _, _ in pieces]),
         friction=np.array([friction.get(j.kind, scene.joints.friction) for j, _, _ in pieces]),
-        law=scene_law(scene) if law is None else law)
+        law=scene_law(scene) if law is None else law,
+        **({} if not interface.any() else dict(
+            joint_ids=np.array([j.id for j, _, _ in pieces]), interface=interface,
+            cohesion=np.where(interface, scene.joints.ring_cohesion * a.width
+                              * np.linalg.norm(joint_b - joint_a, axis=1), 0.0))))
+
+
+def block_weights(scene: Scene, ring) -> np.ndarray:
+    """(nb,) the weight (N) of each block of ``ring``, voussoirs then abutments (step 2 of the module docstring):
+    unit weight x polygon area x the arch's width."""
+    area = np.array([polygon_area_centroid(b.polygon)[0] for b in ring.voussoirs + ring.abutments])
+    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
+                           + [scene.abutments.unit_weight] * len(ring.abutments))
+    return unit_weight * scene.arch.width * area
 
 
 def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:
     """(nb, 3) generalised live loads (Fx, Fy in N; M in N·m about ``ref``) of a scene's loads for a unit load
     factor on the voussoirs of ``ring`` (step 4 of the module docstring); ``sides``: one per scene load, the side
     ("left" | "right" | "split") that carries it when it is a point load on a joint."""
+    parts = load_forces(scene, ring, sides)
+    if not parts:
+        return np.zeros((len(ref), 3))
+    blocks, points, forces = (np.concatenate(x) for x in zip(*parts))
+    return generalised_loads(ref, blocks, points, forces)
+
+
+def load_forces(scene: Scene, ring, sides: tuple[str, ...]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per scene load, the vertical forces it puts on the outer ring's voussoirs for a unit load factor (step 4 of
+    the module docstring): (blocks (k,), points (k, 2) on the extrados in m, forces (k, 2) in N); ``sides`` as in
+    :func:`live_loads`."""
     outer = ring.outer_voussoirs
     ext = np.vstack([v.extrados for v in outer])
     ids = np.array([v.id for v in outer])
     x0 = np.array([v.extrados[0, 0] for v in outer])  # block ids[k] spans x0[k]..x1[k] on the extrados
     x1 = np.array([v.extrados[-1, 0] for v in outer])
-    on, xs, fy = [], [], []
+    out = []
     for ld, side in zip(scene.loads, sides):
         lo, hi = ld.x_range(scene.arch.span)
         if ld.kind == "point":
-            carriers = point_load_blocks(ring, lo, side)
+            on = np.array(point_load_blocks(ring, lo, side))
             j = joint_under(ring, lo)
-            on.append(np.array(carriers))
-            xs.append(np.full(len(carriers), lo if j is None else ring.joints[j].extrados[0]))
-            fy.append(np.full(len(carriers), -ld.factor / len(carriers)))
+            x = np.full(len(on), lo if j is None else ring.joints[j].extrados[0])
+            fy = np.full(len(on), -ld.factor / len(on))
         else:
             left, right = np.maximum(x0, lo), np.minimum(x1, hi)
             k = np.nonzero(right > left)[0]
-            on.append(ids[k])
-            xs.append(0.5 * (left[k] + right[k]))
-            fy.append(-ld.factor * (right[k] - left[k]) / (hi - lo))
-    if not on:
-        return np.zeros((len(ref), 3))
-    x, f = np.concatenate(xs), np.concatenate(fy)
-    return generalised_loads(ref, np.concatenate(on), np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
-                             np.column_stack([np.zeros(len(f)), f]))
+            on, x = ids[k], 0.5 * (left[k] + right[k])
+            fy = -ld.factor * (right[k] - left[k]) / (hi - lo)
+        out.append((on, np.column_stack([x, np.interp(x, ext[:, 0], ext[:, 1])]),
+                    np.column_stack([np.zeros(len(fy)), fy])))
+    return out
 
 
 def ring_under_forces(scene: Scene, blocks, points, dead_forces, live_forces) -> BlockModel:

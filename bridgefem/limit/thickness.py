@@ -19,9 +19,14 @@ load:
 4. the stable end is the least thickness; the deficit LP just below it gives the mechanism (hinges, slips).
 
 Lengths in m.
+
+A barrel of rings (``[arch] rings``) each thinner than the least thickness stands only when its ring interfaces
+carry enough shear: :func:`least_ring_friction` finds the least ring-interface friction that lets it carry its
+self-weight, by the same deficit LP.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from ..laws.crushing import strength_text
@@ -79,7 +84,8 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
     lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
     thickest = analyse(hi)
     if thickest.status != "stable under self-weight":
-        how = f"joints {thickest.sliding} slide" if thickest.sliding else f"hinges form at joints {thickest.hinges}"
+        mech = thickest.by_joint
+        how = f"joints {mech.sliding} slide" if mech.sliding else f"hinges form at joints {mech.hinges}"
         raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
                                 f"self-weight with friction {scene.joints.friction:g} ({friction_model})"
                                 f"{strength_text(scene)}: {how}")
@@ -96,3 +102,54 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
         radius = (a.span ** 2 / 4 + a.rise ** 2) / (2 * a.rise) + hi / 2
         ratio = hi / radius
     return ThicknessResult(hi, ratio, radius, mechanism, (lo, hi), evals)
+
+
+class NoRingFriction(ValueError):
+    """The barrel's rings carry their weight at every ring-interface friction, or at none in the searched range."""
+
+
+@dataclass
+class RingFrictionResult:
+    """The least ring-interface friction with which a barrel of rings carries its self-weight: ``friction`` (the
+    stable end of ``bracket``, (falls, stands)); ``mechanism``: the deficit LP's mechanism just below it;
+    ``evaluations``: frictions analysed."""
+
+    friction: float
+    mechanism: LPResult
+    bracket: tuple[float, float]
+    evaluations: int
+
+
+def least_ring_friction(scene: Scene, highest: float = 10.0, atol: float = 1e-5,
+                        friction_model: str = "associative") -> RingFrictionResult:
+    """Bisect the ring-interface friction (``[joints] ring_friction``; all else fixed, no live load) for the least
+    one with which the barrel carries its self-weight.
+
+    1. a friction stands when the dead-load deficit of the scene's blocks with it is zero
+       (:func:`~bridgefem.limit.rigid_block.dead_load_deficit`);
+    2. frictionless interfaces (the rings press on each other but share no shear beyond the cohesion) and
+       ``highest`` are analysed first: if the first stands or the second falls, :class:`NoRingFriction`;
+    3. the bracket (0, ``highest``) is halved until its width is below ``atol``;
+    4. its stable end is the least friction; the deficit LP at its unstable end gives the mechanism.
+    """
+    evals = 0
+
+    def analyse(mu: float) -> LPResult:
+        nonlocal evals
+        evals += 1
+        joints = dataclasses.replace(scene.joints, ring_friction=mu)
+        model = ring_model(dataclasses.replace(scene, joints=joints, loads=()), live=False)
+        return dead_load_deficit(model, friction_model)[1]
+
+    lo, hi = 0.0, highest
+    if analyse(lo).status == "stable under self-weight":
+        raise NoRingFriction("the barrel carries its self-weight with frictionless ring interfaces")
+    if analyse(hi).status != "stable under self-weight":
+        raise NoRingFriction(f"the barrel does not carry its self-weight with ring friction {hi:g}")
+    while hi - lo > atol:
+        mid = 0.5 * (lo + hi)
+        if analyse(mid).status == "stable under self-weight":
+            hi = mid
+        else:
+            lo = mid
+    return RingFrictionResult(hi, analyse(lo), (lo, hi), evals)
