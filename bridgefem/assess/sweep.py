@@ -134,7 +134,8 @@ def lp_at(scene: Scene, x0: float, refined: bool = False) -> PositionLP:
         factor = 0.0
     else:
         factor = res.level * scale
-    return PositionLP(x0, factor, res.status, tuple(res.hinges), tuple(res.sliding), pl.on, pl.load, refined)
+    mech = res.by_joint  # by the structure's joint ids (a ring interface is several LP pieces)
+    return PositionLP(x0, factor, res.status, tuple(mech.hinges), tuple(mech.sliding), pl.on, pl.load, refined)
 
 
 def _spread(comm, work: list, fn: Callable) -> list:
