@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import ROOT
 from scipy.integrate import quad
 
 import bridgefem
@@ -19,7 +20,6 @@ from bridgefem.limit.rigid_block import generalised_loads, solve_blocks
 from bridgefem.limit.ring_blocks import ring_model
 from bridgefem.scene.vehicles import DISPERSIONS
 from bridgefem.structure.ring import scene_ring
-from conftest import ROOT
 
 PRESTWOOD = ROOT / "demos" / "prestwood.toml"
 

@@ -31,7 +31,7 @@ def rebuilt_model(data: dict) -> BlockModel:
     live = np.zeros((len(ref), 3))
     for load in data["loads"]:
         for f in load["forces"]:
-            k, (px, py) = f["block"], f["point"]
+            k, (px, _) = f["block"], f["point"]
             live[k] += [0.0, f["force"], (px - ref[k, 0]) * f["force"]]
     pieces = []
     for j in data["joints"]:
@@ -40,7 +40,8 @@ def rebuilt_model(data: dict) -> BlockModel:
             pieces.append((j, a, b, np.linalg.norm(b - a)))
     strengths = {j["compressive_strength"] for j in data["joints"]} - {None}
     mesh = SimpleNamespace(**{k: data["model"][k] for k in ("elements_through_thickness", "degree")})
-    law = (CrushingJoints.blocks(strengths.pop(), width, stations=fe_stations(SimpleNamespace(mesh=mesh)))
+    stations = fe_stations(SimpleNamespace(mesh=mesh), data["model"]["joint_nodes"])  # the FE's joints' stations
+    law = (CrushingJoints.blocks(strengths.pop(), width, stations=stations)
            if strengths else CoulombJoints)
     interface = np.array([j["kind"] == "ring" for j, *_ in pieces])
     return BlockModel(ref=ref, dead=dead, live=live, joint_a=np.array([a for _, a, _, _ in pieces]),

@@ -9,10 +9,9 @@ import pytest
 from conftest import ROOT, scene_dict
 
 import bridgefem
-
 from bridgefem.analysis.thrust import line_of_thrust
-from bridgefem.io.cli import main
 from bridgefem.assess.dispersion import dispersed_forces, dispersed_lp
+from bridgefem.io.cli import main
 from bridgefem.laws.crushing import CrushingJoints
 from bridgefem.limit.bounds import collapse_bounds
 from bridgefem.limit.collapse import collapse_load
@@ -181,10 +180,10 @@ def test_dispersed_wheel_loads_act_on_the_outer_ring():
     slide gives the monolithic ring's LP factor."""
     scene = barrel(2, ring_friction=100.0, **WHEEL)
     ring = scene_ring(scene)
-    blocks, _, forces = dispersed_forces(scene, ring, [(1e4, -1.0)], "spread-2:1")
+    blocks, _, forces = dispersed_forces(scene, ring, [(1e4, -1.0, -1.0)], "spread-2:1")
     assert set(blocks.tolist()) <= {v.id for v in ring.outer_voussoirs} and forces[:, 1].sum() == pytest.approx(-1e4)
-    assert dispersed_lp(scene, [(1e4, -1.0)], "spread-2:1").level == pytest.approx(
-        dispersed_lp(monolithic(**WHEEL), [(1e4, -1.0)], "spread-2:1").level, rel=1e-6)
+    assert dispersed_lp(scene, [(1e4, -1.0, -1.0)], "spread-2:1").level == pytest.approx(
+        dispersed_lp(monolithic(**WHEEL), [(1e4, -1.0, -1.0)], "spread-2:1").level, rel=1e-6)
 
 
 def test_the_barrel_line_of_thrust_is_the_monolithic_rings_at_collapse():

@@ -126,6 +126,8 @@ def summary(an: Analysis) -> dict:
                   "joint_pairs": an.pairs.total, "cells": an.block_mesh.n_cells, "nodes": an.block_mesh.n_nodes,
                   "element_size": an.block_mesh.element_size, "degree": an.scene.mesh.degree,
                   "elements_through_thickness": an.scene.mesh.elements_through_thickness,
+                  "joint_nodes": (list(an.block_mesh.joint_nodes) if an.block_mesh.joint_nodes is not None
+                                  else None),
                   "plane": an.scene.model.plane},
         "mesh_refinements": [asdict(r) for r in an.refinements],
         "solver": {**an.solver.stats, "load_steps": len(s.steps),
