@@ -29,7 +29,7 @@ def strong():
 
 @pytest.fixture(scope="module")
 def weak():
-    return analysis(FC, elements=16)
+    return analysis(FC)  # the joints graded for the stress block (bridgefem.analysis.stress_block)
 
 
 def test_without_strength_no_joint_crushes(strong):
