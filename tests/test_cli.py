@@ -246,8 +246,8 @@ def test_no_size_limit_holds_for_the_re_runs_on_finer_meshes(tmp_path, monkeypat
     """``run --no-size-limit`` reaches the analysis, whose automatic re-runs on finer meshes it also frees
     (tests/test_refinement.py); without it they keep the default limit."""
     from bridgefem.analysis import runner as analysis
-    from bridgefem.fe.sizing import MAX_DOFS
     from bridgefem.io import cli
+    from bridgefem.structure.sizing import MAX_DOFS
 
     class Stop(Exception):
         pass

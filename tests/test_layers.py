@@ -6,6 +6,8 @@ analysis -> results. ``limit`` (the rigid-block LP and the conic bounds) sits be
 independent check, so it never imports the FE, the solver or anything above them.
 """
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -117,3 +119,21 @@ def test_petsc_is_imported_only_where_it_was_started(path):
         names = [a.name for a in node.names] if isinstance(node, ast.Import) else (
             [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
         assert not any(n.split(".")[0] in heavy for n in names), f"{path.name} imports {names} as it loads"
+
+
+LIGHT_COMMANDS = ("lp", "min-thickness", "check")
+"""The commands that answer from the scene and the rigid-block LP alone."""
+
+
+@pytest.mark.parametrize("command", LIGHT_COMMANDS)
+def test_rigid_block_commands_load_no_fe(command):
+    """``bridgefem lp``, ``min-thickness`` and ``check`` answer without loading DOLFINx, PETSc, UFL, Gmsh,
+    matplotlib or MPI (each is a process start of a few tenths of a second; the LP takes milliseconds)."""
+    heavy = ("dolfinx", "petsc4py", "ufl", "gmsh", "matplotlib", "mpi4py")
+    probe = ("import sys; from bridgefem.io.cli import main; code = main(sys.argv[1:]); "
+             f"print(sorted(m for m in sys.modules if m.split('.')[0] in {heavy!r})); sys.exit(code)")
+    scene = PACKAGE.parent / "demos" / "bare_arch.toml"
+    proc = subprocess.run([sys.executable, "-c", probe, command, str(scene)], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "[]"

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bridgefem.fe.mesh import FILL_DEPTH_SHARE, LOAD_REFINEMENT, _gmsh_bridge, extrados_element_size
+from bridgefem.fe.mesh import LOAD_REFINEMENT, _gmsh_bridge
 from bridgefem.geometry.ring import build_ring, fill_outline
+from bridgefem.structure.sizing import FILL_DEPTH_SHARE, extrados_element_size
 
 THICKNESS, DEPTH = 1.2, 0.3  # m: a thick ring under a thin fill (depth / thickness as in #125 and #276)
 

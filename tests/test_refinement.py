@@ -20,10 +20,10 @@ from bridgefem.analysis.refinement import (
     refined_elements,
 )
 from bridgefem.analysis.runner import first_step, run_analysis
-from bridgefem.fe import sizing
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.linear import CheckedSolve, SolveBudgetSpent
 from bridgefem.status import Status
+from bridgefem.structure import sizing
 
 # campaign seed 1, scene 45 (benchmarks/campaign.py): a semicircle of 6 voussoirs at mu 0.312 (the least a
 # semicircle stands with is 0.309) under a point load of 1 % of its weight on a joint. With 4 elements through the

@@ -3,10 +3,10 @@ numbers, a large run announced with its set-up phases."""
 import pytest
 from conftest import scene_dict, write_toml
 
-from bridgefem.fe.sizing import MAX_DOFS, check_size, estimate_size
 from bridgefem.io import cli
 from bridgefem.scene.keys import SceneError
 from bridgefem.scene.reader import scene_from_dict
+from bridgefem.structure.sizing import MAX_DOFS, check_size, estimate_size
 
 
 @pytest.mark.slow

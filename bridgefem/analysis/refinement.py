@@ -61,12 +61,12 @@ from typing import Callable
 
 from mpi4py import MPI
 
-from ..fe.sizing import MAX_DOFS, check_size
 from ..limit.collapse import collapse_load
 from ..scene.keys import SceneError
 from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
 from ..status import Status
+from ..structure.sizing import MAX_DOFS, check_size
 from .evidence import AGREEMENT
 from .result import Analysis, MeshRefinement
 
@@ -174,7 +174,7 @@ def coarse_stress_block(an: Analysis) -> str:
 
 def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:
     """Twice the scene's elements through the ring thickness, or None when that exceeds
-    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.fe.sizing.check_size` with at most
+    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.structure.sizing.check_size` with at most
     ``max_dofs`` unknowns)."""
     ett = 2 * scene.mesh.elements_through_thickness
     if ett > REFINED_ELEMENTS_MAX:

@@ -54,7 +54,6 @@ from typing import Callable
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..fe.sizing import MAX_DOFS
 from ..limit.bounds import fill_bounds
 from ..limit.rigid_block import BlockModel
 from ..scene.model import Scene
@@ -66,6 +65,7 @@ from ..solver.linear import SolveBudgetSpent
 from ..solver.newton import ContactSolver, Iterate
 from ..solver.tresca import TrescaPredictor
 from ..status import Status
+from ..structure.sizing import MAX_DOFS
 from .build import BridgeModel, Clock, JointLawFactory, build_model
 from .checks import collapse_check, slip_check
 from .evidence import confirm

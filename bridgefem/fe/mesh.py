@@ -24,8 +24,8 @@ coordinates as in :mod:`bridgefem.geometry.ring`.
 
 then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
-Under a fill the extrados (shared by the outer ring and fill) is divided at :func:`extrados_element_size` (of the
-outer ring's thickness), at most ``FILL_DEPTH_SHARE`` x the fill's depth over the crown /
+Under a fill the extrados (shared by the outer ring and fill) is divided at :func:`~bridgefem.structure.sizing.extrados_element_size` (of the
+outer ring's thickness), at most ``sizing.FILL_DEPTH_SHARE`` x the fill's depth over the crown /
 ``elements_through_thickness`` (the voussoirs get as many segments along, their joints keep
 ``elements_through_thickness``), and a Gmsh size field keeps the fill at that size within the fill's depth of the
 extrados, graded to the far fill's size beyond. The road's load points (patch edges, point loads) get
@@ -59,6 +59,7 @@ from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_
 from mpi4py import MPI
 
 from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline
+from ..structure.sizing import EXTRADOS_BAND, extrados_element_size
 
 EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
 FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
@@ -68,8 +69,6 @@ FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
 BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
 BEAM_HEIGHT = 0.5  # height of a loading beam / its length
 LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the extrados element size (the fill's own scale)
-FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
-EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
 FILL_GRADING = 0.5  # growth of the fill mesh size per unit distance beyond that band (m/m)
 BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG, BEAM_TOP_TAG)
 
@@ -363,13 +362,6 @@ def _shares(curves: list[int], total: int) -> list[int]:
     return _segment_counts([_curve_length(c) for c in curves] if len(curves) > 1 else [1.0], total)
 
 
-def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
-    """Element size (m) along the extrados: the ring's, ``thickness`` / ``per_thickness``; under a fill ``depth`` (m)
-    deep over the crown at most ``FILL_DEPTH_SHARE`` x ``depth`` / ``per_thickness``, so that a thin fill over a
-    thick ring has elements through its depth and the size still halves with each doubling of ``per_thickness``."""
-    return min(thickness, FILL_DEPTH_SHARE * depth if depth is not None else thickness) / per_thickness
-
-
 def _grade_fill_from_extrados(surface: int, boundary: list[int], extrados_curves: list[int], size: float,
                               far_size: float, depth: float) -> None:
     """Gmsh size field of the fill (its ``surface`` and its ``boundary`` curves only): ``size`` (m) within
@@ -401,7 +393,7 @@ def _add_fill(geo, outline: FillOutline, corners: list[int], extrados_curves: li
     ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
     tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
     loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
-    (:func:`extrados_element_size`) along it and within the fill's depth of it (:func:`_grade_fill_from_extrados`);
+    (:func:`~bridgefem.structure.sizing.extrados_element_size`) along it and within the fill's depth of it (:func:`_grade_fill_from_extrados`);
     Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,

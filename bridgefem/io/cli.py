@@ -22,7 +22,6 @@ import sys
 import traceback
 from pathlib import Path
 
-from ..fe.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
 from ..petsc_start import launcher_rank
 from ..scene.document import key_units, resolved_document
 from ..scene.keys import SceneError
@@ -30,6 +29,7 @@ from ..scene.model import Scene
 from ..scene.petsc_options import PETSC_PREFIX
 from ..scene.reader import did_you_mean, load_scene, resolved_toml
 from ..status import Status
+from ..structure.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
 from .output import Terminated, claim, sigterm_raises
 from .targets import OutputError, failed_target, version
 
@@ -178,7 +178,7 @@ class Validated:
 def validate(args, petsc: dict) -> Validated:
     """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check``
     calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.reader.load_scene`),
-    its size (:func:`bridgefem.fe.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
+    its size (:func:`bridgefem.structure.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
     one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's and
     ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
     ``--out``)."""

@@ -23,14 +23,22 @@ import numpy as np
 from ..geometry.shapes import make_shape
 from ..scene.keys import SceneError
 from ..scene.model import Scene
-from .mesh import EXTRADOS_BAND, extrados_element_size
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
 MEMORY_PER_DOF = 120.0  # bytes per n log2 n unknowns: matrix, factor and work space (fit, see the docstring)
 LARGE_DOFS = 200_000  # unknowns above which a run is announced with its estimate and set-up phases
 MAX_DOFS = 1_000_000  # unknowns above which a run is refused (unless asked for): a limit search factorises the
 # matrix 50-100 times, which at this size takes hours on a workstation
+FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
+EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
 TRIANGLES_PER_AREA = 4.2  # unstructured triangles per h^2 of fill area (Gmsh, measured on two fills)
+
+
+def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
+    """Element size (m) along the extrados: the ring's, ``thickness`` / ``per_thickness``; under a fill ``depth`` (m)
+    deep over the crown at most ``FILL_DEPTH_SHARE`` x ``depth`` / ``per_thickness``, so that a thin fill over a
+    thick ring has elements through its depth and the size still halves with each doubling of ``per_thickness``."""
+    return min(thickness, FILL_DEPTH_SHARE * depth if depth is not None else thickness) / per_thickness
 
 
 @dataclass(frozen=True)
