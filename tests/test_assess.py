@@ -215,3 +215,27 @@ def test_mpi_two_ranks_same_answer(assessed, tmp_path):
     assert parallel["lp_adequacy_factor"] == pytest.approx(serial["lp_adequacy_factor"], rel=1e-9)
     assert parallel["adequacy_factor"] == pytest.approx(serial["adequacy_factor"], rel=1e-6)
     assert not math.isnan(parallel["adequacy_factor"])
+
+
+@pytest.mark.slow
+def test_a_pruned_position_carries_its_ceiling_without_one():
+    """A confirmation that stops at the ceiling of an earlier bracket (step 4 of bridgefem.assess.sweep) is not
+    critical: the FE run at that position without a ceiling carries more than that ceiling. Two positions of the
+    two-axle vehicle are handed to the confirmation step as the screen's two least minima, the critical one first."""
+    from mpi4py import MPI
+
+    from bridgefem.analysis.runner import run_analysis
+    from bridgefem.assess.sweep import Assessment, PositionLP, _confirm, brief
+
+    scene = _vehicle_scene(axles=[100e3, 100e3], spacing=[1.2])
+    # the critical position (first axle 5.25 m, LP 0.6116) and a stronger one (3.5 m), as the screen's two minima
+    xs, factors = [1.0, 3.5, 4.4, 5.25, 6.0], [0.9, 0.62, 0.9, 0.61, 0.9]
+    a = Assessment(scene, 0.225, [PositionLP(x, f, "limit load found") for x, f in zip(xs, factors)], 0.61, 5.25)
+    _confirm([a], MPI.COMM_WORLD, 2, brief, lambda line: None)
+    first, second = a.confirmations
+    assert first.ceiling is None and first.adequacy is not None
+    assert second.ceiling == first.adequacy[1] and second.pruned and second.adequacy is None
+    assert a.critical_x == 5.25 and a.adequacy == first.adequacy
+    whole = run_analysis(place(scene, 3.5).scene, MPI.COMM_WORLD)
+    assert whole.search.status == "limit load found"
+    assert whole.search.lower * whole.load_total / second.load >= second.ceiling

@@ -20,12 +20,18 @@ least over all positions (LimitState:RING's adequacy factor). Method:
    other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
    carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
    vehicle cannot collapse the bridge is "locked", never a number.
+4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop where
+   they carry that bracket's upper end (``[solver] max_load`` there, the *ceiling*): a position that carries it
+   cannot be critical, so its search need not find its own limit, nor fail trying (a search near a fill's limit
+   takes the most steps). The least bracket, the adequacy factor, is the one found without a ceiling.
 
 **Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
 over the ranks (gathered in position order, so the answer does not depend on the ranks); the FE confirmations of all
 the scenes given (``bridgefem assess a.toml b.toml``) go to groups of ranks (``comm.Split``: one group per
 confirmation while there are ranks enough, a group's confirmations one after the other otherwise), each solved on
-its group's communicator, the results gathered on every rank.
+its group's communicator, the results gathered on every rank. Each group prunes with its own brackets (step 4), so
+which positions end at a ceiling can depend on the number of ranks; the adequacy factor, its position and its
+bracket do not.
 """
 from __future__ import annotations
 
@@ -70,7 +76,9 @@ class Confirmation:
     """The FE limit analysis at one position: ``x0`` (m), the vehicle ``load`` on the span (N), ``status``,
     ``adequacy`` (lower, upper or None) the FE bracket over that load, ``lp_factor`` the LP's factor there,
     ``summary`` what :func:`assess` was given to describe the analysis with (results.json's entries), ``seconds``,
-    ``proposed_by`` the dispersion rule whose LP screen proposed the position when it is not the scene's (None)."""
+    ``proposed_by`` the dispersion rule whose LP screen proposed the position when it is not the scene's (None),
+    ``ceiling`` the adequacy factor at which its search stopped as carried (step 4 of the module docstring; None:
+    no ceiling)."""
 
     x0: float
     load: float
@@ -80,6 +88,13 @@ class Confirmation:
     summary: dict
     seconds: float
     proposed_by: str | None = None
+    ceiling: float | None = None
+
+    @property
+    def pruned(self) -> bool:
+        """The run carried its ``ceiling`` (an adequacy factor another position's bracket reached, step 4 of the
+        module docstring): not the critical position."""
+        return self.ceiling is not None and Status.of(self.status) is Status.LOCKED
 
 
 @dataclass
@@ -264,18 +279,24 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
     color = comm.rank % groups
     sub = comm.Split(color, comm.rank)
     mine = []
+    ceilings: dict[int, float] = {}  # per assessment: the least upper end of this group's brackets (step 4)
     try:
         for k in range(color, len(items), groups):
             i, m, rule = items[k]
             t0 = time.perf_counter()
             pl = place(assessments[i].scene, m.x0)
-            an = run_analysis(pl.scene, sub)
+            ceiling = ceilings.get(i)
+            scene = pl.scene if ceiling is None else _capped(pl, ceiling)
+            an = run_analysis(scene, sub)
             data = describe(an)
             lim = data["limit_load"]
             status = data["status"]
             adequacy = (lim["lower"] / pl.load, None if lim["upper"] is None else lim["upper"] / pl.load) \
                 if Status.of(status) is Status.LIMIT else None
-            c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0, rule)
+            if adequacy is not None and adequacy[1] is not None:
+                ceilings[i] = min(adequacy[1], ceilings.get(i, math.inf))
+            c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0, rule,
+                             ceiling)
             if sub.rank == 0:
                 mine.append((k, c))
                 progress(_line(assessments[i].scene, c))
@@ -288,6 +309,14 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
     for a in assessments:
         a.seconds["fe"] = time.perf_counter() - start
         _conclude(a)
+
+
+def _capped(pl: Placement, ceiling: float) -> Scene:
+    """The placed scene whose limit search stops as carried ("locked") at the vehicle load x ``ceiling`` (step 4 of
+    the module docstring): ``[solver] max_load``, the load level P of its ``[[load]]`` factors, is ceiling x the
+    vehicle load on the span over the sum of the factors (the scene's own ``max_load`` where that is lower)."""
+    level = ceiling * pl.load / sum(ld.factor for ld in pl.scene.loads)
+    return edit(pl.scene, solver={"max_load": min(level, pl.scene.solver.max_load or math.inf)})
 
 
 def _conclude(a: Assessment) -> None:
@@ -312,6 +341,8 @@ def _line(scene: Scene, c: Confirmation) -> str:
     lp = "none" if c.lp_factor is None else f"{c.lp_factor:.4g}"
     if c.adequacy is not None:
         fe = f"FE adequacy factor in [{c.adequacy[0]:.4f}, {c.adequacy[1]:.4f}]"
+    elif c.pruned:
+        fe = f"FE carries {c.ceiling:.4f}, the upper end of a bracket found before: not the critical position"
     else:
         fe = f"FE: {c.status}"
     why = f", the position the {c.proposed_by} screen proposed" if c.proposed_by else ""

@@ -60,6 +60,7 @@ def assessment_data(a: Assessment) -> dict:
             "x0": c.x0, "load": c.load, "status": c.status, "lp_factor": _number(c.lp_factor),
             "proposed_by": c.proposed_by or "the scene's LP screen",
             "adequacy": None if c.adequacy is None else {"lower": c.adequacy[0], "upper": c.adequacy[1]},
+            "ceiling": c.ceiling, "pruned": c.pruned,
             "hinges": s["mechanism"]["hinges"], "sliding": s["mechanism"]["sliding"], "evidence": s["evidence"],
             "warnings": s["warnings"], "seconds": c.seconds, "results": s})
     crit = next((c for c in confirmations if c["x0"] == a.critical_x), None)

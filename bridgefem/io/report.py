@@ -153,7 +153,8 @@ def assessment_report(data: dict, pictures: dict) -> str:
              ("" if p["factor"] is None else f"{p['factor']:.4f}"), _esc(p["status"]), "yes" if p["refined"] else "")
             for p in data["positions"]]
     confirmed = [(f"{c['x0']:.3f}", f"{c['load'] / 1e3:.1f}", _esc(c["status"]),
-                  "" if c["adequacy"] is None else f"{c['adequacy']['lower']:.4f} to {_factor(c['adequacy']['upper'])}",
+                  f"{c['adequacy']['lower']:.4f} to {_factor(c['adequacy']['upper'])}" if c["adequacy"] else
+                  (f"&ge; {c['ceiling']:.4f} (not critical)" if c.get("pruned") else ""),
                   "" if c["lp_factor"] is None else f"{c['lp_factor']:.4f}", _esc(c["proposed_by"]),
                   f"{c['seconds']:.1f}")
                  for c in data["confirmations"]]
