@@ -201,7 +201,7 @@ def test_two_ranks_give_one_line_for_a_bad_petsc_option(folder):
 def test_petsc_options_write_the_files_the_user_asks_for(folder):
     """PETSC_OPTIONS are the user's: PETSc writes its log where they say, and reads their options file."""
     (folder / "opts").write_text(f"-log_view :{folder}/log.txt\n")
-    proc = in_folder(folder, "lp", "s.toml", PETSC_OPTIONS=f"-options_file {folder}/opts")
+    proc = in_folder(folder, "run", "s.toml", "--out", "out", "--quiet", PETSC_OPTIONS=f"-options_file {folder}/opts")
     assert proc.returncode == 0, proc.stderr
     assert "PETSc Performance Summary" in (folder / "log.txt").read_text()
 
