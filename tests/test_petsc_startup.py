@@ -67,12 +67,17 @@ def assert_unharmed(work: Path, proc: subprocess.CompletedProcess) -> None:
     assert SECRET not in proc.stdout + proc.stderr
 
 
+CHECK_STARTS_PETSC = ("--petsc", "ksp_type=preonly")
+"""A PETSc option for ``check``, which then starts PETSc to validate it (without one it loads no PETSc)."""
+
+
 @pytest.fixture(scope="module")
 def clean_check(tmp_path_factory):
-    """`bridgefem check` in a folder without rc files: what a hostile folder must not change."""
+    """`bridgefem check` in a folder without rc files: what a hostile folder must not change. With a PETSc option
+    (:data:`CHECK_STARTS_PETSC`) check starts PETSc to validate it, as run does."""
     work = tmp_path_factory.mktemp("clean")
     write_toml(work / "s.toml", scene_dict(**COARSE))
-    proc = bridgefem("check", "s.toml", cwd=work)
+    proc = bridgefem("check", "s.toml", *CHECK_STARTS_PETSC, cwd=work)
     assert proc.returncode == 0, proc.stderr
     return proc
 
@@ -82,7 +87,7 @@ def clean_check(tmp_path_factory):
 def test_check_reads_no_rc_file(folder, clean_check, rc_file):
     """Each file on its own, with the two attacks that end in exit code 0 (the third stops PETSc's start)."""
     plant(folder, ("log_view", "debugger"), [RC_FILES[rc_file]])
-    proc = in_folder(folder, "check", "s.toml")
+    proc = in_folder(folder, "check", "s.toml", *CHECK_STARTS_PETSC)
     assert_unharmed(folder, proc)
     assert (proc.returncode, proc.stdout, proc.stderr) == (0, clean_check.stdout, "")
 
@@ -120,7 +125,7 @@ def test_a_petsc_cfg_in_the_folder_chooses_no_petsc(folder, clean_check):
     (folder / "build").mkdir()
     (folder / "build" / "PETSc.py").write_text(f"open({str(folder / 'MARKER')!r}, 'w')\n")
     (folder / "petsc.cfg").write_text("PETSC_ARCH = /proc/self/cwd/build\n")
-    proc = in_folder(folder, "check", "s.toml")
+    proc = in_folder(folder, "check", "s.toml", *CHECK_STARTS_PETSC)
     assert_unharmed(folder, proc)
     assert (proc.returncode, proc.stdout, proc.stderr) == (0, clean_check.stdout, "")
 
