@@ -1,15 +1,16 @@
 """MPI speed-up of the whole ``bridgefem assess`` command: serial against ``mpirun -n 2``, measured side by side.
 
-1. The scene: demos/bare_arch.toml's arch under two 100 kN axles 1.2 m apart (docs/benchmarks.md), assessed at each
+1. The scene (``--bridge``): demos/bare_arch.toml's arch under two 100 kN axles 1.2 m apart (docs/benchmarks.md), or
+   the Prestwood bridge with its fill (demos/prestwood.toml) under the same axles on 0.3 m tyres, assessed at each
    ``--step`` (m; "default": span/40).
 2. A warm-up of each command (not counted: the JIT cache, the file cache), then ``--repeat`` pairs, the order
    alternating (serial first, then parallel first, ...), each command a fresh process timed from outside: wall time
    of the whole command, CPU time of all its processes (user + system), and the assessment's own time (its
    assessment.json ``seconds.total``). Each pair gives its ratios, serial / parallel; the median is quoted.
 3. Every parallel answer must be the serial one: the same critical x, LP factor and FE bracket (to 1e-9).
-4. The start-up every process pays whatever it computes (``python -c "import bridgefem.io.cli, gmsh,
-   matplotlib.pyplot"``: the imports, the MPI and PETSc start, Gmsh's library and matplotlib, which the first FE
-   run and the first picture load) is timed the same way, serial and under ``mpirun -n 2``, and with it the best
+4. The start-up every process pays whatever it computes (``python -c "import bridgefem.io.cli,
+   bridgefem.analysis.runner, gmsh, matplotlib.pyplot"``: the imports, the MPI and PETSc start, DOLFINx, Gmsh's
+   library and matplotlib, which the first FE run and the first picture load) is timed the same way, serial and under ``mpirun -n 2``, and with it the best
    ratio two ranks could reach for this work (Amdahl): serial / (start-up + (serial - start-up) / 2).
 
 The machine's load average is printed before and after: on a shared 2-core machine another job slows the 2-rank run
@@ -17,6 +18,7 @@ most, so read the ratios with it. Run:
 
     ./run python benchmarks/assess_speedup.py                      # default step and 0.05 m, 5 pairs each
     ./run python benchmarks/assess_speedup.py --step default --repeat 9
+    ./run python benchmarks/assess_speedup.py --bridge prestwood --step default --repeat 1    # ~5 min
 
 Writes DIR/assess_speedup.md and .csv (default results/assess_speedup). Target: >= 1.7 for the whole command.
 """
@@ -39,6 +41,8 @@ from harness import machine_line, write_outputs  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1.7
 VEHICLE = "\n[vehicle]\naxles = [100e3, 100e3]\nspacing = [1.2]\n"
+BRIDGES = {"bare": ("bare_arch.toml", VEHICLE), "prestwood": ("prestwood.toml", VEHICLE + "contact_length = 0.3\n")}
+"""Each ``--bridge``: its demo scene (whose ``[[load]]`` tables are dropped) and the vehicle that replaces them."""
 MPI = ["mpirun", "-n", "2"]
 
 
@@ -93,20 +97,22 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--step", nargs="+", default=["default", "0.05"], help='screening steps (m, or "default")')
     p.add_argument("--repeat", type=int, default=5, help="pairs per step (default 5)")
+    p.add_argument("--bridge", choices=sorted(BRIDGES), default="bare", help="the scene (default: bare)")
     p.add_argument("--out", type=Path, default=Path("results/assess_speedup"))
     args = p.parse_args(argv)
     env = {**os.environ, "OMPI_MCA_rmaps_base_oversubscribe": "1"}
     py = [sys.executable]
     load_before = os.getloadavg()
     start = time.perf_counter()
-    imports = ["-c", "import bridgefem.io.cli, gmsh, matplotlib.pyplot"]
+    imports = ["-c", "import bridgefem.io.cli, bridgefem.analysis.runner, gmsh, matplotlib.pyplot"]
     startup = pairs(py + imports, MPI + py + imports, args.repeat, env)
     f1 = statistics.median(s[0] for s, _ in startup)
     f2 = statistics.median(q[0] for _, q in startup)
     rows, lines = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        scene = Path(tmp) / "two_axles.toml"
-        scene.write_text((ROOT / "demos" / "bare_arch.toml").read_text().split("[[load]]")[0] + VEHICLE)
+        demo, vehicle = BRIDGES[args.bridge]
+        scene = Path(tmp) / f"{args.bridge}_two_axles.toml"
+        scene.write_text((ROOT / "demos" / demo).read_text().split("[[load]]")[0] + vehicle)
         for step in args.step:
             opt = [] if step == "default" else ["--step", step]
             outs = {"s": Path(tmp) / f"s{step}", "p": Path(tmp) / f"p{step}"}
@@ -138,12 +144,13 @@ def main(argv: list[str] | None = None) -> int:
                          f"{own[1]:.2f} | {cpu1:.2f} / {cpu2:.2f} | {bound:.2f} | "
                          f"{'yes' if rows[-1]['same_answer'] else '**NO**'} |")
     load_after = os.getloadavg()
-    md = (f"# `bridgefem assess`: serial against `mpirun -n 2`, side by side\n\n{machine_line()}; "
+    md = (f"# `bridgefem assess` of the {args.bridge} bridge: serial against `mpirun -n 2`, side by side\n\n"
+          f"{machine_line()}; "
           f"load average (1 min) {load_before[0]:.2f} before and {load_after[0]:.2f} after on {os.cpu_count()} "
           f"CPUs; {args.repeat} alternating pairs per step after a warm-up of each; medians; benchmark wall time "
           f"{time.perf_counter() - start:.0f} s.\n\n"
-          f"Start-up of a process (`import bridgefem.io.cli, gmsh, matplotlib.pyplot`: imports, MPI, PETSc, Gmsh, "
-          f"matplotlib): {f1:.2f} s serial, "
+          f"Start-up of a process (`import bridgefem.io.cli, bridgefem.analysis.runner, gmsh, matplotlib.pyplot`: "
+          f"imports, MPI, PETSc, DOLFINx, Gmsh, matplotlib): {f1:.2f} s serial, "
           f"{f2:.2f} s under `mpirun -n 2`.\n\n"
           "| step (m) | whole command, serial / 2 ranks (s) | ratio, median (min-max) | the assessment's own "
           "ratio (assessment.json) | CPU s, serial / 2 ranks | best 2-rank ratio for this start-up (Amdahl) | "
