@@ -239,3 +239,29 @@ def test_a_pruned_position_carries_its_ceiling_without_one():
     whole = run_analysis(place(scene, 3.5).scene, MPI.COMM_WORLD)
     assert whole.search.status == "limit load found"
     assert whole.search.lower * whole.load_total / second.load >= second.ceiling
+
+
+@pytest.mark.slow
+def test_a_ceiling_above_the_limit_leaves_the_bracket_as_it_is():
+    """The ceiling of a pruned confirmation ends a search, never steers it: a run asked to stop once it carries a
+    load just above its own limit gets exactly the bracket of the run without it (the load steps approach the limit
+    as they do without one), so the confirmations below their ceilings do not depend on how the positions were
+    shared among ranks."""
+    from mpi4py import MPI
+
+    from bridgefem.analysis.runner import run_analysis
+
+    pl = place(_vehicle_scene(axles=[100e3, 100e3], spacing=[1.2]), 2.545)
+    free = run_analysis(pl.scene, MPI.COMM_WORLD)
+    total = free.load_total
+    lower, upper = free.search.lower * total, free.search.upper * total
+    capped = run_analysis(pl.scene, MPI.COMM_WORLD, enough=upper * (1 + 1e-4))
+    assert (capped.search.status, capped.search.lower * total, capped.search.upper * total) == \
+        (free.search.status, lower, upper)
+    # asked for less than its limit, a run ends once it carries that (no bracket), or with the same bracket when the
+    # step that carries it also closes the bracket (here the static theorem's bound does), never later
+    below = run_analysis(pl.scene, MPI.COMM_WORLD, enough=0.4 * lower)
+    found = (below.search.status, below.search.lower * total, below.search.upper)
+    assert found[0].startswith("no collapse") and 0.4 * lower <= found[1] < lower and found[2] is None or \
+        found == (free.search.status, lower, free.search.upper)
+    assert len(below.search.steps) <= len(free.search.steps)

@@ -48,6 +48,7 @@ Safeguards:
 from __future__ import annotations
 
 import logging
+import math
 from contextlib import contextmanager
 from typing import Callable
 
@@ -93,16 +94,18 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                  phase: Callable[[str], None] = lambda name: None,
                  notice: Callable[[str], None] = lambda line: None,
                  max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS,
-                 joint_law: JointLawFactory | None = None) -> Analysis:
+                 joint_law: JointLawFactory | None = None, enough: float = math.inf) -> Analysis:
     """Compute the limit load of a scene (module docstring, steps 1-6): the ring, with its fill and elastic
     abutments when the scene has them, after the support movement it imposes. Collective over ``comm``;
     ``petsc_options`` go over the scene's; ``phase(name)`` announces each set-up phase, ``report(step)`` each load
     step and ``notice(line)`` each re-run on a finer mesh, of which there are at most ``max_refinements``, each within
     ``max_dofs`` unknowns (:mod:`bridgefem.analysis.refinement`); ``joint_law`` builds the joints' law
-    (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's, :func:`bridgefem.laws.crushing.scene_law_factory`). The last run is returned, the runs it replaced listed in
-    ``Analysis.refinements``."""
+    (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's, :func:`bridgefem.laws.crushing.scene_law_factory`). ``enough`` (N of live
+    load): carrying it ends the search as "locked" for a caller that asks only whether the bridge carries it, the
+    path unchanged (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it
+    replaced listed in ``Analysis.refinements``."""
     def analyse(mesh_scene: Scene, coarser: float | None, budget: int | None, path: CoarserPath | None) -> Analysis:
-        return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law)
+        return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough)
 
     with quiet_compiler():
         an = refine(scene, comm, analyse, notice, max_refinements, max_dofs)
@@ -129,12 +132,12 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
              coarser: float | None = None, budget: int | None = None, path: CoarserPath | None = None,
-             joint_law: JointLawFactory | None = None) -> Analysis:
+             joint_law: JointLawFactory | None = None, enough: float = math.inf) -> Analysis:
     """One run of the scene's mesh (module docstring, steps 1-4); ``coarser``: the last converged level (N per unit
     load factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
     ``path`` that run's converged path, a bare ring's (its trials start from it: :mod:`bridgefem.search.coarser_path`);
     ``budget``: the linear solves its search may spend (None: no limit), exactly; a failure when spent; ``joint_law``
-    builds the joints' law. Collective."""
+    builds the joints' law; ``enough`` as in :func:`run_analysis`. Collective."""
     clock = Clock(comm)
     fe = build_model(scene, comm, petsc_options, phase, clock, joint_law)
     phase("limit search")
@@ -142,7 +145,8 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     blocks = fe_blocks(scene, fe.model, fe.block_mesh) if bare else None  # the rigid blocks loaded as the FE loads
     bound = static_cap(blocks, fe.model, fe.block_mesh, fe.pairs, fe.solver) if bare else None
     clock.lap("static bound")
-    search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path)
+    search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,
+                             enough)
     clock.lap("limit search")
     solver, lp, total = fe.solver, fe.lp, sum(ld.factor for ld in scene.loads) or 1.0
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
@@ -155,12 +159,12 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
 
 
 def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | None, bound: StaticCap | None,
-            report: Callable[[LoadStep], None], coarser: float | None, budget: int | None, path: CoarserPath | None
-            ) -> tuple[LimitSearch, list[ConvergedState]]:
+            report: Callable[[LoadStep], None], coarser: float | None, budget: int | None, path: CoarserPath | None,
+            enough: float = math.inf) -> tuple[LimitSearch, list[ConvergedState]]:
     """The limit search of one run (module docstring, step 3) on the model ``fe``, with the rigid ``blocks`` loaded
     as the FE loads them and the static ``bound`` (None with a fill); returns the search and its converged states,
     each kept for the output's time series and a re-run's coarser path. A search that spends its ``budget`` of linear
-    solves is a failure (:func:`_analyse`). Collective."""
+    solves is a failure (:func:`_analyse`); ``enough`` (N) as in :func:`run_analysis`. Collective."""
     solver, model, s = fe.solver, fe.model, scene.solver
     # a plastic fill can fail under the load before the ring does: watch the load's own displacement; an elastic
     # fill cannot, and its elastic settlement would hide the ring's mechanism from the flat-curve test
@@ -190,7 +194,8 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
                                                           s.tolerance, total),
                                   predicted=predictor.predict if predictor is not None else None,
                                   coarser_path=path.guide(solver) if path is not None else None)
-            search = find_limit_load(solver, under_load, search_settings(scene, model.dead_weight, coarser),
+            settings = search_settings(scene, model.dead_weight, coarser, enough)
+            search = find_limit_load(solver, under_load, settings,
                                      guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
         carried = max((c.load for c in states), default=0.0)
@@ -211,16 +216,19 @@ def first_step(dead_weight: float, coarser: float | None = None) -> float:
     return max(dead_weight / 4, coarser or 0.0)
 
 
-def search_settings(scene: Scene, dead_weight: float, coarser: float | None = None) -> SearchSettings:
+def search_settings(scene: Scene, dead_weight: float, coarser: float | None = None, enough: float = math.inf
+                    ) -> SearchSettings:
     """The limit search's settings from the scene's keys, their zeros resolved: the first step :func:`first_step`
     of the ring's ``dead_weight`` (N) and the ``coarser`` run's last converged level (N per unit load factor; None on
     a first run), the maximum load 100 x ``dead_weight`` (0 without live loads: self-weight only); the flat-curve
-    check only with a fill, the support movement's increments only where a support moves."""
+    check only with a fill, the support movement's increments only where a support moves; ``enough`` (N of live
+    load, :func:`run_analysis`) as a level."""
     s, abutments = scene.solver, scene.abutments
     return SearchSettings(tolerance=s.tolerance, initial_step=s.initial_step or first_step(dead_weight, coarser),
                           max_load=(s.max_load or 100 * dead_weight) if scene.loads else 0.0, max_steps=s.max_steps,
                           stiffness_drop=s.stiffness_drop if scene.fill is not None else 0.0,
-                          movement_steps=abutments.movement_steps if abutments.moves else 0)
+                          movement_steps=abutments.movement_steps if abutments.moves else 0,
+                          enough=enough / (sum(ld.factor for ld in scene.loads) or 1.0))
 
 
 def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> Callable[[Iterate], float]:

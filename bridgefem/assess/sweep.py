@@ -20,10 +20,12 @@ least over all positions (LimitState:RING's adequacy factor). Method:
    other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
    carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
    vehicle cannot collapse the bridge is "locked", never a number.
-4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop where
-   they carry that bracket's upper end (``[solver] max_load`` there, the *ceiling*): a position that carries it
-   cannot be critical, so its search need not find its own limit, nor fail trying (a search near a fill's limit
-   takes the most steps). The least bracket, the adequacy factor, is the one found without a ceiling.
+4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop as
+   soon as they carry that bracket's upper end, the *ceiling* (the analysis's ``enough`` load,
+   :func:`bridgefem.analysis.runner.run_analysis`): a position that carries it cannot be critical, so its search
+   need not find its own limit, nor fail trying (a search near a fill's limit takes the most steps). The ceiling
+   bounds no trial, so a position that collapses below it gets the bracket it gets without one: the adequacy
+   factor, its position and its bracket do not depend on which confirmations were pruned.
 
 **Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
 over the ranks (gathered in position order, so the answer does not depend on the ranks); the FE confirmations of all
@@ -31,7 +33,7 @@ the scenes given (``bridgefem assess a.toml b.toml``) go to groups of ranks (``c
 confirmation while there are ranks enough, a group's confirmations one after the other otherwise), each solved on
 its group's communicator, the results gathered on every rank. Each group prunes with its own brackets (step 4), so
 which positions end at a ceiling can depend on the number of ranks; the adequacy factor, its position and its
-bracket do not.
+bracket cannot.
 """
 from __future__ import annotations
 
@@ -286,8 +288,7 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
             t0 = time.perf_counter()
             pl = place(assessments[i].scene, m.x0)
             ceiling = ceilings.get(i)
-            scene = pl.scene if ceiling is None else _capped(pl, ceiling)
-            an = run_analysis(scene, sub)
+            an = run_analysis(pl.scene, sub, enough=math.inf if ceiling is None else ceiling * pl.load)
             data = describe(an)
             lim = data["limit_load"]
             status = data["status"]
@@ -309,14 +310,6 @@ def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callab
     for a in assessments:
         a.seconds["fe"] = time.perf_counter() - start
         _conclude(a)
-
-
-def _capped(pl: Placement, ceiling: float) -> Scene:
-    """The placed scene whose limit search stops as carried ("locked") at the vehicle load x ``ceiling`` (step 4 of
-    the module docstring): ``[solver] max_load``, the load level P of its ``[[load]]`` factors, is ceiling x the
-    vehicle load on the span over the sum of the factors (the scene's own ``max_load`` where that is lower)."""
-    level = ceiling * pl.load / sum(ld.factor for ld in pl.scene.loads)
-    return edit(pl.scene, solver={"max_load": min(level, pl.scene.solver.max_load or math.inf)})
 
 
 def _conclude(a: Assessment) -> None:

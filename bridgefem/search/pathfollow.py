@@ -19,8 +19,8 @@ path dependent, so every trial is solved from the last converged state ``lower``
    settled state's tangent stiffness is measured (:mod:`bridgefem.search.step`, *Flat curve*).
 4. The target T is set from the static bound, the guess and a coarser run's bracket (:mod:`bridgefem.search.target`,
    *Guess*).
-5. Until a rule ends the search, ``max_load`` is carried ("locked") or ``max_steps`` steps were attempted (a solver
-   failure), four stages repeat (:class:`_Search`):
+5. Until a rule ends the search, ``max_load`` or the settings' ``enough`` level is carried ("locked") or
+   ``max_steps`` steps were attempted (a solver failure), four stages repeat (:class:`_Search`):
 
    a. ``next_trial`` chooses the level: the soft bound when due, the closing trial above a state within the width
       of its collapse level, an approach step to T, a bisection towards the soft bound, else ``lower`` plus the
@@ -200,10 +200,10 @@ class _Search:
         return self.solver.material is not None
 
     def run(self) -> LimitSearch:
-        """The four stages until a rule ends the search, the maximum load is carried or the settings' ``max_steps``
-        steps were attempted."""
+        """The four stages until a rule ends the search, the maximum load or the ``enough`` level is carried or the
+        settings' ``max_steps`` steps were attempted."""
         while len(self.steps) < self.settings.max_steps:
-            if self.bracket.lower >= self.settings.max_load:
+            if self.bracket.lower >= min(self.settings.max_load, self.settings.enough):
                 return self.result(LOCKED)
             trial = self.next_trial()
             out = self.solve(trial)

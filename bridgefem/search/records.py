@@ -6,6 +6,7 @@ Levels are live-load levels P in N per unit load factor: the scene's live loads 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -108,6 +109,9 @@ class SearchSettings:
     0: no such check.
     ``movement_steps``: the increments of the solver's support movement (:mod:`bridgefem.search.pathfollow`, *Support
     movement*); 0: no movement.
+    ``enough``: a level (N per unit load factor) whose carrying also ends the search as "locked", for a caller that
+    asks only whether the structure carries it; unlike ``max_load`` it bounds no trial, so the path, and the bracket
+    of a structure that collapses below it, are those of the search without it; inf: none.
     """
 
     tolerance: float
@@ -116,6 +120,7 @@ class SearchSettings:
     max_steps: int
     stiffness_drop: float = 0.0
     movement_steps: int = 0
+    enough: float = math.inf
 
 
 @dataclass(frozen=True)
