@@ -160,3 +160,20 @@ def test_a_failed_confirmation_is_reported_with_what_it_carried(carried, stands)
                    status="adequacy factor found")
     [w] = [w for w in assessment_data(a)["warnings"] if "x = 4.000 m" in w]
     assert f"vehicle x {carried:.4f}" in w and ("stands" in w) == stands
+
+
+def test_the_confirmations_start_with_the_least_factor_any_screen_gives():
+    """The FE confirms the positions in the order of the factor their own screen gives them, least first (the
+    likeliest critical position first, whose bracket then prunes the others): here the no-spreading screen's least
+    position, then the 2:1 and 30-degree screens', then the scene's own (Boussinesq) two minima."""
+    from bridgefem.assess.sweep import Assessment, PositionLP
+
+    s = _prestwood(axles=[100e3, 100e3], spacing=[1.2], contact_length=0.3)
+    xs, factors = [0.3, 0.76, 2.0, 4.59, 5.0], [1.2, 1.02, 1.3, 1.021, 1.2]
+    positions = [PositionLP(x, f, "limit load found") for x, f in zip(xs, factors)]
+    a = Assessment(s, 0.3, positions, 1.02, 0.76)
+    a.dispersion_minima = {"boussinesq": positions[1], "spread-2:1": PositionLP(0.63, 0.92, "limit load found"),
+                           "spread-30": PositionLP(4.71, 0.93, "limit load found"),
+                           "none": PositionLP(4.76, 0.87, "limit load found")}
+    order = [(c.x0, rule) for c, rule in _candidates(a, CONFIRM)]
+    assert order == [(4.76, "none"), (0.63, "spread-2:1"), (4.71, "spread-30"), (0.76, None), (4.59, None)]

@@ -19,7 +19,8 @@ least over all positions (LimitState:RING's adequacy factor). Method:
    ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close; with a fill, also each
    other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
    carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
-   vehicle cannot collapse the bridge is "locked", never a number.
+   vehicle cannot collapse the bridge is "locked", never a number. The positions are confirmed in the order of the
+   factor their own screen gives them, least first.
 4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop as
    soon as they carry that bracket's upper end, the *ceiling* (the analysis's ``enough`` load,
    :func:`bridgefem.analysis.runner.run_analysis`): a position that carries it cannot be critical, so its search
@@ -258,7 +259,8 @@ def _finest(step: float) -> float:
 def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | None]]:
     """The positions to confirm with the FE (step 3 of the module docstring), each with the dispersion rule whose
     screen proposed it (None: the scene's own screen); a position another rule proposes carries the scene rule's
-    LP factor there."""
+    LP factor there. Ordered by the factor the proposing screen gives each, least first: the likeliest critical
+    position is confirmed first, and its bracket prunes the others (step 4)."""
     if a.status:
         return []
     minima = local_minima(a.positions)
@@ -266,7 +268,7 @@ def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | Non
     for rule, m in a.dispersion_minima.items():
         if rule != a.scene.vehicle.dispersion and all(abs(m.x0 - c.x0) > _finest(a.step) for c, _ in out):
             out.append((lp_at(a.scene, m.x0, refined=True), rule))
-    return out
+    return sorted(out, key=lambda c: _value(c[0]) if c[1] is None else _value(a.dispersion_minima[c[1]]))
 
 
 def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callable, progress) -> None:
