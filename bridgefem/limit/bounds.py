@@ -173,7 +173,7 @@ def fill_bounds(scene: Scene, compared: float | None = None) -> dict | None:
     b.timings["total"] += again.seconds
     summary = bounds_summary(b)
     decided = again.load is not None and (again.status == "optimal" or again.load <= compared
-                                          or capped.load - again.load <= SETTLED * again.load)
+                                          or abs(capped.load - again.load) <= SETTLED * again.load)
     return summary if decided else {**summary, "lower": None}
 
 
