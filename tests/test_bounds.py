@@ -11,10 +11,11 @@ from conftest import ROOT, bridgefem, scene_dict
 
 from bridgefem.fe.footing import MARTIN_N_GAMMA
 from bridgefem.io.bounds_plot import plot_bounds
-from bridgefem.limit import bounds_model
-from bridgefem.limit.bounds import collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
+from bridgefem.limit import bounds, bounds_model
+from bridgefem.limit.bounds import SETTLED, collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.limit.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
 from bridgefem.limit.collapse import collapse_load
+from bridgefem.limit.conic import MAX_ITERATIONS
 from bridgefem.scene.keys import SceneError
 from bridgefem.scene.reader import load_scene, scene_from_dict
 
@@ -271,3 +272,42 @@ def test_a_mesh_over_the_cap_is_made_again_near_the_cap(monkeypatch):
     regrown = bridge_problem(prestwood)
     assert regrown.size == pytest.approx(0.22 / 2 * math.sqrt(kept.mesh.n_triangles / cap), rel=1e-12)
     assert 0.5 * cap <= regrown.mesh.n_triangles <= 1.1 * cap
+
+
+def test_a_lower_bound_above_the_compared_load_is_solved_again():
+    """``fill_bounds(scene, compared)`` (bridgefem.limit.bounds, *Accuracy*): the capped static programme of the small
+    bridge of test_fill_bounds_entry_of_results ends short of Clarabel's full tolerances. Compared with a load 1 %
+    below it, it is solved again with more iterations: the value falls towards the optimum (interior-point iterates
+    carry more than it), by less than SETTLED, so the lower bound stands; compared with no load or a load above it,
+    the capped solve is reported as it is."""
+    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
+    capped = fill_bounds(scene)
+    programme = capped["programmes"]["lower"]
+    assert programme["status"] == "optimal (reduced accuracy)" and programme["iterations"] == MAX_ITERATIONS
+    above = fill_bounds(scene, 1.01 * capped["lower"])
+    assert (above["lower"], above["programmes"]["lower"]["iterations"]) == (capped["lower"], MAX_ITERATIONS)
+    checked = fill_bounds(scene, 0.99 * capped["lower"])
+    assert checked["programmes"]["lower"]["iterations"] > MAX_ITERATIONS
+    assert capped["lower"] * (1 - SETTLED) <= checked["lower"] <= capped["lower"]
+    assert checked["upper"] == capped["upper"]
+
+
+def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_again_decides(monkeypatch):
+    """The small bridge's static programme capped at 16 interior-point iterations ends at reduced accuracy more than
+    SETTLED above the value Clarabel stalls at with CHECK_ITERATIONS (the iterates carry more than the optimum:
+    bridgefem.limit.bounds, *Accuracy*). Compared with a load between the two, the solve again falls below it and is
+    the lower bound; compared with a load below both, it stays above it, still falling: no lower bound (undecided)."""
+    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
+    problem = bridge_problem(scene, 1.0)
+    solve = bounds.lower_bound
+    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
+    stalled = sol.x[layout["factor"]] * problem.live_total
+    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=16: solve(problem, max_iter))
+    capped = fill_bounds(scene)
+    assert capped["programmes"]["lower"]["status"] == "optimal (reduced accuracy)"
+    assert capped["lower"] > stalled * (1 + SETTLED)
+    between = fill_bounds(scene, 0.5 * (capped["lower"] + stalled))
+    assert between["lower"] == pytest.approx(stalled, rel=1e-9) and between["upper"] == capped["upper"]
+    assert between["programmes"]["lower"]["iterations"] == 16 + sol.iterations
+    below = fill_bounds(scene, 0.99 * stalled)
+    assert below["lower"] is None and below["upper"] == capped["upper"]

@@ -170,6 +170,7 @@ def user_warnings(an: Analysis) -> list[str]:
     upper = an.search.upper
     if bounds.get("lower") and upper is not None and upper * an.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
         out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
-                   "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, or its "
-                   "fill's flow rule); read the bracket with the bounds")
+                   "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, its fill's "
+                   "flow rule, its non-associative friction, or crushing joints whose stress blocks are still "
+                   "forming); read the bracket with the bounds")
     return out + (list(an.verdict.warnings) if an.verdict else [])

@@ -119,7 +119,8 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
     the loads the fill transmits, the collapse mode and the warnings; timed as the phase "checks". Collective."""
     clock = Clock(comm)
     solver_comm = an.solver.comm
-    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene) if solver_comm.rank == 0 else None, root=0)
+    compared = an.search.upper * an.load_total if an.search.upper is not None else None  # the FE's upper end (N)
+    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared) if solver_comm.rank == 0 else None, root=0)
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
     coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs

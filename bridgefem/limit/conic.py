@@ -82,13 +82,13 @@ class ConicProgramme:
         r, c, v, b = (np.concatenate(p) for p in zip(*parts))
         return sp.csr_matrix((v, (r, c)), shape=(self.rows[cone], self.n)), b
 
-    def maximise(self, column: int, scale: np.ndarray) -> ConicSolution:
-        """Maximise the unknown ``column`` (a load factor), kept nonnegative by one more row; ``scale`` as in
-        :meth:`solve`."""
+    def maximise(self, column: int, scale: np.ndarray, max_iter: int = MAX_ITERATIONS) -> ConicSolution:
+        """Maximise the unknown ``column`` (a load factor), kept nonnegative by one more row, in at most ``max_iter``
+        interior-point iterations; ``scale`` as in :meth:`solve`."""
         self.add(NONNEG, [0], [column], [-1.0], [0.0])
         cost = np.zeros(self.n)
         cost[column] = -1.0
-        return self.solve(cost, scale)
+        return self.solve(cost, scale, max_iter)
 
     def solve(self, cost: np.ndarray, scale: np.ndarray, max_iter: int = MAX_ITERATIONS) -> ConicSolution:
         """Minimise ``cost . x``; ``scale`` (n,) are typical magnitudes of the unknowns. Clarabel's defaults
