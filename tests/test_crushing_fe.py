@@ -11,7 +11,7 @@ from mpi4py import MPI
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.laws.base import ModeRules
 from bridgefem.laws.coulomb import CoulombJoints
-from bridgefem.laws.crushing import CrushingJoints, fe_stations, graded_nodes, scene_law
+from bridgefem.laws.crushing import CrushingJoints, fe_stations, graded_nodes, graded_within, scene_law
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.mechanism import Mode, judge
@@ -53,6 +53,24 @@ def test_graded_joints_resolve_the_stress_block_to_the_tolerance():
     even = CrushingJoints.blocks(1e6, 1.0, stations=fe_stations(sc))
     assert even.moment_capacity([t], [2e4])[0] == pytest.approx(2e4 * t / 2)
     assert graded_nodes(4, 0.05, (0.5, 0.5)) == pytest.approx((0.0, 0.25, 0.5, 0.75, 1.0))
+
+
+def test_a_grading_beyond_its_budget_is_the_finest_within_it():
+    """graded_within: the grading itself when it fits; bounded, a symmetric grading of at most that many elements,
+    coarser at the edges than the unbounded one, and the finest within the bound (its tolerance, read off its first
+    spacing 2 sqrt(t zones[0]), 0.2 % smaller gives more elements); at the even elements' count, at most that many."""
+    zones = (0.02, 0.1)
+    free = graded_nodes(16, 1e-3, zones)
+    assert graded_within(16, 1e-3, zones, len(free) - 1) == free
+    most = len(free) - 11
+    bounded = np.array(graded_within(16, 1e-3, zones, most))
+    assert bounded[0] == 0 and bounded[-1] == 1 and np.all(np.diff(bounded) > 0)
+    assert bounded == pytest.approx(1 - bounded[::-1])
+    assert len(bounded) - 1 <= most and bounded[1] > free[1]
+    tolerance = bounded[1] ** 2 / (4 * zones[0])
+    assert 1e-3 < tolerance < zones[0] and graded_nodes(16, tolerance, zones) == pytest.approx(bounded)
+    assert len(graded_nodes(16, tolerance / 1.002, zones)) - 1 > most
+    assert len(graded_within(16, 1e-3, zones, 16)) - 1 <= 16
 
 
 @pytest.mark.slow

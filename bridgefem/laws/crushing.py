@@ -331,6 +331,8 @@ def fe_stations(scene: Scene, nodes: tuple[float, ...] | None = None) -> tuple[t
 
 
 GROWTH = 1.5  # the largest ratio of neighbouring elements' sizes where a graded joint coarsens towards its middle
+GRADING_TOLERANCES = (1e-2, 2.5e-3, 6.25e-4)  # the graded joints' moment tolerances tried in turn (each halves the
+# spacing; :mod:`bridgefem.analysis.stress_block`)
 
 
 def graded_nodes(elements: int, tolerance: float, zones: tuple[float, float]) -> tuple[float, ...]:
@@ -368,6 +370,33 @@ def graded_nodes(elements: int, tolerance: float, zones: tuple[float, float]) ->
     pieces = math.ceil(width / even - 1e-9) if step >= even else max(1, round(width / step))
     middle = np.linspace(edge[-1], 1.0 - edge[-1], pieces + 1)
     return tuple(np.concatenate([edge[:-1], middle, 1.0 - edge[-2::-1]]).tolist())
+
+
+def graded_within(elements: int, tolerance: float, zones: tuple[float, float], most: int) -> tuple[float, ...]:
+    """:func:`graded_nodes` at ``tolerance`` when they are at most ``most`` elements, else the finest grading of the
+    same ``zones`` within ``most`` elements (``most`` >= ``elements``): the least tolerance t >= ``tolerance`` whose
+    grading has at most ``most`` elements, to a factor ``1 + 1e-3`` of t, by bisection on log t between ``tolerance``
+    and 1 (at t = 1 every spacing 2 sqrt(t max(x, t)) >= 2 exceeds the even one: ``elements`` even elements, always
+    within ``most``)."""
+    nodes = graded_nodes(elements, tolerance, zones)
+    if len(nodes) - 1 <= most:
+        return nodes
+    low, high = math.log(tolerance), 0.0
+    fitting = graded_nodes(elements, 1.0, zones)
+    while high - low > 1e-3:
+        middle = (low + high) / 2
+        trial = graded_nodes(elements, math.exp(middle), zones)
+        if len(trial) - 1 <= most:
+            high, fitting = middle, trial
+        else:
+            low = middle
+    return fitting
+
+
+def densest_grading(elements: int) -> int:
+    """The most elements :func:`graded_nodes` gives a joint of ``elements`` even elements at the finest of
+    ``GRADING_TOLERANCES``: hinge zones from none to the joint's middle, each spacing the least its depth allows."""
+    return len(graded_nodes(elements, GRADING_TOLERANCES[-1], (0.0, 0.5))) - 1
 
 
 def scene_law(scene: Scene, fe: bool = False, nodes: tuple[float, ...] | None = None
