@@ -36,9 +36,9 @@ LARGE_DOFS = 200_000  # unknowns above which a run is announced with its estimat
 MAX_DOFS = 1_000_000  # unknowns above which a run is refused (unless asked for): a limit search factorises the
 # matrix 50-100 times, which at this size takes hours on a workstation
 TRIANGLES_PER_AREA = 4.2  # unstructured triangles per h^2 of fill area (Gmsh, measured on two fills)
-GRADED_PAIRS = 2000  # joint pairs that graded ring joints may have in all: a limit search's active-set iterations
-# grow with the pairs that crush one after another, and beyond a few thousand graded pairs a search takes minutes
-# (docs/robustness.md); ring joints of even elements keep theirs whatever their number
+GRADED_PAIRS = 3000  # joint pairs that graded ring joints may have in all: a limit search's active-set iterations
+# grow faster than the pairs that crush one after another, and beyond a few thousand graded pairs a search takes
+# minutes (docs/robustness.md); ring joints of even elements keep theirs whatever their number
 
 
 @dataclass(frozen=True)

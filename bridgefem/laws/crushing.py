@@ -56,7 +56,7 @@ thinner than the edge pair's tributary length sits on the edge pair alone, as if
 therefore graded towards both edges where the stress block needs it (:func:`graded_nodes`, chosen from the LP's
 hinges by :mod:`bridgefem.analysis.stress_block`): spacing that grows from the edge keeps the polygon outside the
 parabola up to the joint's middle, by about f_c w (2 s_k^2 - s_0^2)/8 at a vertex (s_k the local spacing, s_0 the
-edge's).
+edge's); within a budget of elements per joint, the finest grading that fits (:func:`graded_within`).
 """
 from __future__ import annotations
 
