@@ -3,18 +3,25 @@ its converged equilibria obey the rigid-block rows of the FE's own joint station
 rigid-block LP on the same joints (the static theorem); the joints are graded towards their edges from the LP's
 hinge zones, so that the FE's limit meets the rectangular stress block's LP on default meshes, below the infinitely
 strong ring; a crushing mode's proof counts the crushed pairs' work."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from conftest import SMALL_RING
 from mpi4py import MPI
 
+from bridgefem.analysis.refinement import coarse_stress_block, refinement_reason
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.laws.base import ModeRules
 from bridgefem.laws.coulomb import CoulombJoints
-from bridgefem.laws.crushing import CrushingJoints, fe_stations, graded_nodes, scene_law
+from bridgefem.laws.crushing import CrushingJoints, fe_stations, scene_law
 from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.model import with_mesh
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.mechanism import Mode, judge
+from bridgefem.status import Status
+from bridgefem.structure.grading import graded_nodes, graded_within
+from bridgefem.structure.sizing import most_graded_elements
 
 RING = {**SMALL_RING, "scene": {"name": "crush"}, "mesh": {"elements_through_thickness": 16}}
 
@@ -53,6 +60,46 @@ def test_graded_joints_resolve_the_stress_block_to_the_tolerance():
     even = CrushingJoints.blocks(1e6, 1.0, stations=fe_stations(sc))
     assert even.moment_capacity([t], [2e4])[0] == pytest.approx(2e4 * t / 2)
     assert graded_nodes(4, 0.05, (0.5, 0.5)) == pytest.approx((0.0, 0.25, 0.5, 0.75, 1.0))
+
+
+def test_a_grading_beyond_its_budget_is_the_finest_within_it():
+    """graded_within: the grading itself when it fits; bounded, a symmetric grading of at most that many elements,
+    coarser at the edges than the unbounded one, and the finest within the bound (its tolerance, read off its first
+    spacing 2 sqrt(t zones[0]), 0.2 % smaller gives more elements); at the even elements' count, at most that many."""
+    zones = (0.02, 0.1)
+    free = graded_nodes(16, 1e-3, zones)
+    assert graded_within(16, 1e-3, zones, len(free) - 1) == free
+    most = len(free) - 11
+    bounded = np.array(graded_within(16, 1e-3, zones, most))
+    assert bounded[0] == 0 and bounded[-1] == 1 and np.all(np.diff(bounded) > 0)
+    assert bounded == pytest.approx(1 - bounded[::-1])
+    assert len(bounded) - 1 <= most and bounded[1] > free[1]
+    tolerance = bounded[1] ** 2 / (4 * zones[0])
+    assert 1e-3 < tolerance < zones[0] and graded_nodes(16, tolerance, zones) == pytest.approx(bounded)
+    assert len(graded_nodes(16, tolerance / 1.002, zones)) - 1 > most
+    assert len(graded_within(16, 1e-3, zones, 16)) - 1 <= 16
+
+
+def test_a_coarse_stress_block_at_the_size_budget_is_not_re_run():
+    """A 1 MPa ring of 8 voussoirs (9 joints: at most 332 elements each within the 3000 pairs, on 4 or 8 elements
+    through the thickness) whose LP on the FE's joints is 2 % above the stress block's: re-run on a finer mesh with
+    even joints or graded ones below the budget, not with graded joints at it (the finer mesh would grade them the
+    same); the run's check still names the coarse stress block."""
+    sc = scene_from_dict({**RING, "mesh": {"elements_through_thickness": 4},
+                          "masonry": {**RING["masonry"], "compressive_strength": 1e6}})
+    block = collapse_load(sc)
+
+    def run(nodes):
+        return SimpleNamespace(scene=sc, lp=SimpleNamespace(status=Status.LIMIT, level=1.02 * block.level,
+                                                            load=1.02 * block.load),
+                               block_mesh=SimpleNamespace(joint_nodes=nodes), verdict=SimpleNamespace(
+                                   mesh_dependent=False), search=SimpleNamespace(status=Status.LIMIT, proved=False))
+
+    assert most_graded_elements(sc) == most_graded_elements(with_mesh(sc, 8)) == 332
+    at_budget, below = tuple(np.linspace(0.0, 1.0, 333)), tuple(np.linspace(0.0, 1.0, 41))  # 332 and 40 elements
+    assert refinement_reason(run(at_budget), 4) == "" and "2.0% stronger" in coarse_stress_block(run(at_budget))
+    assert refinement_reason(run(None), 4).startswith("the FE's 4 elements through the thickness crush a joint 2.0%")
+    assert refinement_reason(run(below), 4) == coarse_stress_block(run(below))
 
 
 @pytest.mark.slow

@@ -6,7 +6,15 @@ from conftest import scene_dict, write_toml
 from bridgefem.io import cli
 from bridgefem.scene.keys import SceneError
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.structure.sizing import MAX_DOFS, check_size, estimate_size
+from bridgefem.structure.grading import GRADING_TOLERANCES, graded_nodes
+from bridgefem.structure.sizing import (
+    GRADED_PAIRS,
+    MAX_DOFS,
+    check_size,
+    estimate_size,
+    graded_elements,
+    most_graded_elements,
+)
 
 
 @pytest.mark.slow
@@ -23,6 +31,45 @@ def test_the_estimate_is_close_to_the_model_and_the_phases_are_announced(voussoi
     assert size.dofs == pytest.approx(an.n_dofs, rel=0.02)
     assert phases == ["meshing", "assembling", "pairing the joints", "setting up the solver (first factorisation)",
                       "limit search"]
+
+
+@pytest.mark.slow
+def test_the_estimate_counts_the_graded_joints():
+    """A 1 MPa ring (its joints graded for the stress block, 16 voussoirs): the estimate with the run's graded
+    joints within 2 % of the mesher's cells and the model's unknowns, and the estimate from the scene alone (the most
+    the grading may give) no smaller."""
+    from bridgefem.analysis.runner import run_analysis
+
+    scene = scene_from_dict(scene_dict(masonry={"compressive_strength": 1e6}, solver={"max_steps": 1}))
+    an = run_analysis(scene)
+    nodes = an.block_mesh.joint_nodes
+    assert nodes is not None and len(nodes) - 1 > scene.mesh.elements_through_thickness
+    size = estimate_size(scene, nodes)
+    assert size.cells == pytest.approx(an.block_mesh.n_cells, rel=0.02)
+    assert size.dofs == pytest.approx(an.n_dofs, rel=0.02)
+    assert estimate_size(scene).dofs >= size.dofs
+
+
+def test_the_graded_joints_stay_within_the_pair_budget():
+    """The most elements the grading may give a joint: (GRADED_PAIRS / joints - 1) / degree, counted by hand, and
+    never fewer than the even elements; without a strength the estimate keeps the even joints, with one it counts the
+    densest grading (hinge zones from none to the middle at the finest tolerance) within that bound."""
+    def scene(voussoirs, degree=1, ett=4, fc=1e6, rings=None):
+        arch = {"voussoirs": voussoirs, **({"rings": rings, "ring_bond": "aligned"} if rings else {})}
+        return scene_from_dict(scene_dict(arch=arch, mesh={"elements_through_thickness": ett, "degree": degree},
+                                          masonry={} if fc is None else {"compressive_strength": fc}))
+
+    assert GRADED_PAIRS == 3000
+    assert most_graded_elements(scene(199)) == 14  # 200 joints x 15 pairs
+    assert most_graded_elements(scene(99, degree=2)) == 14  # 100 joints x 29 pairs
+    assert most_graded_elements(scene(39, rings=2)) == 36  # 2 rings of 40 joints x 37 pairs
+    assert most_graded_elements(scene(999)) == 4  # the even elements, however many joints
+    densest = len(graded_nodes(4, GRADING_TOLERANCES[-1], (0.0, 0.5))) - 1
+    assert all(len(graded_nodes(4, t, (z0, z1))) - 1 <= densest for t in GRADING_TOLERANCES
+               for z0 in (0.0, 1e-3, 0.05) for z1 in (0.05, 0.25, 0.5))
+    assert graded_elements(scene(16)) == densest and graded_elements(scene(199)) == 14
+    assert graded_elements(scene(16, fc=None)) == 4 and graded_elements(scene(16), (0.0, 0.1, 0.5, 0.9, 1.0)) == 4
+    assert estimate_size(scene(16, fc=None)).dofs < estimate_size(scene(16)).dofs
 
 
 def test_a_scene_beyond_the_machine_is_refused_with_the_numbers():

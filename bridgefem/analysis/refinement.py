@@ -18,7 +18,9 @@ once from the bonded start, reaches only where the voussoirs are an element long
   standing.
 - with a compressive strength, joints whose pairs crush as a polygon more than ``AGREEMENT`` stronger than the
   rectangular stress block (the rigid-block LP on the FE's joints against the LP on the parabola,
-  :func:`coarse_stress_block`): the FE's answer is then its mesh's, not the strength's.
+  :func:`coarse_stress_block`): the FE's answer is then its mesh's, not the strength's; unless the finer mesh's
+  joints could have no more elements (:func:`finer_joints`: graded joints at the size budget of both meshes, which
+  a re-run would grade the same), when the run warns instead.
 
 A self-weight failure on longer voussoirs is not re-run (that is where a PETSc option that breaks the linear solve
 fails, and a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
@@ -66,7 +68,7 @@ from ..scene.keys import SceneError
 from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
 from ..status import Status
-from ..structure.sizing import MAX_DOFS, check_size
+from ..structure.sizing import MAX_DOFS, check_size, most_graded_elements
 from .evidence import AGREEMENT
 from .result import Analysis, MeshRefinement
 
@@ -128,7 +130,7 @@ def refinement_reason(an: Analysis, ett: int) -> str:
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
     such voussoirs."""
     coarse = coarse_stress_block(an)
-    if coarse:
+    if coarse and finer_joints(an, ett):
         return coarse
     if an.verdict.mesh_dependent and Status.of(an.search.status) is Status.LIMIT:
         return (f"a non-associative collapse state {1 - an.search.upper / an.lp.level:.1%} below the rigid-block LP "
@@ -170,6 +172,14 @@ def coarse_stress_block(an: Analysis) -> str:
     return (f"the FE's {an.scene.mesh.elements_through_thickness} elements through the thickness crush a joint "
             f"{an.lp.level / block.level - 1:.1%} stronger than the rectangular stress block (rigid-block LP on its "
             f"joints {an.lp.load / 1e3:.6g} kN, on the stress block {block.load / 1e3:.6g} kN)")
+
+
+def finer_joints(an: Analysis, ett: int) -> bool:
+    """Whether twice ``ett`` elements through the thickness may give the ring joints more elements than the run
+    ``an``'s: always for even joints, for graded ones when the size budget of the finer mesh
+    (:func:`bridgefem.structure.sizing.most_graded_elements`) allows more than the run's joints have."""
+    nodes = an.block_mesh.joint_nodes
+    return nodes is None or most_graded_elements(with_mesh(an.scene, 2 * ett)) > len(nodes) - 1
 
 
 def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:

@@ -12,10 +12,14 @@ are graded towards both edges, from the zones the rigid-block LP predicts, befor
    depth t.
 2. The LP on the FE's own stations of even elements (``elements_through_thickness``): within ``TARGET`` of step 1's
    level, the joints stay even (the mesh of a run without grading).
-3. Otherwise, for each moment tolerance of ``TOLERANCES`` in turn, the joints graded to it and those zones
-   (:func:`bridgefem.laws.crushing.graded_nodes`) and the LP on their stations: the first within ``TARGET`` of step
+3. Otherwise, for each moment tolerance of ``GRADING_TOLERANCES`` in turn, the joints graded to it and those zones
+   (:func:`bridgefem.structure.grading.graded_nodes`) and the LP on their stations: the first within ``TARGET`` of step
    1's level is taken; when none is, the last (finest), and the run's check of its stress block warns
    (:func:`bridgefem.analysis.refinement.coarse_stress_block`).
+4. A grading with more elements than the size budget allows (:func:`bridgefem.structure.sizing.most_graded_elements`: the
+   pairs of all the ring joints within ``GRADED_PAIRS``) is replaced by the finest one within it
+   (:func:`bridgefem.structure.grading.graded_within`), and no finer tolerance is tried: many joints get fewer elements
+   each, and where those resolve the stress block less well than ``TARGET`` the run's check warns as in step 3.
 
 The LPs are solved on rank 0 and the nodes broadcast; an LP that fails leaves the joints even (the run's own LP check
 reports it).
@@ -25,15 +29,16 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
-from ..laws.crushing import graded_nodes, scene_law
+from ..laws.crushing import scene_law
 from ..limit.collapse import collapse_load
 from ..scene.model import Scene
 from ..status import Status
+from ..structure.grading import GRADING_TOLERANCES, graded_nodes, graded_within
 from ..structure.ring import scene_ring
+from ..structure.sizing import most_graded_elements
 from .evidence import AGREEMENT
 
 TARGET = AGREEMENT / 2  # the LP on the FE's stations at most this fraction above the LP on the stress block
-TOLERANCES = (1e-2, 2.5e-3, 6.25e-4)  # the graded joints' moment tolerances tried in turn (each halves the spacing)
 
 
 def joint_nodes(scene: Scene, comm: MPI.Comm) -> tuple[float, ...] | None:
@@ -46,7 +51,7 @@ def joint_nodes(scene: Scene, comm: MPI.Comm) -> tuple[float, ...] | None:
 
 
 def _graded(scene: Scene) -> tuple[float, ...] | None:
-    """The module docstring's steps 1-3 on rank 0."""
+    """The module docstring's steps 1-4 on rank 0."""
     def level(nodes: tuple[float, ...] | None) -> float:
         own = collapse_load(scene, law=scene_law(scene, fe=True, nodes=nodes))
         return own.level if own.status == Status.LIMIT and own.level is not None else np.inf
@@ -62,9 +67,12 @@ def _graded(scene: Scene) -> tuple[float, ...] | None:
         depth = np.array([ring.joints[j].length for j in block.hinges])
         strength = scene.masonry.compressive_strength * scene.arch.width
         zone = np.maximum(block.joint_forces["n"][block.hinges] / (strength * depth), 0.0)
+        ett, most, zones = scene.mesh.elements_through_thickness, most_graded_elements(scene), (zone.min(), zone.max())
         nodes = None
-        for tolerance in TOLERANCES:
-            nodes = graded_nodes(scene.mesh.elements_through_thickness, tolerance, (zone.min(), zone.max()))
+        for tolerance in GRADING_TOLERANCES:
+            nodes = graded_nodes(ett, tolerance, zones)
+            if len(nodes) - 1 > most:  # step 4
+                return graded_within(ett, tolerance, zones, most)
             if level(nodes) <= target:
                 break
         return nodes

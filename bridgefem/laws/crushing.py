@@ -53,10 +53,12 @@ K = p (its vertices sit where one more pair has crushed, delta above the parabol
 FE's own joints therefore takes the FE's stations (:func:`fe_stations`; for degree 2, Simpson's weights): the FE's
 equilibria obey its rows exactly, and the FE converges to the parabola as the mesh is refined. A compressed zone
 thinner than the edge pair's tributary length sits on the edge pair alone, as if infinitely strong; the joints are
-therefore graded towards both edges where the stress block needs it (:func:`graded_nodes`, chosen from the LP's
-hinges by :mod:`bridgefem.analysis.stress_block`): spacing that grows from the edge keeps the polygon outside the
-parabola up to the joint's middle, by about f_c w (2 s_k^2 - s_0^2)/8 at a vertex (s_k the local spacing, s_0 the
-edge's).
+therefore graded towards both edges where the stress block needs it
+(:func:`bridgefem.structure.grading.graded_nodes`, chosen from the LP's hinges by
+:mod:`bridgefem.analysis.stress_block`): spacing that grows from the edge keeps the polygon outside the parabola up
+to the joint's middle, by about f_c w (2 s_k^2 - s_0^2)/8 at a vertex (s_k the local spacing, s_0 the edge's);
+within a budget of elements per joint, the finest grading that fits
+(:func:`bridgefem.structure.grading.graded_within`).
 """
 from __future__ import annotations
 
@@ -328,46 +330,6 @@ def fe_stations(scene: Scene, nodes: tuple[float, ...] | None = None) -> tuple[t
         w[2::2] += size / 6
         w[1::2] = 4 * size / 6
     return tuple(zip(s.tolist(), w.tolist()))
-
-
-GROWTH = 1.5  # the largest ratio of neighbouring elements' sizes where a graded joint coarsens towards its middle
-
-
-def graded_nodes(elements: int, tolerance: float, zones: tuple[float, float]) -> tuple[float, ...]:
-    """The element ends (fractions of a joint's depth t from the intrados, 0 to 1) of a joint whose pairs resolve
-    the stress block to ``tolerance`` at every compressed zone from ``zones[0]`` to twice ``zones[1]`` deep (fractions
-    of t, the hinges' thinnest and deepest zones), with at most the even spacing 1/``elements`` elsewhere.
-
-    Pairs at spacing s (a fraction of t) around a compressed zone of depth x overstate the joint's moment by about
-    f_c w (s t)^2 / 8 (the polygon's vertex above the parabola, module docstring), a fraction s^2 / (4 x) of the
-    hinge moment n t / 2 (n = f_c w x t); a zone shallower than the first spacing sits on the edge pair, overstating
-    the moment by its whole stress block, a fraction x / 2 or less (so a zone shallower than ``tolerance`` needs no
-    resolving, and the thinnest zone is taken at least that deep). So:
-
-    1. the spacing allowed at depth x is s(x) = 2 sqrt(``tolerance`` max(x, zones[0])) up to 2 zones[1] (the FE's
-       hinges may carry more than the LP's), beyond it ``GROWTH`` times the spacing before; at most 1/``elements``;
-    2. from each edge the nodes are marched x_{k+1} = x_k + s while s < 1/``elements`` and x_{k+1} is short of the
-       joint's middle;
-    3. the rest, between the two graded ends, is divided evenly: into pieces of at most 1/``elements`` where the
-       march reached that spacing, else into pieces as near s as a whole number gives (a rest shorter than half of
-       s joins the last graded piece on each side).
-
-    Where no grading is needed (2 sqrt(tolerance zones[0]) >= 1/elements) these are ``elements`` even elements."""
-    even, thinnest, cover = 1.0 / elements, max(zones[0], tolerance), 2.0 * zones[1]
-    ends, step = [0.0], 0.0
-    while True:
-        x = ends[-1]
-        step = min(even, 2.0 * math.sqrt(tolerance * max(x, thinnest)) if x <= cover else GROWTH * step)
-        if step >= even or x + step >= 0.5:
-            break
-        ends.append(x + step)
-    if step < even and 1.0 - 2.0 * ends[-1] < step / 2 and len(ends) > 1:
-        ends.pop()
-    edge = np.array(ends)
-    width = 1.0 - 2.0 * edge[-1]
-    pieces = math.ceil(width / even - 1e-9) if step >= even else max(1, round(width / step))
-    middle = np.linspace(edge[-1], 1.0 - edge[-1], pieces + 1)
-    return tuple(np.concatenate([edge[:-1], middle, 1.0 - edge[-2::-1]]).tolist())
 
 
 def scene_law(scene: Scene, fe: bool = False, nodes: tuple[float, ...] | None = None

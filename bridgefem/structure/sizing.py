@@ -5,7 +5,11 @@ swapping for minutes, and a long one is announced.
 Cells follow the mesher's rules (:mod:`bridgefem.fe.mesh`): element size h = thickness / elements_through_thickness
 in each ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
 cut into two triangles (more along under a thin fill: one per extrados element size); the fill and the abutments
-unstructured at their own size, the fill at the extrados element size in a band along the extrados. The memory
+unstructured at their own size, the fill at the extrados element size in a band along the extrados. With a
+compressive strength the ring joints are graded for the stress block before meshing
+(:mod:`bridgefem.analysis.stress_block`), each voussoir's grid then as many elements through as its joints: the
+estimate counts the graded joints when they are given, else the most the grading may give
+(:func:`graded_elements`), so that it never falls short of the model it guards. The memory
 is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
 (MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
 bare arch from 1k to 68k unknowns (117 to 127 bytes per n log2 n). The estimate comes within 1 % of the mesher's
@@ -23,6 +27,7 @@ import numpy as np
 from ..geometry.shapes import make_shape
 from ..scene.keys import SceneError
 from ..scene.model import Scene
+from .grading import densest_grading
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
 MEMORY_PER_DOF = 120.0  # bytes per n log2 n unknowns: matrix, factor and work space (fit, see the docstring)
@@ -32,6 +37,9 @@ MAX_DOFS = 1_000_000  # unknowns above which a run is refused (unless asked for)
 FILL_DEPTH_SHARE = 1.0  # extrados element size x elements through the ring / fill depth over the crown
 EXTRADOS_BAND = 1.0  # width of the band along the extrados kept at that size / the fill's depth over the crown
 TRIANGLES_PER_AREA = 4.2  # unstructured triangles per h^2 of fill area (Gmsh, measured on two fills)
+GRADED_PAIRS = 3000  # joint pairs that graded ring joints may have in all: a limit search's active-set iterations
+# grow faster than the pairs that crush one after another, and beyond a few thousand graded pairs a search takes
+# minutes (docs/robustness.md); ring joints of even elements keep theirs whatever their number
 
 
 def extrados_element_size(thickness: float, per_thickness: int, depth: float | None) -> float:
@@ -54,11 +62,42 @@ class SizeEstimate:
                 "(estimate)")
 
 
-def estimate_size(scene: Scene) -> SizeEstimate:
+def ring_voussoirs(scene: Scene) -> list[int]:
+    """The voussoirs of each ring, inner first: the arch's, one more in every other ring of a staggered bond."""
+    a = scene.arch
+    layers = a.ring_layers or (a.thickness,)
+    return [a.voussoirs + (1 if len(layers) > 1 and a.ring_bond == "staggered" and (len(layers) - 1 - r) % 2 else 0)
+            for r in range(len(layers))]
+
+
+def most_graded_elements(scene: Scene) -> int:
+    """The most elements through each ring joint that the grading for the stress block may use: as many as keep the
+    pairs of all the rings' joints (n + 1 per ring of n voussoirs, ``degree`` x elements + 1 each) within
+    ``GRADED_PAIRS``, and never fewer than ``elements_through_thickness`` (the even joints)."""
+    joints = sum(n + 1 for n in ring_voussoirs(scene))
+    ett, degree = scene.mesh.elements_through_thickness, scene.mesh.degree
+    return max(ett, int((GRADED_PAIRS / joints - 1) // degree))
+
+
+def graded_elements(scene: Scene, joint_nodes: tuple[float, ...] | None = None) -> int:
+    """The elements through each ring joint: those of ``joint_nodes`` (the graded element ends) when given; without
+    them ``elements_through_thickness`` without a compressive strength, else the most the grading may give, its
+    densest grading (:func:`bridgefem.structure.grading.densest_grading`) within :func:`most_graded_elements`."""
+    ett = scene.mesh.elements_through_thickness
+    if joint_nodes is not None:
+        return len(joint_nodes) - 1
+    if scene.masonry.compressive_strength is None:
+        return ett
+    return min(densest_grading(ett), most_graded_elements(scene))
+
+
+def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None) -> SizeEstimate:
     """The model's size from the scene alone (no mesh is built): per ring (the ring's element size h its thickness
-    / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, each ring interface's
-    pairs (one per h of the finer ring along it), then the fill and the abutments."""
+    / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, as many elements through as
+    the ring joints have (:func:`graded_elements` of ``joint_nodes``), each ring interface's pairs (one per h of the
+    finer ring along it), then the fill and the abutments."""
     a, ett, degree = scene.arch, scene.mesh.elements_through_thickness, scene.mesh.degree
+    through = graded_elements(scene, joint_nodes)
     shape = make_shape(a.shape, a.span, a.rise)
     p = np.linspace(0.0, 1.0, 257)
 
@@ -73,14 +112,13 @@ def estimate_size(scene: Scene) -> SizeEstimate:
     h = min(sizes)
     h_extrados = extrados_element_size(layers[-1], ett, scene.fill.depth if scene.fill is not None else None)
     cells = nodes = pairs = 0.0
-    for r, (t, h_r) in enumerate(zip(layers, sizes)):
-        n = a.voussoirs + (1 if len(layers) > 1 and a.ring_bond == "staggered" and (len(layers) - 1 - r) % 2 else 0)
+    for r, (t, h_r, n) in enumerate(zip(layers, sizes, ring_voussoirs(scene))):
         fill_along = (math.ceil(extrados_length / n / h_extrados) if h_extrados < h_r and r == len(layers) - 1
                       else 0)
         along = max(1, math.ceil(offset_length(levels[r] + t / 2) / n / h_r), fill_along)
-        cells += 2 * n * ett * along
-        nodes += n * (degree * ett + 1) * (degree * along + 1)
-        pairs += (n + 1) * (degree * ett + 1)
+        cells += 2 * n * through * along
+        nodes += n * (degree * through + 1) * (degree * along + 1)
+        pairs += (n + 1) * (degree * through + 1)
     for r in range(1, len(layers)):  # the ring interfaces
         pairs += degree * offset_length(levels[r]) / min(sizes[r - 1], sizes[r])
     if scene.fill is not None:
