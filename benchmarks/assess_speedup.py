@@ -9,9 +9,10 @@
    assessment.json ``seconds.total``). Each pair gives its ratios, serial / parallel; the median is quoted.
 3. Every parallel answer must be the serial one: the same critical x, LP factor and FE bracket (to 1e-9).
 4. The start-up every process pays whatever it computes (``python -c "import bridgefem.io.cli,
-   bridgefem.analysis.runner, gmsh, matplotlib.pyplot"``: the imports, the MPI and PETSc start, DOLFINx, Gmsh's
-   library and matplotlib, which the first FE run and the first picture load) is timed the same way, serial and under ``mpirun -n 2``, and with it the best
-   ratio two ranks could reach for this work (Amdahl): serial / (start-up + (serial - start-up) / 2).
+   bridgefem.analysis.runner, gmsh, matplotlib.pyplot"``: the imports, the MPI and PETSc start, DOLFINx, Gmsh's library
+   and matplotlib, which the first FE run and the first picture load) is timed the same way, serial and under ``mpirun
+   -n 2``, and with it the best ratio two ranks could reach for this work (Amdahl): serial / (start-up + (serial -
+   start-up) / 2).
 
 The machine's load average is printed before and after: on a shared 2-core machine another job slows the 2-rank run
 most, so read the ratios with it. Run:

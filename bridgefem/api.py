@@ -108,7 +108,8 @@ def analyse(scene: Scene, comm=None, petsc: dict[str, str] | None = None) -> Res
     """The limit load of ``scene`` by the FE, with its rigid-block LP check (collective over ``comm``, an mpi4py
     communicator; default: every rank). ``petsc``: PETSc options of the contact solver without their prefix (e.g.
     ``{"ksp_type": "preonly"}``), over the scene's ``[solver.petsc]``. A model larger than the machine or
-    :data:`bridgefem.structure.sizing.MAX_DOFS` unknowns is refused with :class:`SceneError`, as ``bridgefem run`` does."""
+    :data:`bridgefem.structure.sizing.MAX_DOFS` unknowns is refused with :class:`SceneError`, as ``bridgefem run``
+    does."""
     from mpi4py import MPI
 
     from .analysis.runner import run_analysis

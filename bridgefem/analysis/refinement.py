@@ -183,9 +183,8 @@ def finer_joints(an: Analysis, ett: int) -> bool:
 
 
 def refined_elements(scene: Scene, max_dofs: float = MAX_DOFS) -> int | None:
-    """Twice the scene's elements through the ring thickness, or None when that exceeds
-    :data:`REFINED_ELEMENTS_MAX` or the size estimate refuses it (:func:`bridgefem.structure.sizing.check_size` with at most
-    ``max_dofs`` unknowns)."""
+    """Twice the scene's elements through the ring thickness, or None when that exceeds :data:`REFINED_ELEMENTS_MAX` or
+    the size estimate refuses it (:func:`bridgefem.structure.sizing.check_size` with at most ``max_dofs`` unknowns)."""
     ett = 2 * scene.mesh.elements_through_thickness
     if ett > REFINED_ELEMENTS_MAX:
         return None

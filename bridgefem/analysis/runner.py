@@ -100,10 +100,11 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     ``petsc_options`` go over the scene's; ``phase(name)`` announces each set-up phase, ``report(step)`` each load
     step and ``notice(line)`` each re-run on a finer mesh, of which there are at most ``max_refinements``, each within
     ``max_dofs`` unknowns (:mod:`bridgefem.analysis.refinement`); ``joint_law`` builds the joints' law
-    (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's, :func:`bridgefem.laws.crushing.scene_law_factory`). ``enough`` (N of live
-    load): carrying it ends the search as "locked" for a caller that asks only whether the bridge carries it, the
-    path unchanged (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it
-    replaced listed in ``Analysis.refinements``."""
+    (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's,
+    :func:`bridgefem.laws.crushing.scene_law_factory`). ``enough`` (N of live load): carrying it ends the search as
+    "locked" for a caller that asks only whether the bridge carries it, the path unchanged
+    (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it replaced listed in
+    ``Analysis.refinements``."""
     def analyse(mesh_scene: Scene, coarser: float | None, budget: int | None, path: CoarserPath | None) -> Analysis:
         return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough)
 

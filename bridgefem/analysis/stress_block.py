@@ -16,8 +16,8 @@ are graded towards both edges, from the zones the rigid-block LP predicts, befor
    (:func:`bridgefem.structure.grading.graded_nodes`) and the LP on their stations: the first within ``TARGET`` of step
    1's level is taken; when none is, the last (finest), and the run's check of its stress block warns
    (:func:`bridgefem.analysis.refinement.coarse_stress_block`).
-4. A grading with more elements than the size budget allows (:func:`bridgefem.structure.sizing.most_graded_elements`: the
-   pairs of all the ring joints within ``GRADED_PAIRS``) is replaced by the finest one within it
+4. A grading with more elements than the size budget allows (:func:`bridgefem.structure.sizing.most_graded_elements`:
+   the pairs of all the ring joints within ``GRADED_PAIRS``) is replaced by the finest one within it
    (:func:`bridgefem.structure.grading.graded_within`), and no finer tolerance is tried: many joints get fewer elements
    each, and where those resolve the stress block less well than ``TARGET`` the run's check warns as in step 3.
 

@@ -14,13 +14,13 @@ least over all positions (LimitState:RING's adequacy factor). Method:
 2. **Refine** around the ``confirm + 1`` least local minima of each screen: :data:`REFINE_POINTS` positions across
    two steps on each side of each, then again across two of those new steps, :data:`REFINE_LEVELS` times (a grid
    of step / 8^levels around each minimum).
-3. **Confirm** with the FE limit analysis (:func:`bridgefem.analysis.runner.run_analysis`; the answer, the LP its
-   check) the least refined minimum and the next local minima within :data:`CONFIRM_MARGIN` of it (up to
-   ``confirm`` positions): the FE's and the LP's rankings can differ where minima are close; with a fill, also each
-   other rule's least position unless it is one of those (within the finest refinement's spacing): the FE, which
-   carries the axles through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the least FE bracket; a position whose
-   vehicle cannot collapse the bridge is "locked", never a number. The positions are confirmed in the order of the
-   factor their own screen gives them, least first.
+3. **Confirm** with the FE limit analysis (:func:`bridgefem.analysis.runner.run_analysis`; the answer, the LP its check)
+   the least refined minimum and the next local minima within :data:`CONFIRM_MARGIN` of it (up to ``confirm``
+   positions): the FE's and the LP's rankings can differ where minima are close; with a fill, also each other rule's
+   least position unless it is one of those (within the finest refinement's spacing): the FE, which carries the axles
+   through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the
+   least FE bracket; a position whose vehicle cannot collapse the bridge is "locked", never a number. The positions are
+   confirmed in the order of the factor their own screen gives them, least first.
 4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop as
    soon as they carry that bracket's upper end, the *ceiling* (the analysis's ``enough`` load,
    :func:`bridgefem.analysis.runner.run_analysis`): a position that carries it cannot be critical, so its search

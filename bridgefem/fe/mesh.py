@@ -9,10 +9,10 @@ coordinates as in :mod:`bridgefem.geometry.ring`.
 
 :func:`build_block_mesh`, on rank 0 (Gmsh: Geuzaine & Remacle 2009, Int. J. Numer. Meth. Eng. 79:1309):
 
-1. draws the blocks and joints as data (:func:`_gmsh_bridge`, :class:`_Drawing`): one Gmsh point per distinct
-   location (the joints' ends first), a line per voussoir joint (with a compressive strength a chain of lines
-   between the graded ``joint_nodes``, one element each: :mod:`bridgefem.analysis.stress_block`), each voussoir's intrados and extrados as splines
-   split at their splits (kinks, load points, the other ring's joints), a curve shared by two voussoirs (a ring
+1. draws the blocks and joints as data (:func:`_gmsh_bridge`, :class:`_Drawing`): one Gmsh point per distinct location
+   (the joints' ends first), a line per voussoir joint (with a compressive strength a chain of lines between the graded
+   ``joint_nodes``, one element each: :mod:`bridgefem.analysis.stress_block`), each voussoir's intrados and extrados as
+   splines split at their splits (kinks, load points, the other ring's joints), a curve shared by two voussoirs (a ring
    interface) drawn once and reused reversed by the other, each voussoir a surface inside its curves; a ring
    interface joint is the curves of its inner voussoir's extrados between its ends; then the elastic abutments
    (their top the springing joints of every ring), the fill over the outer ring's extrados and its loading beams;
@@ -24,10 +24,11 @@ coordinates as in :mod:`bridgefem.geometry.ring`.
 
 then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
-Under a fill the extrados (shared by the outer ring and fill) is divided at :func:`~bridgefem.structure.sizing.extrados_element_size` (of the
-outer ring's thickness), at most ``sizing.FILL_DEPTH_SHARE`` x the fill's depth over the crown /
-``elements_through_thickness`` (the voussoirs get as many segments along, their joints keep
-``elements_through_thickness``), and a Gmsh size field keeps the fill at that size within the fill's depth of the
+Under a fill the extrados (shared by the outer ring and fill) is divided at
+:func:`~bridgefem.structure.sizing.extrados_element_size` (of the outer ring's thickness), at most
+``sizing.FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as
+many segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
+size within the fill's depth of the
 extrados, graded to the far fill's size beyond. The road's load points (patch edges, point loads) get
 ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill, whose depth, not the
 ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
@@ -393,8 +394,8 @@ def _add_fill(geo, outline: FillOutline, corners: list[int], extrados_curves: li
     ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
     tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
     loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
-    (:func:`~bridgefem.structure.sizing.extrados_element_size`) along it and within the fill's depth of it (:func:`_grade_fill_from_extrados`);
-    Gmsh grades in between."""
+    (:func:`~bridgefem.structure.sizing.extrados_element_size`) along it and within the fill's depth of it
+    (:func:`_grade_fill_from_extrados`); Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
                                                                                          h_fill)

@@ -167,7 +167,8 @@ def _collapse(reason: str) -> str:
 @dataclasses.dataclass(frozen=True)
 class Validated:
     """A scene that passed every check ``run`` makes before its analysis (:func:`validate`): its size estimate, the
-    unknowns allowed, and a line for each point load moved onto a joint (:func:`bridgefem.structure.ring.snapped_loads`)."""
+    unknowns allowed, and a line for each point load moved onto a joint
+    (:func:`bridgefem.structure.ring.snapped_loads`)."""
 
     scene: Scene
     size: SizeEstimate
@@ -176,11 +177,11 @@ class Validated:
 
 
 def validate(args, petsc: dict) -> Validated:
-    """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check``
-    calls valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.reader.load_scene`),
-    its size (:func:`bridgefem.structure.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads (the
-    one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's and
-    ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
+    """Every check ``run`` makes before its analysis, for ``run`` and ``check`` alike, so that a scene ``check`` calls
+    valid is never refused by ``run`` before it computes: the scene's keys (:func:`bridgefem.scene.reader.load_scene`),
+    its size (:func:`bridgefem.structure.sizing.check_size`, ``--no-size-limit``), its ring with the joints at its loads
+    (the one the FE and the LP share, :func:`bridgefem.structure.ring.scene_ring`) and the PETSc options (the scene's
+    and ``petsc``, the command line's). Raises SceneError. Only the output folder is left to ``run`` (it depends on
     ``--out``)."""
     from ..structure.ring import scene_ring, snapped_loads
 

@@ -132,9 +132,9 @@ def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
 
 
 def upper_mechanism(b: Bounds) -> dict | None:
-    """The upper bound's mechanism of the blocks by the structure's joints: joints with a relative rotation (hinges)
-    or slip (sliding), ring interfaces that open (separated), as the rigid-block LP reports them, relative to the largest block or fill speed (a local failure of the fill
-    moves no joint; None without an upper bound)."""
+    """The upper bound's mechanism of the blocks by the structure's joints: joints with a relative rotation (hinges) or
+    slip (sliding), ring interfaces that open (separated), as the rigid-block LP reports them, relative to the largest
+    block or fill speed (a local failure of the fill moves no joint; None without an upper bound)."""
     if b.block_velocities is None or not b.problem.blocks.n_joints:
         return None
     fill = 0.0 if b.soil_velocities is None else float(np.linalg.norm(b.soil_velocities, axis=1).max())

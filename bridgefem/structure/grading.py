@@ -22,10 +22,10 @@ def graded_nodes(elements: int, tolerance: float, zones: tuple[float, float]) ->
     the stress block to ``tolerance`` at every compressed zone from ``zones[0]`` to twice ``zones[1]`` deep (fractions
     of t, the hinges' thinnest and deepest zones), with at most the even spacing 1/``elements`` elsewhere.
 
-    Pairs at spacing s (a fraction of t) around a compressed zone of depth x overstate the joint's moment by about
-    f_c w (s t)^2 / 8 (the polygon's vertex above the parabola, :mod:`bridgefem.laws.crushing`), a fraction s^2 / (4 x) of the
-    hinge moment n t / 2 (n = f_c w x t); a zone shallower than the first spacing sits on the edge pair, overstating
-    the moment by its whole stress block, a fraction x / 2 or less (so a zone shallower than ``tolerance`` needs no
+    Pairs at spacing s (a fraction of t) around a compressed zone of depth x overstate the joint's moment by about f_c w
+    (s t)^2 / 8 (the polygon's vertex above the parabola, :mod:`bridgefem.laws.crushing`), a fraction s^2 / (4 x) of the
+    hinge moment n t / 2 (n = f_c w x t); a zone shallower than the first spacing sits on the edge pair, overstating the
+    moment by its whole stress block, a fraction x / 2 or less (so a zone shallower than ``tolerance`` needs no
     resolving, and the thinnest zone is taken at least that deep). So:
 
     1. the spacing allowed at depth x is s(x) = 2 sqrt(``tolerance`` max(x, zones[0])) up to 2 zones[1] (the FE's
