@@ -122,15 +122,28 @@ def test_point_axle_without_spreading_is_a_point_load_on_the_extrados():
 
 
 @pytest.mark.slow
-def test_fill_screens_every_rule_and_the_fe_confirms_each_rules_least_position():
+def test_fill_screens_every_rule_and_the_fe_confirms_each_rules_least_position(monkeypatch):
     """With a fill each dispersion rule screens the roll: its least LP factor and position are those of the
     assessment whose scene has that rule, and every rule's least position is confirmed by the FE (within the
-    finest refinement's spacing of a candidate), each candidate carrying the scene rule's LP factor there."""
+    finest refinement's spacing of a candidate), each candidate carrying the scene rule's LP factor there.
+
+    An assessment's factor and critical position come from its own rule's screen alone (each screen is refined
+    around its own minima), so the assessments of the other rules' scenes run that screen only (the first of
+    ``_screens``, the scene's own rule); the scene's own rule is ``a`` itself."""
+    from bridgefem.assess import sweep
+
     s = _prestwood(axles=[100e3, 100e3], spacing=[1.2], contact_length=0.3)
     [a] = assess([s], step=0.3, fe=False)
     assert set(a.dispersion_minima) == set(DISPERSIONS)
+    screens = sweep._screens
     for rule, m in a.dispersion_minima.items():
-        [own] = assess([bridgefem.edit(s, vehicle={"dispersion": rule})], step=0.3, fe=False)
+        if rule == s.vehicle.dispersion:
+            own = a
+        else:
+            with monkeypatch.context() as patch:
+                patch.setattr(sweep, "_screens", lambda scene: screens(scene)[:1])
+                [own] = assess([bridgefem.edit(s, vehicle={"dispersion": rule})], step=0.3, fe=False)
+            assert set(own.dispersion_minima) == {rule}  # its own screen, with the scene's rule
         assert (m.factor, m.x0) == pytest.approx((own.lp_factor, own.lp_critical_x), rel=1e-12)
     candidates = _candidates(a, CONFIRM)
     for m in a.dispersion_minima.values():

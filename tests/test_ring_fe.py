@@ -194,13 +194,18 @@ def analyse(rings, bond, thickness, ring_friction=None, cohesion=0.0, voussoirs=
     return run_analysis(scene_from_dict(d), MPI.COMM_WORLD)
 
 
+# The known failures of #41 item 5 below are marked xfail and not run (run=False): a non-strict xfail cannot fail,
+# so running it checks nothing. Whoever works on the item runs them as ordinary tests with
+# ./run test tests/test_ring_fe.py --runxfail
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("rings,bond,thickness", [
     (2, "staggered", 1.5), (2, "aligned", 1.5), (3, "aligned", 2.5),
     pytest.param(3, "staggered", 2.5, marks=pytest.mark.xfail(
         reason="the active-set search stops 1.3 % below the LP with an unproven mode (the LP under the FE's forces "
                "finds a reserve: a solver failure, not a weaker model); the frictionless middle ring of a staggered "
-               "bond is the hard case of #41 item 5", strict=False))])
+               "bond is the hard case of #41 item 5 (not run: --runxfail runs it)", strict=False, run=False))])
 def test_frictionless_ring_interfaces_give_the_lp(rings, bond, thickness):
     """Frictionless ring interfaces: the FE's bracket within the FE/LP agreement of the LP on the same blocks."""
     an = analyse(rings, bond, thickness, ring_friction=0.0)
@@ -213,7 +218,8 @@ def test_frictionless_ring_interfaces_give_the_lp(rings, bond, thickness):
 @pytest.mark.slow
 @pytest.mark.xfail(reason="rough ring interfaces (mu 0.6): the active-set search stops 1.5 % (aligned) to 10 % "
                           "(staggered) below the associative LP with an unproven mode or a cycling active set, the "
-                          "bracket open; the sliding interfaces are the hard case of #41 item 5", strict=False)
+                          "bracket open; the sliding interfaces are the hard case of #41 item 5 (not run: "
+                          "--runxfail runs it)", strict=False, run=False)
 @pytest.mark.parametrize("bond", ["staggered", "aligned"])
 def test_rough_ring_interfaces_stay_below_the_associative_lp(bond):
     """Ring friction 0.6: the FE (non-associative) closes its bracket at or below the associative LP on the same
