@@ -120,7 +120,7 @@ def dispersed_lp(scene: Scene, axles: list[tuple[float, float, float]], rule: st
     (load N, patch from lo to hi m from midspan, :func:`dispersed_forces`) dispersed by ``rule`` as the live load
     for a unit vehicle factor: its ``level`` is the factor."""
     ring = scene_ring(scene)
-    model = ring_model(scene, live=False)
+    model = ring_model(scene, live=False, ring=ring)
     blocks, points, forces = dispersed_forces(scene, ring, axles, rule)
     live = generalised_loads(model.ref, blocks, points, forces)
     return solve_blocks(dataclasses.replace(model, live=live))

@@ -56,7 +56,7 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     span = scene.arch.span
     on_joint = [i for i, ld in enumerate(scene.loads)
                 if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
-    model = ring_model(scene, load_at_joint="split", law=law)
+    model = ring_model(scene, load_at_joint="split", law=law, ring=ring)
 
     def solve(choice: dict[int, str]) -> LPResult:
         sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))

@@ -33,7 +33,7 @@ import dataclasses
 
 import numpy as np
 
-from ..geometry.ring import joint_under, point_load_blocks, polygon_area_centroid
+from ..geometry.ring import ArchRing, joint_under, point_load_blocks, polygon_area_centroid
 from ..laws.base import JointLaw
 from ..laws.crushing import scene_law
 from ..scene.model import Scene
@@ -42,7 +42,8 @@ from .rigid_block import BlockModel, generalised_loads
 
 
 def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str | tuple[str, ...] = "split",
-               live: bool = True, law: type[JointLaw] | JointLaw | None = None) -> BlockModel:
+               live: bool = True, law: type[JointLaw] | JointLaw | None = None, ring: ArchRing | None = None
+               ) -> BlockModel:
     """The voussoirs of a scene's ring as a :class:`~bridgefem.limit.rigid_block.BlockModel` (the FE model's joint
     layout).
 
@@ -55,13 +56,16 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     only (:func:`_overburden`). Elastic abutments are two more rigid blocks (``unit_weight area width`` at their
     centroids) with their base joints on the ground (the abutments' friction); a support movement is not modelled
     (it does not change the collapse load of rigid blocks). ``law``: the joints' law (default the scene's,
-    :func:`bridgefem.laws.crushing.scene_law`).
+    :func:`bridgefem.laws.crushing.scene_law`). ``ring``: the scene's ring when the caller has built it already
+    (:func:`bridgefem.structure.ring.scene_ring` of ``scene``, not given with ``thickness``); None: built here.
     """
     a = scene.arch
     sides = (load_at_joint,) * len(scene.loads) if isinstance(load_at_joint, str) else tuple(load_at_joint)
     if len(sides) != len(scene.loads):
         raise ValueError(f"load_at_joint: {len(sides)} sides for {len(scene.loads)} loads")
-    ring = scene_ring(scene, thickness)
+    if ring is not None and thickness is not None:
+        raise ValueError("ring_model: give the ring or a thickness to build it with, not both")
+    ring = ring or scene_ring(scene, thickness)
     ref = np.array([polygon_area_centroid(b.polygon)[1] for b in ring.voussoirs + ring.abutments])
     nb = len(ref)
     dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -block_weights(scene, ring)]))
