@@ -261,7 +261,8 @@ def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_pat
     proc.send_signal(signal.SIGINT)
     t0 = time.monotonic()
     rest, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 130, (f"exit {proc.returncode} {time.monotonic() - t0:.1f} s after the signal; "
+                                    f"stderr {err[-500:]!r}; the rest of stdout {rest[-800:]!r}")
     assert time.monotonic() - t0 < 10 and "results in" not in rest, rest
     assert snapshot(out) == before
     assert [name for name in strays(tmp_path) if "bridgefem-tmp" in name] == []
