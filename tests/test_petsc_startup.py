@@ -252,9 +252,17 @@ def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_pat
     before = snapshot(out)
     scene = ROOT / "demos" / "prestwood.toml"  # a plastic fill: load steps for tens of seconds on two ranks
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.io.cli", "run",
-                             str(scene), "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=env, cwd=tmp_path)
+    # started as a terminal starts a command: SIGINT neither ignored nor blocked, whatever this test process's
+    # worker has done to its own (a child inherits both, and a shell cannot trap a signal ignored at its start)
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
+    mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    try:
+        proc = subprocess.Popen([str(ROOT / "run"), "mpirun", "-n", "2", sys.executable, "-m", "bridgefem.io.cli",
+                                 "run", str(scene), "--out", str(out)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    finally:
+        signal.signal(signal.SIGINT, handler)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     while (line := proc.stdout.readline()) and not line.startswith("step   1"):
         pass
     assert line, proc.communicate()[1]
@@ -262,7 +270,8 @@ def test_ctrl_c_under_run_mpirun_exits_130_and_keeps_the_earlier_results(tmp_pat
     t0 = time.monotonic()
     rest, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (f"exit {proc.returncode} {time.monotonic() - t0:.1f} s after the signal; "
-                                    f"stderr {err[-500:]!r}; the rest of stdout {rest[-800:]!r}")
+                                    f"stderr {err[-500:]!r}; the rest of stdout {rest[-800:]!r}; this process's "
+                                    f"SIGINT handler {handler!r}, blocked signals {mask!r}")
     assert time.monotonic() - t0 < 10 and "results in" not in rest, rest
     assert snapshot(out) == before
     assert [name for name in strays(tmp_path) if "bridgefem-tmp" in name] == []
