@@ -28,16 +28,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import machine_line, write_outputs  # noqa: E402
+from harness import machine_line, timed, write_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1.7
@@ -45,19 +43,6 @@ VEHICLE = "\n[vehicle]\naxles = [100e3, 100e3]\nspacing = [1.2]\n"
 BRIDGES = {"bare": ("bare_arch.toml", VEHICLE), "prestwood": ("prestwood.toml", VEHICLE + "contact_length = 0.3\n")}
 """Each ``--bridge``: its demo scene (whose ``[[load]]`` tables are dropped) and the vehicle that replaces them."""
 MPI = ["mpirun", "-n", "2"]
-
-
-def timed(cmd: list[str], env: dict) -> tuple[float, float, subprocess.CompletedProcess]:
-    """Wall and CPU time (s, all the command's processes) of one run of ``cmd``."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    run = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    if run.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({run.returncode}): {run.stderr[-2000:]}")
-    return wall, cpu, run
 
 
 def answer(folder: Path) -> tuple[dict, float]:

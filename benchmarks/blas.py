@@ -29,11 +29,10 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import machine_line, write_outputs  # noqa: E402
+from harness import machine_line, timed, write_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 LIB = Path("/usr/lib/x86_64-linux-gnu")
@@ -42,16 +41,12 @@ LIBRARIES = {"netlib": (LIB / "blas", LIB / "lapack"), "OpenBLAS": (LIB / "openb
 SAME = 1e-9  # relative difference of two brackets that counts as the same answer
 
 
-def run(library: str, scene: Path, ett: int) -> dict:
+def run(library: str, scene: Path) -> dict:
     """One ``bridgefem run`` in a fresh process with ``library`` loaded: its wall time (s), phases and bracket."""
     env = {**os.environ, "LD_LIBRARY_PATH": ":".join(str(p) for p in LIBRARIES[library])}
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "bridgefem", "run", str(scene), "--out", f"{tmp}/out", "--json"]
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1800)
-        wall = time.perf_counter() - t0
-        if proc.returncode != 0:
-            raise RuntimeError(f"{library}, {ett} elements: exit {proc.returncode}: {proc.stderr[-1500:]}")
+        wall, _, _ = timed([sys.executable, "-m", "bridgefem", "run", str(scene), "--out", f"{tmp}/out", "--json"],
+                           env)
         data = json.loads((Path(tmp) / "out" / "results.json").read_text())
     lim = data["limit_load"]
     return {"wall": wall, "search": data["timings"]["limit search"], "dofs": data["model"]["dofs"],
@@ -85,11 +80,11 @@ def main() -> None:
             scene = Path(tmp) / f"ett{ett}.toml"
             scene.write_text(base + f"\n[mesh]\nelements_through_thickness = {ett}\n")
             for lib in LIBRARIES:
-                run(lib, scene, ett)  # warm-up
+                run(lib, scene)  # warm-up
             pairs = []
             for k in range(args.repeat):
                 order = list(LIBRARIES) if k % 2 == 0 else list(reversed(LIBRARIES))
-                pairs.append({lib: run(lib, scene, ett) for lib in order})
+                pairs.append({lib: run(lib, scene) for lib in order})
             a, b = (statistics.median(pp[lib]["search"] for pp in pairs) for lib in LIBRARIES)
             wa, wb = (statistics.median(pp[lib]["wall"] for pp in pairs) for lib in LIBRARIES)
             same = all(abs(x - y) <= SAME * abs(x) for pp in pairs for x, y in

@@ -14,6 +14,7 @@ import copy
 import csv
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -276,6 +277,20 @@ def bracket_kn(rec: dict) -> tuple[float, float | None]:
 
 
 # ------------------------------------------------------------------------------------------------ outputs
+def timed(cmd: list[str], env: dict | None = None, cwd: Path | str | None = None, timeout: float = 1800
+          ) -> tuple[float, float, subprocess.CompletedProcess]:
+    """Wall and CPU time (s, user + system of all the command's processes) of one run of ``cmd`` in a fresh process;
+    a non-zero exit raises RuntimeError with the end of its stderr."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    run = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=timeout)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if run.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))}: exit {run.returncode}: {run.stderr[-2000:]}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), run
+
+
 def fmt(value, spec: str) -> str:
     """``value`` formatted by ``spec``, or "-" for None."""
     return "-" if value is None else format(value, spec)

@@ -19,16 +19,13 @@ from __future__ import annotations
 
 import argparse
 import ast
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import machine_line, write_outputs  # noqa: E402
+from harness import machine_line, timed, write_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 LIGHT_TARGET = 0.5  # s wall: the commands that answer from the rigid-block LP
@@ -40,19 +37,11 @@ PROBE = ("import sys, runpy; sys.argv = ['bridgefem'] + sys.argv[1:]\n"
          % (HEAVY,))
 
 
-def timed(args: list[str], cwd: str) -> tuple[float, float, list[str]]:
+def timed_command(args: list[str], cwd: str) -> tuple[float, float, list[str]]:
     """Wall and CPU time (s) of one command in a fresh process started in ``cwd`` (not a checkout: the interpreter's
     own bridgefem answers), and the heavy modules it loaded."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", PROBE, *args], capture_output=True, text=True, timeout=600,
-                          cwd=cwd)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise RuntimeError(f"bridgefem {' '.join(args)}: exit {proc.returncode}: {proc.stderr[-1500:]}")
+    wall, cpu, proc = timed([sys.executable, "-c", PROBE, *args], cwd=cwd, timeout=600)
     loaded = next(line for line in proc.stderr.splitlines() if line.startswith("LOADED"))
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu, ast.literal_eval(loaded.split(" ", 1)[1])
 
 
@@ -66,11 +55,11 @@ def main() -> None:
         commands = {"lp": ["lp", demo], "min-thickness": ["min-thickness", demo], "check": ["check", demo],
                     "run (default bridge)": ["run", demo, "--out", f"{tmp}/out", "--quiet"]}
         for c in commands.values():
-            timed(c, tmp)  # warm-up
+            timed_command(c, tmp)  # warm-up
         runs: dict[str, list] = {name: [] for name in commands}
         for _ in range(args.repeat):
             for name, c in commands.items():
-                runs[name].append(timed(c, tmp))
+                runs[name].append(timed_command(c, tmp))
     rows = []
     for name, rr in runs.items():
         target = DEMO_TARGET if name.startswith("run") else LIGHT_TARGET
