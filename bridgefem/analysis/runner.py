@@ -196,7 +196,7 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
                                                           s.tolerance, total),
                                   predicted=predictor.predict if predictor is not None else None,
                                   coarser_path=path.guide(solver) if path is not None else None)
-            settings = search_settings(scene, model.dead_weight, coarser, enough)
+            settings = search_settings(scene, model.dead_weight, coarser, enough / total)
             search = find_limit_load(solver, under_load, settings,
                                      guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
@@ -223,14 +223,14 @@ def search_settings(scene: Scene, dead_weight: float, coarser: float | None = No
     """The limit search's settings from the scene's keys, their zeros resolved: the first step :func:`first_step`
     of the ring's ``dead_weight`` (N) and the ``coarser`` run's last converged level (N per unit load factor; None on
     a first run), the maximum load 100 x ``dead_weight`` (0 without live loads: self-weight only); the flat-curve
-    check only with a fill, the support movement's increments only where a support moves; ``enough`` (N of live
-    load, :func:`run_analysis`) as a level."""
+    check only with a fill, the support movement's increments only where a support moves; ``enough``: the level (N
+    per unit load factor) of :func:`run_analysis`'s ``enough`` load."""
     s, abutments = scene.solver, scene.abutments
     return SearchSettings(tolerance=s.tolerance, initial_step=s.initial_step or first_step(dead_weight, coarser),
                           max_load=(s.max_load or 100 * dead_weight) if scene.loads else 0.0, max_steps=s.max_steps,
                           stiffness_drop=s.stiffness_drop if scene.fill is not None else 0.0,
                           movement_steps=abutments.movement_steps if abutments.moves else 0,
-                          enough=enough / (sum(ld.factor for ld in scene.loads) or 1.0))
+                          enough=enough)
 
 
 def load_displacement(solver: ContactSolver, f_live: PETSc.Vec, live: float) -> Callable[[Iterate], float]:
