@@ -33,6 +33,14 @@ def valid_scene() -> dict:
         solver={"tolerance": 0.001, "petsc": {"mat_mumps_icntl_14": 100}})
 
 
+def valid_bridge() -> dict:
+    """Two spans of the reference arch on a pier (no fill or vehicle: a bridge of several spans is analysed bare)."""
+    d = scene_dict(mesh={"elements_through_thickness": 2})
+    d["span"] = [d.pop("arch"), dict(scene_dict()["arch"])]
+    d["pier"] = [{"width": 2.0, "height": 3.0, "batter": 0.05, "blocks": 2}]
+    return d
+
+
 def bad_values(key) -> list:
     """Values the key must refuse: wrong types, out of range, nan and inf."""
     if key.kind is dict:
@@ -69,19 +77,25 @@ def scale_of(key) -> float:
 def generated_cases() -> list[tuple[str, dict, str]]:
     """(id, scene dict, text the message must hold) for every key of every section."""
     cases = []
+    arrays = {"load": "[[load]] #1", "pier": "[[pier]] #1"}
     for section, keys in SCHEMA.items():
-        label = "[[load]] #1" if section == "load" else f"[{section}]"
+        label = arrays.get(section, f"[{section}]")
+        valid = valid_bridge if section == "pier" else valid_scene
+
+        def table(d: dict) -> dict:
+            return d[section][0] if section in arrays else d.setdefault(section, {})
+
         for k, key in keys.items():
             if (section, k) == ("scene", "name"):
                 continue  # names: the hand-made cases
             for i, v in enumerate(bad_values(key)):
-                d = valid_scene()
-                (d["load"][0] if section == "load" else d.setdefault(section, {}))[k] = v
+                d = valid()
+                table(d)[k] = v
                 cases.append((f"{section}.{k}-{i}", d, f"{label} {k}"))
-        d = valid_scene()
-        (d["load"][0] if section == "load" else d.setdefault(section, {}))["colour"] = "red"
+        d = valid()
+        table(d)["colour"] = "red"
         cases.append((f"{section}.unknown-key", d, f"{label}: unknown key 'colour'"))
-        if section != "load":
+        if section not in arrays:
             d = valid_scene()
             d[section]["nested"] = {"deeper": {"x": 1}}
             cases.append((f"{section}.nested-table", d, f"{label}: unknown key 'nested'"))

@@ -17,9 +17,9 @@ A barrel of several rings has one line of thrust through its whole depth (:func:
 the outer ring, the resultant of the forces that everything left of a section through the barrel exerts on
 everything right of it, where it crosses that joint's line extended to the intrados:
 
-5. the section: the outer-ring joint and, in each inner ring, that ring's joint whose centre is nearest to the outer
-   joint's; left of it lie those rings' voussoirs left of their section joints, the left abutment and, for a joint
-   on the ground left of midspan, the ground;
+5. the section (in one span's barrel): the outer-ring joint and, in each inner ring, that ring's joint whose centre is
+   nearest to the outer joint's; left of it lie those rings' voussoirs left of their section joints and, for a
+   joint on the barrel's support (the ground, an abutment or a pier) left of the span's midspan, the support;
 6. the joints that cross it (one block left of the section, the other right: the section's joints and the ring
    interfaces between them) add their resultants ``N n + V t`` (n, t: their chord's normal and tangent), each at
    ``c + e T``, into the force ``S`` and moment ``M`` (about the origin) of the left side on the right;
@@ -27,7 +27,8 @@ everything right of it, where it crosses that joint's line extended to the intra
    end, u its unit tangent, s from 0 to the barrel's thickness t): ``e = s - t/2`` is its eccentricity in the
    barrel's depth, ``S . n`` and ``S . u`` its normal and shear force.
 
-The abutments' bases keep steps 1-4. Lengths in m, forces in N, for the scene's width.
+The abutments' bases and the piers' bed joints keep steps 1-4. A bridge of several spans has a line per span and one
+per pier (down its bed joints). Lengths in m, forces in N, for the scene's width.
 """
 from __future__ import annotations
 
@@ -42,7 +43,8 @@ TOUCH = 0.98  # |e| / (t/2) from which the thrust touches a face: the FE's hinge
 class ThrustPoint:
     """Where the thrust crosses joint ``joint``: ``x``, ``y`` (m), ``eccentricity`` (m, from the centre, positive
     towards the extrados), ``relative`` = e / (t/2) (-1 intrados, +1 extrados), ``touches`` ("intrados",
-    "extrados" or ""), ``normal_force`` and ``shear_force`` (N)."""
+    "extrados" or ""), ``normal_force`` and ``shear_force`` (N), ``line`` the polyline it is drawn on (a span's, or a
+    pier's: :func:`_line`)."""
 
     joint: int
     x: float
@@ -52,53 +54,75 @@ class ThrustPoint:
     touches: str
     normal_force: float
     shear_force: float
+    line: int = 0
 
 
 def line_of_thrust(joints, ring) -> list[ThrustPoint]:
     """The crossing points of the thrust on ``ring`` (its geometry) for ``joints`` (JointState rows of one converged
-    state: ``id``, ``normal_force``, ``shear_force``, ``eccentricity``), in joint order: at every joint of a single
-    ring and every abutment base (steps 1-4), at every outer-ring joint's section of a barrel of several rings
-    (steps 5-7); crossings without compression are left out."""
+    state: ``id``, ``normal_force``, ``shear_force``, ``eccentricity``), in joint order: for each span, at every joint
+    of a single ring (steps 1-4) or at every outer-ring joint's section of a barrel of several rings (steps 5-7); at
+    every abutment base and pier bed joint (steps 1-4); crossings without compression are left out. Each point's
+    ``line`` says which polyline it is drawn on (:func:`_line`)."""
     by_id = {js.id: js for js in joints or []}
     out = []
-    for jt in ring.joints:
-        js = by_id.get(jt.id)
-        if js is None or jt.kind == "ring" or (ring.n_rings > 1 and jt.kind != "base"):
-            continue
-        out.append(_point(jt.id, jt.centre, jt.tangent, jt.length, js.eccentricity, js.normal_force,
-                          js.shear_force))
-    if ring.n_rings > 1:
-        outer = {v.id for v in ring.outer_voussoirs}
-        out += [_section_point(ring, jt, by_id) for jt in ring.ring_joints if {jt.left, jt.right} & outer]
+    for barrel in ring.barrels:
+        if barrel.n_rings == 1:
+            out += [_crossing(jt, by_id[jt.id], ring) for jt in barrel.ring_joints if jt.id in by_id]
+        else:
+            outer = {v.id for v in barrel.voussoirs if v.ring == barrel.n_rings - 1}
+            out += [_section_point(barrel, jt, by_id, _line(jt, ring)) for jt in barrel.ring_joints
+                    if {jt.left, jt.right} & outer]
+    out += [_crossing(jt, by_id[jt.id], ring) for jt in ring.joints if jt.kind in ("base", "pier") and jt.id in by_id]
     return sorted((p for p in out if p.normal_force > 0), key=lambda p: p.joint)
 
 
+def _line(joint, ring) -> int:
+    """The polyline a crossing at ``joint`` is drawn on: span k's (k; an abutment's base on its end span's), or pier
+    k's (the number of spans + k: its bed joints, from the top down)."""
+    if joint.kind == "pier":
+        return len(ring.barrels) + next(b.pier for b in ring.piers if b.id == joint.left)
+    if joint.span is not None:
+        return joint.span
+    return 0 if joint in ring.bases[:1] else len(ring.barrels) - 1
+
+
+def _crossing(jt, js, ring) -> ThrustPoint:
+    """Steps 1-4 at joint ``jt`` (geometry) with state ``js``."""
+    return _point(jt.id, jt.centre, jt.tangent, jt.length, js.eccentricity, js.normal_force, js.shear_force,
+                  _line(jt, ring))
+
+
 def _point(joint: int, centre: np.ndarray, tangent: np.ndarray, depth: float, e: float, normal: float,
-           shear: float) -> ThrustPoint:
+           shear: float, line: int) -> ThrustPoint:
     """The crossing at eccentricity ``e`` (m) from ``centre`` along ``tangent`` of a section ``depth`` (m) deep."""
     point = centre + e * tangent
     rel = e / (depth / 2)
     touches = "" if abs(rel) < TOUCH else ("extrados" if rel > 0 else "intrados")
     return ThrustPoint(int(joint), float(point[0]), float(point[1]), float(e), float(rel), touches, float(normal),
-                       float(shear))
+                       float(shear), line)
 
 
-def _section_point(ring, outer_joint, by_id: dict) -> ThrustPoint:
-    """The barrel's thrust at the section through ``outer_joint`` (steps 5-7 of the module docstring); a section
-    whose force has no compression across the joint gets normal force <= 0 (left out by the caller)."""
-    left_abutment = {a.id for a in ring.abutments if a.side == "left"}
-    body = set(left_abutment)
-    for r in range(ring.n_rings):
-        ids = {v.id for v in ring.voussoirs if v.ring == r}
-        joints = [j for j in ring.ring_joints if {j.left, j.right} & ids]
+def _section_point(barrel, outer_joint, by_id: dict, line: int) -> ThrustPoint:
+    """The thrust of one span's ``barrel`` at the section through ``outer_joint`` (steps 5-7 of the module
+    docstring); a section whose force has no compression across the joint gets normal force <= 0 (left out by the
+    caller)."""
+    own = {v.id for v in barrel.voussoirs}
+    xs = np.concatenate([v.intrados[:, 0] for v in barrel.voussoirs])
+    middle = 0.5 * (xs.min() + xs.max())
+    body = set()
+    for r in range(barrel.n_rings):
+        ids = {v.id for v in barrel.voussoirs if v.ring == r}
+        joints = [j for j in barrel.ring_joints if {j.left, j.right} & ids]
         cut = min(joints, key=lambda j: float(np.linalg.norm(j.centre - outer_joint.centre)))
         body |= {v for v in ids if v < cut.right} if cut.right in ids else ids
 
     def left_of(block, jt) -> bool:
-        return block in body if block is not None else bool(jt.centre[0] < 0)
+        """A voussoir of the barrel: left of the section when in ``body``; its support (the ground, an abutment, a
+        pier) is left where the joint is left of midspan."""
+        return block in body if block in own else bool(jt.centre[0] < middle)
 
     force, moment = np.zeros(2), 0.0
-    for jt in ring.joints:
+    for jt in barrel.joints:
         js = by_id.get(jt.id)
         if js is None or left_of(jt.left, jt) == left_of(jt.right, jt):
             continue
@@ -107,12 +131,12 @@ def _section_point(ring, outer_joint, by_id: dict) -> ThrustPoint:
         p = jt.centre + js.eccentricity * jt.tangent
         force += f
         moment += p[0] * f[1] - p[1] * f[0]
-    u, t = outer_joint.tangent, ring.thickness
+    u, t = outer_joint.tangent, barrel.thickness
     start = outer_joint.extrados - t * u  # the section's intrados end
     across = u[0] * force[1] - u[1] * force[0]
     s = (moment - (start[0] * force[1] - start[1] * force[0])) / across if across else t / 2
     normal = np.array([u[1], -u[0]])
-    return _point(outer_joint.id, start + 0.5 * t * u, u, t, s - t / 2, float(force @ normal), float(force @ u))
+    return _point(outer_joint.id, start + 0.5 * t * u, u, t, s - t / 2, float(force @ normal), float(force @ u), line)
 
 
 def thrust_summary(points: list[ThrustPoint]) -> dict:

@@ -59,7 +59,7 @@ from dolfinx import cpp as _cpp
 from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_from_entities
 from mpi4py import MPI
 
-from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline
+from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline, PierBlock
 from ..structure.sizing import EXTRADOS_BAND, extrados_element_size
 
 EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
@@ -211,8 +211,25 @@ class _RawMesh:
 
 
 def ring_element_sizes(ring: ArchRing, per_thickness: int) -> tuple[float, ...]:
-    """The element size (m) of each ring, from the intrados out: its thickness / ``per_thickness``."""
+    """The element size (m) of each ring of a barrel (one span's), from the intrados out: its thickness /
+    ``per_thickness``."""
     return tuple(t / per_thickness for t in (ring.ring_thicknesses or (ring.thickness,)))
+
+
+def voussoir_element_sizes(ring: ArchRing, per_thickness: int) -> dict[int, float]:
+    """The element size (m) of each voussoir (by id): its own ring's, in its own span (:func:`ring_element_sizes`)."""
+    return {v.id: ring_element_sizes(b, per_thickness)[v.ring] for b in ring.barrels for v in b.voussoirs}
+
+
+def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict) -> list[int]:
+    """The curves of the bridge's top, left to right: each span's outer extrados (where the loads act on a bare
+    bridge, and the fill rests) and the free top edge of each pier between them."""
+    out = []
+    for k, barrel in enumerate(ring.barrels):
+        out += [c for v in ring.outer_voussoirs if v.span == k for *_, c in sides[v.id][1]]
+        for top in (b.top for b in ring.piers if b.pier == k and b.top is not None):
+            out += [c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))]
+    return out
 
 
 def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None, h_fill: float,
@@ -229,10 +246,11 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("bridge")
         geo = gmsh.model.geo
-        sizes = ring_element_sizes(ring, per_thickness)
-        h = min(sizes)
+        sizes = voussoir_element_sizes(ring, per_thickness)
+        h = min(sizes.values())
         depth = outline.y_road - ring.crown_extrados if outline is not None else None
-        h_extrados = extrados_element_size((ring.ring_thicknesses or (ring.thickness,))[-1], per_thickness, depth)
+        h_extrados = extrados_element_size(min(b.ring_thicknesses[-1] if b.ring_thicknesses else b.thickness
+                                               for b in ring.barrels), per_thickness, depth)
         draw = _Drawing(geo, ROUND_OFF * ring.span)
         ring_joints = ring.ring_joints
         for end in ("intrados", "extrados"):
@@ -255,15 +273,16 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
                 first = next(k for k, (a, _, _) in enumerate(pieces) if a == draw.point(j.extrados))
                 last = next(k for k, (_, b, _) in enumerate(pieces) if b == draw.point(j.intrados))
                 joint_curves[j.id] = [c for *_, c in pieces[first:last + 1]]
-        extrados_curves = [c for v in ring.outer_voussoirs for *_, c in sides[v.id][1]]
-        abutment_surfaces = [(_add_abutment(draw, ab, ring, joint_curves, 2 * h), ab.id) for ab in ring.abutments]
+        support_surfaces = [(_add_support(draw, block, ring, joint_curves, 2 * h), block.id)
+                            for block in ring.piers + ring.abutments]
+        extrados_curves = _top_curves(draw, ring, sides)
         fill_curves = {}
         if outline is not None:  # the fill's base begins at the outer ring's springings' extrados corners
             corners = [draw.point(ring.springings(side)[-1].extrados) for side in ("left", "right")]
             fill_curves = _add_fill(geo, outline, corners, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados,
                                     beams)
         geo.synchronize()
-        if outline is not None or ring.abutments:
+        if outline is not None or ring.abutments or ring.piers:
             gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
         mesh = gmsh.model.mesh
         if outline is not None:
@@ -281,7 +300,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         def elements(dim, entity, nodes_per):
             return order[np.asarray(mesh.getElements(dim, abs(entity))[2][0], dtype=np.int64)].reshape(-1, nodes_per)
 
-        block_surfaces = [(s, v.id) for s, v in zip(surfaces, ring.voussoirs)] + abutment_surfaces
+        block_surfaces = [(s, v.id) for s, v in zip(surfaces, ring.voussoirs)] + support_surfaces
         if outline is not None:
             block_surfaces.append((fill_curves.pop("surface"), ring.n_blocks))
             block_surfaces += [(b, ring.n_blocks + 1 + k) for k, b in enumerate(fill_curves.pop("beams"))]
@@ -296,11 +315,11 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         gmsh.finalize()
 
 
-def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: tuple[float, ...],
+def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: dict[int, float],
                     h_extrados: float | None) -> None:
     """The segments of the voussoirs' intrados and extrados curves (``sides``: per voussoir its two sides' (first
     point, last point, curve) pieces; ``surfaces``: the voussoirs' surfaces in id order), and which voussoirs are
-    structured. ``sizes``: each ring's element size (m); ``h_extrados``: the element size along the extrados under a
+    structured. ``sizes``: each voussoir's element size (m, by id: its ring's); ``h_extrados``: the element size along the extrados under a
     fill (m; None: no fill).
 
     1. A curve shared by two voussoirs (between two rings) gets one segment per element size of the finer ring,
@@ -323,16 +342,16 @@ def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: tup
     for v in ring.voussoirs:
         for side in sides[v.id]:
             for *_, c in side:
-                users.setdefault(abs(c), []).append(v.ring)
-    for c, rings in users.items():
-        if len(rings) > 1:
-            counts[c] = max(1, int(np.ceil(_curve_length(c) / min(sizes[r] for r in rings) - 1e-9)))
+                users.setdefault(abs(c), []).append(v.id)
+    for c, blocks in users.items():
+        if len(blocks) > 1:
+            counts[c] = max(1, int(np.ceil(_curve_length(c) / min(sizes[b] for b in blocks) - 1e-9)))
             mesh.setTransfiniteCurve(c, counts[c] + 1)
-    outer = ring.n_rings - 1
+    outer = {v.id for v in ring.outer_voussoirs}
     for s, v in zip(surfaces, ring.voussoirs):
-        h = sizes[v.ring]
+        h = sizes[v.id]
         intra, extra = ([abs(c) for *_, c in side] for side in sides[v.id])
-        fill_size = h_extrados if v.ring == outer and h_extrados is not None and h_extrados < h else None
+        fill_size = h_extrados if v.id in outer and h_extrados is not None and h_extrados < h else None
         # segments along the extrados that a fill's size asks for (its nodes are the fill's)
         n_fill = sum(int(np.ceil(_curve_length(c) / fill_size - 1e-9)) for c in extra) if fill_size else 0
         known = [all(c in counts for c in side) for side in (intra, extra)]
@@ -421,13 +440,16 @@ def _add_fill(geo, outline: FillOutline, corners: list[int], extrados_curves: li
             **({BEAM_TOP_TAG: tops} if beams else {})}
 
 
-def _add_abutment(draw: _Drawing, abutment: Abutment, ring: ArchRing, joint_curves: dict, size: float) -> int:
-    """The Gmsh surface of an abutment: its polygon's corners as points (the springing joints' corners are the
-    rings'; ``size`` (m) the mesh size at the others), its sides the springing joints' curves where they are one,
-    its base a new line, set in ``joint_curves`` at the base joint's id, and lines elsewhere."""
-    base = next(j for j in ring.bases if abutment.id in (j.left, j.right))
-    points = [draw.point(p, size) for p in abutment.polygon]
-    joint_curves[base.id] = [draw.line(draw.point(base.intrados), draw.point(base.extrados))]
+def _add_support(draw: _Drawing, block: Abutment | PierBlock, ring: ArchRing, joint_curves: dict, size: float) -> int:
+    """The Gmsh surface of a block that carries the rings (an abutment, a pier's course): its polygon's corners as
+    points (the springing joints' corners are the rings'; ``size`` (m) the mesh size at the others), its sides the
+    springing joints' curves where they are one, each of its straight joints (an abutment's base, a pier's bed
+    joints) a line set in ``joint_curves`` at the joint's id (drawn once, by the first of its two blocks), and lines
+    elsewhere."""
+    points = [draw.point(p, size) for p in block.polygon]
+    for j in ring.joints:
+        if j.kind in ("base", "pier") and block.id in (j.left, j.right):
+            joint_curves[j.id] = [draw.line(draw.point(j.intrados), draw.point(j.extrados))]
     loop = [c for a, b in zip(points, points[1:] + points[:1]) for c in draw.path(a, b)]
     return draw.geo.addPlaneSurface([draw.geo.addCurveLoop(loop)])
 
@@ -471,7 +493,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beams = beams if fill is not None else ()
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
-        h_fill = fill_element_size or 2 * ring_element_sizes(ring, per_thickness)[-1]
+        h_fill = fill_element_size or 2 * ring_element_sizes(ring.barrels[0], per_thickness)[-1]
         raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams, joint_nodes)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))

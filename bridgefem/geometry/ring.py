@@ -65,9 +65,10 @@ _FINE = 4001  # samples of p to measure arc lengths and invert x(p): interpolati
 _EDGE_SAMPLES = 17
 
 
-JOINT_KINDS = ("voussoir", "springing", "ring", "base")
-"""What a joint is: between two voussoirs of a ring, between a ring and its support (the ground or an abutment),
-between two rings (a ring interface, curved), or an abutment's base on the ground."""
+JOINT_KINDS = ("voussoir", "springing", "ring", "base", "pier")
+"""What a joint is: between two voussoirs of a ring, between a ring and its support (the ground, an abutment or a
+pier), between two rings (a ring interface, curved), an abutment's base on the ground, or a bed joint of a pier
+(between two of its courses, or its lowest course on the ground)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,7 @@ class Joint:
     free: bool = False  # a free face (no ground behind the missing block), e.g. the top of a standing block
     kind: str = "voussoir"
     curve: np.ndarray | None = field(default=None, repr=False)
+    span: int | None = 0  # the span whose barrel it belongs to (from 0, left to right); None: a pier's or a base
 
     @property
     def length(self) -> float:
@@ -163,6 +165,7 @@ class Voussoir(_Polygonal):
     intrados_splits: tuple[int, ...] = ()
     extrados_splits: tuple[int, ...] = ()
     ring: int = 0  # 0: the innermost ring (on the intrados)
+    span: int = 0  # the span it belongs to (from 0, left to right)
 
     @property
     def polygon(self) -> np.ndarray:
@@ -191,9 +194,22 @@ class Abutment(_Polygonal):
 
 
 @dataclass(frozen=True)
+class PierBlock(_Polygonal):
+    """A course of a masonry pier between two spans: ``polygon`` counter-clockwise (m); ``pier`` the pier's index
+    (from 0, left to right: pier k carries spans k and k + 1), ``course`` from 0 (the top course, which carries the
+    springings) down. Its material is the masonry's."""
+
+    id: int
+    polygon: np.ndarray
+    pier: int
+    course: int
+    top: np.ndarray | None = field(default=None, repr=False)  # the top course: its free top edge (2, 2), left end first
+
+
+@dataclass(frozen=True)
 class ArchRing:
-    """The geometry of an arch barrel of one or more rings of voussoirs on two springings, and its abutments when
-    they are elastic.
+    """The geometry of a bridge's masonry: an arch barrel of one or more rings of voussoirs on two springings, or
+    several such spans on piers (:mod:`bridgefem.geometry.bridge`), and its abutments when they are elastic.
 
     ``params`` are the curve parameters of the outer ring's joints (0 and 1 at the springings); ``joints`` are the
     rings' voussoir joints and springings, ring by ring from the intrados (ring 0: joints 0 .. N0), then the ring
@@ -201,6 +217,11 @@ class ArchRing:
     rings' from the intrados out (empty: one ring of ``thickness``); ``joints_at_x`` the horizontal positions (m) of
     the loads and patch edges that a joint was moved under (``joint_at_loads``), so that a load on a joint it did
     not get can be told from one on its own (:func:`snapped_loads`).
+
+    A bridge of several spans: ``spans`` holds each span's barrel (in the bridge's frame, with the bridge's block and
+    joint ids), ``piers`` the piers' courses; ``shape``, ``span``, ``rise``, ``thickness``, ``params`` and
+    ``ring_thicknesses`` are then the first span's (the frame's origin is its midspan). One span: ``spans`` is empty
+    and :attr:`barrels` is the ring itself.
     """
 
     shape: str
@@ -213,6 +234,13 @@ class ArchRing:
     abutments: list[Abutment] = field(default_factory=list, repr=False)
     joints_at_x: frozenset[float] = frozenset()
     ring_thicknesses: tuple[float, ...] = ()
+    piers: list[PierBlock] = field(default_factory=list, repr=False)
+    spans: tuple[ArchRing, ...] = field(default=(), repr=False)
+
+    @property
+    def barrels(self) -> tuple[ArchRing, ...]:
+        """Each span's barrel, left to right (one span: the ring itself)."""
+        return self.spans or (self,)
 
     @property
     def n_rings(self) -> int:
@@ -220,22 +248,38 @@ class ArchRing:
 
     @property
     def n_voussoirs(self) -> int:
-        """Voussoirs of all rings: the block ids 0 .. n_voussoirs - 1."""
+        """Voussoirs of all rings and spans: the block ids 0 .. n_voussoirs - 1."""
         return len(self.voussoirs)
 
     @property
+    def blocks(self) -> list:
+        """Every block in id order: the voussoirs, the piers' courses, the elastic abutments."""
+        return self.voussoirs + self.piers + self.abutments
+
+    @property
     def n_blocks(self) -> int:
-        """Voussoirs and abutments: the block ids 0 .. n_blocks - 1 (the next id is the fill's)."""
-        return len(self.voussoirs) + len(self.abutments)
+        """Voussoirs, pier courses and abutments: the block ids 0 .. n_blocks - 1 (the next id is the fill's)."""
+        return len(self.voussoirs) + len(self.piers) + len(self.abutments)
+
+    @property
+    def length(self) -> float:
+        """From the first span's left springing to the last span's right springing, on the intrados (m)."""
+        xs = np.concatenate([v.intrados[:, 0] for v in self.voussoirs])
+        return float(xs.max() - xs.min())
 
     @property
     def outer_voussoirs(self) -> list[Voussoir]:
-        """The voussoirs of the outer ring, left to right: their extrados is the barrel's, where loads act."""
-        return [v for v in self.voussoirs if v.ring == self.n_rings - 1]
+        """The voussoirs of each span's outer ring, left to right: their extrados is the barrel's, where loads act."""
+        return [v for b in self.barrels for v in b.voussoirs if v.ring == b.n_rings - 1]
 
     def springings(self, side: str) -> list[Joint]:
-        """The springing joints on ``side`` ("left" | "right"), one per ring from the intrados out."""
-        return [j for j in self.joints if j.kind == "springing" and (j.centre[0] < 0) == (side == "left")]
+        """The springing joints at the bridge's ``side`` end ("left" | "right"), one per ring from the intrados out
+        (those on the ground or an abutment: a pier's are not ends)."""
+        piers = {b.id for b in self.piers}
+        xs = np.concatenate([v.intrados[:, 0] for v in self.voussoirs])
+        middle = 0.5 * (xs.min() + xs.max())
+        return [j for j in self.joints if j.kind == "springing" and not {j.left, j.right} & piers
+                and (j.centre[0] < middle) == (side == "left")]
 
     @property
     def ring_joints(self) -> list[Joint]:
@@ -252,16 +296,26 @@ class ArchRing:
         """Height (m) of the highest extrados point."""
         return max(float(v.extrados[:, 1].max()) for v in self.outer_voussoirs)
 
+    @property
+    def top_pieces(self) -> list[tuple[int, np.ndarray]]:
+        """The bridge's top, left to right, as (block id, polyline (k, 2) in m, left to right): each span's outer
+        voussoirs' extrados and each pier's top edge between them, where the live loads act on a bare bridge."""
+        pieces = [(v.id, v.extrados) for v in self.outer_voussoirs] + [(b.id, b.top) for b in self.piers
+                                                                         if b.top is not None]
+        return sorted(pieces, key=lambda piece: float(piece[1][:, 0].mean()))
+
     def extrados_vertex(self, x: float) -> np.ndarray:
-        """The vertex of the voussoirs' extrados polylines nearest to horizontal position x (m): where a point load
-        at x acts, since :func:`build_ring` puts a vertex (a mesh node) under every load unless the load is within
-        ``AT_JOINT_TOL`` x span of a joint's corner or the pointed crown's apex, where it acts at that corner."""
-        ext = np.vstack([v.extrados for v in self.outer_voussoirs])
+        """The vertex of the top's polylines (:attr:`top_pieces`) nearest to horizontal position x (m): where a point
+        load at x acts, since :func:`build_ring` puts a vertex (a mesh node) under every load unless the load is
+        within ``AT_JOINT_TOL`` x span of a joint's corner or the pointed crown's apex, where it acts at that corner
+        (and :func:`bridgefem.geometry.bridge.build_bridge` one on a pier's top)."""
+        ext = np.vstack([line for _, line in self.top_pieces])
         return ext[np.argmin(np.abs(ext[:, 0] - x))]
 
     def extrados_point(self, x: float) -> np.ndarray:
-        """The extrados point above horizontal position x (m)."""
-        ext = np.vstack([v.extrados for v in self.outer_voussoirs])
+        """The point of the bridge's top (the extrados, or a pier's top between spans) above horizontal position x
+        (m)."""
+        ext = np.vstack([line for _, line in self.top_pieces])
         return np.array([x, np.interp(x, ext[:, 0], ext[:, 1])])
 
 
@@ -661,7 +715,7 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         polygon = np.array(corners + [base[1]])
         if polygon_area_centroid(polygon)[0] < 0:
             polygon = polygon[::-1]
-        block = ring.n_voussoirs + k
+        block = ring.n_blocks + k
         abutments.append(Abutment(block, polygon, side))
         for joint in springings:
             joints[joint.id] = dataclasses.replace(joint, left=block if joint.left is None else joint.left,
@@ -686,7 +740,7 @@ def joint_under(ring: ArchRing, x: float) -> int | None:
 def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[int, ...]:
     """The voussoir(s) that carry a vertical point load at horizontal position x (m) on the extrados.
 
-    A load off the joints is on the voussoir below it. A load on a joint's extrados corner (:func:`joint_under`)
+    A load off the joints is on the voussoir below it (on a pier's top: its top course). A load on a joint's extrados corner (:func:`joint_under`)
     is on the joint's ``side`` block ("left" | "right"), or half on each ("split"): the one choice the FE load
     vector and the rigid-block LP both take from here. Raises ValueError off the extrados or for an unknown side.
     """
@@ -696,7 +750,7 @@ def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[in
     if j is not None:
         left, right = ring.joints[j].left, ring.joints[j].right
         return {"left": (left,), "right": (right,), "split": (left, right)}[side]
-    on = [v.id for v in ring.outer_voussoirs if v.extrados[0, 0] <= x <= v.extrados[-1, 0]]
+    on = [b for b, line in ring.top_pieces if line[0, 0] <= x <= line[-1, 0]]
     if not on:
         raise ValueError(f"point load at x = {x:g} m is not above the ring's extrados")
     return (on[0],)

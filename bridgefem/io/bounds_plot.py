@@ -25,7 +25,7 @@ def plot_bounds(scene: Scene, b: Bounds, path: Path, amplitude: float = 0.05) ->
     if b.block_velocities is not None:
         v = b.block_velocities
         ref = b.problem.blocks.ref
-        polys = [blk.polygon for blk in ring.voussoirs + ring.abutments]
+        polys = [blk.polygon for blk in ring.blocks]
         moves = [np.column_stack([v[k, 0] - v[k, 2] * (p[:, 1] - ref[k, 1]), v[k, 1] + v[k, 2] * (p[:, 0] - ref[k, 0])])
                  for k, p in enumerate(polys)]
         scale = amplitude * scene.arch.span / max(max(np.abs(m).max() for m in moves), 1e-300)
@@ -41,7 +41,7 @@ def plot_bounds(scene: Scene, b: Bounds, path: Path, amplitude: float = 0.05) ->
         centre, radius = 0.5 * (s[:, 0] + s[:, 1]), np.hypot(0.5 * (s[:, 0] - s[:, 1]), s[:, 2])
         shade = bottom.tripcolor(tri, facecolors=(centre - radius) / 1e3, cmap="magma")
         fig.colorbar(shade, ax=bottom, label="major compressive stress (kPa)")
-    for blk in ring.voussoirs + ring.abutments:
+    for blk in ring.blocks:
         bottom.fill(*blk.polygon.T, facecolor="0.85", edgecolor="k", lw=0.4)
     bottom.set_title(f"lower bound {_kn(b.lower.load)} (statically admissible stress field, triangle means)")
     for ax in (top, bottom):

@@ -371,6 +371,9 @@ def _min_thickness(args) -> int:
     from ..limit.thickness import NoStableThickness, min_thickness
 
     scene = load_scene(args.scene)
+    if scene.spans:
+        raise SceneError("[[span]]: min-thickness finds the least thickness of one ring on "
+                         "its springings; allowed is a scene of one span ([arch]); a bridge of several spans: lp")
     try:
         res = min_thickness(scene, friction_model=args.friction_model)
     except (NoStableThickness, LPFailure) as err:

@@ -100,19 +100,34 @@ def _joint_line(jt) -> np.ndarray:
 
 def _label_joints(ax, ring: ArchRing) -> None:
     """Every voussoir joint's and springing's number: the inner ring's inside its intrados, the outer ring's (a
-    single ring's) outside its extrados, a middle ring's at the joint's centre on a white ground."""
-    ring_of = {v.id: v.ring for v in ring.voussoirs}
-    outer = ring.n_rings - 1
-    for jt in ring.ring_joints:
-        r = ring_of[jt.left if jt.left in ring_of else jt.right]
-        if r == outer:
-            at, box = jt.extrados + 0.06 * ring.span * jt.tangent, None
-        elif r == 0:
-            at, box = jt.intrados - 0.04 * ring.span * jt.tangent, None
-        else:
-            at, box = jt.centre, dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8)
-        ax.text(*at, str(jt.id), fontsize=6 if ring.n_rings == 1 else 5, ha="center", va="center", color="0.35",
-                bbox=box, zorder=8)
+    single ring's) outside its extrados, a middle ring's at the joint's centre on a white ground (each span's rings
+    its own); a pier's bed joints' beside its right face."""
+    for barrel in ring.barrels:
+        ring_of = {v.id: v.ring for v in barrel.voussoirs}
+        outer = barrel.n_rings - 1
+        for jt in barrel.ring_joints:
+            r = ring_of[jt.left if jt.left in ring_of else jt.right]
+            if r == outer:
+                at, box = jt.extrados + 0.06 * ring.span * jt.tangent, None
+            elif r == 0:
+                at, box = jt.intrados - 0.04 * ring.span * jt.tangent, None
+            else:
+                at, box = jt.centre, dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8)
+            ax.text(*at, str(jt.id), fontsize=6 if barrel.n_rings == 1 else 5, ha="center", va="center",
+                    color="0.35", bbox=box, zorder=8)
+    for jt in ring.joints:
+        if jt.kind == "pier":
+            ax.text(*(jt.extrados + np.array([0.02 * ring.span, 0.0])), str(jt.id), fontsize=6, ha="left",
+                    va="center", color="0.35", zorder=8)
+
+
+def _thrust_lines(points: list[dict], spans: int) -> list[list[dict]]:
+    """The line of thrust's points (results.json ``line_of_thrust.points``) as polylines: one per span (lines 0 ..
+    ``spans`` - 1), left to right, and one per pier, from the top down (each point's ``line``)."""
+    lines: dict[int, list[dict]] = {}
+    for p in points:
+        lines.setdefault(p.get("line", 0), []).append(p)
+    return [sorted(ps, key=(lambda p: p["x"]) if k < spans else (lambda p: -p["y"])) for k, ps in sorted(lines.items())]
 
 
 def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Path,
@@ -128,7 +143,7 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
     if fill is not None:
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.15, lw=0)
         ax.plot(*np.vstack([fill, fill[:1]]).T, color="olivedrab", lw=0.6)
-    blocks = ring.voussoirs + ring.abutments
+    blocks = ring.blocks
     for v in blocks:
         p = np.vstack([v.polygon, v.polygon[:1]])
         ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.8)
@@ -142,8 +157,9 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
             ax.fill(q[:, 0], q[:, 1], color="tan", alpha=0.6, lw=0)
             ax.plot(q[:, 0], q[:, 1], color="saddlebrown", lw=0.7)
     thrust = (data.get("line_of_thrust") or {}).get("points") or []
+    for line in _thrust_lines(thrust, len(ring.barrels)):
+        ax.plot([p["x"] for p in line], [p["y"] for p in line], "-", color="tab:purple", lw=1.4, zorder=4)
     if thrust:
-        ax.plot([p["x"] for p in thrust], [p["y"] for p in thrust], "-", color="tab:purple", lw=1.4, zorder=4)
         touching = [p for p in thrust if p["touches"]]
         ax.plot([p["x"] for p in touching], [p["y"] for p in touching], "D", color="tab:purple", ms=5, zorder=6)
     _label_joints(ax, ring)
@@ -204,7 +220,7 @@ def plot_elevation(ring: ArchRing, data: dict, path, fill: np.ndarray | None = N
     fig, ax = plt.subplots(figsize=(8, 4))
     if fill is not None:
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.2, lw=0)
-    for v in ring.voussoirs + ring.abutments:
+    for v in ring.blocks:
         p = np.vstack([v.polygon, v.polygon[:1]])
         ax.fill(p[:, 0], p[:, 1], color="0.85", lw=0)
         ax.plot(p[:, 0], p[:, 1], color="0.4", lw=0.6)

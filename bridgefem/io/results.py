@@ -18,7 +18,7 @@ from ..analysis.mechanism import springing_reactions
 from ..analysis.result import Analysis
 from ..analysis.runner import quiet_compiler
 from ..analysis.thrust import line_of_thrust, thrust_summary
-from ..geometry.ring import Voussoir, fill_outline
+from ..geometry.ring import PierBlock, Voussoir, fill_outline
 from ..laws.base import JointLaw
 from ..limit.ring_blocks import block_weights, load_forces
 from ..structure.ring import snapped_loads
@@ -141,17 +141,26 @@ def summary(an: Analysis) -> dict:
 
 
 def block_entries(scene, ring) -> list[dict]:
-    """The ``blocks`` entry of results.json: per block its ``id``, ``kind`` ("voussoir" | "abutment"), ``ring`` (0:
-    the innermost; None for an abutment), ``span`` (0: the one span), ``polygon`` (counter-clockwise, m) and
-    ``weight`` (N: :func:`bridgefem.limit.ring_blocks.block_weights`, the rigid-block LP's)."""
+    """The ``blocks`` entry of results.json: per block its ``id``, ``kind`` ("voussoir" | "pier" | "abutment"),
+    ``ring`` (0: the innermost; None off the rings), ``span`` (from 0, left to right; None off the spans), ``pier``
+    and ``course`` (a pier's course: the pier from 0, left to right, and the course from 0 at its top; else None),
+    ``polygon`` (counter-clockwise, m) and ``weight`` (N: :func:`bridgefem.limit.ring_blocks.block_weights`, the
+    rigid-block LP's)."""
     weights = block_weights(scene, ring)
-    return [{"id": b.id, "kind": "voussoir" if isinstance(b, Voussoir) else "abutment",
-             "ring": b.ring if isinstance(b, Voussoir) else None, "span": 0, "polygon": b.polygon.tolist(),
-             "weight": float(w)} for b, w in zip(ring.voussoirs + ring.abutments, weights)]
+
+    def kind(b) -> str:
+        return "voussoir" if isinstance(b, Voussoir) else "pier" if isinstance(b, PierBlock) else "abutment"
+
+    return [{"id": b.id, "kind": kind(b), "ring": b.ring if isinstance(b, Voussoir) else None,
+             "span": b.span if isinstance(b, Voussoir) else None,
+             "pier": b.pier if isinstance(b, PierBlock) else None,
+             "course": b.course if isinstance(b, PierBlock) else None,
+             "polygon": b.polygon.tolist(), "weight": float(w)} for b, w in zip(ring.blocks, weights)]
 
 
 def joint_entries(scene, ring, states) -> list[dict]:
-    """The ``joints`` entry of results.json: per joint of ``ring`` its ``id``, ``kind``, ``blocks`` (left, right;
+    """The ``joints`` entry of results.json: per joint of ``ring`` its ``id``, ``kind``, ``span`` (the span whose barrel
+    it belongs to; None: a pier's bed joint or an abutment's base), ``blocks`` (left, right;
     None: the ground), ``points`` (its intrados and extrados ends, m; a ring interface also its ``curve``), its law's
     ``friction``, ``cohesion`` (Pa) and ``compressive_strength`` (Pa; None where it does not crush: no strength, a
     ring interface), and the resultants and state of ``states`` (JointState rows of the last converged step, when
@@ -162,7 +171,7 @@ def joint_entries(scene, ring, states) -> list[dict]:
     out = []
     for jt in ring.joints:
         js = by_id.get(jt.id)
-        out.append({"id": jt.id, "kind": jt.kind, "blocks": [jt.left, jt.right],
+        out.append({"id": jt.id, "kind": jt.kind, "span": jt.span, "blocks": [jt.left, jt.right],
                     "points": [jt.intrados.tolist(), jt.extrados.tolist()],
                     **({"curve": jt.curve.tolist()} if jt.curve is not None else {}),
                     "intrados": jt.intrados.tolist(), "extrados": jt.extrados.tolist(),
@@ -215,6 +224,9 @@ def _reactions(an: Analysis) -> list[dict]:
              for side in ("left", "right") for k, j in enumerate(ring.springings(side))}
     if an.scene.abutments.elastic:
         names = {j.id: f"{side} abutment base" for j, side in zip(ring.bases, ("left", "right"))}
+    pier_of = {b.id: b.pier for b in ring.piers}
+    names.update({j.id: f"foundation of pier {pier_of[j.left] + 1}" for j in ring.joints
+                  if j.kind == "pier" and j.right is None})
     return [{"joint": jid, "at": names.get(jid, "ground"), "horizontal": float(h), "vertical": float(v)}
             for jid, (h, v) in zip(on_ground, springing_reactions(an.joints, ring))]
 

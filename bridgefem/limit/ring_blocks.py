@@ -66,7 +66,7 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
     if ring is not None and thickness is not None:
         raise ValueError("ring_model: give the ring or a thickness to build it with, not both")
     ring = ring or scene_ring(scene, thickness)
-    ref = np.array([polygon_area_centroid(b.polygon)[1] for b in ring.voussoirs + ring.abutments])
+    ref = np.array([polygon_area_centroid(b.polygon)[1] for b in ring.blocks])
     nb = len(ref)
     dead = generalised_loads(ref, np.arange(nb), ref, np.column_stack([np.zeros(nb), -block_weights(scene, ring)]))
     if scene.fill is not None:
@@ -89,10 +89,10 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
 
 
 def block_weights(scene: Scene, ring) -> np.ndarray:
-    """(nb,) the weight (N) of each block of ``ring``, voussoirs then abutments (step 2 of the module docstring):
-    unit weight x polygon area x the arch's width."""
-    area = np.array([polygon_area_centroid(b.polygon)[0] for b in ring.voussoirs + ring.abutments])
-    unit_weight = np.array([scene.masonry.density * scene.gravity] * ring.n_voussoirs
+    """(nb,) the weight (N) of each block of ``ring``, voussoirs, pier courses (masonry) then abutments (step 2 of the
+    module docstring): unit weight x polygon area x the arch's width."""
+    area = np.array([polygon_area_centroid(b.polygon)[0] for b in ring.blocks])
+    unit_weight = np.array([scene.masonry.density * scene.gravity] * (ring.n_voussoirs + len(ring.piers))
                            + [scene.abutments.unit_weight] * len(ring.abutments))
     return unit_weight * scene.arch.width * area
 
@@ -109,14 +109,14 @@ def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> n
 
 
 def load_forces(scene: Scene, ring, sides: tuple[str, ...]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per scene load, the vertical forces it puts on the outer ring's voussoirs for a unit load factor (step 4 of
-    the module docstring): (blocks (k,), points (k, 2) on the extrados in m, forces (k, 2) in N); ``sides`` as in
-    :func:`live_loads`."""
-    outer = ring.outer_voussoirs
-    ext = np.vstack([v.extrados for v in outer])
-    ids = np.array([v.id for v in outer])
-    x0 = np.array([v.extrados[0, 0] for v in outer])  # block ids[k] spans x0[k]..x1[k] on the extrados
-    x1 = np.array([v.extrados[-1, 0] for v in outer])
+    """Per scene load, the vertical forces it puts on the outer ring's voussoirs (and a pier's top course, for a load
+    over a pier) for a unit load factor (step 4 of the module docstring): (blocks (k,), points (k, 2) on the extrados
+    in m, forces (k, 2) in N); ``sides`` as in :func:`live_loads`."""
+    top = ring.top_pieces  # the outer voussoirs' extrados, and the piers' tops between spans
+    ext = np.vstack([line for _, line in top])
+    ids = np.array([b for b, _ in top])
+    x0 = np.array([line[0, 0] for _, line in top])  # block ids[k] spans x0[k]..x1[k] on the extrados
+    x1 = np.array([line[-1, 0] for _, line in top])
     out = []
     for ld, side in zip(scene.loads, sides):
         lo, hi = ld.x_range(scene.arch.span)

@@ -40,6 +40,18 @@ class Arch:
 
 
 @dataclass(frozen=True)
+class Pier:
+    """A masonry pier between two spans (``[[pier]]``): ``width`` (m) between the spans' intrados corners at
+    springing level, ``height`` (m) from springing level down to its foundation, ``batter`` (m/m) each face's outward
+    lean per metre down, ``blocks`` its courses (horizontal bed joints between them). Its material is the masonry's."""
+
+    width: float
+    height: float
+    batter: float = _default("pier", "batter")
+    blocks: int = _default("pier", "blocks")
+
+
+@dataclass(frozen=True)
 class Masonry:
     """Voussoir material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3) and the joints' compressive
     strength (Pa; None: infinitely strong)."""
@@ -139,7 +151,7 @@ class Load:
     span (m), ``factor`` its share of the load pattern (the live load is factor x load level, N)."""
 
     kind: str
-    position: float
+    position: float  # of the first span: beyond 1 on a bridge of several spans
     length: float = _default("load", "length")
     factor: float = _default("load", "factor")
     x: float | None = _default("load", "x")
@@ -234,6 +246,23 @@ class Scene:
     model: ModelOptions = ModelOptions()
     solver: SolverOptions = SolverOptions()
     document: dict | None = field(default=None, compare=False, repr=False)
+    spans: tuple[Arch, ...] = ()
+    piers: tuple[Pier, ...] = ()
+
+    @property
+    def arches(self) -> tuple[Arch, ...]:
+        """Every span's arch, left to right: ``spans`` for a bridge of several spans (``[[span]]`` tables, the first
+        of them ``arch``), else ``arch`` alone."""
+        return self.spans or (self.arch,)
+
+    def span_ranges(self) -> list[tuple[float, float]]:
+        """Each span's horizontal extent between its springings' intrados corners (m, in the frame whose origin is
+        the first span's midspan), left to right."""
+        out, left = [], -self.arch.span / 2
+        for k, a in enumerate(self.arches):
+            out.append((left, left + a.span))
+            left += a.span + (self.piers[k].width if k < len(self.piers) else 0.0)
+        return out
 
     def load_edges_x(self) -> list[float]:
         """Horizontal positions (m) of point loads and patch edges: where joints go by default."""

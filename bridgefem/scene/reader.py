@@ -35,13 +35,14 @@ from .model import (
     Masonry,
     MeshOptions,
     ModelOptions,
+    Pier,
     Scene,
     SolverOptions,
     Vehicle,
 )
 from .names import check_name, show_path
 from .petsc_options import check_petsc
-from .schema import FILL_PRESETS, MAX_LOADS, MAX_RINGS, PRESETS, SCHEMA
+from .schema import FILL_PRESETS, MAX_LOADS, MAX_RINGS, MAX_SPANS, PRESETS, SCHEMA
 from .vehicles import MAX_AXLES, VEHICLES
 
 MAX_SCENE_BYTES = 1_000_000  # a scene file larger than this is not a scene
@@ -86,26 +87,26 @@ def _section(data: Any, name: str, label: str, scales: dict[str, float]) -> dict
     return out
 
 
-def _check_rise(a: dict[str, Any]) -> float:
+def _check_rise(a: dict[str, Any], label: str = "[arch]") -> float:
     span, rise, shape = a["span"], a["rise"], a["shape"]
     if shape == "semicircular":
         if rise is not None and not math.isclose(rise, span / 2, rel_tol=1e-6):
-            raise SceneError(f"[arch] rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = {span / 2:g} m "
+            raise SceneError(f"{label} rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = {span / 2:g} m "
                              "(omit rise, or use shape = \"segmental\" / \"elliptical\")")
         return span / 2
     if rise is None:
-        raise SceneError(f"[arch] rise: missing; required for shape = \"{shape}\" "
+        raise SceneError(f"{label} rise: missing; required for shape = \"{shape}\" "
                          f"({SCHEMA['arch']['rise'].allowed(span)})")
     key = SCHEMA["arch"]["rise"]
     limits = {"segmental": (rise <= span / 2, f"rise from {key.low:g} x span to span/2 = {span / 2:g} m"),
               "pointed": (rise >= span / 2, f"rise from span/2 = {span / 2:g} m to {key.high:g} x span")}
     ok, allowed = limits.get(shape, (True, ""))
     if not ok:
-        raise SceneError(f"[arch] rise = {rise!r}: for shape = \"{shape}\" allowed is {allowed}")
+        raise SceneError(f"{label} rise = {rise!r}: for shape = \"{shape}\" allowed is {allowed}")
     return rise
 
 
-def _check_rings(a: dict[str, Any], rings_given: bool) -> dict[str, Any]:
+def _check_rings(a: dict[str, Any], rings_given: bool, label: str = "[arch]") -> dict[str, Any]:
     """``rings`` and ``ring_thicknesses`` agreed: the list has 2 to ``MAX_RINGS`` numbers, each at least 1e-3 of
     ``thickness``, summing to it (to 1e-6); ``rings``, when given with it, is its length."""
     given = a["ring_thicknesses"]
@@ -116,37 +117,88 @@ def _check_rings(a: dict[str, Any], rings_given: bool) -> dict[str, Any]:
     if not isinstance(given, list) or not 2 <= len(given) <= MAX_RINGS or any(
             isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t)
             or t < 1e-3 * a["thickness"] for t in given):
-        raise SceneError(f"[arch] ring_thicknesses = {show_value(given)}: {allowed}")
+        raise SceneError(f"{label} ring_thicknesses = {show_value(given)}: {allowed}")
     if abs(sum(given) - a["thickness"]) > 1e-6 * a["thickness"]:
-        raise SceneError(f"[arch] ring_thicknesses = {show_value(given)}: they sum to {sum(given):.9g} m; {allowed}")
+        raise SceneError(f"{label} ring_thicknesses = {show_value(given)}: they sum to {sum(given):.9g} m; {allowed}")
     if rings_given and a["rings"] != len(given):
-        raise SceneError(f"[arch] rings = {a['rings']!r}: ring_thicknesses has {len(given)} rings; allowed is "
+        raise SceneError(f"{label} rings = {a['rings']!r}: ring_thicknesses has {len(given)} rings; allowed is "
                          f"rings = {len(given)} or no rings key")
     return {"ring_thicknesses": tuple(float(t) for t in given), "rings": len(given)}
 
 
+def _arch(raw: Any, label: str, scales: dict[str, float]) -> dict[str, Any]:
+    """An ``[arch]`` table (or a ``[[span]]`` table, with its ``label``) checked, its rise and rings agreed."""
+    a = _section(raw, "arch", label, scales)
+    a["rise"] = _check_rise(a, label)
+    a.update(_check_rings(a, "rings" in raw, label))
+    return a
+
+
+def _spans(data: dict[str, Any], scales: dict[str, float]) -> list[dict[str, Any]]:
+    """The arches of the scene: its ``[arch]``, or its 2 to ``MAX_SPANS`` ``[[span]]`` tables (each checked as an
+    ``[arch]``, its relative ranges against its own span; one width for the whole bridge); ``scales`` gets the
+    first span's."""
+    if "span" not in data:
+        if "pier" in data:
+            raise SceneError("[[pier]]: piers stand between spans; allowed with [[span]] tables (2 or more), not "
+                             "with [arch]")
+        return [_arch(data["arch"], "[arch]", scales)]
+    raw = data["span"]
+    if "arch" in data:
+        raise SceneError("[arch] and [[span]]: give one, [arch] for a bridge of one span or [[span]] tables for "
+                         "several")
+    if not isinstance(raw, list) or not 2 <= len(raw) <= MAX_SPANS:
+        raise SceneError(f"[[span]] = {show_value(raw)}: expected 2 to {MAX_SPANS} [[span]] tables, left to right "
+                         "(one span: [arch])")
+    spans = [_arch(raw[0], "[[span]] #1", scales)]
+    for k, table in enumerate(raw[1:], start=2):
+        a = _arch(table, f"[[span]] #{k}", dict(scales))
+        if a["width"] != spans[0]["width"]:
+            raise SceneError(f"[[span]] #{k} width = {a['width']!r}: allowed is the bridge's width, that of "
+                             f"[[span]] #1 ({spans[0]['width']:g} m)")
+        spans.append(a)
+    return spans
+
+
+def _piers(data: dict[str, Any], n_spans: int, scales: dict[str, float]) -> tuple[Pier, ...]:
+    """The ``[[pier]]`` tables of a bridge of ``n_spans`` spans: one between each two spans."""
+    raw = data.get("pier", [])
+    if n_spans == 1:
+        return ()
+    if not isinstance(raw, list) or len(raw) != n_spans - 1:
+        raise SceneError(f"[[pier]] = {show_value(raw)}: expected {n_spans - 1} [[pier]] tables, one between each "
+                         f"two of the {n_spans} spans, left to right")
+    return tuple(Pier(**_section(table, "pier", f"[[pier]] #{k + 1}", scales)) for k, table in enumerate(raw))
+
+
 def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     """Validate a parsed TOML document and build a :class:`Scene`."""
-    unknown = sorted(set(data) - set(SCHEMA) - {"load"})
+    arrays = {"load": "[[load]]", "span": "[[span]]", "pier": "[[pier]]"}
+    unknown = sorted(set(data) - set(SCHEMA) - set(arrays))
     if unknown:
-        hint = did_you_mean(unknown[0], SCHEMA, lambda s: "[[load]]" if s == "load" else f"[{s}]")
+        hint = did_you_mean(unknown[0], list(SCHEMA) + ["span"], lambda s: arrays.get(s, f"[{s}]"))
         raise SceneError(f"[{show_value(unknown[0])[1:-1]}]: unknown section; {hint}allowed sections are "
-                         + ", ".join(f"[{s}]" for s in SCHEMA if s != "load") + ", [[load]]")
+                         + ", ".join(f"[{s}]" for s in SCHEMA if s not in arrays) + ", " + ", ".join(arrays.values()))
     for name in _REQUIRED_SECTIONS:
-        if name not in data:
+        if name not in data and not (name == "arch" and "span" in data):
             raise SceneError(f"[{name}]: missing section; expected the sections "
-                             + ", ".join(f"[{n}]" for n in _REQUIRED_SECTIONS) + " (and others as needed)")
+                             + ", ".join(f"[{n}]" for n in _REQUIRED_SECTIONS) + " (and others as needed; "
+                             "[[span]] tables instead of [arch] for several spans)")
     scales: dict[str, float] = {}
     sec: dict[str, dict[str, Any]] = {}
+    spans: list[dict[str, Any]] = []
     for section in SCHEMA:
-        if section == "load" or (section not in data and section in _OPTIONAL_SECTIONS):
+        if section in arrays or (section not in data and section in _OPTIONAL_SECTIONS):
+            continue
+        if section == "arch":
+            spans = _spans(data, scales)
+            sec["arch"] = spans[0]
             continue
         sec[section] = _section(data.get(section, {}), section, f"[{section}]", scales)
-        if section == "arch":
-            sec[section]["rise"] = _check_rise(sec[section])
-            sec[section].update(_check_rings(sec[section], "rings" in data.get("arch", {})))
-        elif section == "masonry":
-            scales["ring weight"] = ring_weight(sec["arch"], sec["masonry"]["density"], sec["scene"]["gravity"])
+        if section == "masonry":
+            scales["ring weight"] = sum(ring_weight(a, sec["masonry"]["density"], sec["scene"]["gravity"])
+                                        for a in spans)
+    piers = _piers(data, len(spans), scales)
     name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
     preset = sec["solver"]["preset"]
     plastic_fill = "fill" in sec and sec["fill"]["material"] == "mohr-coulomb"
@@ -154,6 +206,15 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         if key not in data.get(section, {}):
             sec[section][key] = value
     a = sec["arch"]
+    arches = tuple(Arch(**x) for x in spans)
+    multi = Scene(name, arches[0], Masonry(**sec["masonry"]), JointProperties(**sec["joints"]), (),
+                  spans=arches if len(arches) > 1 else (), piers=piers)
+    reach = multi.span_ranges()
+    if len(arches) > 1:
+        for section in ("fill", "vehicle"):
+            if section in data:
+                raise SceneError(f"[{section}] with [[span]]: a bridge of several spans is analysed bare, without "
+                                 f"[{section}], in this version; allowed is [{section}] over one span ([arch])")
     raw_loads = data.get("load", [])
     if not isinstance(raw_loads, list):
         raise SceneError(f"[[load]] = {show_value(raw_loads)}: expected [[load]] tables (none: self-weight only)")
@@ -162,16 +223,20 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     loads = []
     for i, raw in enumerate(raw_loads):
         label = f"[[load]] #{i + 1}"
-        ld = Load(**_placed(_section(raw, "load", label, scales), label, a["span"]))
+        ld = Load(**_placed(_section(raw, "load", label, {**scales, "span": reach[-1][1] - reach[0][0]}), label,
+                            a["span"]))
         if ld.kind == "point" and ld.length:
             raise SceneError(f"{label} length = {ld.length!r}: a point load has no length (use kind = \"patch\")")
         if ld.kind == "patch" and ld.length == 0:
             patch = replace(SCHEMA["load"]["length"], zero=False).allowed(a["span"])
             raise SceneError(f"{label} length = {ld.length!r}: a patch load needs a length; allowed is {patch}")
         lo, hi = ld.x_range(a["span"])
-        if lo < -a["span"] / 2 * (1 + RANGE_RTOL) or hi > a["span"] / 2 * (1 + RANGE_RTOL):
+        slack = RANGE_RTOL * a["span"] / 2
+        if lo < reach[0][0] - slack or hi > reach[-1][1] + slack:
+            where = "the span" if len(reach) == 1 else "the bridge, from the first span's left springing to the last's right"
             raise SceneError(f"{label} position = {ld.position!r}, length = {ld.length!r}: the load spans "
-                             f"x = {lo:g}..{hi:g} m; allowed is a load within the span, x = -{a['span'] / 2:g}..{a['span'] / 2:g} m")
+                             f"x = {lo + a['span'] / 2:g}..{hi + a['span'] / 2:g} m from the left springing; allowed "
+                             f"is a load within {where}, x = 0..{reach[-1][1] + a['span'] / 2:g} m")
         loads.append(ld)
     solver = {**sec["solver"], "petsc": check_petsc(sec["solver"]["petsc"])}
     fill = Fill(**sec["fill"]) if "fill" in sec else None
@@ -193,7 +258,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments, vehicle=vehicle,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
-                 solver=SolverOptions(**solver), document=copy.deepcopy(data))
+                 solver=SolverOptions(**solver), document=copy.deepcopy(data), spans=multi.spans, piers=piers)
 
 
 def _placed(ld: dict[str, Any], label: str, span: float) -> dict[str, Any]:
@@ -367,6 +432,12 @@ def resolved_toml(scene: Scene) -> str:
         if section == "load":
             for ld in scene.loads:
                 table("[[load]]", "load", ld)
+        elif section == "arch" and scene.spans:
+            for a in scene.spans:
+                table("[[span]]", "arch", a)
+        elif section == "pier":
+            for pier in scene.piers:
+                table("[[pier]]", "pier", pier)
         elif objects[section] is not None:
             table(f"[{section}]", section, objects[section])
     if scene.solver.petsc:

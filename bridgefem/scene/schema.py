@@ -45,6 +45,7 @@ ABUTMENT_MODELS = ("rigid", "elastic")
 MOVING_SPRINGINGS = ("left", "right", "both")
 MAX_LOADS = 100  # [[load]] tables in one scene
 MAX_RINGS = 12  # rings of one barrel
+MAX_SPANS = 20  # [[span]] tables in one scene
 _MC = ("material", "mohr-coulomb")
 _ELASTIC = ("model", "elastic")
 _WHY_MODULUS = ("from rubber-like laboratory blocks (1 MPa) to ten times the stiffest rock (basalt, granite: about "
@@ -149,6 +150,17 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "ring_bond": Key(str, "staggered: every other ring shifted half a voussoir (brick bond, half voussoirs at "
                          "the springings); aligned: every ring's joints continue the outer ring's",
                          "staggered", choices=RING_BONDS),
+    },
+    "pier": {
+        "width": _length("clear distance between the two spans' intrados corners at springing level", 0.01, 2.0,
+                         why="from a sliver of a pier to twice the span (wider, a pier is an abutment)"),
+        "height": _length("from springing level down to the pier's foundation", 0.01, 5.0,
+                          why="from a pier that is all springing to the tallest viaducts' (a few times the span)"),
+        "batter": Key(float, "outward lean of each face per metre down (a wider base)", 0.0, "m/m", low=0.0,
+                      high=0.5, why="from a vertical face to a lean of 1 in 2 (a buttress rather than a pier)"),
+        "blocks": Key(int, "courses of the pier, between horizontal bed joints evenly spaced from springing level to "
+                      "the foundation, where it can rock or slide", 1, low=1, high=100,
+                      why="from one block on its foundation to a course every few decimetres of a tall pier"),
     },
     "masonry": {
         "young": _modulus("Young's modulus of the voussoirs"),
@@ -273,7 +285,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "petsc": Key(dict, "PETSc options of the contact solver, from the allow-list below", {}),
     },
 }
-"""Every scene key, by section ("load": the keys of each [[load]] table)."""
+"""Every scene key, by section ("load": the keys of each [[load]] table; "pier": of each [[pier]] table; a bridge of
+several spans gives [[span]] tables with the keys of "arch")."""
 
 
 def keys_markdown() -> str:
@@ -288,7 +301,10 @@ def keys_markdown() -> str:
            "outside its range stops every command (run, check, lp, bounds, min-thickness, converge) with one "
            "line naming the key, the value and the range, exit code 2, before anything is written.", ""]
     for section, keys in SCHEMA.items():
-        out += ["## [[load]]" if section == "load" else f"## [{section}]", "",
+        header = {"load": "## [[load]]", "pier": "## [[pier]]"}.get(section, f"## [{section}]")
+        if section == "arch":
+            header += " (or [[span]] tables, one per span of a bridge of several spans, each with these keys)"
+        out += [header, "",
                 "| key | default | unit | allowed | meaning | why this range |", "|---|---|---|---|---|---|"]
         for k, key in keys.items():
             default = ("*required*" if key.default is REQUIRED else key.derived if key.derived

@@ -1,29 +1,34 @@
 """A scene's ring: the blocks and joints its keys describe, built in one place for every model, and the loads'
 names and moves for messages and results.
 
-:func:`scene_ring` reads ``[arch]`` (shape, span, rise, thickness, voussoirs, joint_at_loads), the horizontal
-positions of the point loads and patch edges (:meth:`bridgefem.scene.model.Scene.load_edges_x`) and
-``[abutments]``, and
+:func:`scene_ring` reads ``[arch]`` (shape, span, rise, thickness, voussoirs, joint_at_loads), or the ``[[span]]``
+and ``[[pier]]`` tables of a bridge of several spans, the horizontal positions of the point loads and patch edges
+(:meth:`bridgefem.scene.model.Scene.load_edges_x`) and ``[abutments]``, and
 
-1. builds the ring of voussoirs and joints (:func:`bridgefem.geometry.ring.build_ring`), with a joint moved under
-   each load when ``joint_at_loads`` asks for it;
-2. with elastic abutments, adds the two abutment blocks and their base joints on the ground
+1. builds each span's barrel of voussoirs and joints (:func:`bridgefem.geometry.ring.build_ring`), with a joint
+   moved under each load on its extrados when ``joint_at_loads`` asks for it;
+2. with several spans, places them on their piers in one frame (:func:`bridgefem.geometry.bridge.build_bridge`),
+   a vertex on a pier's top under each load over it;
+3. with elastic abutments, adds the two abutment blocks and their base joints on the ground
    (:func:`bridgefem.geometry.ring.add_abutments`).
 
 The FE model (:mod:`bridgefem.fe.mesh` meshes this ring), the rigid-block LP (:mod:`bridgefem.limit.ring_blocks`)
 and the conic bounds (:mod:`bridgefem.limit.bounds_model`) all take their ring from here, so that the LP checks the
 FE on the same joints. Lengths in m; coordinates, numbering and the joints' left/right blocks as in
-:mod:`bridgefem.geometry.ring`: voussoirs 0 .. N - 1 and joints 0 (left springing) .. N (right springing); the
-abutments are blocks N (left) and N + 1 (right) with base joints N + 1 and N + 2. A load layout the geometry cannot
-honour raises :class:`~bridgefem.scene.keys.SceneError` naming the loads in words (:func:`load_labels`), as any
-other bad value of a scene. A point load that acts at the corner of a joint it was not given (within
-``AT_JOINT_TOL`` x span of it) is reported, never silent (:func:`snapped_loads`).
+:mod:`bridgefem.geometry.ring` and :mod:`bridgefem.geometry.bridge`: one ring of N voussoirs has voussoirs 0 .. N - 1
+and joints 0 (left springing) .. N (right springing); the abutments are the last two blocks (left, then right) with
+the last two joints their bases. A load layout the geometry cannot honour raises
+:class:`~bridgefem.scene.keys.SceneError` naming the loads in words (:func:`load_labels`), as any other bad value of a
+scene. A point load that acts at the corner of a joint it was not given (within ``AT_JOINT_TOL`` x span of it) is
+reported, never silent (:func:`snapped_loads`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..geometry.bridge import PierShape, build_bridge
 from ..geometry.ring import AT_JOINT_TOL, ArchRing, add_abutments, build_ring, joint_under
+from ..geometry.shapes import make_shape
 from ..scene.keys import SceneError
 from ..scene.model import Scene
 
@@ -44,12 +49,26 @@ def load_labels(scene: Scene) -> list[str]:
 
 def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
     """The joints and blocks of a scene (one source for the FE model and the LP); ``thickness`` (m) overrides the
-    ring's. Raises SceneError when the loads cannot have the joints and edges they need (:func:`build_ring`)."""
-    a, ab = scene.arch, scene.abutments
+    ring's (every span's, scaled alike). Raises SceneError when the loads cannot have the joints and edges they need
+    (:func:`build_ring`) or a pier is too narrow for its spans' springings
+    (:func:`bridgefem.geometry.bridge.build_bridge`)."""
+    ab = scene.abutments
+    scale = 1.0 if thickness is None else thickness / scene.arch.thickness
+    edges, labels = scene.load_edges_x(), load_labels(scene)
+    barrels, on_spans = [], set()
     try:
-        t = a.thickness if thickness is None else thickness
-        ring = build_ring(a.shape, a.span, a.rise, t, a.voussoirs, scene.load_edges_x(), a.joint_at_loads,
-                          load_labels(scene), tuple(r * t / a.thickness for r in a.ring_layers), a.ring_bond)
+        for a, (left, right) in zip(scene.arches, scene.span_ranges()):
+            centre = 0.5 * (left + right)
+            t = a.thickness * scale
+            reach = abs(t * make_shape(a.shape, a.span, a.rise).normal(0.0)[0])  # to the extrados corner
+            mine = [k for k, x in enumerate(edges) if left - reach <= x <= right + reach]
+            on_spans.update(mine)
+            barrels.append(build_ring(a.shape, a.span, a.rise, t, a.voussoirs, [edges[k] - centre for k in mine],
+                                      a.joint_at_loads, [labels[k] for k in mine],
+                                      tuple(r * scale for r in a.ring_layers), a.ring_bond))
+        ring = barrels[0] if len(barrels) == 1 else build_bridge(barrels, [
+            PierShape(p.width, p.height, p.batter, p.blocks) for p in scene.piers],
+            [x for k, x in enumerate(edges) if k not in on_spans])
     except ValueError as err:
         raise SceneError(str(err)) from None
     return add_abutments(ring, ab.height, ab.length) if ab.elastic else ring

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..geometry.shapes import make_shape
 from ..scene.keys import SceneError
-from ..scene.model import Scene
+from ..scene.model import Arch, Scene
 from .grading import densest_grading
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
@@ -62,9 +62,9 @@ class SizeEstimate:
                 "(estimate)")
 
 
-def ring_voussoirs(scene: Scene) -> list[int]:
-    """The voussoirs of each ring, inner first: the arch's, one more in every other ring of a staggered bond."""
-    a = scene.arch
+def ring_voussoirs(a: Arch) -> list[int]:
+    """The voussoirs of each ring of arch ``a`` (one span's), inner first: the arch's, one more in every other ring of
+    a staggered bond."""
     layers = a.ring_layers or (a.thickness,)
     return [a.voussoirs + (1 if len(layers) > 1 and a.ring_bond == "staggered" and (len(layers) - 1 - r) % 2 else 0)
             for r in range(len(layers))]
@@ -72,9 +72,9 @@ def ring_voussoirs(scene: Scene) -> list[int]:
 
 def most_graded_elements(scene: Scene) -> int:
     """The most elements through each ring joint that the grading for the stress block may use: as many as keep the
-    pairs of all the rings' joints (n + 1 per ring of n voussoirs, ``degree`` x elements + 1 each) within
+    pairs of all the rings' joints (n + 1 per ring of n voussoirs, every span's, ``degree`` x elements + 1 each) within
     ``GRADED_PAIRS``, and never fewer than ``elements_through_thickness`` (the even joints)."""
-    joints = sum(n + 1 for n in ring_voussoirs(scene))
+    joints = sum(n + 1 for a in scene.arches for n in ring_voussoirs(a))
     ett, degree = scene.mesh.elements_through_thickness, scene.mesh.degree
     return max(ett, int((GRADED_PAIRS / joints - 1) // degree))
 
@@ -91,13 +91,10 @@ def graded_elements(scene: Scene, joint_nodes: tuple[float, ...] | None = None) 
     return min(densest_grading(ett), most_graded_elements(scene))
 
 
-def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None) -> SizeEstimate:
-    """The model's size from the scene alone (no mesh is built): per ring (the ring's element size h its thickness
-    / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, as many elements through as
-    the ring joints have (:func:`graded_elements` of ``joint_nodes``), each ring interface's pairs (one per h of the
-    finer ring along it), then the fill and the abutments."""
-    a, ett, degree = scene.arch, scene.mesh.elements_through_thickness, scene.mesh.degree
-    through = graded_elements(scene, joint_nodes)
+def _barrel_size(a: Arch, scene: Scene, through: int) -> tuple[float, float, float, float]:
+    """Cells, nodes and pairs of one span's barrel (arch ``a``; ``through`` elements through each ring joint), and
+    its smallest element size h (m): the first part of :func:`estimate_size`."""
+    ett, degree = scene.mesh.elements_through_thickness, scene.mesh.degree
     shape = make_shape(a.shape, a.span, a.rise)
     p = np.linspace(0.0, 1.0, 257)
 
@@ -109,10 +106,9 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None) ->
     levels = np.concatenate([[0.0], np.cumsum(layers)])
     sizes = [t / ett for t in layers]
     extrados_length = offset_length(a.thickness)
-    h = min(sizes)
     h_extrados = extrados_element_size(layers[-1], ett, scene.fill.depth if scene.fill is not None else None)
     cells = nodes = pairs = 0.0
-    for r, (t, h_r, n) in enumerate(zip(layers, sizes, ring_voussoirs(scene))):
+    for r, (t, h_r, n) in enumerate(zip(layers, sizes, ring_voussoirs(a))):
         fill_along = (math.ceil(extrados_length / n / h_extrados) if h_extrados < h_r and r == len(layers) - 1
                       else 0)
         along = max(1, math.ceil(offset_length(levels[r] + t / 2) / n / h_r), fill_along)
@@ -131,11 +127,26 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None) ->
         cells += fill_cells
         nodes += fill_cells * (0.5 if degree == 1 else 2.0)
         pairs += (extrados_length / min(h_extrados, hf)) * degree
+    return cells, nodes, pairs, min(sizes)
+
+
+def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None) -> SizeEstimate:
+    """The model's size from the scene alone (no mesh is built): per span, per ring (the ring's element size h its
+    thickness / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, as many elements
+    through as the ring joints have (:func:`graded_elements` of ``joint_nodes``), each ring interface's pairs (one
+    per h of the finer ring along it), the fill; then the piers and the abutments (unstructured at 2 h)."""
+    degree = scene.mesh.degree
+    through = graded_elements(scene, joint_nodes)
+    parts = [_barrel_size(a, scene, through) for a in scene.arches]
+    cells, nodes, pairs = (sum(part[k] for part in parts) for k in range(3))
+    h = min(part[3] for part in parts)
+    support_area = sum(p.height * (p.width + p.batter * p.height) for p in scene.piers)
     if scene.abutments.elastic:
-        ab = scene.abutments
-        block_cells = 2 * TRIANGLES_PER_AREA * ab.height * ab.length / (2 * h) ** 2
-        cells += block_cells
-        nodes += block_cells * (0.5 if degree == 1 else 2.0)
+        support_area += 2 * scene.abutments.height * scene.abutments.length
+    block_cells = TRIANGLES_PER_AREA * support_area / (2 * h) ** 2
+    cells += block_cells
+    nodes += block_cells * (0.5 if degree == 1 else 2.0)
+    pairs += sum((p.blocks + 2) * (degree * p.width / (2 * h) + 1) for p in scene.piers)
     dofs = int(2 * nodes + 2 * pairs)
     memory = MEMORY_BASE + MEMORY_PER_DOF * dofs * math.log2(max(dofs, 2))
     return SizeEstimate(int(cells), dofs, memory)

@@ -1,0 +1,190 @@
+"""Bridges of several spans on piers (issue #42): the scene keys, the geometry, the rigid-block LP against the spans
+alone, the FE against the LP, and the same answer under mpirun -n 2."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import ROOT, write_toml
+from mpi4py import MPI
+
+from bridgefem.analysis.runner import run_analysis
+from bridgefem.geometry.ring import polygon_area_centroid
+from bridgefem.limit.collapse import collapse_load
+from bridgefem.scene.keys import SceneError
+from bridgefem.scene.reader import resolved_toml, scene_from_dict
+from bridgefem.status import Status
+from bridgefem.structure.ring import scene_ring
+
+AGREEMENT = 0.005  # the FE/LP agreement of the campaign's judge where no joint slides
+
+SPAN = {"shape": "segmental", "span": 8.0, "rise": 2.0, "thickness": 0.4, "voussoirs": 16}
+STOCKY = {"width": 3.0, "height": 1.0, "blocks": 1}
+SLENDER = {"width": 0.7, "height": 12.0, "blocks": 6}
+
+
+def bridge(piers: list[dict], loads: list[dict], spans: int = 3, **sections) -> dict:
+    """``spans`` equal segmental spans on ``piers`` (one table for every pier, or one each) under ``loads``."""
+    piers = piers * (spans - 1) if len(piers) == 1 else piers
+    return {"span": [dict(SPAN) for _ in range(spans)], "pier": [dict(p) for p in piers],
+            "masonry": {"young": 1e10, "density": 2000.0}, "joints": {"friction": 0.6}, "load": loads,
+            "mesh": {"elements_through_thickness": 2}, **sections}
+
+
+def one_span(loads: list[dict]) -> dict:
+    return {"arch": dict(SPAN), "masonry": {"young": 1e10, "density": 2000.0}, "joints": {"friction": 0.6},
+            "load": loads}
+
+
+def point(x: float) -> list[dict]:
+    return [{"kind": "point", "x": x}]
+
+
+# ------------------------------------------------------------------------------------------------------ scene keys
+@pytest.mark.parametrize("change,message", [
+    (lambda d: d.update(arch=dict(SPAN)), "[arch] and [[span]]: give one"),
+    (lambda d: d["pier"].pop(), "[[pier]] = "),
+    (lambda d: d["span"][1].update(width=2.0), "[[span]] #2 width = 2.0: allowed is the bridge's width"),
+    (lambda d: d["span"][2].update(rise=5.0), "[[span]] #3 rise = 5.0: for shape = \"segmental\""),
+    (lambda d: d["pier"][0].update(height=-1.0), "[[pier]] #1 height = -1.0"),
+    (lambda d: d["pier"][1].update(colour="red"), "[[pier]] #2: unknown key 'colour'"),
+    (lambda d: d.update(load=point(31.0)), "[[load]] #1 x = 31.0"),
+    (lambda d: d.update(fill={"unit_weight": 18e3, "young": 1e8, "depth": 0.3, "extension": 1.0}),
+     "[fill] with [[span]]"),
+])
+def test_bad_bridges_are_refused_with_the_key_the_value_and_what_is_allowed(change, message):
+    d = bridge([STOCKY], point(2.0))
+    change(d)
+    with pytest.raises(SceneError, match=None) as err:
+        scene_from_dict(d)
+    assert message in str(err.value), str(err.value)
+
+
+def test_piers_need_spans():
+    d = one_span(point(2.0))
+    d["pier"] = [dict(STOCKY)]
+    with pytest.raises(SceneError, match=r"\[\[pier\]\]: piers stand between spans"):
+        scene_from_dict(d)
+
+
+def test_a_pier_too_narrow_for_its_springings_is_refused_with_the_least_width():
+    scene = scene_from_dict(bridge([{"width": 0.5, "height": 4.0}], point(2.0)))
+    with pytest.raises(SceneError, match=r"\[\[pier\]\] #1 width = 0.5 m: .* allowed is a width > 0.64 m"):
+        scene_ring(scene)
+
+
+def test_the_resolved_bridge_reads_back_as_the_same_scene():
+    scene = scene_from_dict(bridge([SLENDER], point(2.0)))
+    import tomllib
+    assert scene_from_dict(tomllib.loads(resolved_toml(scene)), scene.name) == scene
+
+
+# --------------------------------------------------------------------------------------------------------- geometry
+def test_the_blocks_tile_the_bridge_and_every_joint_bears_on_its_blocks():
+    """The spans and pier courses in one frame: the piers' area is width x height (+ batter), every springing on a
+    pier names the pier's top course, every bed joint lies on its two courses' outlines."""
+    pier = {"width": 1.5, "height": 4.0, "batter": 0.05, "blocks": 3}
+    ring = scene_ring(scene_from_dict(bridge([pier], point(2.0))))
+    assert [len(b.voussoirs) for b in ring.barrels] == [16, 16, 16]
+    assert len(ring.piers) == 6 and len(ring.springings("left")) == len(ring.springings("right")) == 1
+    courses = [b for b in ring.piers if b.pier == 0]
+    below_springings = sum(polygon_area_centroid(b.polygon)[0] for b in courses[1:])
+    h = 4.0 / 3
+    assert below_springings == pytest.approx(sum(h * (1.5 + 2 * 0.05 * (k + 0.5) * h) for k in (1, 2)))
+    top = courses[0]
+    on_pier = [j for j in ring.joints if j.kind == "springing" and top.id in (j.left, j.right)]
+    assert len(on_pier) == 2
+    for j in ring.joints:
+        if j.kind == "pier":
+            for b in (j.left, j.right):
+                if b is not None:
+                    poly = ring.blocks[b].polygon
+                    for end in (j.intrados, j.extrados):
+                        assert np.min(np.linalg.norm(poly - end, axis=1)) < 1e-12
+
+
+# ---------------------------------------------------------------------------------------------- rigid-block LP
+@pytest.mark.parametrize("x", [2.0, 9.5 + 2.5, 2 * 11.0 + 5.0])
+def test_a_wide_short_pier_gives_each_span_alone_on_rigid_springings(x):
+    """Issue #42 item 3: a very wide, short pier reproduces each span alone (the same load on the same span)."""
+    alone = collapse_load(scene_from_dict(one_span(point(x % 11.0)))).load
+    assert collapse_load(scene_from_dict(bridge([STOCKY], point(x)))).load == pytest.approx(alone, rel=1e-7)
+
+
+def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position():
+    """A point load swept over the first span: on slender piers the least collapse load is lower than on stocky
+    ones, a pier's bed joint hinges in its mechanism, and the critical position moves towards the pier."""
+    xs = np.linspace(0.4, 7.6, 19)
+
+    def sweep(pier):
+        return [collapse_load(scene_from_dict(bridge([pier], point(float(x))))) for x in xs]
+
+    stocky, slender = (np.array([r.load for r in sweep(p)]) for p in (STOCKY, SLENDER))
+    critical_stocky = xs[stocky <= stocky.min() * (1 + 1e-9)]  # the span alone: two, mirrored about midspan
+    k = int(np.argmin(slender))
+    assert slender[k] < 0.8 * stocky.min()
+    lp = collapse_load(scene_from_dict(bridge([SLENDER], point(float(xs[k])))))
+    ring = scene_ring(scene_from_dict(bridge([SLENDER], point(float(xs[k])))))
+    assert any(ring.joints[j].kind == "pier" for j in lp.by_joint.hinges)
+    assert np.abs(critical_stocky - xs[k]).min() >= 1.0
+
+
+def test_a_symmetric_bridge_gives_symmetric_answers():
+    length = 3 * 8.0 + 2 * 0.7
+    for x in (1.3, 3.0, 6.1):
+        left = collapse_load(scene_from_dict(bridge([SLENDER], point(x)))).load
+        right = collapse_load(scene_from_dict(bridge([SLENDER], point(length - x)))).load
+        assert right == pytest.approx(left, rel=1e-9)
+
+
+def test_a_load_on_a_piers_top_that_cannot_collapse_anything_is_locked():
+    """A point load on a stocky pier's top: the LP finds no mechanism, and neither does the FE (locked)."""
+    d = bridge([STOCKY], point(8.0 + 1.5))
+    assert collapse_load(scene_from_dict(d)).status == "no collapse (unbounded)"
+    an = run_analysis(scene_from_dict(d), MPI.COMM_WORLD)
+    assert an.search.status is Status.LOCKED, an.search.status
+
+
+# ----------------------------------------------------------------------------------------------------------- the FE
+def test_the_fe_on_slender_piers_agrees_with_the_lp_and_hinges_a_pier():
+    """Three spans on slender piers, a point load at 0.45 of the first span: the FE's bracket within the FE/LP
+    agreement of the LP on the same blocks, the mechanism through the first pier's bed joints."""
+    an = run_analysis(scene_from_dict(bridge([SLENDER], point(3.6))), MPI.COMM_WORLD)
+    assert an.search.upper is not None, an.search.status
+    total = an.load_total
+    assert an.search.lower * total == pytest.approx(an.lp.load, rel=AGREEMENT)
+    assert an.search.upper * total == pytest.approx(an.lp.load, rel=AGREEMENT)
+    assert any(an.ring.joints[j].kind == "pier" for j in an.lp.by_joint.hinges)
+
+
+MPI_SCRIPT = """
+import json, sys
+from mpi4py import MPI
+import bridgefem
+r = bridgefem.analyse(bridgefem.load_scene(sys.argv[1]), comm=MPI.COMM_WORLD)
+print(json.dumps([MPI.COMM_WORLD.rank, r.status, r.limit_load.lower, r.limit_load.upper]))
+"""
+
+
+@pytest.mark.mpi
+@pytest.mark.slow
+def test_two_ranks_give_the_serial_bracket(tmp_path):
+    """mpirun -n 2 on three spans on slender piers: every rank has the serial bracket."""
+    d = bridge([SLENDER], point(3.6))
+    path = write_toml(tmp_path / "bridge.toml", d)
+    serial = run_analysis(scene_from_dict(d), MPI.COMM_WORLD)
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_SCRIPT, str(path)], capture_output=True,
+                          text=True, timeout=900, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = sorted(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
+    total = serial.load_total
+    assert [r[:2] for r in rows] == [[0, serial.search.status], [1, serial.search.status]]
+    for _, _, lower, upper in rows:
+        assert lower == pytest.approx(serial.search.lower * total, rel=1e-6)
+        assert upper == pytest.approx(serial.search.upper * total, rel=1e-6)
