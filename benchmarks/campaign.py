@@ -55,6 +55,13 @@ chords)::
 
     ./run nice python benchmarks/campaign.py --count 100 --seed S --jobs 1 --rings --out /tmp/campaign-rings
 
+With ``--spans`` every scene is a bridge of 2-5 spans on piers (:func:`draw_spans`, its own stream; the base draw
+gives the shape, rise/span, thickness fraction, voussoirs, mu, E and the load's kind): spans 3-20 m, piers from stocky
+to slender, ``SPAN_FILL_SHARE`` of them under a fill, the load anywhere on the bridge (over a pier too), judged as
+above against the LP on the same blocks (spans and pier courses) or the fill's conic bounds::
+
+    ./run nice python benchmarks/campaign.py --count 100 --seed S --jobs 1 --spans --out /tmp/campaign-spans
+
 ``--check-only`` writes the scenes and runs ``bridgefem check`` on each instead (no analysis; the LP still sets each
 thickness): the scenes a campaign would reject as bad input, in a few minutes.
 """
@@ -89,6 +96,8 @@ MPIRUN_ENV = {"OMPI_MCA_rmaps_base_oversubscribe": "1"}  # --ranks: Open MPI may
 RING_VOUSSOIRS = 32  # --rings: voussoirs per ring at most (4 rings of 64 make an LP of 3300 joints, 12 s, the ring
 # interfaces being their chords; 256 would make 1024 blocks)
 RING_RTOL = 1e-2  # --rings: the least thickness to 1 % (each LP of a barrel costs seconds; the draw needs no more)
+SPAN_VOUSSOIRS = 64  # --spans: voussoirs per span at most (five spans of 256 would make a model of 1280 voussoirs)
+SPAN_FILL_SHARE = 0.2  # --spans: bridges with a fill (each costs about ten bare ones)
 TIMEOUT_S = 300.0  # a run that takes longer is a crash (the default demo takes about 3 s)
 
 
@@ -157,6 +166,78 @@ def draw_rings(seed: int, index: int) -> dict:
     friction = round(float(rng.uniform(0.0, 0.8)), 3)
     cohesion = 0.0 if rng.random() < 1 / 3 else float(f"{math.exp(rng.uniform(math.log(1e3), math.log(1e5))):.3g}")
     return {"rings": rings, "bond": bond, "friction": friction, "cohesion": cohesion}
+
+
+def draw_spans(seed: int, index: int, choice: dict) -> dict:
+    """Scene ``index``'s bridge in a ``--spans`` campaign, from its own stream (the base draw ``choice`` gives the
+    shape, rise/span, thickness fraction, voussoirs, mu, E, the load's kind and ``joint_at_loads``): 2-5 spans of
+    3-20 m (uniform), each with the base draw's rise/span and at most ``SPAN_VOUSSOIRS`` voussoirs; piers from stocky
+    to slender: width from just above the least its springings allow (the fraction ``width`` of the range up to 0.4
+    x the mean of its spans), height log-uniform 0.2-3 x that mean, batter 0 for half of them else uniform 0-0.1,
+    1-8 courses; the load anywhere on the bridge (``position``: the fraction of the bridge's length its centre takes,
+    a patch kept on it); ``SPAN_FILL_SHARE`` of the bridges with a fill (elastic or Mohr-Coulomb, half each)."""
+    rng = np.random.default_rng([seed, index, 42])
+    n = int(rng.integers(2, 6))
+    spans = [round(float(rng.uniform(3.0, 20.0)), 3) for _ in range(n)]
+    piers = [{"width": float(rng.random()), "height": round(float(math.exp(rng.uniform(math.log(0.2), math.log(3.0)))),
+                                                            3),
+              "batter": 0.0 if rng.random() < 0.5 else round(float(rng.uniform(0.0, 0.1)), 3),
+              "blocks": int(rng.integers(1, 9))} for _ in range(n - 1)]
+    fill = ("mohr-coulomb" if rng.random() < 0.5 else "elastic") if rng.random() < SPAN_FILL_SHARE else None
+    return {"spans": spans, "piers": piers, "fill": fill, "position": float(rng.random())}
+
+
+def span_arch(choice: dict, span: float, thickness: float) -> dict:
+    """The ``[[span]]`` table of one span of a ``--spans`` draw: the base draw's shape, rise/span and voussoirs
+    (at most ``SPAN_VOUSSOIRS``) at this span and thickness (m)."""
+    shape = choice["shape"]
+    return {"shape": shape, "span": span,
+            **({} if shape == "semicircular" else {"rise": round(choice["rise"] / choice["span"] * span, 3)}),
+            "thickness": round(thickness, 4), "width": 1.0, "voussoirs": min(choice["voussoirs"], SPAN_VOUSSOIRS),
+            "joint_at_loads": choice["joint_at_loads"]}
+
+
+def bridge_dict(choice: dict) -> tuple[dict, list[float | None]]:
+    """The scene file (as a dictionary) of a ``--spans`` draw, and each span's least thickness (m; None where none
+    stands): each span's thickness the base draw's fraction of its own range (:func:`thickness_above`), each pier's
+    width the draw's fraction from 1.02 x the least its springings allow to 0.4 x the mean of its spans."""
+    from bridgefem.scene.keys import springing_reach
+
+    b = choice["bridge"]
+    arches, least = [], []
+    for span in b["spans"]:
+        one = {**choice, "span": span, "rise": span / 2 if choice["shape"] == "semicircular"
+               else round(choice["rise"] / choice["span"] * span, 3), "voussoirs": min(choice["voussoirs"],
+                                                                                      SPAN_VOUSSOIRS)}
+        t, t_min = thickness_of(one)
+        arches.append(span_arch(choice, span, t))
+        least.append(t_min)
+    piers = []
+    for k, pier in enumerate(b["piers"]):
+        left, right = arches[k], arches[k + 1]
+        reach = sum(springing_reach({**a, "rise": a.get("rise", a["span"] / 2)}) for a in (left, right))
+        mean = 0.5 * (left["span"] + right["span"])
+        low = 1.02 * reach + 1e-3
+        piers.append({"width": round(low + pier["width"] * max(0.4 * mean - low, 0.0), 3),
+                      "height": round(pier["height"] * mean, 3), "batter": pier["batter"], "blocks": pier["blocks"]})
+    length = sum(a["span"] for a in arches) + sum(p["width"] for p in piers)
+    patch = round(choice["patch"] / choice["span"] * arches[0]["span"], 3) if choice["patch"] or b["fill"] == \
+        "mohr-coulomb" else 0.0
+    if b["fill"] == "mohr-coulomb" and not patch:  # a point force on a plastic fill has no finite collapse load
+        patch = round(0.1 * arches[0]["span"], 3)
+    load = {"kind": "patch" if patch else "point",
+            "x": round(patch / 2 + (length - patch) * b["position"], 4)}
+    if patch:
+        load["length"] = patch
+    d = {"scene": {"name": f"campaign_{choice['index']}"}, "span": arches, "pier": piers,
+         "masonry": {"young": choice["young"], "poisson": 0.2, "density": 2000.0},
+         "joints": {"friction": choice["friction"]}, "load": [load]}
+    if b["fill"]:
+        top = max(b["spans"])
+        d["fill"] = {"unit_weight": 18e3, "young": 50e6, "depth": round(0.05 * top, 3),
+                     "extension": round(0.2 * arches[0]["span"], 3), "material": b["fill"],
+                     **({"cohesion": 5e3} if b["fill"] == "mohr-coulomb" else {})}
+    return d, least
 
 
 def draw_strength(seed: int, index: int) -> float:
@@ -275,14 +356,23 @@ def to_toml(d: dict) -> str:
 
 
 def write_scene(choice: dict, out: Path) -> tuple[Path, dict]:
-    """Write the scene of a draw (its thickness from :func:`thickness_of`) to ``out``/scene_NNNN/scene.toml; returns
-    the folder and the row of the draw with its thickness and least thickness."""
-    thickness, least = thickness_of(choice)
-    scene = scene_dict(choice, thickness)
+    """Write the scene of a draw (its thickness from :func:`thickness_of`; a bridge of spans: :func:`bridge_dict`)
+    to ``out``/scene_NNNN/scene.toml; returns the folder and the row of the draw with its thickness and least
+    thickness (a bridge of spans: the first span's)."""
+    if choice.get("bridge"):
+        scene, least = bridge_dict(choice)
+        row = {**choice, "fill": choice["bridge"]["fill"], "thickness": scene["span"][0]["thickness"],
+               "least_thickness": least[0], "span": scene["span"][0]["span"], "position": choice["bridge"]["position"],
+               "patch": scene["load"][0].get("length", 0.0), "spans": len(scene["span"]),
+               "piers": scene["pier"]}
+    else:
+        thickness, least = thickness_of(choice)
+        scene = scene_dict(choice, thickness)
+        row = {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
     folder = out.resolve() / f"scene_{choice['index']:04d}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.toml").write_text(to_toml(scene))
-    return folder, {**choice, "thickness": scene["arch"]["thickness"], "least_thickness": least}
+    return folder, row
 
 
 def check_scene(choice: dict, out: Path) -> str:
@@ -316,7 +406,7 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
     if choice.get("vehicle"):
         row.update(judge_assessment(folder, code, stderr, fill=choice["fill"] is not None))
         return row
-    row.update(judge(results_of(folder), code, stderr, fill=choice["fill"] is not None))
+    row.update(judge(results_of(folder), code, stderr, fill=row["fill"] is not None))
     return row
 
 
@@ -453,6 +543,10 @@ def report(rows: list[dict]) -> str:
         mine = [r for r in rows if (r.get("option") or {}).get("name") == name and r["class"] != "rejected"]
         if mine:
             lines.append(f"  {name:18}: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)}")
+    for n_spans in sorted({r["spans"] for r in rows if r.get("spans")}):
+        mine = [r for r in rows if r.get("spans") == n_spans and r["class"] != "rejected"]
+        lines.append(f"  {n_spans} spans: confirmed {sum(r['class'] == 'confirmed' for r in mine)} of {len(mine)} "
+                     f"({sum(1 for r in mine if r['fill'])} with a fill)")
     for rings in sorted({(r["rings"]["rings"], r["rings"]["bond"]) for r in rows if r.get("rings")}):
         mine = [r for r in rows if r.get("rings") and (r["rings"]["rings"], r["rings"]["bond"]) == rings
                 and r["class"] != "rejected"]
@@ -499,6 +593,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="every scene also gets a compressive strength (draw_strength), from strong to barely standing")
     p.add_argument("--rings", action="store_true",
                    help="every scene a barrel of 2-4 rings (draw_rings: bond, ring friction, ring cohesion)")
+    p.add_argument("--spans", action="store_true",
+                   help="every scene a bridge of 2-5 spans on piers (draw_spans: spans, piers, a fill for some)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks per scene (mpirun -n; default 1: no mpirun)")
     p.add_argument("--report", action="store_true", help="judge the runs already in --out again and print the report")
     p.add_argument("--check-only", action="store_true",
@@ -522,6 +618,8 @@ def main(argv: list[str] | None = None) -> int:
                 choice["strength"] = draw_strength(args.seed, i)
             if args.rings:
                 choice["rings"] = draw_rings(args.seed, i)
+            if args.spans:
+                choice["bridge"] = draw_spans(args.seed, i, choice)
             verdict = check_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out)
             print(f"scene {i}: {verdict}", flush=True)
             return verdict
@@ -540,6 +638,8 @@ def main(argv: list[str] | None = None) -> int:
             choice["strength"] = draw_strength(args.seed, i)
         if args.rings:
             choice["rings"] = draw_rings(args.seed, i)
+        if args.spans:
+            choice["bridge"] = draw_spans(args.seed, i, choice)
         row = run_scene({**choice, "option": draw_option(args.seed, i)} if args.options else choice, args.out,
                         args.timeout, args.ranks)
         print(f"scene {i}: {row['class']}: {row['status'][:100]} ({row['seconds']:.1f} s)", flush=True)

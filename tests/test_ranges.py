@@ -56,6 +56,11 @@ def base_scene(section: str, name: str) -> dict:
                           [first, {"kind": "point", "position": 0.6}])
     if section == "vehicle":
         return scene_dict(vehicle={"axles": [1e5]})
+    if section == "pier":  # two spans of the reference arch on a pier
+        d = scene_dict(mesh={"elements_through_thickness": 1})
+        d["span"] = [d.pop("arch"), scene_dict()["arch"]]
+        d["pier"] = [{"width": 3.0, "height": 3.0}]
+        return d
     if (section, name) == ("arch", "rise"):
         return scene_dict(arch={"shape": "elliptical"})  # the whole range of rise/span, 0.05 to 2
     if (section, name) == ("arch", "thickness"):
@@ -67,14 +72,14 @@ def with_value(d: dict, section: str, name: str, value) -> dict:
     """The scene with ``[section] name = value`` (of the first [[load]]; a load of length 0 is a point load; a
     span scales the ring's other lengths with it)."""
     d = scaled(d, value / d["arch"]["span"]) if (section, name) == ("arch", "span") else copy.deepcopy(d)
-    (d["load"][0] if section == "load" else d.setdefault(section, {}))[name] = value
+    (d[section][0] if section in ("load", "pier") else d.setdefault(section, {}))[name] = value
     if (section, name, value) == ("load", "length", 0.0):
         d["load"][0]["kind"] = "point"
     return d
 
 
 def label(section: str, name: str) -> str:
-    return f"[[load]] #1 {name}" if section == "load" else f"[{section}] {name}"
+    return f"[[{section}]] #1 {name}" if section in ("load", "pier") else f"[{section}] {name}"
 
 
 def edges(section: str, name: str) -> tuple[list, list]:
@@ -88,6 +93,8 @@ def edges(section: str, name: str) -> tuple[list, list]:
     if (section, name) == ("abutments", "length"):  # from the springing joint's reach, which must rest on it
         reach = springing_reach(asdict(scene_from_dict(d).arch))
         low_in, low_out = reach, reach * (1 - STEP)
+    elif (section, name) == ("pier", "width"):  # wider than the two springings' reach, which rest on it
+        low_in, low_out = 2 * springing_reach(asdict(scene_from_dict(d).arch)) * (1 + STEP), lo * (1 - STEP)
     elif key.low_open:
         low_in, low_out = lo + STEP * (hi - lo), lo
     else:

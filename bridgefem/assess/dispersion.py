@@ -55,12 +55,12 @@ def strip_stress(q: float, c: float, xi: np.ndarray, z: np.ndarray) -> np.ndarra
 
 def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]],
                      rule: str) -> tuple[np.ndarray, ...]:
-    """(blocks, points, forces): the vertical forces (N) on the outer ring's extrados of ``axles`` spread by ``rule``
-    through the fill (module docstring). Each axle is (load N, lo, hi): its tyre patch on the road from ``lo`` to
+    """(blocks, points, forces): the vertical forces (N) on the outer ring's extrados (and the piers' tops between
+    spans) of ``axles`` spread by ``rule`` through the fill (module docstring). Each axle is (load N, lo, hi): its tyre patch on the road from ``lo`` to
     ``hi`` (m from midspan; lo == hi: a point axle).
 
     1. Cells: the extrados' horizontal extent (from the left springing's extrados corner to the right one's) cut
-       into :data:`CELLS` equal cells, cut again at every voussoir's ends and, for the spread rules, at the ends of
+       into :data:`CELLS` equal cells, cut again at every voussoir's ends (and a pier top's) and, for the spread rules, at the ends of
        every axle's spread, so that each cell lies on one voussoir and a spread's pressure is constant on it.
     2. Pressure on each cell's midpoint, axle by axle: Boussinesq at the cell's own depth below the road; a spread
        rule uniform over the patch widened by ``h tan(theta)`` on each side, h the depth under the patch's centre.
@@ -71,10 +71,10 @@ def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]]
        (:func:`bridgefem.geometry.ring.point_load_blocks`).
     """
     road = ring.crown_extrados + scene.fill.depth
-    outer = ring.outer_voussoirs  # the barrel's extrados, under the fill
-    ext = np.vstack([v.extrados for v in outer])
+    top = ring.top_pieces  # the barrel's extrados under the fill (and the piers' tops between spans)
+    ext = np.vstack([line for _, line in top])
     left, right = ext[0, 0], ext[-1, 0]  # the extrados' ends: beyond them the fill stands on the abutments
-    ends = [x for v in outer for x in (v.extrados[0, 0], v.extrados[-1, 0])]
+    ends = [x for _, line in top for x in (line[0, 0], line[-1, 0])]
     spreads = []
     for load, lo, hi in axles:
         h = road - ring.extrados_point(float(np.clip((lo + hi) / 2, left, right)))[1]
@@ -100,9 +100,9 @@ def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]]
             point_load.append(load)
     force = pressure * dx
     keep = force > 0
-    x0 = np.array([v.extrados[0, 0] for v in outer])
-    ids = np.array([v.id for v in outer])
-    blocks = [ids[np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0, len(outer) - 1)]]
+    x0 = np.array([line[0, 0] for _, line in top])
+    ids = np.array([b for b, _ in top])
+    blocks = [ids[np.clip(np.searchsorted(x0, mid[keep], side="right") - 1, 0, len(top) - 1)]]
     xs, fy = [mid[keep]], [force[keep]]
     for x, load in zip(point_x, point_load):
         on = point_load_blocks(ring, x, "split")

@@ -2,10 +2,11 @@
 
 1. The vehicle stands with its first (leftmost) axle at ``x0`` (m from the left springing); axle i at
    ``x0 + offset_i`` (:attr:`bridgefem.scene.model.Vehicle.offsets`).
-2. An axle acts on the bridge when it lies on the span: a point axle strictly between the springings (at least
-   :data:`EDGE` x span inside), a patch axle (``contact_length`` c > 0) with the part of [x - c/2, x + c/2] that lies
-   on the span, its load scaled by that part's share, when that part is at least the shortest patch the schema
-   allows (1e-3 x span). Axles off the bridge carry nothing (they bear on the approach and the abutment).
+2. An axle acts on the bridge when it lies on it: a point axle strictly between the bridge's end springings (at
+   least :data:`EDGE` x span inside; over a span or a pier), a patch axle (``contact_length`` c > 0) with the part
+   of [x - c/2, x + c/2] that lies on the bridge, its load scaled by that part's share, when that part is at least
+   the shortest patch the schema allows (1e-3 x span). Axles off the bridge carry nothing (they bear on the approach
+   and the abutment). Span: the first span's.
 3. Each axle on the bridge is a ``[[load]]`` table placed by ``x``, its ``factor`` = axle load (N) / the vehicle's
    heaviest axle, so that the load level of a run (N) divided by the heaviest axle is the vehicle's load factor;
    the scene is rebuilt through the schema (joints under the loads, every check a scene file gets).
@@ -40,16 +41,16 @@ class Placement:
 def axle_loads(scene: Scene, x0: float) -> list[dict]:
     """The ``[[load]]`` tables of the vehicle with its first axle at ``x0`` (m): step 2 of the module docstring;
     each with ``axle`` (its index) and ``share`` (the part of its load on the span) besides the table's keys."""
-    v, span = scene.vehicle, scene.arch.span
+    v, span, length = scene.vehicle, scene.arch.span, bridge_length(scene)
     top = max(v.axles)
     out = []
     for i, (p, off) in enumerate(zip(v.axles, v.offsets)):
         x = x0 + off
         if v.contact_length == 0:
-            if EDGE * span <= x <= (1 - EDGE) * span:
+            if EDGE * span <= x <= length - EDGE * span:
                 out.append({"axle": i, "share": 1.0, "kind": "point", "x": x, "factor": p / top})
             continue
-        lo, hi = max(x - v.contact_length / 2, 0.0), min(x + v.contact_length / 2, span)
+        lo, hi = max(x - v.contact_length / 2, 0.0), min(x + v.contact_length / 2, length)
         if hi - lo >= MIN_PATCH * span * (1 + 1e-9):
             share = (hi - lo) / v.contact_length
             out.append({"axle": i, "share": share, "kind": "patch", "x": (lo + hi) / 2, "length": hi - lo,
@@ -69,10 +70,17 @@ def place(scene: Scene, x0: float) -> Placement:
     return Placement(x0, placed, tuple(t["axle"] for t in tables), load)
 
 
+def bridge_length(scene: Scene) -> float:
+    """From the first span's left springing to the last span's right springing (m, on the intrados; one span: the
+    span)."""
+    return scene.span_ranges()[-1][1] + scene.arch.span / 2
+
+
 def positions(scene: Scene, step: float) -> np.ndarray:
-    """First-axle positions (m) every ``step`` m, from where the last axle enters the span to where the
-    first axle leaves it: x0 from -(vehicle length + c/2) to span + c/2, on a grid that holds x0 = 0."""
-    v, span = scene.vehicle, scene.arch.span
-    lo, hi = -(v.length + v.contact_length / 2), span + v.contact_length / 2
+    """First-axle positions (m) every ``step`` m, from where the last axle enters the bridge to where the
+    first axle leaves it: x0 from -(vehicle length + c/2) to the bridge's length + c/2, on a grid that holds
+    x0 = 0."""
+    v = scene.vehicle
+    lo, hi = -(v.length + v.contact_length / 2), bridge_length(scene) + v.contact_length / 2
     k0, k1 = int(np.floor(lo / step)), int(np.ceil(hi / step))
     return np.array([k * step for k in range(k0, k1 + 1) if lo < k * step < hi])

@@ -35,13 +35,17 @@ def lp_summary(lp: LPResult) -> dict:
 
 
 def lp_label(scene: Scene) -> str:
-    """What the rigid-block LP models of a scene: the ring, the fill as dead load only, elastic abutments as rigid
-    blocks, several rings with their interfaces as chords; it ignores a support movement (small support movements do
+    """What the rigid-block LP models of a scene: the ring (or the spans and the piers' courses of a bridge of
+    several spans), the fill as dead load only, elastic abutments as rigid blocks, several rings with their
+    interfaces as chords; it ignores a support movement (small support movements do
     not change a rigid-block collapse load)."""
-    label = "fill as dead load only" if scene.fill else "bare ring"
-    rings = len(scene.arch.ring_layers)
+    label = "fill as dead load only" if scene.fill else "bare ring" if not scene.spans else "bare bridge"
+    if scene.spans:
+        label += f", {len(scene.spans)} spans on piers of rigid courses"
+    rings = max(len(a.ring_layers) for a in scene.arches)
     if rings > 1:
-        label += f", {rings} rings (each ring interface as the chords of its curve)"
+        label += f", up to {rings} rings (each ring interface as the chords of its curve)" if scene.spans else \
+            f", {rings} rings (each ring interface as the chords of its curve)"
     if scene.abutments.elastic:
         label += ", abutments as rigid blocks"
     if scene.abutments.moves:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.ring import ArchRing, fill_outline
+from ..geometry.ring import ArchRing, Voussoir, fill_outline
 from ..scene.keys import SceneError
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
@@ -166,7 +166,7 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     if not scene.loads:
         raise SceneError("no [[load]]: the collapse bounds need a live load")
     ring = scene_ring(scene)
-    size = min(scene.arch.thickness / 2, f.depth) / refine
+    size = min(min(a.thickness for a in scene.arches) / 2, f.depth) / refine
     blocks = ring_model(dataclasses.replace(scene, fill=None), live=False)
     outline = _bridge_outline(scene, ring, size, blocks.n_blocks)
     mesh, cap = triangulate(outline), MAX_TRIANGLES * refine ** 2
@@ -216,19 +216,21 @@ def _bridge_outline(scene: Scene, ring: ArchRing, size: float, n_blocks: int) ->
 
 
 def _extrados_points(ring: ArchRing, size: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the outer ring's voussoirs' extrados polylines (the barrel's, under the fill), left to right, about
-    ``size`` apart (m), and the voussoir of each segment between consecutive points (kinks kept)."""
-    outer = ring.outer_voussoirs
-    pts, owner = [outer[0].extrados[:1]], []
-    for v in outer:
-        e = v.extrados
+    """Points of the bridge's top under the fill (:attr:`~bridgefem.geometry.ring.ArchRing.top_pieces`: each span's
+    outer voussoirs' extrados, each pier's top), left to right, about ``size`` apart (m), and the block of each
+    segment between consecutive points (kinks and load points kept)."""
+    top = ring.top_pieces
+    pts, owner = [top[0][1][:1]], []
+    for b, e in top:
+        block = ring.blocks[b]
+        splits = block.extrados_splits if isinstance(block, Voussoir) else range(1, len(e) - 1)
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(e, axis=0), axis=1))])
         k = max(1, int(math.ceil(s[-1] / size - 1e-9)))
         pick = np.unique(np.concatenate([np.searchsorted(s, np.linspace(0, s[-1], k + 1)[1:-1]),
-                                         list(v.extrados_splits), [len(e) - 1]]).astype(int))
+                                         list(splits), [len(e) - 1]]).astype(int))
         pick = pick[pick > 0]
         pts.append(e[pick])
-        owner.append(np.full(len(pick), v.id))
+        owner.append(np.full(len(pick), b))
     return np.vstack(pts), np.concatenate(owner)
 
 

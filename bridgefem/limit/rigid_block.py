@@ -44,19 +44,20 @@ no-tension rows ``|m_j| <= n_j t_j / 2`` (a row of the law on the moment keeps i
 capacity at no normal force, ``|s_j| <= mu_j n_j + c_j``, in every programme (a ring interface's mortar bond:
 ``ring_cohesion`` x chord length x width).
 
-The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS). HiGHS can end a
-programme with no status at all ("model_status is Unknown"): then the deficit programme below, which it solves,
-decides whether the dead load stands. A deficit above zero is "unstable under self-weight" (no statically
-admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight, as in the
-FE); otherwise :class:`LPFailure`.
+The programme maximises the load factor ``lambda >= 0`` (``scipy.optimize.linprog``, HiGHS), once the deficit
+programme below has found that the dead load stands. A deficit above zero is "unstable under self-weight" (no
+statically admissible state at lambda = 0 exists, whatever the flow rule, and the live load follows the self-weight,
+as in the FE): so, too, where a live load would steady blocks that cannot carry their own weight (a load on a pier
+that leans under its spans' thrust), whose load programme alone is feasible at some lambda > 0. HiGHS can end a
+programme with no status at all ("model_status is Unknown"): :class:`LPFailure`.
 
 :func:`solve_blocks`, step by step:
 
 1. assemble the programme (:class:`_Programme`): the equilibrium matrix ``A`` (3 rows per block, 3 columns per
    joint), four yield rows per joint, the live load as the column of ``lambda``; forces are divided by the total
    dead weight so that the unknowns are of order one;
-2. solve it with HiGHS (interior point and crossover: a basic solution with its duals);
-3. with no status from HiGHS, let the deficit programme decide (the *no-status fallback* above);
+2. with a live load, solve the deficit programme first: a deficit is "unstable under self-weight" (above);
+3. solve the load programme with HiGHS (interior point and crossover: a basic solution with its duals);
 4. for non-associative friction, iterate the Tresca fixed point below from the associative solution or a seed;
 5. read the mechanism off the equilibrium duals: the block velocities, each joint's relative rotation and slip,
    the hinges and the sliding joints.
@@ -100,8 +101,9 @@ Safeguards:
 
 - *force scaling*: every force is divided by the total dead weight, so that the unknowns are of order one on a
   small ring and a large one alike and HiGHS' absolute tolerances keep their meaning;
-- *no-status fallback*: HiGHS may return no status for a load programme that has no feasible point (a ring that
-  cannot carry its own weight); the deficit programme proves that case, which would otherwise be a solver failure;
+- *self-weight first*: HiGHS may return no status for a load programme that has no feasible point (a ring that
+  cannot carry its own weight), and a programme feasible only above lambda = 0 would report a collapse load of
+  blocks that cannot carry their own weight; the deficit programme, solved first, proves both cases;
 - ``MECHANISM_TOL``: a relative rotation or slip below this fraction of the largest one is round-off, not a hinge
   or a slip, so that the mechanism lists only the joints that move;
 - ``_DEFICIT_TOL``: a deficit below this fraction of the dead weight is the LP's round-off: the blocks stand;
@@ -552,15 +554,15 @@ def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed
     (a non-associative collapse state) was reached.
     """
     start = time.perf_counter()
-    prog = _Programme(model)
-    sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
-                                                          seed)
-    if sol.status not in (0, 2, 3) and np.any(model.live):  # no status: the deficit programme decides
+    if np.any(model.live):  # the self-weight first: the deficit programme decides whether the blocks carry it
         _, dead = dead_load_deficit(model)  # statics alone: a deficit rules out every flow rule's equilibrium
         if dead.status == "unstable under self-weight":
             dead.friction_model, dead.time_s = friction_model, time.perf_counter() - start
             return dead
-    res = _status(sol, model, prog, friction_model)
+    prog = _Programme(model)
+    sol, cohesion, iterations, converged, levels = _solve(prog, False, friction_model, beta, rtol, max_iterations,
+                                                          seed)
+    res = _status(sol, model, prog, friction_model)  # no status, though the blocks carry their weight: LPFailure
     res.level_associative, res.level_seeded = levels
     if res.level is not None:
         _fill_result(res, model, prog, sol, cohesion)

@@ -160,16 +160,17 @@ def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> Bl
 
 
 def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
-    """The fill as dead load only: on each voussoir the weight (N) of the fill column between its extrados and
-    the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
+    """The fill as dead load only: on each voussoir (and each pier's top course) the weight (N) of the fill column
+    between its extrados (its top) and the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
     spreading are ignored (live loads still act on the extrados below them)."""
     road = ring.crown_extrados + scene.fill.depth
     w = scene.fill.unit_weight * scene.arch.width
     points, forces = [], []
-    for v in ring.outer_voussoirs:
-        x, h = v.extrados[:, 0], road - v.extrados[:, 1]
+    top = ring.top_pieces  # the outer voussoirs' extrados, and the piers' tops between spans
+    for _, line in top:
+        x, h = line[:, 0], road - line[:, 1]
         area = np.trapz(h, x)
         xc = np.trapz(x * h, x) / area
         points.append(ring.extrados_point(xc))
         forces.append((0.0, -w * area))
-    return generalised_loads(ref, np.array([v.id for v in ring.outer_voussoirs]), np.array(points), np.array(forces))
+    return generalised_loads(ref, np.array([b for b, _ in top]), np.array(points), np.array(forces))

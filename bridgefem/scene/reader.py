@@ -210,11 +210,6 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     multi = Scene(name, arches[0], Masonry(**sec["masonry"]), JointProperties(**sec["joints"]), (),
                   spans=arches if len(arches) > 1 else (), piers=piers)
     reach = multi.span_ranges()
-    if len(arches) > 1:
-        for section in ("fill", "vehicle"):
-            if section in data:
-                raise SceneError(f"[{section}] with [[span]]: a bridge of several spans is analysed bare, without "
-                                 f"[{section}], in this version; allowed is [{section}] over one span ([arch])")
     raw_loads = data.get("load", [])
     if not isinstance(raw_loads, list):
         raise SceneError(f"[[load]] = {show_value(raw_loads)}: expected [[load]] tables (none: self-weight only)")
