@@ -19,10 +19,11 @@ from bridgefem.geometry.ring import polygon_area_centroid
 from bridgefem.io.cli import main
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import dead_load_deficit
-from bridgefem.limit.ring_blocks import ring_model
+from bridgefem.limit.ring_blocks import block_weights, ring_model
 from bridgefem.scene.keys import SceneError
 from bridgefem.scene.reader import resolved_toml, scene_from_dict
 from bridgefem.status import Status
+from bridgefem.structure.materials import block_materials
 from bridgefem.structure.ring import scene_ring
 
 AGREEMENT = 0.005  # the FE/LP agreement of the campaign's judge where no joint slides
@@ -111,6 +112,24 @@ def test_the_blocks_tile_the_bridge_and_every_joint_bears_on_its_blocks():
                         assert np.min(np.linalg.norm(poly - end, axis=1)) < 1e-12
 
 
+def test_a_pier_of_its_own_material_weighs_and_stiffens_as_given():
+    """``[[pier]] density`` and ``young``: the pier's courses weigh density x g x area x width in the LP, the other
+    pier and the voussoirs stay the masonry's, and a heavier pier carries more (it rocks later)."""
+    own = dict(SLENDER, density=2600.0, young=5e9)
+    scene = scene_from_dict(bridge([own, SLENDER], point(3.6)))
+    ring = scene_ring(scene)
+    materials = block_materials(scene, ring)
+    weights = block_weights(scene, ring)
+    for b in ring.blocks:
+        area = polygon_area_centroid(b.polygon)[0]
+        density = 2600.0 if getattr(b, "pier", None) == 0 else 2000.0
+        assert weights[b.id] == pytest.approx(density * 9.81 * area)
+        assert materials.young[b.id] == (5e9 if getattr(b, "pier", None) == 0 else 1e10)
+    assert materials.own(scene) == [b.id for b in ring.piers if b.pier == 0]
+    plain = collapse_load(scene_from_dict(bridge([SLENDER], point(3.6)))).load
+    assert collapse_load(scene).load > 1.01 * plain
+
+
 # ---------------------------------------------------------------------------------------------- rigid-block LP
 @pytest.mark.parametrize("x", [2.0, 9.5 + 2.5, 2 * 11.0 + 5.0])
 def test_a_wide_short_pier_gives_each_span_alone_on_rigid_springings(x):
@@ -121,7 +140,8 @@ def test_a_wide_short_pier_gives_each_span_alone_on_rigid_springings(x):
 
 def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position():
     """A point load swept over the first span: on slender piers the least collapse load is lower than on stocky
-    ones, a pier's bed joint hinges in its mechanism, and the critical position moves towards the pier."""
+    ones, a pier's bed joint and the second span hinge in its mechanism, and the critical position moves from near
+    the quarter span towards the crown."""
     xs = np.linspace(0.4, 7.6, 19)
 
     def sweep(pier):
@@ -135,6 +155,11 @@ def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position
     ring = scene_ring(scene_from_dict(bridge([SLENDER], point(float(xs[k])))))
     assert any(ring.joints[j].kind == "pier" for j in lp.by_joint.hinges)
     assert np.abs(critical_stocky - xs[k]).min() >= 1.0
+    # Melbourne, Gilbert & Wagstaff 1997 (three model multispan bridges): the critical position is not at the quarter
+    # span but closer to the crown, and the adjacent span takes part in the mechanism
+    crown = SPAN["span"] / 2
+    assert abs(xs[k] - crown) < np.abs(critical_stocky - crown).min()
+    assert any(ring.joints[j].span == 1 for j in lp.by_joint.hinges)
 
 
 def test_a_symmetric_bridge_gives_symmetric_answers():

@@ -14,7 +14,8 @@ as the slowest rank's wall time (:class:`Clock`).
 4. *Assembly*: the elastic stiffness, the dead loads and the live loads per unit level
    (:func:`bridgefem.fe.model.build_elastic_model`).
 5. *Pairing*: the joints' node pairs (:func:`bridgefem.fe.pairs.build_pairs`, coincident up to 1e-9 of the span),
-   each with the Young's modulus of its softer side and its Coulomb coefficient (:func:`pair_properties`), and the
+   each with the Young's modulus of its softer block (:func:`bridgefem.structure.materials.block_materials`) and its
+   Coulomb coefficient (:func:`pair_properties`), and the
    Alart-Curnier constant c = E w l / h (w the width, l the pair's tributary length, h the element size).
 6. *Solver*: the contact solver (:class:`bridgefem.solver.newton.ContactSolver`) with the plastic fill
    (:class:`bridgefem.fe.fill.PlasticFill`) and the ground's offsets of a support movement
@@ -49,6 +50,7 @@ from ..laws.crushing import scene_law_factory
 from ..limit.rigid_block import LPResult
 from ..scene.model import Scene
 from ..solver.newton import ContactSolver
+from ..structure.materials import BlockMaterials, block_materials
 from ..structure.ring import scene_ring
 from ..structure.supports import support_motion
 from .checks import rigid_block_check
@@ -117,10 +119,12 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     phase("pairing the joints")
     pairs = build_pairs(model.V, bm, ring, match_tol=1e-9 * a.span)  # coincident joint nodes, up to round-off
     clock.lap("pairing")
-    young, friction = pair_properties(scene, pairs)
+    materials = block_materials(scene, ring)
+    young, friction = pair_properties(scene, pairs, ring, materials)
     c = young * a.width * pairs.length / bm.element_size  # Alart-Curnier constant: the softer side's stiffness,
     c[pairs.joint != ARCH_FILL] *= RING_JOINT_SCALE  # scaled down at the ring's joints (see the constant)
-    material = PlasticFill(model.V, bm, scene, model.bcs) if fill and fill.material == "mohr-coulomb" else None
+    material = (PlasticFill(model.V, bm, scene, model.bcs, materials) if fill and fill.material == "mohr-coulomb"
+                else None)
     motion = support_motion(scene, ring)
     phase("setting up the solver (first factorisation)")
     law = (joint_law or scene_law_factory(scene))(pairs, friction, c, FORCE_TOL * model.dead_weight)
@@ -139,18 +143,21 @@ def loading_beams(scene: Scene) -> tuple[tuple[float, float], ...]:
 
 
 
-def pair_properties(scene: Scene, pairs: JointPairs) -> tuple[np.ndarray, np.ndarray]:
-    """Per local pair: the Young's modulus (Pa) of the softer side and the Coulomb coefficient. Ring joints:
-    the masonry's and the joints' mu; ring interfaces the ring friction (``[joints] ring_friction``); on elastic
-    abutments the springing and base joints take the softer of masonry and abutment, and the bases the abutments'
-    mu; the arch-fill interface: the fill's."""
-    young = np.full(len(pairs), scene.masonry.young)
+def pair_properties(scene: Scene, pairs: JointPairs, ring: ArchRing, materials: BlockMaterials
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per local pair: the Young's modulus (Pa) of the softer of its joint's two blocks (``materials``; a joint on
+    the ground: its block's) and the Coulomb coefficient: the joints' mu, the ring friction on ring interfaces
+    (``[joints] ring_friction``), the abutments' on their bases; on the arch-fill interface the fill's modulus and
+    interface friction."""
     friction = np.where(pairs.kind == "ring", scene.joints.ring_interface_friction, scene.joints.friction)
     ab, fill = scene.abutments, scene.fill
     if ab.elastic:
-        young[np.isin(pairs.kind, ("springing", "base"))] = min(ab.young, scene.masonry.young)
         friction[pairs.kind == "base"] = ab.friction
+    big = np.inf
+    softer = np.array([min(materials.young[b] if b is not None else big for b in (j.left, j.right))
+                       for j in ring.joints])
+    interface = pairs.joint == ARCH_FILL
+    young = np.where(interface, fill.young if fill is not None else 0.0, softer[np.where(interface, 0, pairs.joint)])
     if fill is not None:
-        interface = pairs.joint == ARCH_FILL
-        young[interface], friction[interface] = fill.young, fill.interface_friction
+        friction[interface] = fill.interface_friction
     return young, friction

@@ -23,6 +23,7 @@ from petsc4py import PETSc
 
 from ..laws.soil import MohrCoulomb, elastic_tangent, return_map
 from ..scene.model import Scene
+from ..structure.materials import BlockMaterials
 from .mesh import BlockMesh
 from .model import beam_lame, lame, strain
 
@@ -104,9 +105,10 @@ class PointFields:
 
 
 class PlasticFill:
-    """Quadrature-point state of the model with a Mohr-Coulomb fill (see the module docstring)."""
+    """Quadrature-point state of the model with a Mohr-Coulomb fill (see the module docstring); the blocks' elastic
+    moduli from ``materials`` (:func:`bridgefem.structure.materials.block_materials`)."""
 
-    def __init__(self, V: fem.FunctionSpace, bm: BlockMesh, scene: Scene, bcs: list):
+    def __init__(self, V: fem.FunctionSpace, bm: BlockMesh, scene: Scene, bcs: list, materials: BlockMaterials):
         mesh = bm.mesh
         f = scene.fill
         self.material = MohrCoulomb(f.young, f.poisson, f.friction_angle, f.cohesion, f.tension_cutoff,
@@ -125,10 +127,9 @@ class PlasticFill:
         self.overburden = f.unit_weight * height  # vertical stress (Pa) of the full fill height, a stress scale
         ring = _elastic_matrix(*lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane))
         self._elastic = np.broadcast_to(ring, (len(self._fill), 3, 3)).copy()  # per point; the fill's is unused
-        ab = scene.abutments
-        if ab.elastic:
-            self._elastic[np.repeat(np.isin(block, bm.abutment_blocks), n_qp)] = _elastic_matrix(
-                *lame(ab.young, ab.poisson, scene.model.plane))
+        for b in materials.own(scene):  # elastic abutments, a pier of its own material
+            self._elastic[np.repeat(block == b, n_qp)] = _elastic_matrix(
+                *lame(materials.young[b], materials.poisson[b], scene.model.plane))
         if bm.beam_blocks:
             self._elastic[np.repeat(np.isin(block, bm.beam_blocks), n_qp)] = _elastic_matrix(*beam_lame(f))
         self._apex = APEX_STIFFNESS * elastic_tangent(self.material)

@@ -7,7 +7,8 @@ The body is every block of the mesh (:mod:`bridgefem.fe.mesh`): voussoirs, elast
 loading beams, in plane strain (or plane stress for the masonry, ``[model] plane``), with Lagrange elements of the
 scene's degree on triangles. :func:`build_elastic_model`
 
-1. sets each cell's Lame constants and unit weight by its block (masonry, abutment, fill, a loading beam
+1. sets each cell's Lame constants and unit weight by its block (its material,
+   :func:`bridgefem.structure.materials.block_materials`: masonry, a pier's own, an abutment; the fill; a loading beam
    ``BEAM_STIFFNESS`` times as stiff as the fill, so rigid against it and weightless);
 2. assembles ``K`` from ``width (sigma(u) : eps(v)) dx`` with the fill's supports (fixed base, roller ends) built in;
 3. assembles the self-weight ``-width gamma v_y dx`` and records the ring's, the fill's and the abutments' weights;
@@ -35,6 +36,7 @@ from petsc4py import PETSc
 
 from ..geometry.ring import ArchRing, joint_under, point_load_blocks
 from ..scene.model import Fill, Scene
+from ..structure.materials import block_materials
 from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
 
 POINT_RTOL = 1e-7  # of the span: a mesh node closer than this to a load point carries the load (the nodes at the
@@ -85,18 +87,18 @@ def beam_lame(fill: Fill) -> tuple[float, float]:
 
 
 def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
-                  abutment_value: float | None = None, Q: fem.FunctionSpace | None = None,
+                  block_values: dict[int, float] | None = None, Q: fem.FunctionSpace | None = None,
                   beam_value: float = 0.0) -> fem.Function:
-    """A piecewise constant (DG0) field: ``arch_value`` on the voussoirs, ``fill_value`` on the fill,
-    ``abutment_value`` on elastic abutments (default: ``arch_value``) and ``beam_value`` on loading beams; ``Q``:
-    the DG0 space (default: a new one)."""
+    """A piecewise constant (DG0) field: ``arch_value`` on the masonry's blocks, ``fill_value`` on the fill,
+    ``block_values`` on the blocks of their own material (by block id: elastic abutments, a pier of its own; default
+    none) and ``beam_value`` on loading beams; ``Q``: the DG0 space (default: a new one)."""
     Q = fem.FunctionSpace(bm.mesh, ("DG", 0)) if Q is None else Q
     q = fem.Function(Q)
     tags = bm.cell_tags
     is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
     value = np.where(is_fill, fill_value, arch_value)
-    if abutment_value is not None:
-        value[np.isin(tags.values, bm.abutment_blocks)] = abutment_value
+    for block, v in (block_values or {}).items():
+        value[tags.values == block] = v
     value[np.isin(tags.values, bm.beam_blocks)] = beam_value
     q.x.array[Q.dofmap.list.array[tags.indices]] = value
     q.x.scatter_forward()
@@ -147,12 +149,13 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", scene.mesh.degree))
     Q = fem.FunctionSpace(mesh, ("DG", 0))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    ab = scene.abutments
+    materials = block_materials(scene, ring)
+    own = materials.own(scene)  # the blocks not of the masonry: elastic abutments, a pier of its own material
     arch_lame = lame(scene.masonry.young, scene.masonry.poisson, scene.model.plane)
     fill_lame = lame(fill.young, fill.poisson, "strain") if fill is not None else (0.0, 0.0)
-    abutment_lame = lame(ab.young, ab.poisson, scene.model.plane) if ab.elastic else (None, None)
+    own_lame = [{b: lame(materials.young[b], materials.poisson[b], scene.model.plane)[k] for b in own} for k in (0, 1)]
     beam = beam_lame(fill) if bm.beam_blocks else (0.0, 0.0)
-    lam, mu = (cell_constant(bm, a, f, b, Q, e) for a, f, b, e in zip(arch_lame, fill_lame, abutment_lame, beam))
+    lam, mu = (cell_constant(bm, a, f, b, Q, e) for a, f, b, e in zip(arch_lame, fill_lame, own_lame, beam))
     width = scene.arch.width
     bcs = fill_supports(V, bm)
 
@@ -162,7 +165,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
 
     rho_g = scene.masonry.density * scene.gravity
     weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
-                           ab.unit_weight if ab.elastic else None, Q)
+                           {b: materials.unit_weight[b] for b in own}, Q)
     f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
 
     def weight_of(blocks: tuple[int, ...]) -> float:

@@ -77,7 +77,7 @@ if TYPE_CHECKING:
 from .base import BlockYield, ContactState, JointLaw, LawRows, ModeRules
 from .coulomb import CoulombJoints
 
-CRUSHING_KINDS = ("voussoir", "springing", "base")
+CRUSHING_KINDS = ("voussoir", "springing", "base", "pier")
 """The kinds of joint (:data:`bridgefem.geometry.ring.JOINT_KINDS`) whose pairs crush: the faces of masonry blocks; a
 ring interface (the mortar between two rings) and the arch-fill interface never do."""
 TANGENTS = 128

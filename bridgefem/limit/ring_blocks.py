@@ -10,8 +10,8 @@ x to the right, y up, moments counter-clockwise; loads act downwards (-y).
 :func:`ring_model` builds the model in five steps:
 
 1. the ring: :func:`~bridgefem.structure.ring.scene_ring` (a ``thickness`` may override the scene's);
-2. the blocks: each voussoir (and abutment) polygon, its centroid the block's reference point, its weight
-   ``unit weight x area x width`` (N; masonry ``density x gravity``) acting there;
+2. the blocks: each voussoir (pier course, abutment) polygon, its centroid the block's reference point, its weight
+   ``unit weight x area x width`` (N; :func:`bridgefem.structure.materials.block_materials`) acting there;
 3. a fill, if any, as dead load only (:func:`_overburden`): on each voussoir the weight of the fill column above
    its extrados, through the column's centroid; the fill's strength, stiffness and load spreading are ignored;
 4. the live loads for a unit load factor (:func:`live_loads`): ``factor`` N per load, a point load at the extrados
@@ -37,6 +37,7 @@ from ..geometry.ring import ArchRing, joint_under, point_load_blocks, polygon_ar
 from ..laws.base import JointLaw
 from ..laws.crushing import scene_law
 from ..scene.model import Scene
+from ..structure.materials import block_materials
 from ..structure.ring import scene_ring
 from .rigid_block import BlockModel, generalised_loads
 
@@ -89,12 +90,11 @@ def ring_model(scene: Scene, thickness: float | None = None, load_at_joint: str 
 
 
 def block_weights(scene: Scene, ring) -> np.ndarray:
-    """(nb,) the weight (N) of each block of ``ring``, voussoirs, pier courses (masonry) then abutments (step 2 of the
-    module docstring): unit weight x polygon area x the arch's width."""
+    """(nb,) the weight (N) of each block of ``ring``, voussoirs, pier courses then abutments (step 2 of the module
+    docstring): its unit weight (:func:`bridgefem.structure.materials.block_materials`) x polygon area x the arch's
+    width."""
     area = np.array([polygon_area_centroid(b.polygon)[0] for b in ring.blocks])
-    unit_weight = np.array([scene.masonry.density * scene.gravity] * (ring.n_voussoirs + len(ring.piers))
-                           + [scene.abutments.unit_weight] * len(ring.abutments))
-    return unit_weight * scene.arch.width * area
+    return block_materials(scene, ring).unit_weight * scene.arch.width * area
 
 
 def live_loads(scene: Scene, ring, ref: np.ndarray, sides: tuple[str, ...]) -> np.ndarray:

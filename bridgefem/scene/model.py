@@ -43,12 +43,15 @@ class Arch:
 class Pier:
     """A masonry pier between two spans (``[[pier]]``): ``width`` (m) between the spans' intrados corners at
     springing level, ``height`` (m) from springing level down to its foundation, ``batter`` (m/m) each face's outward
-    lean per metre down, ``blocks`` its courses (horizontal bed joints between them). Its material is the masonry's."""
+    lean per metre down, ``blocks`` its courses (horizontal bed joints between them); ``young`` (Pa) and ``density``
+    (kg/m^3) its own, None: the masonry's (its Poisson's ratio, joints and strength are the masonry's)."""
 
     width: float
     height: float
     batter: float = _default("pier", "batter")
     blocks: int = _default("pier", "blocks")
+    young: float | None = _default("pier", "young")  # Pa; None: the masonry's
+    density: float | None = _default("pier", "density")  # kg/m^3; None: the masonry's
 
 
 @dataclass(frozen=True)

@@ -161,6 +161,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "blocks": Key(int, "courses of the pier, between horizontal bed joints evenly spaced from springing level to "
                       "the foundation, where it can rock or slide", 1, low=1, high=100,
                       why="from one block on its foundation to a course every few decimetres of a tall pier"),
+        "young": _modulus("Young's modulus of the pier", None, derived="the masonry's"),
+        "density": Key(float, "density of the pier", None, "kg/m^3", low=_DENSITY.low, high=_DENSITY.high,
+                       derived="the masonry's", why=_DENSITY.why),
     },
     "masonry": {
         "young": _modulus("Young's modulus of the voussoirs"),
