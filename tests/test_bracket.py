@@ -3,6 +3,7 @@ known exactly (milliseconds): equilibrium exists up to LIMIT and not above; the 
 without proof, on steps longer than ``reach`` (as the active-set method does on large steps)."""
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -28,6 +29,8 @@ class OneDof:
     movement = 0.0
     friction_factor = 1.0
     friction = np.zeros(0)  # no joints to raise the friction of: no friction continuation
+    max_iterations = 60
+    pairs = SimpleNamespace(joint=np.zeros(0, int))  # no joints: the self-weight's budget is max_iterations
 
     def __init__(self, limit=LIMIT, reach=math.inf, proves=True, stalls_at=math.inf):
         self.limit, self.reach, self.proves, self.stalls_at = limit, reach, proves, stalls_at

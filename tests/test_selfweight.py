@@ -26,6 +26,8 @@ class RingSolver:
 
     material = None
     comm = MPI.COMM_SELF
+    max_iterations = 60
+    pairs = SimpleNamespace(joint=np.zeros(1, int))  # one joint: the self-weight's budget is max_iterations
 
     def __init__(self):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING

@@ -160,15 +160,18 @@ def _spans(data: dict[str, Any], scales: dict[str, float]) -> list[dict[str, Any
     return spans
 
 
-def _piers(data: dict[str, Any], n_spans: int, scales: dict[str, float]) -> tuple[Pier, ...]:
-    """The ``[[pier]]`` tables of a bridge of ``n_spans`` spans: one between each two spans."""
-    raw = data.get("pier", [])
-    if n_spans == 1:
+def _piers(data: dict[str, Any], spans: list[dict[str, Any]], scales: dict[str, float]) -> tuple[Pier, ...]:
+    """The ``[[pier]]`` tables of a bridge of these ``spans``: one between each two spans, its relative ranges
+    against the longer of its two spans."""
+    raw, n = data.get("pier", []), len(spans)
+    if n == 1:
         return ()
-    if not isinstance(raw, list) or len(raw) != n_spans - 1:
-        raise SceneError(f"[[pier]] = {show_value(raw)}: expected {n_spans - 1} [[pier]] tables, one between each "
-                         f"two of the {n_spans} spans, left to right")
-    return tuple(Pier(**_section(table, "pier", f"[[pier]] #{k + 1}", scales)) for k, table in enumerate(raw))
+    if not isinstance(raw, list) or len(raw) != n - 1:
+        raise SceneError(f"[[pier]] = {show_value(raw)}: expected {n - 1} [[pier]] tables, one between each "
+                         f"two of the {n} spans, left to right")
+    return tuple(Pier(**_section(table, "pier", f"[[pier]] #{k + 1}",
+                                 {**scales, "span": max(spans[k]["span"], spans[k + 1]["span"])}))
+                 for k, table in enumerate(raw))
 
 
 def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
@@ -198,7 +201,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         if section == "masonry":
             scales["ring weight"] = sum(ring_weight(a, sec["masonry"]["density"], sec["scene"]["gravity"])
                                         for a in spans)
-    piers = _piers(data, len(spans), scales)
+    piers = _piers(data, spans, scales)
     name = check_name(sec["scene"]["name"], "[scene] name") if sec["scene"]["name"] is not None else default_name
     preset = sec["solver"]["preset"]
     plastic_fill = "fill" in sec and sec["fill"]["material"] == "mohr-coulomb"

@@ -276,7 +276,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       choices=tuple(PRESETS)),
         "tolerance": Key(float, "relative width of the limit-load bracket", _preset("solver", "tolerance"),
                          low=1e-8, high=0.5, why="from the equilibrium residual (1e-8) to a bracket of a factor 2"),
-        "max_iterations": Key(int, "active-set (Newton) iterations per load step", 60, low=1, high=10000,
+        "max_iterations": Key(int, "active-set (Newton) iterations per load step (the self-weight's: at least one "
+                              "per joint of the structure)", 60, low=1, high=10000,
                               why="from one to far more than any converging step takes"),
         "max_load": _force("live load where the search stops as \"locked\" (0: 100 x ring weight)"),
         "initial_step": _force("first live-load step (0: ring weight / 4)"),
@@ -304,7 +305,8 @@ def keys_markdown() -> str:
            "outside its range stops every command (run, check, lp, bounds, min-thickness, converge) with one "
            "line naming the key, the value and the range, exit code 2, before anything is written.", ""]
     for section, keys in SCHEMA.items():
-        header = {"load": "## [[load]]", "pier": "## [[pier]]"}.get(section, f"## [{section}]")
+        header = {"load": "## [[load]]", "pier": "## [[pier]] (\"x span\": the longer of its two spans)"}.get(
+            section, f"## [{section}]")
         if section == "arch":
             header += " (or [[span]] tables, one per span of a bridge of several spans, each with these keys)"
         out += [header, "",

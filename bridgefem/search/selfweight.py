@@ -37,6 +37,12 @@ joint closed and sticking:
    state of the path is an equilibrium of the scene's laws at its strength, whatever setting found it), else the one
    step and the continuation run again from the start.
 
+*Budget.* From every joint closed and sticking the active-set iteration finds the joints' states a few at a time,
+so a structure of many joints (a long ring, a barrel, several spans on piers) may need more iterations for its
+self-weight than ``[solver] max_iterations`` gives a load step: every self-weight step gets one iteration per joint
+of the structure when that is more (:func:`self_weight_budget`); the live-load steps, which start from a converged
+state, keep ``max_iterations``.
+
 A fraction of the self-weight would not help: elasticity, unilateral contact, Coulomb friction and a cohesionless
 fill are positively homogeneous in the loads, so a fraction of the self-weight from the unloaded state is the same
 problem scaled and fails alike. A raised strength at the whole self-weight is what a self-weight fraction is for a
@@ -88,16 +94,28 @@ class Progress:
     halvings: int = 0
 
 
+def self_weight_budget(solver: ContactSolver) -> int:
+    """Newton iterations of a self-weight step (module docstring, *Budget*): the solver's ``max_iterations``, or one
+    per joint of the structure when it has more. Collective."""
+    joints = solver.comm.allreduce(int(np.max(solver.pairs.joint, initial=-1)) + 1, op=MPI.MAX)
+    return max(solver.max_iterations, joints)
+
+
 def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = False) -> StepOutcome:
     """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
-    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``; ``falls``: the static
-    theorem shows that no equilibrium exists (step 3: the one step's failure is the answer, as a mechanism).
-    ``attempt(level, start)`` solves and records one step. Returns the last step's outcome."""
+    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``, every step within
+    :func:`self_weight_budget`; ``falls``: the static theorem shows that no equilibrium exists (step 3: the one
+    step's failure is the answer, as a mechanism). ``attempt(level, start)`` solves and records one step. Returns
+    the last step's outcome."""
     progress = Progress(solver.initial_iterate())
-    out = _carry(solver, attempt, progress, falls)
-    if out.converged or out.proved or falls:
-        return out
-    return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
+    scene_budget, solver.max_iterations = solver.max_iterations, self_weight_budget(solver)
+    try:
+        out = _carry(solver, attempt, progress, falls)
+        if out.converged or out.proved or falls:
+            return out
+        return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
+    finally:
+        solver.max_iterations = scene_budget
 
 
 def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: bool = False) -> StepOutcome:
