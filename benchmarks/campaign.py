@@ -36,7 +36,7 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
 - *wrong*: a verdict the LP contradicts (e.g. "unstable" while the LP stands, or FE far from the LP);
   *wrong (fill mesh not converged)*: a fill scene's FE limit above the conic upper bound (docs/fill.md), counted
   apart;
-- *crash*: a traceback, a signal, another exit code, or the timeout;
+- *crash*: a traceback, a signal, another exit code, or the timeout (``--timeout`` per span of a bridge);
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
   leave a voussoir of (almost) no length; not counted in the success rate.
 
@@ -388,6 +388,7 @@ def run_scene(choice: dict, out: Path, timeout: float, ranks: int = 1) -> dict:
     """Write the scene, run ``bridgefem run`` on it in a subprocess (under ``mpirun -n ranks`` when ranks > 1),
     and judge the outcome."""
     folder, row = write_scene(choice, out)
+    timeout *= row.get("spans", 1)  # a bridge of n spans is n arches' work, and their piers'
     command = [sys.executable, "-m", "bridgefem.io.cli", "run", str(folder / "scene.toml"), "--out",
                str(folder / "results"), "--quiet"]
     if choice.get("vehicle"):
@@ -582,7 +583,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--jobs", type=int, default=2, help="scenes run at once (default 2)")
     p.add_argument("--out", type=Path, default=Path("results/campaign"))
-    p.add_argument("--timeout", type=float, default=TIMEOUT_S, help="seconds per scene (default %(default)g)")
+    p.add_argument("--timeout", type=float, default=TIMEOUT_S,
+                   help="seconds per scene, per span of a --spans bridge (default %(default)g)")
     p.add_argument("--only", type=int, nargs="*", help="run only these scene indices")
     p.add_argument("--options", action="store_true",
                    help="each scene with one scene option drawn from OPTIONS (a second load, elastic abutments, a "

@@ -3,6 +3,7 @@ alone, the FE against the LP, and the same answer under mpirun -n 2."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import subprocess
@@ -15,6 +16,7 @@ from mpi4py import MPI
 
 import bridgefem
 from bridgefem.analysis.runner import run_analysis
+from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.geometry.ring import polygon_area_centroid
 from bridgefem.io.cli import main
 from bridgefem.limit.collapse import collapse_load
@@ -195,6 +197,24 @@ def test_a_live_load_cannot_steady_blocks_that_fall_under_their_own_weight():
     tau, dead = dead_load_deficit(ring_model(scene_from_dict(d)))
     assert dead.status == "unstable under self-weight" and tau > 1e3
     assert collapse_load(scene_from_dict(d)).status == "unstable under self-weight"
+
+
+@pytest.mark.slow
+def test_a_vehicle_rolled_across_a_symmetric_bridge():
+    """One axle rolled over three spans on slender piers (``assess``'s LP screen): the factors mirror about the
+    bridge's middle, the axle on a pier's top cannot collapse anything (infinite factor), and the screen's critical
+    factor is within 1 % of the least on a grid four times finer."""
+    d = bridge([SLENDER], [], vehicle={"axles": [100e3]})
+    scene = scene_from_dict(d)
+    length = 3 * 8.0 + 2 * 0.7
+    xs = np.linspace(0.2, length - 0.2, 53)
+    f = np.array([lp_at(scene, float(x)).factor for x in xs])
+    assert np.allclose(f, f[::-1], rtol=1e-6)
+    assert lp_at(scene, 8.35).factor == math.inf  # on the first pier's top
+    a = assess([scene], MPI.COMM_SELF, fe=False)[0]
+    fine = np.arange(0.05, length, a.step / 4)
+    least = min(lp_at(scene, float(x)).factor for x in fine)
+    assert a.lp_factor == pytest.approx(least, rel=0.01)
 
 
 # ----------------------------------------------------------------------------------------------------------- the FE
