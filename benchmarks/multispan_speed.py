@@ -86,9 +86,9 @@ def main() -> None:
                      "spans_solves": sum(a.solver.stats["solves"] for _, a in parts)})
         print(rows[-1], flush=True)
     ratio = statistics.median(row["ratio"] for row in rows)
-    brackets = [f"{a.scene.name}: [{a.search.lower * a.load_total / 1e3:.3f}, {a.search.upper * a.load_total / 1e3:.3f}]"
-                f" kN" if a.search.upper is not None else f"{a.scene.name}: {a.search.status}"
-                for a in [an, *(a for _, a in parts)]]
+    brackets = [f"{a.scene.name}: [{a.search.lower * a.load_total / 1e3:.3f}, "
+                f"{a.search.upper * a.load_total / 1e3:.3f}] kN" if a.search.upper is not None
+                else f"{a.scene.name}: {a.search.status}" for a in [an, *(a for _, a in parts)]]
     text = "\n".join([f"# {args.scene.name}: the bridge against its {len(alone)} spans alone", "", machine_line(), "",
                       f"median ratio bridge / spans alone: {ratio:.2f} (target <= {TARGET:g}: "
                       f"{'met' if ratio <= TARGET else 'not met'})", "", *brackets])

@@ -153,9 +153,7 @@ def pair_properties(scene: Scene, pairs: JointPairs, ring: ArchRing, materials: 
     ab, fill = scene.abutments, scene.fill
     if ab.elastic:
         friction[pairs.kind == "base"] = ab.friction
-    big = np.inf
-    softer = np.array([min(materials.young[b] if b is not None else big for b in (j.left, j.right))
-                       for j in ring.joints])
+    softer = np.array([min(materials.young[b] for b in (j.left, j.right) if b is not None) for j in ring.joints])
     interface = pairs.joint == ARCH_FILL
     young = np.where(interface, fill.young if fill is not None else 0.0, softer[np.where(interface, 0, pairs.joint)])
     if fill is not None:

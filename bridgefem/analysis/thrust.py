@@ -83,7 +83,7 @@ def _line(joint, ring) -> int:
         return len(ring.barrels) + next(b.pier for b in ring.piers if b.id == joint.left)
     if joint.span is not None:
         return joint.span
-    return 0 if joint in ring.bases[:1] else len(ring.barrels) - 1
+    return 0 if joint.id == ring.bases[0].id else len(ring.barrels) - 1
 
 
 def _crossing(jt, js, ring) -> ThrustPoint:

@@ -56,12 +56,13 @@ def strip_stress(q: float, c: float, xi: np.ndarray, z: np.ndarray) -> np.ndarra
 def dispersed_forces(scene: Scene, ring, axles: list[tuple[float, float, float]],
                      rule: str) -> tuple[np.ndarray, ...]:
     """(blocks, points, forces): the vertical forces (N) on the outer ring's extrados (and the piers' tops between
-    spans) of ``axles`` spread by ``rule`` through the fill (module docstring). Each axle is (load N, lo, hi): its tyre patch on the road from ``lo`` to
-    ``hi`` (m from midspan; lo == hi: a point axle).
+    spans) of ``axles`` spread by ``rule`` through the fill (module docstring). Each axle is (load N, lo, hi): its
+    tyre patch on the road from ``lo`` to ``hi`` (m from midspan; lo == hi: a point axle).
 
     1. Cells: the extrados' horizontal extent (from the left springing's extrados corner to the right one's) cut
-       into :data:`CELLS` equal cells, cut again at every voussoir's ends (and a pier top's) and, for the spread rules, at the ends of
-       every axle's spread, so that each cell lies on one voussoir and a spread's pressure is constant on it.
+       into :data:`CELLS` equal cells, cut again at every voussoir's (and pier top's) ends and, for the spread
+       rules, at the ends of every axle's spread, so that each cell lies on one block and a spread's pressure is
+       constant on it.
     2. Pressure on each cell's midpoint, axle by axle: Boussinesq at the cell's own depth below the road; a spread
        rule uniform over the patch widened by ``h tan(theta)`` on each side, h the depth under the patch's centre.
     3. Each cell's pressure x width is a vertical force at the extrados point above its midpoint, on its voussoir

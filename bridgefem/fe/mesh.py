@@ -33,12 +33,15 @@ extrados, graded to the far fill's size beyond. The road's load points (patch ed
 ``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill, whose depth, not the
 ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
 
-Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) are meshed with unstructured triangles of twice
-the smallest ring's element size; their top shares the springing joints' curves with the rings, their base is a
-joint with a single face, like a springing on rigid ground. Without them no abutment is meshed.
+Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) and the piers' courses of a bridge of several
+spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles of twice the smallest
+ring's element size; their tops share the springing joints' curves with the rings, a pier's bed joints are lines
+shared by its two courses, and a base or foundation on the ground is a joint with a single face, like a springing on
+rigid ground. The bridge's top (every span's outer extrados and the piers' top edges between them) is where loads
+act and a fill rests.
 
 Tags on the DOLFINx mesh:
-- cell tag = voussoir id, abutment id, or ``fill_block`` (= number of voussoirs and abutments) for the fill;
+- cell tag = block id (voussoir, pier course, abutment), or ``fill_block`` (= the number of blocks) for the fill;
 - facet tag ``2 j`` / ``2 j + 1`` = left / right face of joint j (the ground face of a springing is absent);
   ``EXTRADOS_TAG`` = extrados of the ring (where live loads act on a bare arch); with a fill, its side of the
   extrados ``FILL_INTERFACE_TAG`` (the extrados becomes an interface like a joint: its nodes are duplicated),
@@ -225,7 +228,7 @@ def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict) -> list[int]:
     """The curves of the bridge's top, left to right: each span's outer extrados (where the loads act on a bare
     bridge, and the fill rests) and the free top edge of each pier between them."""
     out = []
-    for k, barrel in enumerate(ring.barrels):
+    for k in range(len(ring.barrels)):
         out += [c for v in ring.outer_voussoirs if v.span == k for *_, c in sides[v.id][1]]
         for top in (b.top for b in ring.piers if b.pier == k and b.top is not None):
             out += [c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))]
@@ -319,8 +322,8 @@ def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: dic
                     h_extrados: float | None) -> None:
     """The segments of the voussoirs' intrados and extrados curves (``sides``: per voussoir its two sides' (first
     point, last point, curve) pieces; ``surfaces``: the voussoirs' surfaces in id order), and which voussoirs are
-    structured. ``sizes``: each voussoir's element size (m, by id: its ring's); ``h_extrados``: the element size along the extrados under a
-    fill (m; None: no fill).
+    structured. ``sizes``: each voussoir's element size (m, by id: its ring's); ``h_extrados``: the element size
+    along the extrados under a fill (m; None: no fill).
 
     1. A curve shared by two voussoirs (between two rings) gets one segment per element size of the finer ring,
        ceil(length / h).

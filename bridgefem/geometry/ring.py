@@ -197,7 +197,7 @@ class Abutment(_Polygonal):
 class PierBlock(_Polygonal):
     """A course of a masonry pier between two spans: ``polygon`` counter-clockwise (m); ``pier`` the pier's index
     (from 0, left to right: pier k carries spans k and k + 1), ``course`` from 0 (the top course, which carries the
-    springings) down. Its material is the masonry's."""
+    springings) down. Its material: :func:`bridgefem.structure.materials.block_materials`."""
 
     id: int
     polygon: np.ndarray
@@ -260,12 +260,6 @@ class ArchRing:
     def n_blocks(self) -> int:
         """Voussoirs, pier courses and abutments: the block ids 0 .. n_blocks - 1 (the next id is the fill's)."""
         return len(self.voussoirs) + len(self.piers) + len(self.abutments)
-
-    @property
-    def length(self) -> float:
-        """From the first span's left springing to the last span's right springing, on the intrados (m)."""
-        xs = np.concatenate([v.intrados[:, 0] for v in self.voussoirs])
-        return float(xs.max() - xs.min())
 
     @property
     def outer_voussoirs(self) -> list[Voussoir]:
@@ -740,9 +734,10 @@ def joint_under(ring: ArchRing, x: float) -> int | None:
 def point_load_blocks(ring: ArchRing, x: float, side: str = "split") -> tuple[int, ...]:
     """The voussoir(s) that carry a vertical point load at horizontal position x (m) on the extrados.
 
-    A load off the joints is on the voussoir below it (on a pier's top: its top course). A load on a joint's extrados corner (:func:`joint_under`)
-    is on the joint's ``side`` block ("left" | "right"), or half on each ("split"): the one choice the FE load
-    vector and the rigid-block LP both take from here. Raises ValueError off the extrados or for an unknown side.
+    A load off the joints is on the voussoir below it (on a pier's top: its top course). A load on a joint's
+    extrados corner (:func:`joint_under`) is on the joint's ``side`` block ("left" | "right"), or half on each
+    ("split"): the one choice the FE load vector and the rigid-block LP both take from here. Raises ValueError off
+    the extrados or for an unknown side.
     """
     if side not in LOAD_SIDES:
         raise ValueError(f"load side {side!r}: allowed are {', '.join(LOAD_SIDES)}")

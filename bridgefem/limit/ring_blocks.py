@@ -161,8 +161,8 @@ def ring_with_loads(model: BlockModel, dead: np.ndarray, live: np.ndarray) -> Bl
 
 def _overburden(ring, scene: Scene, ref: np.ndarray) -> np.ndarray:
     """The fill as dead load only: on each voussoir (and each pier's top course) the weight (N) of the fill column
-    between its extrados (its top) and the road, vertical, through the column's centroid on the extrados. The fill's strength, stiffness and load
-    spreading are ignored (live loads still act on the extrados below them)."""
+    between its extrados (its top) and the road, vertical, through the column's centroid on the extrados. The
+    fill's strength, stiffness and load spreading are ignored (live loads still act on the extrados below them)."""
     road = ring.crown_extrados + scene.fill.depth
     w = scene.fill.unit_weight * scene.arch.width
     points, forces = [], []

@@ -260,12 +260,8 @@ class Scene:
 
     def span_ranges(self) -> list[tuple[float, float]]:
         """Each span's horizontal extent between its springings' intrados corners (m, in the frame whose origin is
-        the first span's midspan), left to right."""
-        out, left = [], -self.arch.span / 2
-        for k, a in enumerate(self.arches):
-            out.append((left, left + a.span))
-            left += a.span + (self.piers[k].width if k < len(self.piers) else 0.0)
-        return out
+        the first span's midspan), left to right (:func:`span_ranges`)."""
+        return span_ranges(self.arches, self.piers)
 
     def load_edges_x(self) -> list[float]:
         """Horizontal positions (m) of point loads and patch edges: where joints go by default."""
@@ -274,6 +270,16 @@ class Scene:
             a, b = ld.x_range(self.arch.span)
             xs.extend([a] if ld.kind == "point" else [a, b])
         return xs
+
+
+def span_ranges(arches: tuple[Arch, ...], piers: tuple[Pier, ...]) -> list[tuple[float, float]]:
+    """Each span's horizontal extent between its springings' intrados corners (m), left to right, in the frame whose
+    origin is the first span's midspan: the spans side by side, each pier's ``width`` apart."""
+    out, left = [], -arches[0].span / 2
+    for k, a in enumerate(arches):
+        out.append((left, left + a.span))
+        left += a.span + (piers[k].width if k < len(piers) else 0.0)
+    return out
 
 
 def with_mesh(scene: Scene, elements_through_thickness: int) -> Scene:

@@ -39,6 +39,7 @@ from .model import (
     Scene,
     SolverOptions,
     Vehicle,
+    span_ranges,
 )
 from .names import check_name, show_path
 from .petsc_options import check_petsc
@@ -91,8 +92,8 @@ def _check_rise(a: dict[str, Any], label: str = "[arch]") -> float:
     span, rise, shape = a["span"], a["rise"], a["shape"]
     if shape == "semicircular":
         if rise is not None and not math.isclose(rise, span / 2, rel_tol=1e-6):
-            raise SceneError(f"{label} rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = {span / 2:g} m "
-                             "(omit rise, or use shape = \"segmental\" / \"elliptical\")")
+            raise SceneError(f"{label} rise = {rise!r}: allowed for a semicircular arch is rise = span/2 = "
+                             f"{span / 2:g} m (omit rise, or use shape = \"segmental\" / \"elliptical\")")
         return span / 2
     if rise is None:
         raise SceneError(f"{label} rise: missing; required for shape = \"{shape}\" "
@@ -210,9 +211,7 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
             sec[section][key] = value
     a = sec["arch"]
     arches = tuple(Arch(**x) for x in spans)
-    multi = Scene(name, arches[0], Masonry(**sec["masonry"]), JointProperties(**sec["joints"]), (),
-                  spans=arches if len(arches) > 1 else (), piers=piers)
-    reach = multi.span_ranges()
+    reach = span_ranges(arches, piers)
     raw_loads = data.get("load", [])
     if not isinstance(raw_loads, list):
         raise SceneError(f"[[load]] = {show_value(raw_loads)}: expected [[load]] tables (none: self-weight only)")
@@ -231,7 +230,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
         lo, hi = ld.x_range(a["span"])
         slack = RANGE_RTOL * a["span"] / 2
         if lo < reach[0][0] - slack or hi > reach[-1][1] + slack:
-            where = "the span" if len(reach) == 1 else "the bridge, from the first span's left springing to the last's right"
+            where = ("the span" if len(reach) == 1
+                     else "the bridge, from the first span's left springing to the last's right")
             raise SceneError(f"{label} position = {ld.position!r}, length = {ld.length!r}: the load spans "
                              f"x = {lo + a['span'] / 2:g}..{hi + a['span'] / 2:g} m from the left springing; allowed "
                              f"is a load within {where}, x = 0..{reach[-1][1] + a['span'] / 2:g} m")
@@ -256,7 +256,8 @@ def scene_from_dict(data: dict[str, Any], default_name: str = "scene") -> Scene:
     return Scene(name=name, gravity=sec["scene"]["gravity"], fill=fill, abutments=abutments, vehicle=vehicle,
                  arch=Arch(**a), masonry=Masonry(**sec["masonry"]), joints=JointProperties(**sec["joints"]),
                  loads=tuple(loads), mesh=MeshOptions(**sec["mesh"]), model=ModelOptions(**sec["model"]),
-                 solver=SolverOptions(**solver), document=copy.deepcopy(data), spans=multi.spans, piers=piers)
+                 solver=SolverOptions(**solver), document=copy.deepcopy(data),
+                 spans=arches if len(arches) > 1 else (), piers=piers)
 
 
 def _placed(ld: dict[str, Any], label: str, span: float) -> dict[str, Any]:
