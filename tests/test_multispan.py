@@ -19,6 +19,7 @@ from bridgefem.analysis.runner import run_analysis
 from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.geometry.ring import polygon_area_centroid
 from bridgefem.io.cli import main
+from bridgefem.limit.bounds import fill_bounds
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import dead_load_deficit
 from bridgefem.limit.ring_blocks import block_weights, ring_model
@@ -257,6 +258,21 @@ def test_the_readme_fe_bracket_is_the_runs():
     an = run_analysis(bridgefem.load_scene(ROOT / "demos" / "three_span.toml"), MPI.COMM_WORLD)
     lower, upper = (v * an.load_total / 1e3 for v in (an.search.lower, an.search.upper))
     assert f"in [{lower:.3f}, {upper:.3f}] kN" in readme_section()
+
+
+@pytest.mark.slow
+def test_a_fill_over_two_spans_stays_within_its_conic_bounds():
+    """A Mohr-Coulomb fill over two spans and their pier, a patch at 3 m: the FE's bracket between the conic lower and
+    upper bounds of the same bridge with its fill (the campaign's judge)."""
+    d = bridge([{"width": 1.0, "height": 6.0, "blocks": 3}], [{"kind": "patch", "x": 3.0, "length": 0.5}], spans=2,
+               fill={"unit_weight": 18e3, "young": 5e7, "depth": 0.3, "extension": 2.0, "material": "mohr-coulomb",
+                     "friction_angle": 35.0, "cohesion": 5e3})
+    scene = scene_from_dict(d)
+    an = run_analysis(scene, MPI.COMM_WORLD)
+    bounds = fill_bounds(scene, an.search.upper * an.load_total)
+    assert an.search.upper is not None, an.search.status
+    assert bounds["lower"] * (1 - AGREEMENT) <= an.search.lower * an.load_total
+    assert an.search.upper * an.load_total <= bounds["upper"] * (1 + AGREEMENT)
 
 
 MPI_SCRIPT = """
