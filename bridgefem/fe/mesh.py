@@ -25,7 +25,7 @@ coordinates as in :mod:`bridgefem.geometry.ring`.
 then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx.mesh.create_mesh`).
 
 Under a fill the extrados (shared by the outer ring and fill) is divided at
-:func:`~bridgefem.structure.sizing.extrados_element_size` (of the outer ring's thickness), at most
+:func:`~bridgefem.structure.sizing.extrados_element_size` (of the outer ring's thickness, each span its own), at most
 ``sizing.FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as
 many segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
 size within the fill's depth of the
@@ -224,14 +224,24 @@ def voussoir_element_sizes(ring: ArchRing, per_thickness: int) -> dict[int, floa
     return {v.id: ring_element_sizes(b, per_thickness)[v.ring] for b in ring.barrels for v in b.voussoirs}
 
 
-def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict) -> list[int]:
-    """The curves of the bridge's top, left to right: each span's outer extrados (where the loads act on a bare
-    bridge, and the fill rests) and the free top edge of each pier between them."""
+def extrados_sizes(ring: ArchRing, per_thickness: int, depth: float | None) -> list[float]:
+    """The element size (m) along each span's extrados
+    (:func:`~bridgefem.structure.sizing.extrados_element_size` of its outer ring's thickness and the fill's
+    ``depth`` over the crown, m; None: no fill)."""
+    return [extrados_element_size((b.ring_thicknesses or (b.thickness,))[-1], per_thickness, depth)
+            for b in ring.barrels]
+
+
+def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict, sizes: list[float]) -> list[tuple[list[int], float]]:
+    """The bridge's top, left to right, as pieces (curves, element size m): each span's outer extrados (where the
+    loads act on a bare bridge, and the fill rests) at its span's size of ``sizes``, and the free top edge of each
+    pier between two spans at the finer of theirs."""
     out = []
-    for k in range(len(ring.barrels)):
-        out += [c for v in ring.outer_voussoirs if v.span == k for *_, c in sides[v.id][1]]
+    for k, size in enumerate(sizes):
+        out.append(([c for v in ring.outer_voussoirs if v.span == k for *_, c in sides[v.id][1]], size))
         for top in (b.top for b in ring.piers if b.pier == k and b.top is not None):
-            out += [c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))]
+            out.append(([c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))],
+                        min(size, sizes[k + 1])))
     return out
 
 
@@ -252,8 +262,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         sizes = voussoir_element_sizes(ring, per_thickness)
         h = min(sizes.values())
         depth = outline.y_road - ring.crown_extrados if outline is not None else None
-        h_extrados = extrados_element_size(min(b.ring_thicknesses[-1] if b.ring_thicknesses else b.thickness
-                                               for b in ring.barrels), per_thickness, depth)
+        span_extrados = extrados_sizes(ring, per_thickness, depth)
+        h_extrados = min(span_extrados)  # at the road's load points
         draw = _Drawing(geo, ROUND_OFF * ring.span)
         ring_joints = ring.ring_joints
         for end in ("intrados", "extrados"):
@@ -278,7 +288,8 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
                 joint_curves[j.id] = [c for *_, c in pieces[first:last + 1]]
         support_surfaces = [(_add_support(draw, block, ring, joint_curves, 2 * h), block.id)
                             for block in ring.piers + ring.abutments]
-        extrados_curves = _top_curves(draw, ring, sides)
+        top = _top_curves(draw, ring, sides, span_extrados)
+        extrados_curves = [c for curves, _ in top for c in curves]
         fill_curves = {}
         if outline is not None:  # the fill's base begins at the outer ring's springings' extrados corners
             corners = [draw.point(ring.springings(side)[-1].extrados) for side in ("left", "right")]
@@ -290,11 +301,10 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         mesh = gmsh.model.mesh
         if outline is not None:
             boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
-            _grade_fill_from_extrados(fill_curves["surface"], boundary, extrados_curves, h_extrados,
-                                      max(h_fill, h_extrados), depth)
+            _grade_fill_from_extrados(fill_curves["surface"], boundary, top, h_fill, depth)
         for c in (c for j in ring_joints for c in joint_curves[j.id]):
             mesh.setTransfiniteCurve(abs(c), per_thickness + 1 if joint_nodes is None else 2)
-        _mesh_voussoirs(ring, sides, surfaces, sizes, h_extrados if outline is not None else None)
+        _mesh_voussoirs(ring, sides, surfaces, sizes, span_extrados if outline is not None else None)
         mesh.generate(2)
         tags, xyz, _ = mesh.getNodes()
         order = np.zeros(int(tags.max()) + 1, dtype=np.int64)
@@ -319,11 +329,11 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
 
 
 def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: dict[int, float],
-                    h_extrados: float | None) -> None:
+                    h_extrados: list[float] | None) -> None:
     """The segments of the voussoirs' intrados and extrados curves (``sides``: per voussoir its two sides' (first
     point, last point, curve) pieces; ``surfaces``: the voussoirs' surfaces in id order), and which voussoirs are
-    structured. ``sizes``: each voussoir's element size (m, by id: its ring's); ``h_extrados``: the element size
-    along the extrados under a fill (m; None: no fill).
+    structured. ``sizes``: each voussoir's element size (m, by id: its ring's); ``h_extrados``: each span's element
+    size along the extrados under a fill (m; None: no fill).
 
     1. A curve shared by two voussoirs (between two rings) gets one segment per element size of the finer ring,
        ceil(length / h).
@@ -354,7 +364,8 @@ def _mesh_voussoirs(ring: ArchRing, sides: dict, surfaces: list[int], sizes: dic
     for s, v in zip(surfaces, ring.voussoirs):
         h = sizes[v.id]
         intra, extra = ([abs(c) for *_, c in side] for side in sides[v.id])
-        fill_size = h_extrados if v.id in outer and h_extrados is not None and h_extrados < h else None
+        on_fill = h_extrados[v.span] if v.id in outer and h_extrados is not None else None
+        fill_size = on_fill if on_fill is not None and on_fill < h else None
         # segments along the extrados that a fill's size asks for (its nodes are the fill's)
         n_fill = sum(int(np.ceil(_curve_length(c) / fill_size - 1e-9)) for c in extra) if fill_size else 0
         known = [all(c in counts for c in side) for side in (intra, extra)]
@@ -385,26 +396,32 @@ def _shares(curves: list[int], total: int) -> list[int]:
     return _segment_counts([_curve_length(c) for c in curves] if len(curves) > 1 else [1.0], total)
 
 
-def _grade_fill_from_extrados(surface: int, boundary: list[int], extrados_curves: list[int], size: float,
-                              far_size: float, depth: float) -> None:
-    """Gmsh size field of the fill (its ``surface`` and its ``boundary`` curves only): ``size`` (m) within
-    ``EXTRADOS_BAND`` x ``depth`` (the fill's depth over the crown, m) of the extrados, growing by ``FILL_GRADING``
-    per metre beyond that band up to ``far_size``. Gmsh takes the smaller of this and the sizes at the fill's points
-    (load edges, corners)."""
+def _grade_fill_from_extrados(surface: int, boundary: list[int], top: list[tuple[list[int], float]], far_size: float,
+                              depth: float) -> None:
+    """Gmsh size field of the fill (its ``surface`` and its ``boundary`` curves only): along each piece of the
+    bridge's ``top`` (curves, size m) its size within ``EXTRADOS_BAND`` x ``depth`` (the fill's depth over the crown,
+    m) of it, growing by ``FILL_GRADING`` per metre beyond that band up to ``far_size`` (at least the piece's); the
+    least of the pieces' fields. Gmsh takes the smaller of this and the sizes at the fill's points (load edges,
+    corners)."""
     import gmsh
 
     field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "CurvesList", extrados_curves)
-    field.setNumber(distance, "NumPointsPerCurve", 20)
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", size)
-    field.setNumber(threshold, "SizeMax", far_size)
-    field.setNumber(threshold, "DistMin", EXTRADOS_BAND * depth)
-    field.setNumber(threshold, "DistMax", EXTRADOS_BAND * depth + (far_size - size) / FILL_GRADING)
+    thresholds = []
+    for curves, size in top:
+        distance = field.add("Distance")
+        field.setNumbers(distance, "CurvesList", curves)
+        field.setNumber(distance, "NumPointsPerCurve", 20)
+        threshold = field.add("Threshold")
+        field.setNumber(threshold, "InField", distance)
+        field.setNumber(threshold, "SizeMin", size)
+        field.setNumber(threshold, "SizeMax", max(far_size, size))
+        field.setNumber(threshold, "DistMin", EXTRADOS_BAND * depth)
+        field.setNumber(threshold, "DistMax", EXTRADOS_BAND * depth + (max(far_size, size) - size) / FILL_GRADING)
+        thresholds.append(threshold)
+    least = field.add("Min")
+    field.setNumbers(least, "FieldsList", thresholds)
     restricted = field.add("Restrict")
-    field.setNumber(restricted, "InField", threshold)
+    field.setNumber(restricted, "InField", least)
     field.setNumbers(restricted, "FacesList", [surface])
     field.setNumbers(restricted, "EdgesList", boundary)
     field.setAsBackgroundMesh(restricted)
