@@ -214,9 +214,9 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
 
 
 def plot_elevation(ring: ArchRing, data: dict, path, fill: np.ndarray | None = None) -> None:
-    """The bridge to scale (equal axes): the ring's voussoirs, the fill, the span and the live loads as arrows
-    labelled with their loads (kN; ``data["loads"]`` with ``x`` from midspan and ``load`` N), at the road with a
-    fill or on the extrados without."""
+    """The bridge to scale (equal axes): the ring's voussoirs (and piers), the fill, each span and the live loads as
+    arrows labelled with their loads (kN; ``data["loads"]`` with ``x`` from midspan and ``load`` N), at the road
+    with a fill or on the extrados without."""
     fig, ax = plt.subplots(figsize=(8, 4))
     if fill is not None:
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.2, lw=0)
@@ -231,11 +231,13 @@ def plot_elevation(ring: ArchRing, data: dict, path, fill: np.ndarray | None = N
         ax.annotate("", xy=tip, xytext=tip + np.array([0, arrow]), arrowprops=dict(arrowstyle="-|>", color="k"))
         ax.text(tip[0], tip[1] + arrow * 1.05, f"{ld['load'] / 1e3:.0f} kN", ha="center", va="bottom", fontsize=8)
     y = -0.05 * ring.span
-    ax.annotate("", xy=(-ring.span / 2, y), xytext=(ring.span / 2, y), arrowprops=dict(arrowstyle="<->", lw=0.8))
-    ax.text(0, y, f"span {ring.span:g} m", ha="center", va="top", fontsize=8)
+    for barrel in ring.barrels:  # each span between its springings' intrados corners
+        xs = np.concatenate([v.intrados[:, 0] for v in barrel.voussoirs])
+        ax.annotate("", xy=(xs.min(), y), xytext=(xs.max(), y), arrowprops=dict(arrowstyle="<->", lw=0.8))
+        ax.text(0.5 * (xs.min() + xs.max()), y, f"span {barrel.span:g} m", ha="center", va="top", fontsize=8)
     ax.set_aspect("equal")
     ax.margins(0.05, 0.2)
-    ax.set_xlabel("x (m, from midspan)")
+    ax.set_xlabel("x (m, from the first span's midspan)" if ring.spans else "x (m, from midspan)")
     ax.set_ylabel("y (m)")
     _title(ax, data)
     fig.tight_layout()
