@@ -15,6 +15,7 @@ from bridgefem.limit.ring_blocks import ring_model, ring_under_forces
 from bridgefem.limit.thickness import NoStableThickness, min_thickness
 from bridgefem.scene.model import Fill
 from bridgefem.scene.reader import scene_from_dict
+from bridgefem.scene.schema import SCHEMA
 
 
 def scene(voussoirs=16, friction=0.6, joint_at_loads=True, loads=None):
@@ -113,6 +114,17 @@ def test_min_thickness_heyman(voussoirs, ratio, rel):
     assert mech.status == "unstable under self-weight" and mech.work_dead > 0
     assert len(mech.hinges) >= 4 and mech.sliding == []
     json.dumps(res.to_dict())
+
+
+def test_min_thickness_of_a_ring_that_stands_at_any_thickness():
+    """Two voussoirs with enough friction stand at every thickness (three joints: a line of thrust through one point
+    of each always exists): the search answers the thinnest ring of its range, analysed and standing, with the
+    bracket (thinnest, thinnest) and no mechanism."""
+    sc = scene(voussoirs=2, friction=10.0, joint_at_loads=False)
+    res = min_thickness(sc)
+    thinnest = SCHEMA["arch"]["thickness"].low * sc.arch.span
+    assert res.thickness == thinnest and res.bracket == (thinnest, thinnest) and res.evaluations == 2
+    assert res.mechanism.status == "stable under self-weight" and res.mechanism.hinges == []
 
 
 # Gilbert, Casapulla & Ahmed (2006): 27 voussoirs, centreline radius 10, least thickness 1.07 for mu >= 0.40 and
