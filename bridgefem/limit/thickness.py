@@ -60,7 +60,8 @@ class NoStableThickness(ValueError):
 class ThicknessResult:
     """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
     shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
-    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed."""
+    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed. When even the thinnest
+    ring of the search's range stands, the bracket is (thinnest, thinnest) and ``mechanism`` its LP (no mechanism)."""
 
     thickness: float
     ratio: float | None
