@@ -42,7 +42,7 @@ from typing import Callable
 from ..laws.crushing import strength_text
 from ..scene.model import Scene
 from ..scene.schema import SCHEMA
-from .rigid_block import LPResult, dead_load_deficit, dead_load_margin
+from .rigid_block import LPFailure, LPResult, dead_load_deficit, dead_load_margin
 from .ring_blocks import ring_model
 
 STANDS = "stable under self-weight"
@@ -148,7 +148,12 @@ def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "assoc
         evals += 1
         model = ring_model(scene, thickness=t, live=False)
         tau, res = dead_load_deficit(model, friction_model, **options)
-        return _Point(t, min(dead_load_margin(model), 0.0) if res.status == STANDS else tau, res)
+        if res.status != STANDS:
+            return _Point(t, tau, res)
+        try:
+            return _Point(t, min(dead_load_margin(model), 0.0), res)
+        except LPFailure:  # the ring stands (its deficit LP says so): a value of 0 only stops interpolating from it
+            return _Point(t, 0.0, res)
 
     thickest = analyse(_THICKNESS_RANGE[1] * span)
     if not thickest.stands:
