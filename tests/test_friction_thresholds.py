@@ -18,9 +18,9 @@ tests/test_rigid_block.py (Gilbert's mu = 0.375 on its 0.01 grid).
 import pytest
 from conftest import bridgefem
 
-from bridgefem.limit.rigid_block import dead_load_deficit
+from bridgefem.limit.rigid_block import dead_load_deficit, dead_load_margin
 from bridgefem.limit.ring_blocks import ring_model
-from bridgefem.limit.thickness import NoStableThickness, min_thickness
+from bridgefem.limit.thickness import _THICKNESS_RANGE, NoStableThickness, min_thickness
 from bridgefem.scene.reader import scene_from_dict
 
 MU_RM, MU_MS, ETA_MS = 0.395832, 0.309215, 0.200637
@@ -57,6 +57,37 @@ def test_onset_of_sliding():
     assert above.ratio == pytest.approx(0.1068, rel=1e-3) and above.mechanism.sliding == []
     assert below.ratio > 1.01 * above.ratio
     assert set(below.mechanism.sliding) & {0, 27}
+
+
+def test_least_thickness_across_a_change_of_mechanism():
+    """Just below mu_rm a ring well below its least thickness falls by four hinges, one just below it by three
+    hinges and a slip at a springing: the value Brent's method interpolates (the deficit where the ring falls, the
+    margin where it stands) has a kink inside the search's bracket. The search still ends on a bracket of a ring
+    that falls and one that stands, within rtol, around the change from falling to standing that a bisection of
+    stand/fall finds, in fewer analyses; the margin is the deficit where the ring falls and negative where it
+    stands."""
+    sc, rtol = semicircle(27, MU_RM * 0.99, 0.15), 1e-4
+
+    def analysed(t):
+        model = ring_model(sc, thickness=t, live=False)
+        return dead_load_deficit(model), dead_load_margin(model)
+
+    res = min_thickness(sc, rtol=rtol)
+    lo, hi = res.bracket
+    ((tau, falls), margin), ((_, stands), above) = analysed(lo), analysed(hi)
+    assert falls.status == "unstable under self-weight" and stands.status == "stable under self-weight"
+    assert 0 < hi - lo <= rtol * hi and res.thickness == hi
+    assert margin == pytest.approx(tau, rel=1e-3) and above < 0
+    assert res.mechanism.by_joint.sliding == falls.by_joint.sliding == [0]
+    thinner = analysed(0.9 * lo)[0][1]
+    assert thinner.by_joint.sliding == [] and len(thinner.by_joint.hinges) == 4  # another mechanism
+    a, b = (f * sc.arch.span for f in _THICKNESS_RANGE)
+    bisections = 1
+    while b - a > rtol * b:
+        mid, bisections = 0.5 * (a + b), bisections + 1
+        a, b = (a, mid) if analysed(mid)[0][1].status == "stable under self-weight" else (mid, b)
+    assert a < hi and lo < b
+    assert res.evaluations < bisections
 
 
 @pytest.mark.parametrize("friction_model", FRICTION_MODELS)

@@ -7,6 +7,7 @@ import pytest
 from conftest import scene_dict, write_toml
 
 import bridgefem.limit.rigid_block as rigid_block
+import bridgefem.limit.thickness as thickness
 from bridgefem.geometry.ring import build_ring
 from bridgefem.io.cli import main
 from bridgefem.limit.collapse import collapse_load
@@ -15,6 +16,7 @@ from bridgefem.limit.ring_blocks import ring_model, ring_under_forces
 from bridgefem.limit.thickness import NoStableThickness, min_thickness
 from bridgefem.scene.model import Fill
 from bridgefem.scene.reader import scene_from_dict
+from bridgefem.scene.schema import SCHEMA
 
 
 def scene(voussoirs=16, friction=0.6, joint_at_loads=True, loads=None):
@@ -113,6 +115,35 @@ def test_min_thickness_heyman(voussoirs, ratio, rel):
     assert mech.status == "unstable under self-weight" and mech.work_dead > 0
     assert len(mech.hinges) >= 4 and mech.sliding == []
     json.dumps(res.to_dict())
+
+
+def test_min_thickness_of_a_ring_that_stands_at_any_thickness():
+    """Two voussoirs with enough friction stand at every thickness (three joints: a line of thrust through one point
+    of each always exists): the search answers the thinnest ring of its range, analysed and standing, with the
+    bracket (thinnest, thinnest) and no mechanism."""
+    sc = scene(voussoirs=2, friction=10.0, joint_at_loads=False)
+    res = min_thickness(sc)
+    thinnest = SCHEMA["arch"]["thickness"].low * sc.arch.span
+    assert res.thickness == thinnest and res.bracket == (thinnest, thinnest) and res.evaluations == 2
+    assert res.mechanism.status == "stable under self-weight" and res.mechanism.hinges == []
+
+
+def test_min_thickness_without_the_margin_lp(monkeypatch):
+    """Should the margin LP fail, a ring that stands gives the search the value 0 (nothing to interpolate from): the
+    search still ends on a bracket of a ring that falls and one that stands, within rtol, around the same least
+    thickness."""
+    sc, rtol = scene(voussoirs=27, friction=10.0, joint_at_loads=False), 1e-5
+    lo, hi = min_thickness(sc, rtol=rtol).bracket
+
+    def fails(model):
+        raise LPFailure("rigid-block margin LP failed: model_status is Unknown")
+
+    monkeypatch.setattr(thickness, "dead_load_margin", fails)
+    res = min_thickness(sc, rtol=rtol)
+    a, b = res.bracket
+    assert res.mechanism.status == "unstable under self-weight" and 0 < b - a <= rtol * b
+    assert dead_load_deficit(ring_model(sc, thickness=b, live=False))[1].status == "stable under self-weight"
+    assert a < hi and lo < b
 
 
 # Gilbert, Casapulla & Ahmed (2006): 27 voussoirs, centreline radius 10, least thickness 1.07 for mu >= 0.40 and

@@ -111,7 +111,7 @@ def build_model(scene: Scene, comm: MPI.Comm, petsc_options: dict | None, phase:
     bm = build_block_mesh(ring, scene.mesh.elements_through_thickness, comm, outline,
                           fill.element_size if fill is not None else 0.0, loading_beams(scene), nodes)
     clock.lap("mesh")
-    lp = rigid_block_check(scene, comm, nodes)  # the search's guess, the verdict's evidence, a load's side on a joint
+    lp = rigid_block_check(scene, comm, nodes, ring)  # the search's guess, the verdict's evidence, a load's side on a joint
     clock.lap("rigid-block LP")
     phase("assembling")
     model = build_elastic_model(bm, ring, scene, lp.load_sides if fill is None and lp.load_sides else None)

@@ -35,15 +35,17 @@ from .evidence import SlipCheck, coulomb_limited, needs_slip_check
 from .mechanism import JointState, joint_states
 
 
-def rigid_block_check(scene: Scene, comm: MPI.Comm, nodes: tuple[float, ...] | None = None) -> LPResult:
+def rigid_block_check(scene: Scene, comm: MPI.Comm, nodes: tuple[float, ...] | None = None,
+                      ring: ArchRing | None = None) -> LPResult:
     """The rigid-block LP of the scene's ring on the same joints (:func:`bridgefem.limit.collapse.collapse_load`,
     associative friction; with a compressive strength the rows of the FE's joint stations on the element ends
     ``nodes``, :func:`bridgefem.laws.crushing.fe_stations`), solved on rank 0 and broadcast: the search's guess and
-    the evidence for its verdict. An LP that fails gives the status "LP failed: ..." (no guess, no evidence)."""
+    the evidence for its verdict. An LP that fails gives the status "LP failed: ..." (no guess, no evidence).
+    ``ring``: the scene's ring when the caller has built it already (None: built here)."""
     lp = None
     if comm.rank == 0:
         try:
-            lp = collapse_load(scene, law=scene_law(scene, fe=True, nodes=nodes))  # with crushing: the FE's joints
+            lp = collapse_load(scene, law=scene_law(scene, fe=True, nodes=nodes), ring=ring)  # crushing: the FE's joints
         except (RuntimeError, ValueError) as err:  # the LP is a check: its failure is reported, not raised
             lp = LPResult(None, None, f"LP failed: {err}")
     return comm.bcast(lp, root=0)

@@ -144,7 +144,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     fe = build_model(scene, comm, petsc_options, phase, clock, joint_law)
     phase("limit search")
     bare = scene.fill is None
-    blocks = fe_blocks(scene, fe.model, fe.block_mesh) if bare else None  # the rigid blocks loaded as the FE loads
+    blocks = fe_blocks(scene, fe.model, fe.block_mesh, fe.ring) if bare else None  # the blocks loaded as the FE loads
     bound = static_cap(blocks, fe.model, fe.block_mesh, fe.pairs, fe.solver) if bare else None
     clock.lap("static bound")
     search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,

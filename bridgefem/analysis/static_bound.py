@@ -25,6 +25,7 @@ from petsc4py import PETSc
 from ..fe.mesh import BlockMesh
 from ..fe.model import ElasticModel, node_blocks
 from ..fe.pairs import JointPairs
+from ..geometry.ring import ArchRing
 from ..laws.crushing import scene_law
 from ..limit.rigid_block import BlockModel, LPResult, generalised_loads, solve_blocks, standing_deficit, statics
 from ..limit.ring_blocks import ring_model, ring_with_loads
@@ -85,13 +86,14 @@ def static_cap(blocks: BlockModel, model: ElasticModel, bm: BlockMesh, pairs: Jo
     return static, StaticCap(static.level, static.falls, check)
 
 
-def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh) -> BlockModel:
+def fe_blocks(scene: Scene, model: ElasticModel, bm: BlockMesh, ring: ArchRing | None = None) -> BlockModel:
     """The rigid-block LP's ring on the scene's joints loaded as the FE loads its voussoirs: its assembled
     self-weight and unit live load summed per block (:func:`block_loads`); with a compressive strength its joints'
     rows are the FE's pairs' own polygon on the mesh's joint nodes (:func:`bridgefem.laws.crushing.fe_stations`).
-    Collective."""
-    ring = dataclasses.replace(ring_model(scene, live=False), law=scene_law(scene, fe=True, nodes=bm.joint_nodes))
-    return ring_with_loads(ring, *block_loads(model, bm, ring.ref))
+    ``ring``: the scene's ring when the caller has built it already (None: built here). Collective."""
+    blocks = dataclasses.replace(ring_model(scene, live=False, ring=ring),
+                                 law=scene_law(scene, fe=True, nodes=bm.joint_nodes))
+    return ring_with_loads(blocks, *block_loads(model, bm, blocks.ref))
 
 
 def joint_resultants(solver: ContactSolver, pairs: JointPairs, blocks: BlockModel, it: Iterate) -> np.ndarray:

@@ -22,6 +22,7 @@ matplotlib.rcdefaults()  # no rc file's settings: the module docstring
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 from ..geometry.ring import ArchRing  # noqa: E402
 from ..status import Status  # noqa: E402
@@ -144,18 +145,16 @@ def plot_mechanism(ring: ArchRing, data: dict, mode: np.ndarray | None, path: Pa
         ax.fill(fill[:, 0], fill[:, 1], color="olivedrab", alpha=0.15, lw=0)
         ax.plot(*np.vstack([fill, fill[:1]]).T, color="olivedrab", lw=0.6)
     blocks = ring.blocks
-    for v in blocks:
-        p = np.vstack([v.polygon, v.polygon[:1]])
-        ax.plot(p[:, 0], p[:, 1], color="0.6", lw=0.8)
+    outlines = [np.vstack([v.polygon, v.polygon[:1]]) for v in blocks]
+    ax.add_collection(LineCollection(outlines, colors="0.6", lw=0.8))  # one artist for all the blocks
     scale = 0.0
     if mode is not None:
         reach = np.abs(mode[:len(blocks), :2]).max() + np.abs(mode[:len(blocks), 2]).max() * ring.span
         scale = MODE_SIZE * ring.span / reach if reach > 0 else 0.0
-        for v, (mx, my, th) in zip(blocks, mode):
-            p = np.vstack([v.polygon, v.polygon[:1]])
-            q = p + scale * (np.array([mx, my]) + th * np.column_stack([-p[:, 1], p[:, 0]]))
-            ax.fill(q[:, 0], q[:, 1], color="tan", alpha=0.6, lw=0)
-            ax.plot(q[:, 0], q[:, 1], color="saddlebrown", lw=0.7)
+        moved = [p + scale * (np.array([mx, my]) + th * np.column_stack([-p[:, 1], p[:, 0]]))
+                 for p, (mx, my, th) in zip(outlines, mode)]
+        ax.add_collection(PolyCollection(moved, facecolors="tan", alpha=0.6, lw=0))
+        ax.add_collection(LineCollection(moved, colors="saddlebrown", lw=0.7))
     thrust = (data.get("line_of_thrust") or {}).get("points") or []
     for line in _thrust_lines(thrust, len(ring.barrels)):
         ax.plot([p["x"] for p in line], [p["y"] for p in line], "-", color="tab:purple", lw=1.4, zorder=4)

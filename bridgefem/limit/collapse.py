@@ -30,7 +30,7 @@ import itertools
 
 import numpy as np
 
-from ..geometry.ring import joint_under
+from ..geometry.ring import ArchRing, joint_under
 from ..laws.base import JointLaw
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
@@ -43,16 +43,18 @@ _TIE = 1e-7  # relative: a load on one block must lower the collapse load by mor
 
 
 def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joint: str = LEAST_FAVOURABLE,
-                  law: type[JointLaw] | JointLaw | None = None, **options) -> LPResult:
+                  law: type[JointLaw] | JointLaw | None = None, ring: ArchRing | None = None, **options) -> LPResult:
     """Rigid-block collapse load of a scene's ring; ``law`` the joints' (default the scene's,
     :func:`~bridgefem.limit.ring_blocks.ring_model`); ``friction_model`` and ``options`` go to
     :func:`~bridgefem.limit.rigid_block.solve_blocks`.
 
     ``load_at_joint``: the block that carries a point load lying on a joint ("left" | "right" | "split",
     :func:`~bridgefem.limit.ring_blocks.ring_model`), or "least-favourable" (the default): the allocation with the
-    least collapse load (:func:`_least_favourable`). The result's ``load_sides`` says which was taken.
+    least collapse load (:func:`_least_favourable`). The result's ``load_sides`` says which was taken. ``ring``: the
+    scene's ring when the caller has built it already (:func:`bridgefem.structure.ring.scene_ring` of ``scene``);
+    None: built here.
     """
-    ring = scene_ring(scene)
+    ring = scene_ring(scene) if ring is None else ring
     span = scene.arch.span
     on_joint = [i for i, ld in enumerate(scene.loads)
                 if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]

@@ -350,13 +350,14 @@ class _Programme:
         """The right-hand sides of the yield rows with the shear ``cohesion`` (N per joint), scaled."""
         return self.joint_yield(np.asarray(self.model.friction, float), cohesion).rhs.ravel() / self.fref
 
-    def solve(self, mu: np.ndarray, cohesion: np.ndarray, deficit: bool):
+    def solve(self, mu: np.ndarray, cohesion: np.ndarray, deficit: bool, floor: float = 0.0):
         """One LP; the extra unknown is lambda (maximised) or, if ``deficit``, tau (minimised).
 
         load:    max lambda   s.t. A q + lambda l = -d,  |m| <= n t/2,  |s| <= mu n + c
-        deficit: min tau >= 0 s.t. A q = -d,  |m| <= (n + tau) t/2,  |s| <= mu n + c + tau
+        deficit: min tau >= floor s.t. A q = -d,  |m| <= (n + tau) t/2,  |s| <= mu n + c + tau
         ``tau`` is the smallest tensile strength at the joint edges and cohesion (a force, uniform over the
         joints) that equilibrium under the dead load needs: zero when the dead load alone can be carried.
+        ``floor`` (scaled by the dead weight, <= 0) lets tau go below zero (:func:`dead_load_margin`).
         """
         nj = self.model.n_joints
         if deficit:
@@ -369,9 +370,13 @@ class _Programme:
             cost_extra = -1.0
         cost = np.zeros(3 * nj + 1)
         cost[-1] = cost_extra
+        bounds = self.bounds
+        if floor:
+            bounds = bounds.copy()
+            bounds[-1, 0] = floor
         return linprog(cost, A_ub=self.yield_rows(mu, extra_ub), b_ub=self.rhs(cohesion),
                        A_eq=sp.hstack([self.A, extra_col], format="csr"), b_eq=self.b_eq,
-                       bounds=self.bounds, method=_LP_METHOD)
+                       bounds=bounds, method=_LP_METHOD)
 
 
 def _no_crushing(rules: BlockYield, t: np.ndarray, interface: np.ndarray) -> BlockYield:
@@ -628,6 +633,24 @@ def dead_load_deficit(model: BlockModel, friction_model: str = "associative", *,
     _fill_result(res, model, prog, sol, cohesion)
     res.iterations, res.converged, res.time_s = iterations, converged, time.perf_counter() - start
     return tau, res
+
+
+def dead_load_margin(model: BlockModel) -> float:
+    """The associative deficit programme of :func:`dead_load_deficit` with ``tau`` free down to minus the dead
+    weight W (N): its least ``tau``,
+
+        min tau >= -W  s.t.  A q = -d,  |m| <= (n + tau) t/2,  |s| <= mu n + tau
+
+    positive: the deficit (the same optimum); negative: the blocks stand with room, every joint's thrust and shear
+    carried with ``-tau`` to spare at its edges and on its friction (the floor bounds it where the room has no
+    end, e.g. a thick flat ring). Where the deficit stays zero on the whole side that stands, the margin keeps
+    changing through zero, so that a search over a dimension (:func:`bridgefem.limit.thickness.min_thickness`) can
+    interpolate across the change from falling to standing. Raises :class:`LPFailure` when the LP fails."""
+    prog = _Programme(model)
+    sol = prog.solve(np.asarray(model.friction, float), np.zeros(model.n_joints), True, floor=-1.0)
+    if sol.status != 0:
+        raise LPFailure(f"rigid-block margin LP failed: {sol.message}")
+    return float(sol.x[-1] * prog.fref)
 
 
 def standing_deficit(model: BlockModel) -> float:

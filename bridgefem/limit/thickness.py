@@ -15,8 +15,16 @@ load:
 1. a thickness stands when the dead-load deficit of its ring is zero
    (:func:`bridgefem.limit.rigid_block.dead_load_deficit`: the least joint tension and cohesion the self-weight needs);
 2. the thickest ring of ``_THICKNESS_RANGE`` x span is analysed first; if it falls, :class:`NoStableThickness`;
-3. the bracket (thinnest of the range, thickest) is bisected until its width is below ``rtol`` x its stable end;
-4. the stable end is the least thickness; the deficit LP just below it gives the mechanism (hinges, slips).
+   then the thinnest (if it stands, it is the answer);
+3. the bracket (thinnest, thickest) is narrowed by Brent's method (:func:`_brent`) on a value that changes sign
+   where the ring starts to stand: the deficit (N, > 0) where it falls, the associative margin (N, <= 0,
+   :func:`bridgefem.limit.rigid_block.dead_load_margin`) where it stands. Between changes of mechanism the value
+   is a smooth function of the thickness (the associative one passes through zero with no step), so the
+   interpolation converges in a few LPs; where it is not (a change of mechanism, or a step between the
+   non-associative deficit and the associative margin) Brent's bisection steps still shrink the bracket. It stops
+   when the bracket (a thickness that falls, one that stands, both analysed) is narrower than ``rtol`` x one of
+   its ends (the one with the smaller value), hence than ``rtol`` x its stable end;
+4. the stable end is the least thickness; the deficit LP at the unstable end gives the mechanism (hinges, slips).
 
 Lengths in m.
 
@@ -27,14 +35,17 @@ self-weight, by the same deficit LP.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
+from typing import Callable
 
 from ..laws.crushing import strength_text
 from ..scene.model import Scene
 from ..scene.schema import SCHEMA
-from .rigid_block import LPResult, dead_load_deficit
+from .rigid_block import LPFailure, LPResult, dead_load_deficit, dead_load_margin
 from .ring_blocks import ring_model
 
+STANDS = "stable under self-weight"
 # least-thickness search, x span: from the scene's least thickness (a sliver) to (almost) a solid half-disc (the
 # scene's range ends below the span)
 _THICKNESS_RANGE = (SCHEMA["arch"]["thickness"].low, 0.999)
@@ -49,7 +60,8 @@ class NoStableThickness(ValueError):
 class ThicknessResult:
     """Least ring thickness carrying the self-weight (m); ``ratio`` = thickness / centreline radius (circular
     shapes, else None); ``mechanism``: the collapse mechanism just below it (deficit LP, dead work > 0);
-    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed."""
+    ``bracket``: (unstable, stable) thicknesses, m; ``evaluations``: thicknesses analysed. When even the thinnest
+    ring of the search's range stands, the bracket is (thinnest, thinnest) and ``mechanism`` its LP (no mechanism)."""
 
     thickness: float
     ratio: float | None
@@ -64,44 +76,101 @@ class ThicknessResult:
                 "evaluations": self.evaluations}
 
 
+@dataclass(frozen=True)
+class _Point:
+    """A thickness analysed by the search: ``t`` (m), the deficit LP's ``result`` and the search's ``value`` (N):
+    the deficit where the ring falls (> 0), the associative margin where it stands (<= 0)."""
+
+    t: float
+    value: float
+    result: LPResult
+
+    @property
+    def stands(self) -> bool:
+        return self.result.status == STANDS
+
+
+def _brent(analyse: Callable[[float], _Point], falls: _Point, stands: _Point, rtol: float) -> tuple[_Point, _Point]:
+    """Brent's method (Brent 1973, *Algorithms for Minimization without Derivatives*, ch. 4; the zeroin that
+    ``scipy.optimize.brentq`` implements) between a thickness that ``falls`` and one that ``stands``, on their
+    ``value``: each step interpolates (the secant through the last two points, or the inverse quadratic through three)
+    when that step is short enough, else bisects, and is at least half the tolerance; the bracket is always a
+    point that falls and one that stands. Stops when it is narrower than ``rtol`` x its end with the smaller value
+    (so than ``rtol`` x its stable end); returns it as (falls, stands)."""
+    pre, cur, blk = falls, stands, falls
+    s_pre = s_cur = cur.t - pre.t
+    while True:
+        if pre.stands != cur.stands:  # the bracket: the newest point and the last one on the other side
+            blk, s_pre = pre, cur.t - pre.t
+            s_cur = s_pre
+        if abs(blk.value) < abs(cur.value):  # cur: the end with the smaller value
+            pre, cur, blk = cur, blk, cur
+        delta = 0.5 * rtol * cur.t
+        s_bis = 0.5 * (blk.t - cur.t)
+        if abs(s_bis) < delta:
+            return (blk, cur) if cur.stands else (cur, blk)
+        step = s_bis
+        if abs(s_pre) > delta and abs(cur.value) < abs(pre.value):
+            if pre is blk:  # secant
+                trial = -cur.value * (cur.t - pre.t) / (cur.value - pre.value)
+            else:  # inverse quadratic
+                d_pre = (pre.value - cur.value) / (pre.t - cur.t)
+                d_blk = (blk.value - cur.value) / (blk.t - cur.t)
+                den = d_blk * d_pre * (blk.value - pre.value)
+                trial = -cur.value * (blk.value * d_blk - pre.value * d_pre) / den if den else math.inf
+            if 2 * abs(trial) < min(abs(s_pre), 3 * abs(s_bis) - delta):
+                s_pre, step = s_cur, trial
+            else:
+                s_pre = s_bis
+        else:
+            s_pre = s_bis
+        s_cur = step
+        pre = cur
+        cur = analyse(cur.t + (step if abs(step) > delta else math.copysign(delta, s_bis)))
+
+
 def min_thickness(scene: Scene, rtol: float = 1e-4, friction_model: str = "associative",
                   **options) -> ThicknessResult:
-    """Bisect the ring thickness (all else fixed, no live load) for the least one that carries the self-weight.
+    """The least ring thickness (all else fixed, no live load) that carries the self-weight, to ``rtol``.
 
     A thickness is stable when :func:`~bridgefem.limit.rigid_block.dead_load_deficit` is zero; the bracket starts
-    at ``_THICKNESS_RANGE`` x span and is halved until its width is below ``rtol`` x thickness (steps of the module
-    docstring). Raises :class:`NoStableThickness` when even the thickest ring of the range falls. For circular shapes
-    the centreline radius is ``R = R_intrados + t/2`` and ``ratio = t/R``; ``options`` go to the deficit LP.
+    at ``_THICKNESS_RANGE`` x span and is narrowed by Brent's method until its width is below ``rtol`` x thickness
+    (steps of the module docstring). Raises :class:`NoStableThickness` when even the thickest ring of the range
+    falls; when even the thinnest stands, it is the answer, with the bracket (thinnest, thinnest) and its own
+    deficit LP as ``mechanism`` (none). For circular shapes the centreline radius is ``R = R_intrados + t/2`` and
+    ``ratio = t/R``; ``options`` go to the deficit LP.
     """
     span = scene.arch.span
     evals = 0
 
-    def analyse(t) -> LPResult:
+    def analyse(t: float) -> _Point:
         nonlocal evals
         evals += 1
-        return dead_load_deficit(ring_model(scene, thickness=t, live=False), friction_model, **options)[1]
+        model = ring_model(scene, thickness=t, live=False)
+        tau, res = dead_load_deficit(model, friction_model, **options)
+        if res.status != STANDS:
+            return _Point(t, tau, res)
+        try:
+            return _Point(t, min(dead_load_margin(model), 0.0), res)
+        except LPFailure:  # the ring stands (its deficit LP says so): a value of 0 only stops interpolating from it
+            return _Point(t, 0.0, res)
 
-    lo, hi = _THICKNESS_RANGE[0] * span, _THICKNESS_RANGE[1] * span
-    thickest = analyse(hi)
-    if thickest.status != "stable under self-weight":
-        mech = thickest.by_joint
+    thickest = analyse(_THICKNESS_RANGE[1] * span)
+    if not thickest.stands:
+        mech = thickest.result.by_joint
         how = f"joints {mech.sliding} slide" if mech.sliding else f"hinges form at joints {mech.hinges}"
-        raise NoStableThickness(f"no ring thickness up to {hi:g} m ({_THICKNESS_RANGE[1]:g} x span) carries the "
-                                f"self-weight with friction {scene.joints.friction:g} ({friction_model})"
+        raise NoStableThickness(f"no ring thickness up to {thickest.t:g} m ({_THICKNESS_RANGE[1]:g} x span) carries "
+                                f"the self-weight with friction {scene.joints.friction:g} ({friction_model})"
                                 f"{strength_text(scene)}: {how}")
-    while hi - lo > rtol * hi:
-        mid = 0.5 * (lo + hi)
-        if analyse(mid).status == "stable under self-weight":
-            hi = mid
-        else:
-            lo = mid
-    mechanism = analyse(lo)
+    thinnest = analyse(_THICKNESS_RANGE[0] * span)
+    falls, stands = (thinnest, thinnest) if thinnest.stands else _brent(analyse, thinnest, thickest, rtol)
+    hi = stands.t
     radius = ratio = None
     if scene.arch.shape in ("semicircular", "segmental"):
         a = scene.arch
         radius = (a.span ** 2 / 4 + a.rise ** 2) / (2 * a.rise) + hi / 2
         ratio = hi / radius
-    return ThicknessResult(hi, ratio, radius, mechanism, (lo, hi), evals)
+    return ThicknessResult(hi, ratio, radius, falls.result, (falls.t, hi), evals)
 
 
 class NoRingFriction(ValueError):
