@@ -34,7 +34,7 @@ from ..geometry.ring import ArchRing, joint_under
 from ..laws.base import JointLaw
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
-from .rigid_block import LPResult, solve_blocks
+from .rigid_block import LPResult, dead_load_deficit, solve_blocks
 from .ring_blocks import live_loads, ring_model
 
 LEAST_FAVOURABLE = "least-favourable"
@@ -50,7 +50,9 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
 
     ``load_at_joint``: the block that carries a point load lying on a joint ("left" | "right" | "split",
     :func:`~bridgefem.limit.ring_blocks.ring_model`), or "least-favourable" (the default): the allocation with the
-    least collapse load (:func:`_least_favourable`). The result's ``load_sides`` says which was taken. ``ring``: the
+    least collapse load (:func:`_least_favourable`). The result's ``load_sides`` says which was taken. The blocks
+    must first carry their own weight (the deficit programme, once for every allocation: a live load follows the
+    self-weight, :mod:`bridgefem.limit.rigid_block`); else the result is "unstable under self-weight". ``ring``: the
     scene's ring when the caller has built it already (:func:`bridgefem.structure.ring.scene_ring` of ``scene``);
     None: built here.
     """
@@ -59,11 +61,16 @@ def collapse_load(scene: Scene, friction_model: str = "associative", load_at_joi
     on_joint = [i for i, ld in enumerate(scene.loads)
                 if ld.kind == "point" and joint_under(ring, ld.x_range(span)[0]) is not None]
     model = ring_model(scene, load_at_joint="split", law=law, ring=ring)
+    if np.any(model.live):  # the self-weight once for every allocation (the same blocks and dead load)
+        _, dead = dead_load_deficit(model)
+        if dead.status == "unstable under self-weight":
+            dead.friction_model, dead.load_sides = friction_model, [None] * len(scene.loads)
+            return dead
 
     def solve(choice: dict[int, str]) -> LPResult:
         sides = tuple(choice.get(i, "split") for i in range(len(scene.loads)))
         res = solve_blocks(dataclasses.replace(model, live=live_loads(scene, ring, model.ref, sides)),
-                           friction_model, **options)
+                           friction_model, self_weight=False, **options)
         res.load_sides = [choice.get(i) for i in range(len(scene.loads))]
         return res
 

@@ -549,17 +549,18 @@ def _coulomb_excess(x: np.ndarray, mu: np.ndarray, cohesion: np.ndarray) -> floa
 
 def solve_blocks(model: BlockModel, friction_model: str = "associative", *, seed: np.ndarray | None = None,
                  beta: float = RELAXATION, rtol: float = FIXED_POINT_RTOL,
-                 max_iterations: int = FIXED_POINT_LPS) -> LPResult:
+                 max_iterations: int = FIXED_POINT_LPS, self_weight: bool = True) -> LPResult:
     """Collapse load factor of a block model (see the module docstring for the programme).
 
     friction_model: "associative" (one LP; an upper bound when joints slide) or "non-associative" (the Tresca fixed
     point of Gilbert, Casapulla & Ahmed 2006: ``seed`` the starting normal forces, N per joint, default the
     associative ones; ``beta`` the under-relaxation of the normal forces, ``rtol`` the tolerance on lambda and on
     the Coulomb condition, ``max_iterations`` the number of Tresca LPs). ``converged`` says whether a fixed point
-    (a non-associative collapse state) was reached.
+    (a non-associative collapse state) was reached. ``self_weight=False``: the caller has found that the blocks
+    carry their dead load (:func:`dead_load_deficit` of the same blocks and dead load), so step 2 is skipped.
     """
     start = time.perf_counter()
-    if np.any(model.live):  # the self-weight first: the deficit programme decides whether the blocks carry it
+    if self_weight and np.any(model.live):  # the self-weight first: the deficit programme decides
         _, dead = dead_load_deficit(model)  # statics alone: a deficit rules out every flow rule's equilibrium
         if dead.status == "unstable under self-weight":
             dead.friction_model, dead.time_s = friction_model, time.perf_counter() - start
