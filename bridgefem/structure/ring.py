@@ -53,19 +53,18 @@ def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
     (:func:`build_ring`) or a pier is too narrow for its spans' springings
     (:func:`bridgefem.geometry.bridge.build_bridge`)."""
     ab = scene.abutments
-    scale = 1.0 if thickness is None else thickness / scene.arch.thickness
     edges, labels = scene.load_edges_x(), load_labels(scene)
     barrels, on_spans = [], set()
     try:
         for a, (left, right) in zip(scene.arches, scene.span_ranges()):
             centre = 0.5 * (left + right)
-            t = a.thickness * scale
+            t = a.thickness if thickness is None else thickness * (a.thickness / scene.arch.thickness)
             reach = abs(t * make_shape(a.shape, a.span, a.rise).normal(0.0)[0])  # to the extrados corner
             mine = [k for k, x in enumerate(edges) if left - reach <= x <= right + reach]
             on_spans.update(mine)
             barrels.append(build_ring(a.shape, a.span, a.rise, t, a.voussoirs, [edges[k] - centre for k in mine],
                                       a.joint_at_loads, [labels[k] for k in mine],
-                                      tuple(r * scale for r in a.ring_layers), a.ring_bond))
+                                      tuple(r * t / a.thickness for r in a.ring_layers), a.ring_bond))
         ring = barrels[0] if len(barrels) == 1 else build_bridge(barrels, [
             PierShape(p.width, p.height, p.batter, p.blocks) for p in scene.piers],
             [x for k, x in enumerate(edges) if k not in on_spans])
