@@ -15,6 +15,7 @@ from conftest import ROOT, write_toml
 from mpi4py import MPI
 
 import bridgefem
+from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.geometry.ring import polygon_area_centroid
@@ -163,6 +164,30 @@ def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position
     crown = SPAN["span"] / 2
     assert abs(xs[k] - crown) < np.abs(critical_stocky - crown).min()
     assert any(ring.joints[j].span == 1 for j in lp.by_joint.hinges)
+
+
+def test_pier_joints_crush():
+    """A compressive strength weakens the piers' bed joints too (the masonry law): the slender-pier bridge's LP
+    collapse load falls with it, and a pier's foundation hinge is in its mechanism."""
+    strong = collapse_load(scene_from_dict(bridge([SLENDER], point(3.6))))
+    weak = scene_from_dict(bridge([SLENDER], point(3.6), masonry={"young": 1e10, "density": 2000.0,
+                                                                   "compressive_strength": 2e6}))
+    crushing = collapse_load(weak)
+    ring = scene_ring(weak)
+    assert crushing.load < 0.95 * strong.load
+    assert any(ring.joints[j].kind == "pier" for j in crushing.by_joint.hinges)
+
+
+def test_the_fe_law_crushes_the_piers_bed_joints():
+    """The FE model's joint law gives the pairs of a pier's bed joints and foundation their crushing force
+    f_c w l, as every masonry joint's."""
+    d = bridge([{"width": 1.0, "height": 3.0, "blocks": 2}], point(3.6), spans=2,
+               masonry={"young": 1e10, "density": 2000.0, "compressive_strength": 2e6})
+    d["span"] = [dict(SPAN, voussoirs=8), dict(SPAN, voussoirs=8)]
+    model = build_model(scene_from_dict(d), MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
+    law, pairs = model.solver.law, model.pairs
+    pier = pairs.kind == "pier"
+    assert pier.any() and np.allclose(law.capacity[pier], 2e6 * pairs.length[pier])
 
 
 def test_a_symmetric_bridge_gives_symmetric_answers():
