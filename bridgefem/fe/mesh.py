@@ -92,7 +92,8 @@ def marked(mesh: Mesh, tags: MeshTagsMetaClass, values) -> MeshTagsMetaClass:
 @dataclass
 class BlockMesh:
     """The distributed mesh with its tags; ``n_cells`` and ``n_nodes`` count the split (duplicated) mesh;
-    ``fill_block`` is the cell tag of the fill (None without fill), ``abutment_blocks`` those of the abutments,
+    ``fill_block`` is the cell tag of the fill (None without fill), ``support_blocks`` those of the blocks that carry
+    the spans (the elastic abutments, the piers' courses),
     ``beam_blocks`` those of the loading beams."""
 
     mesh: Mesh
@@ -102,7 +103,7 @@ class BlockMesh:
     n_cells: int
     n_nodes: int
     fill_block: int | None = None
-    abutment_blocks: tuple[int, ...] = ()
+    support_blocks: tuple[int, ...] = ()
     beam_blocks: tuple[int, ...] = ()
     joint_nodes: tuple[float, ...] | None = None  # the ring joints' element ends (fractions of the depth), None: even
 
@@ -545,7 +546,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     ct = _tags(mesh, tdim, cs, cell_values)
     mesh.topology.create_connectivity(tdim - 1, tdim)
     ft = _tags(mesh, tdim - 1, facets, values)
-    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(ab.id for ab in ring.abutments),
+    return BlockMesh(mesh, ct, ft, info[0], info[1], info[2], fill_block, tuple(b.id for b in ring.piers + ring.abutments),
                      beam_blocks, joint_nodes)
 
 

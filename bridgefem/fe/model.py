@@ -11,7 +11,8 @@ scene's degree on triangles. :func:`build_elastic_model`
    :func:`bridgefem.structure.materials.block_materials`: masonry, a pier's own, an abutment; the fill; a loading beam
    ``BEAM_STIFFNESS`` times as stiff as the fill, so rigid against it and weightless);
 2. assembles ``K`` from ``width (sigma(u) : eps(v)) dx`` with the fill's supports (fixed base, roller ends) built in;
-3. assembles the self-weight ``-width gamma v_y dx`` and records the ring's, the fill's and the abutments' weights;
+3. assembles the self-weight ``-width gamma v_y dx`` and records the rings', the fill's and the supports' (abutments',
+   piers') weights;
 4. assembles the live load for a unit level: a patch as a uniform pressure per horizontal metre on the extrados of a
    bare ring, on the road or on a loading beam's top over a fill; a point load as a nodal force shared by the nodes
    at its point (``POINT_TOL``) of the blocks that carry it, on a joint the side the rigid-block LP finds least
@@ -48,8 +49,8 @@ BEAM_STIFFNESS = 1000.0  # Young's modulus of a loading beam / the fill's: rigid
 class ElasticModel:
     """Assembled operators; ``monitor`` holds the owned node indices (blocked) of the ring's extrados whose mean
     vertical displacement is the deflection under the first load (at the crown without live load).
-    ``dead_weight`` is the ring's weight, ``fill_weight`` the fill's and ``abutment_weight`` that of the elastic
-    abutments (N); ``bcs`` the fill's supports."""
+    ``dead_weight`` is the rings' weight (every span's voussoirs), ``fill_weight`` the fill's and ``support_weight``
+    that of the blocks that carry the spans: the elastic abutments and the piers (N); ``bcs`` the fill's supports."""
 
     V: fem.FunctionSpace
     K: PETSc.Mat
@@ -60,7 +61,7 @@ class ElasticModel:
     live_per_level: float
     fill_weight: float = 0.0
     bcs: list = field(default_factory=list)
-    abutment_weight: float = 0.0
+    support_weight: float = 0.0
 
 
 def lame(young: float, poisson: float, plane: str) -> tuple[float, float]:
@@ -177,7 +178,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
 
     dead_total = comm.allreduce(fem.assemble_scalar(fem.form(width * weight * ufl.dx)))
     fill_weight = weight_of((bm.fill_block,) if fill is not None else ())
-    abutment_weight = weight_of(bm.abutment_blocks)
+    support_weight = weight_of(bm.support_blocks)
 
     surface = (BEAM_TOP_TAG if bm.beam_blocks else ROAD_TAG) if fill is not None else EXTRADOS_TAG
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=bm.facet_tags)
@@ -211,8 +212,8 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
     d = _owned_distances(V, point)[ring_nodes]
     tol = comm.allreduce(d.min() if len(d) else np.inf, op=MPI.MIN) + POINT_RTOL * scene.arch.span
     monitor = ring_nodes[d < tol]
-    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight - abutment_weight, live, fill_weight,
-                        bcs, abutment_weight)
+    return ElasticModel(V, K, f_dead, f_live, monitor, dead_total - fill_weight - support_weight, live, fill_weight,
+                        bcs, support_weight)
 
 
 def load_point(ring: ArchRing, scene: Scene, x: float, side: str = "split") -> tuple[np.ndarray, tuple[int, ...]]:

@@ -16,7 +16,8 @@ The intrados curves are those of :mod:`bridgefem.geometry.shapes`; on one, :func
 1. measures the centreline's arc length on fine samples of ``p`` (a chord ending at a kink ends on its own arc, so
    the pointed crown's jump between the two arcs' offsets counts no length);
 2. places N + 1 joints at equal centreline lengths, the springings at p = 0 and 1;
-3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge, keeping the joints in
+3. with ``joint_at_loads``, moves an interior joint under each point load and patch edge between the springings
+   (a load beyond them, over a pier of a bridge of several spans, gets a vertex only), keeping the joints in
    their order (:func:`_place_joints_at_loads`: a voussoir straddling a concentrated load overstates the limit
    load), and refuses a layout that would leave a voussoir of (almost) no length (:func:`_check_voussoir_lengths`);
 4. stacks the rings (``ring_thicknesses``; one ring by default): ring r between the offsets of the rings inside
@@ -647,8 +648,10 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     """Build the joints and voussoirs of a barrel of one or more rings (all lengths in m).
 
     ``load_x`` are the horizontal positions of concentrated loads and patch-load edges on the extrados;
-    with ``joint_at_loads`` an interior joint is moved under each (:func:`_place_joints_at_loads`; a block
-    straddling a concentrated load overstates the limit load). ``load_labels`` name the loads of ``load_x`` in the
+    with ``joint_at_loads`` an interior joint is moved under each between the springings
+    (:func:`_place_joints_at_loads`; a block straddling a concentrated load overstates the limit load); a load beyond
+    a springing's intrados corner, on the extrados over a pier, gets a vertex only (a joint there would cut a sliver
+    off the end voussoir). ``load_labels`` name the loads of ``load_x`` in the
     messages (default: their positions). ``ring_thicknesses`` (m, from the intrados out, summing to ``thickness``;
     empty: one ring) stack rings of ``n_voussoirs`` each: the outer ring's joints are those of a single ring of the
     whole thickness (moved under the loads), and with ``bond`` "staggered" every other ring inwards is shifted
@@ -675,8 +678,10 @@ def build_ring(shape: str, span: float, rise: float, thickness: float, n_voussoi
     params = np.interp(np.linspace(0.0, s[-1], n_voussoirs + 1), s, p)
     params[0], params[-1] = 0.0, 1.0
     joints_at_x: frozenset[float] = frozenset()
-    if joint_at_loads and len(located):
-        params, joints_at_x = _joints_at_loads(params, s_of_p, s[-1], xs, located, labels)
+    between = np.abs(xs) <= span / 2 * (1 + AT_JOINT_TOL)  # beyond the springings (over a pier): no joint
+    if joint_at_loads and between.any():
+        params, joints_at_x = _joints_at_loads(params, s_of_p, s[-1], xs[between],
+                                               [pl for pl, keep in zip(located, between) if keep], labels)
     n = max(1, len(ring_thicknesses))
     levels = np.concatenate([[0.0], np.cumsum(ring_thicknesses) / thickness]) if n > 1 else np.array([0.0, 1.0])
     levels[-1] = 1.0
