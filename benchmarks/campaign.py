@@ -37,6 +37,8 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   *wrong (fill mesh not converged)*: a fill scene's FE limit above the conic upper bound (docs/fill.md), counted
   apart;
 - *crash*: a traceback, a signal, another exit code, or the timeout (``--timeout`` per span of a bridge);
+- *unjudged (LP failed)*: the rigid-block LP of results.json failed, so that nothing confirms or contradicts the
+  FE's verdict (not confirmed);
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
   leave a voussoir of (almost) no length; not counted in the success rate.
 
@@ -478,6 +480,8 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
         cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict
         # is at or above that LP
+    elif lp_status.startswith("LP failed"):
+        cls = "unjudged (LP failed)"  # the reference failed: nothing confirms or contradicts the FE's verdict
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
         cls = "wrong"
     elif status == "limit load found":
@@ -491,7 +495,7 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = "confirmed" if ok else "wrong"
     else:
         cls = "confirmed"
-    if cls not in ("solver failure", "wrong (fill mesh not converged)") and code != 0:
+    if cls not in ("solver failure", "wrong (fill mesh not converged)", "unjudged (LP failed)") and code != 0:
         cls = "wrong"  # a verdict must exit 0
     return {**out, "class": cls}
 
@@ -530,7 +534,8 @@ def report(rows: list[dict]) -> str:
                      f"{'  (' + ring_text(r['rings']) + ')' if r.get('rings') else ''}")
     n = len(rows)
     classes = {c: sum(r["class"] == c for r in rows)
-               for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash")}
+               for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash",
+                         "unjudged (LP failed)")}
     rejected = sum(r["class"] == "rejected" for r in rows)
     n -= rejected
     lines.append("")
@@ -555,7 +560,8 @@ def report(rows: list[dict]) -> str:
                      f"{len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
-        if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)"):
+        if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)",
+                          "unjudged (LP failed)"):
             key = f"{r['class']}: {failure_cause(r)}"
             causes[key] = causes.get(key, 0) + 1
     for key, k in sorted(causes.items(), key=lambda kv: -kv[1]):
