@@ -31,7 +31,9 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   bracket's lower end and the bracket's upper end at most (1 + ``BOUND_TOL``) x the upper bound (the dead-load LP
   is no floor: the fill can fail under the load first); with an elastic fill (no bounds) any FE verdict at or
   above the LP with the fill as dead load (every verdict is, where that LP is unstable under self-weight: the
-  elastic fill can hold up a ring that its weight alone brings down);
+  elastic fill can hold up a ring that its weight alone brings down), or a limit at which the rings under the loads
+  the fill transmits collapse (results.json ``ring_under_transmitted_loads``: ratio within ``NO_SLIP_TOL`` of 1; the
+  fill spreads a load over a pier into the spans beside it, which the dead-load LP's load on the pier cannot);
 - *solver failure*: the run says so (exit 1): honest, but no answer;
 - *wrong*: a verdict the LP contradicts (e.g. "unstable" while the LP stands, or FE far from the LP);
   *wrong (fill mesh not converged)*: a fill scene's FE limit above the conic upper bound (docs/fill.md), counted
@@ -480,6 +482,10 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
     elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
         cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict
         # is at or above that LP
+    elif fill and status == "limit load found" and not (data.get("fill_bounds") or {}).get("lower") \
+            and abs(((data.get("ring_under_transmitted_loads") or {}).get("ratio") or 0.0) - 1) <= NO_SLIP_TOL:
+        cls = "confirmed"  # an elastic fill: the rings under the loads it transmits collapse at the FE's limit (it
+        # spreads a load over a pier into the spans beside it, where the dead-load LP's load on the pier cannot)
     elif lp_status.startswith("LP failed"):
         cls = "unjudged (LP failed)"  # the reference failed: nothing confirms or contradicts the FE's verdict
     elif status != lp_status and not (status.startswith("no collapse") and lp_status.startswith("no collapse")):
