@@ -94,7 +94,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                  phase: Callable[[str], None] = lambda name: None,
                  notice: Callable[[str], None] = lambda line: None,
                  max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS,
-                 joint_law: JointLawFactory | None = None, enough: float = math.inf) -> Analysis:
+                 joint_law: JointLawFactory | None = None, enough: float | Callable[[], float] = math.inf
+                 ) -> Analysis:
     """Compute the limit load of a scene (module docstring, steps 1-6): the ring, with its fill and elastic
     abutments when the scene has them, after the support movement it imposes. Collective over ``comm``;
     ``petsc_options`` go over the scene's; ``phase(name)`` announces each set-up phase, ``report(step)`` each load
@@ -102,8 +103,9 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     ``max_dofs`` unknowns (:mod:`bridgefem.analysis.refinement`); ``joint_law`` builds the joints' law
     (:data:`bridgefem.analysis.build.JointLawFactory`; None: the scene's,
     :func:`bridgefem.laws.crushing.scene_law_factory`). ``enough`` (N of live load): carrying it ends the search as
-    "locked" for a caller that asks only whether the bridge carries it, the path unchanged
-    (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it replaced listed in
+    "locked" for a caller that asks only whether the bridge carries it, the path unchanged; or a function giving it,
+    asked before every load step (collective: the same on every rank of ``comm``), for a caller whose ``enough`` can
+    fall while the run goes on (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it replaced listed in
     ``Analysis.refinements``."""
     def analyse(mesh_scene: Scene, coarser: float | None, budget: int | None, path: CoarserPath | None) -> Analysis:
         return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough)
@@ -134,7 +136,7 @@ def _conclude(an: Analysis, comm: MPI.Comm) -> None:
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
              coarser: float | None = None, budget: int | None = None, path: CoarserPath | None = None,
-             joint_law: JointLawFactory | None = None, enough: float = math.inf) -> Analysis:
+             joint_law: JointLawFactory | None = None, enough: float | Callable[[], float] = math.inf) -> Analysis:
     """One run of the scene's mesh (module docstring, steps 1-4); ``coarser``: the last converged level (N per unit
     load factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
     ``path`` that run's converged path, a bare ring's (its trials start from it: :mod:`bridgefem.search.coarser_path`);
@@ -162,7 +164,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
 
 def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | None, bound: StaticCap | None,
             report: Callable[[LoadStep], None], coarser: float | None, budget: int | None, path: CoarserPath | None,
-            enough: float = math.inf) -> tuple[LimitSearch, list[ConvergedState]]:
+            enough: float | Callable[[], float] = math.inf) -> tuple[LimitSearch, list[ConvergedState]]:
     """The limit search of one run (module docstring, step 3) on the model ``fe``, with the rigid ``blocks`` loaded
     as the FE loads them and the static ``bound`` (None with a fill); returns the search and its converged states,
     each kept for the output's time series and a re-run's coarser path. A search that spends its ``budget`` of linear
@@ -196,7 +198,8 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
                                                           s.tolerance, total),
                                   predicted=predictor.predict if predictor is not None else None,
                                   coarser_path=path.guide(solver) if path is not None else None)
-            settings = search_settings(scene, model.dead_weight, coarser, enough / total)
+            level = (lambda: enough() / total) if callable(enough) else enough / total
+            settings = search_settings(scene, model.dead_weight, coarser, level)
             search = find_limit_load(solver, under_load, settings,
                                      guides=guides, observers=SearchObservers(report=note, converged=keep))
     except SolveBudgetSpent as spent:
@@ -218,13 +221,13 @@ def first_step(dead_weight: float, coarser: float | None = None) -> float:
     return max(dead_weight / 4, coarser or 0.0)
 
 
-def search_settings(scene: Scene, dead_weight: float, coarser: float | None = None, enough: float = math.inf
-                    ) -> SearchSettings:
+def search_settings(scene: Scene, dead_weight: float, coarser: float | None = None,
+                    enough: float | Callable[[], float] = math.inf) -> SearchSettings:
     """The limit search's settings from the scene's keys, their zeros resolved: the first step :func:`first_step`
     of the ring's ``dead_weight`` (N) and the ``coarser`` run's last converged level (N per unit load factor; None on
     a first run), the maximum load 100 x ``dead_weight`` (0 without live loads: self-weight only); the flat-curve
     check only with a fill, the support movement's increments only where a support moves; ``enough``: the level (N
-    per unit load factor) of :func:`run_analysis`'s ``enough`` load."""
+    per unit load factor) of :func:`run_analysis`'s ``enough`` load, or the function giving it."""
     s, abutments = scene.solver, scene.abutments
     return SearchSettings(tolerance=s.tolerance, initial_step=s.initial_step or first_step(dead_weight, coarser),
                           max_load=(s.max_load or 100 * dead_weight) if scene.loads else 0.0, max_steps=s.max_steps,

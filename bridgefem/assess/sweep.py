@@ -21,20 +21,32 @@ least over all positions (LimitState:RING's adequacy factor). Method:
    through the fill itself, may be least where another rule's LP is, a few centimetres away. The adequacy factor is the
    least FE bracket; a position whose vehicle cannot collapse the bridge is "locked", never a number. The positions are
    confirmed in the order of the factor their own screen gives them, least first.
-4. **Prune**: once a group of ranks (below) has an FE bracket, its later confirmations of the same scene stop as
-   soon as they carry that bracket's upper end, the *ceiling* (the analysis's ``enough`` load,
+4. **Prune**: once a confirmation of a scene has an FE bracket, every confirmation of the scene still running or
+   started later stops as soon as it carries the least upper end of the scene's brackets found so far, the
+   *ceiling* (the analysis's ``enough`` load, asked before every load step,
    :func:`bridgefem.analysis.runner.run_analysis`): a position that carries it cannot be critical, so its search
    need not find its own limit, nor fail trying (a search near a fill's limit takes the most steps). The ceiling
    bounds no trial, so a position that collapses below it gets the bracket it gets without one: the adequacy
-   factor, its position and its bracket do not depend on which confirmations were pruned.
+   factor, its position and its bracket do not depend on which confirmations were pruned, nor on when.
 
 **Parallel** (mpi4py): the positions of every step are independent. Screening and refining split them round-robin
-over the ranks (gathered in position order, so the answer does not depend on the ranks); the FE confirmations of all
-the scenes given (``bridgefem assess a.toml b.toml``) go to groups of ranks (``comm.Split``: one group per
-confirmation while there are ranks enough, a group's confirmations one after the other otherwise), each solved on
-its group's communicator, the results gathered on every rank. Each group prunes with its own brackets (step 4), so
-which positions end at a ceiling can depend on the number of ranks; the adequacy factor, its position and its
-bracket cannot.
+over the ranks (gathered in position order, so the answer does not depend on the ranks). The FE confirmations of all
+the scenes given (``bridgefem assess a.toml b.toml``) are shared out as they go (:func:`_confirm`):
+
+1. The ranks split into groups (``comm.Split``): one group per confirmation while there are ranks enough, else one
+   rank each; each FE run is solved on its group's communicator.
+2. The confirmations are queued each scene's first (least screen factor) first, then each scene's second, and so
+   on: the runs that give the ceilings start first.
+3. A group that is free takes the next confirmation of the queue; one rank of each group reads and writes what the
+   groups share, an MPI one-sided window on rank 0 (:class:`_Board`: the index of the next confirmation, and per
+   scene its ceiling), with atomic operations that need no other rank's part, and broadcasts what it read over its
+   group.
+4. Before each load step a run reads its scene's ceiling (step 4 above); a bracket found lowers it at once for
+   every group.
+5. The results are gathered on every rank, each scene's confirmations in queue order.
+
+Which group runs which confirmation, and which end at a ceiling, depend on the timing and the number of ranks; the
+adequacy factor, its position and its bracket do not (step 4).
 """
 from __future__ import annotations
 
@@ -42,6 +54,8 @@ import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable
+
+import numpy as np
 
 from ..scene.document import edit
 from ..scene.model import Scene
@@ -80,8 +94,8 @@ class Confirmation:
     ``adequacy`` (lower, upper or None) the FE bracket over that load, ``lp_factor`` the LP's factor there,
     ``summary`` what :func:`assess` was given to describe the analysis with (results.json's entries), ``seconds``,
     ``proposed_by`` the dispersion rule whose LP screen proposed the position when it is not the scene's (None),
-    ``ceiling`` the adequacy factor at which its search stopped as carried (step 4 of the module docstring; None:
-    no ceiling)."""
+    ``ceiling`` its scene's ceiling in force when its search ended, at which a search stops as carried (step 4 of
+    the module docstring; None: no ceiling)."""
 
     x0: float
     load: float
@@ -271,40 +285,94 @@ def _candidates(a: Assessment, confirm: int) -> list[tuple[PositionLP, str | Non
     return sorted(out, key=lambda c: _value(c[0]) if c[1] is None else _value(a.dispersion_minima[c[1]]))
 
 
+class _Board:
+    """What the groups of ranks share while they confirm (module docstring, *Parallel*, step 3): an MPI one-sided
+    window on rank 0 of ``comm`` holding the index of the next confirmation to take and, per assessment, its ceiling
+    (the least upper end of its FE brackets so far; inf without one). Created and freed collectively over ``comm``;
+    in between one rank takes, reads and lowers without the others' taking part (atomic operations under a shared
+    lock)."""
+
+    def __init__(self, comm, assessments: int):
+        from mpi4py import MPI
+
+        self.mpi = MPI
+        self.win = MPI.Win.Allocate(8 * (1 + assessments) if comm.rank == 0 else 0, 8, comm=comm)
+        if comm.rank == 0:
+            self.win.Lock(0)
+            self.win.Put(np.array([0.0] + [math.inf] * assessments), 0)
+            self.win.Unlock(0)
+        comm.Barrier()
+
+    def _op(self, slot: int, value: float, op) -> float:
+        """The slot's value before ``op`` (with ``value``) changed it."""
+        got = np.empty(1)
+        self.win.Lock(0, self.mpi.LOCK_SHARED)
+        self.win.Fetch_and_op(np.array([value]), got, 0, slot, op)
+        self.win.Unlock(0)
+        return float(got[0])
+
+    def take(self) -> int:
+        """The index of the next confirmation (one past the last when none is left)."""
+        return int(self._op(0, 1.0, self.mpi.SUM))
+
+    def ceiling(self, i: int) -> float:
+        """Assessment ``i``'s ceiling now."""
+        return self._op(1 + i, 0.0, self.mpi.NO_OP)
+
+    def lower(self, i: int, upper: float) -> None:
+        """A bracket of assessment ``i`` with this ``upper`` end was found."""
+        self._op(1 + i, upper, self.mpi.MIN)
+
+    def free(self) -> None:
+        self.win.Free()
+
+
+def _queue(assessments: list[Assessment], confirm: int) -> list[tuple[int, PositionLP, str | None]]:
+    """The confirmations (assessment index, position, proposing rule) in the order they are taken (module docstring,
+    *Parallel*, step 2): each assessment's first, then each one's second, and so on."""
+    ranked = [(j, i, m, rule) for i, a in enumerate(assessments) for j, (m, rule) in enumerate(_candidates(a, confirm))]
+    return [(i, m, rule) for _, i, m, rule in sorted(ranked, key=lambda r: r[:2])]
+
+
 def _confirm(assessments: list[Assessment], comm, confirm: int, describe: Callable, progress) -> None:
-    """Step 3: the FE runs of every assessment, over groups of ranks (module docstring, *Parallel*)."""
+    """Step 3: the FE runs of every assessment, shared out over groups of ranks as they go (module docstring,
+    *Parallel*, steps 1-5), each pruned by its assessment's ceiling (step 4). Collective over ``comm``."""
     from ..analysis.runner import run_analysis
 
-    items = [(i, m, rule) for i, a in enumerate(assessments) for m, rule in _candidates(a, confirm)]
+    items = _queue(assessments, confirm)
     if not items:
         return
     start = time.perf_counter()
-    groups = min(comm.size, len(items))
-    color = comm.rank % groups
-    sub = comm.Split(color, comm.rank)
+    sub = comm.Split(comm.rank % min(comm.size, len(items)), comm.rank)
+    board = _Board(comm, len(assessments))
     mine = []
-    ceilings: dict[int, float] = {}  # per assessment: the least upper end of this group's brackets (step 4)
     try:
-        for k in range(color, len(items), groups):
+        while (k := sub.bcast(board.take() if sub.rank == 0 else None)) < len(items):
             i, m, rule = items[k]
             t0 = time.perf_counter()
             pl = place(assessments[i].scene, m.x0)
-            ceiling = ceilings.get(i)
-            an = run_analysis(pl.scene, sub, enough=math.inf if ceiling is None else ceiling * pl.load)
+            read = [math.inf]  # the ceilings read so far, the last in force
+
+            def enough(i=i, load=pl.load, read=read) -> float:
+                read.append(sub.bcast(board.ceiling(i) if sub.rank == 0 else None))
+                return read[-1] * load
+
+            an = run_analysis(pl.scene, sub, enough=enough)
             data = describe(an)
             lim = data["limit_load"]
             status = data["status"]
             adequacy = (lim["lower"] / pl.load, None if lim["upper"] is None else lim["upper"] / pl.load) \
                 if Status.of(status) is Status.LIMIT else None
-            if adequacy is not None and adequacy[1] is not None:
-                ceilings[i] = min(adequacy[1], ceilings.get(i, math.inf))
+            if adequacy is not None and adequacy[1] is not None and sub.rank == 0:
+                board.lower(i, adequacy[1])
             c = Confirmation(m.x0, pl.load, status, adequacy, m.factor, data, time.perf_counter() - t0, rule,
-                             ceiling)
+                             read[-1] if math.isfinite(read[-1]) else None)
             if sub.rank == 0:
                 mine.append((k, c))
                 progress(_line(assessments[i].scene, c))
             del an
     finally:
+        board.free()
         sub.Free()
     found = dict(kv for part in comm.allgather(mine) for kv in part)
     for k, (i, _, _) in enumerate(items):

@@ -19,8 +19,9 @@ path dependent, so every trial is solved from the last converged state ``lower``
    settled state's tangent stiffness is measured (:mod:`bridgefem.search.step`, *Flat curve*).
 4. The target T is set from the static bound, the guess and a coarser run's bracket (:mod:`bridgefem.search.target`,
    *Guess*).
-5. Until a rule ends the search, ``max_load`` or the settings' ``enough`` level is carried ("locked") or
-   ``max_steps`` steps were attempted (a solver failure), four stages repeat (:class:`_Search`):
+5. Until a rule ends the search, ``max_load`` or the settings' ``enough`` level (as it is before each trial) is
+   carried ("locked") or ``max_steps`` steps were attempted (a solver failure), four stages repeat
+   (:class:`_Search`):
 
    a. ``next_trial`` chooses the level: the soft bound when due, the closing trial above a state within the width
       of its collapse level, an approach step to T, a bisection towards the soft bound, else ``lower`` plus the
@@ -203,7 +204,7 @@ class _Search:
         """The four stages until a rule ends the search, the maximum load or the ``enough`` level is carried or the
         settings' ``max_steps`` steps were attempted."""
         while len(self.steps) < self.settings.max_steps:
-            if self.bracket.lower >= min(self.settings.max_load, self.settings.enough):
+            if self.bracket.lower >= min(self.settings.max_load, self.settings.enough_level()):
                 return self.result(LOCKED)
             trial = self.next_trial()
             out = self.solve(trial)

@@ -111,7 +111,9 @@ class SearchSettings:
     movement*); 0: no movement.
     ``enough``: a level (N per unit load factor) whose carrying also ends the search as "locked", for a caller that
     asks only whether the structure carries it; unlike ``max_load`` it bounds no trial, so the path, and the bracket
-    of a structure that collapses below it, are those of the search without it; inf: none.
+    of a structure that collapses below it, are those of the search without it; inf: none. Or a function giving
+    that level, asked before every trial (:meth:`enough_level`), for a caller whose level can fall while the search
+    runs; collective, the same on every rank.
     """
 
     tolerance: float
@@ -120,7 +122,11 @@ class SearchSettings:
     max_steps: int
     stiffness_drop: float = 0.0
     movement_steps: int = 0
-    enough: float = math.inf
+    enough: float | Callable[[], float] = math.inf
+
+    def enough_level(self) -> float:
+        """The ``enough`` level now (collective when ``enough`` is a function)."""
+        return self.enough() if callable(self.enough) else self.enough
 
 
 @dataclass(frozen=True)
