@@ -10,8 +10,10 @@ CPU time of each process depends on them much less. Method:
    results and pictures ``_describe``), each recording its wall and CPU time (``time.process_time``); at its exit
    every process writes them with its total CPU since the interpreter started.
 3. The table: per process, CPU s of the start (to the first LP level), the LP, each FE run, each results-and-pictures,
-   the rest and the total; and serial CPU / the largest 2-rank process's CPU, the ratio two ranks would reach if CPU
-   time were wall time (the ranks' waits in collectives count as CPU with Open MPI, which polls).
+   the rest and the total; and serial CPU / the 2 ranks' critical path, the ratio two ranks would reach if CPU time
+   were wall time. Open MPI polls while a rank waits in a collective, so a rank's waits count as its CPU: the rank
+   that finishes first waits for the other in the last gather (in its "rest"), and the critical path is the
+   largest CPU outside "rest" plus the least "rest".
 
 Run: ``./run python benchmarks/assess_phases.py [--bridge prestwood] [--step 0.05]``.
 """
@@ -65,13 +67,14 @@ def child(out: Path, argv: list[str]) -> int:
     return main(["assess", *argv])
 
 
-def row(name: str, data: dict) -> str:
+def row(name: str, data: dict) -> tuple[str, float]:
+    """The table's row of one process, and its "rest" (CPU s outside the timed phases)."""
     lp = sum(c for p, _, c in data["marks"] if p == "lp")
     fe = [c for p, _, c in data["marks"] if p == "fe"]
     res = [c for p, _, c in data["marks"] if p == "results"]
     rest = data["cpu"] - data["imports"] - lp - sum(fe) - sum(res)
     return (f"| {name} | {data['imports']:.2f} | {lp:.2f} | {' + '.join(f'{c:.2f}' for c in fe)} | "
-            f"{' + '.join(f'{c:.2f}' for c in res)} | {rest:.2f} | **{data['cpu']:.2f}** |")
+            f"{' + '.join(f'{c:.2f}' for c in res)} | {rest:.2f} | **{data['cpu']:.2f}** |"), rest
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -101,13 +104,16 @@ def main(argv: list[str] | None = None) -> int:
             ranks = sorted(Path(tmp).glob(f"{tag.name}.*.json"))
             for f in ranks:
                 data = json.loads(f.read_text())
-                cpu.setdefault(name, []).append(data["cpu"])
-                lines.append(row(f"{name}, rank {f.name.split('.')[1]} (wall {wall:.2f} s)", data))
+                line, rest = row(f"{name}, rank {f.name.split('.')[1]} (wall {wall:.2f} s)", data)
+                cpu.setdefault(name, []).append((data["cpu"], rest))
+                lines.append(line)
     print(f"{args.bridge}, step {args.step}; load average (1 min) {load:.2f} before, {os.getloadavg()[0]:.2f} after "
           f"on {os.cpu_count()} CPUs\n")
     print("| process | start (imports) | LP levels | FE runs | results and pictures | rest | CPU s in all |\n"
           "|---|---|---|---|---|---|---|\n" + "\n".join(lines))
-    print(f"\nserial CPU / the largest 2-rank process's: {cpu['serial'][0] / max(cpu['2 ranks']):.2f}")
+    ranks = cpu["2 ranks"]
+    critical = max(c - r for c, r in ranks) + min(r for _, r in ranks)
+    print(f"\n2 ranks' critical path {critical:.2f} CPU s; serial CPU / that: {cpu['serial'][0][0] / critical:.2f}")
     return 0
 
 
