@@ -128,6 +128,51 @@ def bridgefem(*args, ranks: int = 1, timeout: int = 600, cwd: Path = ROOT, env: 
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd)
 
 
+MPI_BRACKET_SCRIPT = """
+import json, sys
+from mpi4py import MPI
+import bridgefem
+r = bridgefem.analyse(bridgefem.load_scene(sys.argv[1]), comm=MPI.COMM_WORLD)
+print(json.dumps([MPI.COMM_WORLD.rank, r.status, r.limit_load.lower, r.limit_load.upper]))
+"""
+
+
+def assert_two_ranks_give(path: Path, serial, rel: float = 1e-6) -> None:
+    """``mpirun -n 2`` of the scene at ``path`` (the public API on each rank): every rank has the serial analysis'
+    status and bracket (``serial``: :func:`bridgefem.analysis.runner.run_analysis` of the same scene), to ``rel``."""
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_BRACKET_SCRIPT, str(path)],
+                          capture_output=True, text=True, timeout=900, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = sorted(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
+    total = serial.load_total
+    assert [r[:2] for r in rows] == [[0, serial.search.status], [1, serial.search.status]]
+    for _, _, lower, upper in rows:
+        assert lower == pytest.approx(serial.search.lower * total, rel=rel)
+        assert upper == pytest.approx(serial.search.upper * total, rel=rel)
+
+
+def readme_section(heading: str, next_heading: str) -> str:
+    """The README's section from ``heading`` to ``next_heading``."""
+    readme = (ROOT / "README.md").read_text()
+    return readme[readme.index(heading):readme.index(next_heading)]
+
+
+def assert_readme_lp(capsys, heading: str, next_heading: str, demo: str) -> str:
+    """``bridgefem lp demos/<demo>`` prints the ```text block of the README's section from ``heading`` to
+    ``next_heading`` (but the seconds it printed in parentheses); returns the section."""
+    from bridgefem.io.cli import main
+
+    def timeless(text: str) -> str:
+        return re.sub(r" \(\d+\.\d+ s\)", "", text)
+
+    section = readme_section(heading, next_heading)
+    assert main(["lp", str(ROOT / "demos" / demo)]) == 0
+    assert timeless(capsys.readouterr().out) == timeless(re.search(r"```text\n(.*?)```", section, re.S).group(1))
+    return section
+
+
 def run_campaign_scene(tmp_path: Path, index: int, thickness: float, seed: int = 1) -> dict:
     """Run campaign scene ``index`` of ``seed`` at ``thickness`` (m) through the command line; assert it ends in a
     limit load that agrees with the LP on the same joints; its results.json."""

@@ -2,16 +2,11 @@
 alone, the FE against the LP, and the same answer under mpirun -n 2."""
 from __future__ import annotations
 
-import json
 import math
-import os
-import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, write_toml
+from conftest import ROOT, assert_readme_lp, assert_two_ranks_give, readme_section, write_toml
 from mpi4py import MPI
 
 import bridgefem
@@ -19,7 +14,6 @@ from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.geometry.ring import polygon_area_centroid
-from bridgefem.io.cli import main
 from bridgefem.limit.bounds import fill_bounds
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.rigid_block import dead_load_deficit
@@ -256,23 +250,10 @@ def test_the_fe_on_slender_piers_agrees_with_the_lp_and_hinges_a_pier():
     assert any(an.ring.joints[j].kind == "pier" for j in an.lp.by_joint.hinges)
 
 
-def readme_section() -> str:
-    readme = (ROOT / "README.md").read_text()
-    return readme[readme.index("## Several spans"):readme.index("## A bridge with its fill")]
-
-
 def test_the_readme_example_prints_what_the_readme_shows(capsys):
     """README, *Several spans*: ``bridgefem lp demos/three_span.toml`` prints what the README shows (but the seconds),
     and the span on rigid springings it quotes is the LP's."""
-    section = readme_section()
-    shown = re.search(r"```text\n(.*?)```", section, re.S).group(1)
-    assert main(["lp", str(ROOT / "demos" / "three_span.toml")]) == 0
-    printed = capsys.readouterr().out
-
-    def timeless(text):
-        return re.sub(r" \(\d+\.\d+ s\)", "", text)
-
-    assert timeless(printed) == timeless(shown)
+    section = assert_readme_lp(capsys, "## Several spans", "## A bridge with its fill", "three_span.toml")
     scene = bridgefem.load_scene(ROOT / "demos" / "three_span.toml")
     rigid = bridgefem.edit(scene, pier=[{"width": 6.0, "height": 0.5}] * 2)
     assert f"carries {collapse_load(rigid).load / 1e3:.3f} kN" in section
@@ -282,7 +263,7 @@ def test_the_readme_example_prints_what_the_readme_shows(capsys):
 def test_the_readme_fe_bracket_is_the_runs():
     an = run_analysis(bridgefem.load_scene(ROOT / "demos" / "three_span.toml"), MPI.COMM_WORLD)
     lower, upper = (v * an.load_total / 1e3 for v in (an.search.lower, an.search.upper))
-    assert f"in [{lower:.3f}, {upper:.3f}] kN" in readme_section()
+    assert f"in [{lower:.3f}, {upper:.3f}] kN" in readme_section("## Several spans", "## A bridge with its fill")
 
 
 @pytest.mark.slow
@@ -300,30 +281,10 @@ def test_a_fill_over_two_spans_stays_within_its_conic_bounds():
     assert an.search.upper * an.load_total <= bounds["upper"] * (1 + AGREEMENT)
 
 
-MPI_SCRIPT = """
-import json, sys
-from mpi4py import MPI
-import bridgefem
-r = bridgefem.analyse(bridgefem.load_scene(sys.argv[1]), comm=MPI.COMM_WORLD)
-print(json.dumps([MPI.COMM_WORLD.rank, r.status, r.limit_load.lower, r.limit_load.upper]))
-"""
-
-
 @pytest.mark.mpi
 @pytest.mark.slow
 def test_two_ranks_give_the_serial_bracket(tmp_path):
     """mpirun -n 2 on three spans on slender piers: every rank has the serial bracket."""
     d = bridge([SLENDER], point(3.6))
     path = write_toml(tmp_path / "bridge.toml", d)
-    serial = run_analysis(scene_from_dict(d), MPI.COMM_WORLD)
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
-    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_SCRIPT, str(path)], capture_output=True,
-                          text=True, timeout=900, env=env, cwd=ROOT)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    rows = sorted(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
-    total = serial.load_total
-    assert [r[:2] for r in rows] == [[0, serial.search.status], [1, serial.search.status]]
-    for _, _, lower, upper in rows:
-        assert lower == pytest.approx(serial.search.lower * total, rel=1e-6)
-        assert upper == pytest.approx(serial.search.upper * total, rel=1e-6)
+    assert_two_ranks_give(path, run_analysis(scene_from_dict(d), MPI.COMM_WORLD))

@@ -5,14 +5,10 @@ crushing), and the limit load against the rigid-block LP on the same blocks.
 The FE/LP checks: frictionless ring interfaces are exact for rigid blocks (associated and non-associated flow
 coincide), so there the FE equals the LP within the usual FE/LP agreement (0.5 %); with friction the FE is at or
 below the associative LP; aligned rings bonded by a large cohesion are the monolithic ring."""
-import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, write_toml
+from conftest import assert_two_ranks_give, scene_dict, write_toml
 from mpi4py import MPI
 
 from bridgefem.analysis.runner import run_analysis
@@ -239,15 +235,6 @@ def test_aligned_rings_bonded_by_cohesion_are_the_monolithic_ring():
     assert bonded.search.lower == pytest.approx(one.lp.load, rel=AGREEMENT)
 
 
-MPI_SCRIPT = """
-import json, sys
-from mpi4py import MPI
-import bridgefem
-r = bridgefem.analyse(bridgefem.load_scene(sys.argv[1]), comm=MPI.COMM_WORLD)
-print(json.dumps([MPI.COMM_WORLD.rank, r.status, r.limit_load.lower, r.limit_load.upper]))
-"""
-
-
 @pytest.mark.mpi
 @pytest.mark.slow
 def test_two_ranks_give_the_serial_bracket(tmp_path):
@@ -255,15 +242,4 @@ def test_two_ranks_give_the_serial_bracket(tmp_path):
     d = scene_dict(arch={"thickness": 1.5, "rings": 2, "ring_bond": "staggered"}, joints={"ring_friction": 0.0},
                    mesh={"elements_through_thickness": 2})
     path = write_toml(tmp_path / "rings.toml", d)
-    serial = run_analysis(scene_from_dict(d), MPI.COMM_WORLD)
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
-    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_SCRIPT, str(path)], capture_output=True,
-                          text=True, timeout=900, env=env, cwd=ROOT)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    rows = sorted(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
-    total = serial.load_total
-    assert [r[:2] for r in rows] == [[0, serial.search.status], [1, serial.search.status]]
-    for _, _, lower, upper in rows:
-        assert lower == pytest.approx(serial.search.lower * total, rel=1e-6)
-        assert upper == pytest.approx(serial.search.upper * total, rel=1e-6)
+    assert_two_ranks_give(path, run_analysis(scene_from_dict(d), MPI.COMM_WORLD))

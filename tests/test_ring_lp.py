@@ -1,17 +1,15 @@
 """The rigid-block LP and the conic bounds on barrels of several rings (#41) against independent values: the
 monolithic ring, closed forms of one or two blocks, and the least thickness of one ring."""
 import dataclasses
-import re
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict
+from conftest import ROOT, assert_readme_lp, scene_dict
 
 import bridgefem
 from bridgefem.analysis.thrust import line_of_thrust
 from bridgefem.assess.dispersion import dispersed_forces, dispersed_lp
-from bridgefem.io.cli import main
 from bridgefem.laws.crushing import CrushingJoints
 from bridgefem.limit.bounds import collapse_bounds
 from bridgefem.limit.collapse import collapse_load
@@ -213,16 +211,7 @@ def lp_states(res, n_joints):
 def test_the_readme_rings_example_prints_what_the_readme_shows(capsys):
     """README, *Rings*: ``bridgefem lp demos/multi_ring.toml`` prints what the README shows (but the seconds), and the
     monolithic ring and the bonded rings it quotes are the LP's."""
-    readme = (ROOT / "README.md").read_text()
-    section = readme[readme.index("## Rings"):readme.index("## A bridge with its fill")]
-    shown = re.search(r"```text\n(.*?)```", section, re.S).group(1)
-    assert main(["lp", str(ROOT / "demos" / "multi_ring.toml")]) == 0
-    printed = capsys.readouterr().out
-
-    def timeless(text):
-        return re.sub(r" \(\d+\.\d+ s\)", "", text)
-
-    assert timeless(printed) == timeless(shown)
+    section = assert_readme_lp(capsys, "## Rings", "## Several spans", "multi_ring.toml")
     scene = bridgefem.load_scene(ROOT / "demos" / "multi_ring.toml")
     mono = collapse_load(bridgefem.edit(scene, arch={"rings": 1})).load
     bonded = collapse_load(bridgefem.edit(scene, joints={"ring_cohesion": 20e3})).load
