@@ -9,8 +9,8 @@ first span's springing line on the intrados. Every springing is at y = 0; pier k
 
 :func:`build_bridge`, given each span's barrel in its own frame (:func:`bridgefem.geometry.ring.build_ring`):
 
-1. places span k + 1's left springing ``width`` of pier k to the right of span k's right springing (each barrel
-   moved by its midspan's x);
+1. moves each barrel to its midspan's x in the bridge's frame (given: span k + 1's left springing ``width`` of pier k
+   to the right of span k's right one, :func:`bridgefem.scene.model.span_ranges`);
 2. numbers the blocks and joints of the bridge: the voussoirs of span 0, then span 1, ... (each span's in its own
    order), then the piers' courses (pier 0 from its top course down, then pier 1, ...); the joints of span 0, then
    span 1, ..., then each pier's bed joints from the top down, its foundation last;
@@ -67,23 +67,15 @@ def _moved(barrel: ArchRing, dx: float, first_block: int, first_joint: int, span
                                joints_at_x=frozenset(x + dx for x in barrel.joints_at_x))
 
 
-def span_centres(spans: list[float], widths: list[float]) -> list[float]:
-    """The x (m) of each span's midspan in the bridge's frame (the first at 0), from the spans (m) and the piers'
-    widths (m) between them."""
-    centres = [0.0]
-    for k, w in enumerate(widths):
-        centres.append(centres[-1] + spans[k] / 2 + w + spans[k + 1] / 2)
-    return centres
-
-
-def build_bridge(barrels: list[ArchRing], piers: list[PierShape], top_x: list[float] = ()) -> ArchRing:
+def build_bridge(barrels: list[ArchRing], piers: list[PierShape], centres: list[float],
+                 top_x: list[float] = ()) -> ArchRing:
     """The bridge of ``barrels`` (each span's, in its own frame, left to right) on ``piers`` (one fewer): steps 1-3
-    of the module docstring; ``top_x``: the horizontal positions (m, bridge frame) of the loads and patch edges over
-    the piers' tops, each a vertex of its pier's top edge (a mesh node). Raises ValueError for a pier its spans'
-    springings do not fit on."""
-    if len(piers) != len(barrels) - 1:
-        raise ValueError(f"{len(barrels)} spans need {len(barrels) - 1} piers, not {len(piers)}")
-    centres = span_centres([b.span for b in barrels], [p.width for p in piers])
+    of the module docstring, each barrel moved to its midspan's x in ``centres`` (m, bridge frame: the spans side by
+    side, each pier's width apart, :func:`bridgefem.scene.model.span_ranges`); ``top_x``: the horizontal positions
+    (m, bridge frame) of the loads and patch edges over the piers' tops, each a vertex of its pier's top edge (a mesh
+    node). Raises ValueError for a pier its spans' springings do not fit on."""
+    if len(piers) != len(barrels) - 1 or len(centres) != len(barrels):
+        raise ValueError(f"{len(barrels)} spans need {len(barrels) - 1} piers and {len(barrels)} centres")
     moved, n_blocks, n_joints = [], 0, 0
     for k, (barrel, x) in enumerate(zip(barrels, centres)):
         moved.append(_moved(barrel, x, n_blocks, n_joints, k))

@@ -54,10 +54,11 @@ def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
     (:func:`bridgefem.geometry.bridge.build_bridge`)."""
     ab = scene.abutments
     edges, labels = scene.load_edges_x(), load_labels(scene)
-    barrels, on_spans = [], set()
+    barrels, on_spans, centres = [], set(), []
     try:
         for a, (left, right) in zip(scene.arches, scene.span_ranges()):
             centre = 0.5 * (left + right)
+            centres.append(centre)
             t = a.thickness if thickness is None else thickness * (a.thickness / scene.arch.thickness)
             reach = abs(t * make_shape(a.shape, a.span, a.rise).normal(0.0)[0])  # to the extrados corner
             mine = [k for k, x in enumerate(edges) if left - reach <= x <= right + reach]
@@ -66,7 +67,7 @@ def scene_ring(scene: Scene, thickness: float | None = None) -> ArchRing:
                                       a.joint_at_loads, [labels[k] for k in mine],
                                       tuple(r * t / a.thickness for r in a.ring_layers), a.ring_bond))
         ring = barrels[0] if len(barrels) == 1 else build_bridge(barrels, [
-            PierShape(p.width, p.height, p.batter, p.blocks) for p in scene.piers],
+            PierShape(p.width, p.height, p.batter, p.blocks) for p in scene.piers], centres,
             [x for k, x in enumerate(edges) if k not in on_spans])
     except ValueError as err:
         raise SceneError(str(err)) from None
