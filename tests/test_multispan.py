@@ -12,6 +12,7 @@ from mpi4py import MPI
 import bridgefem
 from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.runner import run_analysis
+from bridgefem.analysis.thrust import _line
 from bridgefem.assess.sweep import assess, lp_at
 from bridgefem.geometry.ring import polygon_area_centroid
 from bridgefem.limit.bounds import fill_bounds
@@ -87,6 +88,20 @@ def test_the_resolved_bridge_reads_back_as_the_same_scene():
 
 
 # --------------------------------------------------------------------------------------------------------- geometry
+def test_elastic_abutments_stand_at_the_bridges_ends():
+    """Elastic abutments under a bridge of several spans: blocks after the pier courses, under the first span's left
+    springing and the last span's right one; their bases belong to no span, and the line of thrust draws each base on
+    its end span's line."""
+    d = bridge([STOCKY], point(2.0), abutments={"model": "elastic", "height": 2.0})
+    ring = scene_ring(scene_from_dict(d))
+    left, right = ring.abutments
+    assert left.id == ring.n_voussoirs + len(ring.piers) and right.id == left.id + 1
+    assert left.polygon[:, 0].max() == pytest.approx(-SPAN["span"] / 2)  # the first span's left springing
+    assert right.polygon[:, 0].min() == pytest.approx(2 * 11.0 + SPAN["span"] / 2)  # the third span's right one
+    assert [j.span for j in ring.bases] == [None, None]
+    assert [_line(j, ring) for j in ring.bases] == [0, 2]
+
+
 def test_the_blocks_tile_the_bridge_and_every_joint_bears_on_its_blocks():
     """The spans and pier courses in one frame: the piers' area is width x height (+ batter), every springing on a
     pier names the pier's top course, every bed joint lies on its two courses' outlines."""

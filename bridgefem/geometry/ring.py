@@ -722,7 +722,7 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
         base_joint = Joint(len(joints), *base, None, None)
         ground_left = base_joint.normal[1] > 0  # the normal points up: from the ground into the block
         joints.append(dataclasses.replace(base_joint, left=None if ground_left else block,
-                                          right=block if ground_left else None, kind="base"))
+                                          right=block if ground_left else None, kind="base", span=None))
     return dataclasses.replace(ring, joints=joints, abutments=abutments)
 
 
