@@ -24,7 +24,7 @@ from bridgefem.limit.rigid_block import (
     statics,
 )
 from bridgefem.limit.ring_blocks import ring_model
-from bridgefem.scene.reader import scene_from_dict
+from bridgefem.scene.reader import load_scene, scene_from_dict
 
 
 def incline(theta, friction, weight=10.0, b=2.0, h=1.0):
@@ -229,3 +229,24 @@ def test_the_collapse_state_check_is_collective(tmp_path):
         assert parallel["limit_load"][end] == pytest.approx(serial["limit_load"][end], rel=1e-9)
     assert parallel["solver"]["solves"] == serial["solver"]["solves"]
     assert [r["solves"] for r in parallel["mesh_refinements"]] == [r["solves"] for r in serial["mesh_refinements"]]
+
+
+def test_lp_command_states_the_associative_load_when_no_fixed_point_stands(tmp_path, capsys):
+    """A barrel of four staggered rings whose rings slide along each other: the associative LP finds it standing
+    (the rings' dilatancy lets friction hold them), the non-associative iteration finds no state that carries the
+    self-weight. ``bridgefem lp --friction-model non-associative`` says so and states the associative collapse load
+    in kN: the associative LP's own, the point load on the crown joint shared by both voussoirs, within 1 %."""
+    from bridgefem.io.cli import main
+    scene = tmp_path / "barrel.toml"
+    scene.write_text('[scene]\nname = "barrel"\n[arch]\nshape = "semicircular"\nspan = 18.0\nthickness = 0.4\n'
+                     'width = 1.0\nvoussoirs = 6\nrings = 4\nring_bond = "staggered"\n[masonry]\nyoung = 9e8\npoisson = 0.2\n'
+                     'density = 2000.0\n'
+                     '[joints]\nfriction = 0.99\nring_friction = 0.336\nring_cohesion = 11000.0\n'
+                     '[[load]]\nkind = "point"\nposition = 0.5\n')
+    assert main(["lp", str(scene), "--friction-model", "non-associative"]) == 0
+    out = capsys.readouterr().out
+    assert "non-associative friction): unstable under self-weight" in out
+    stated = float(out.split("associative friction: ")[-1].split(" kN")[0])
+    associative = collapse_load(load_scene(scene))
+    assert associative.status == "limit load found"
+    assert stated == pytest.approx(associative.load / 1e3, rel=0.01)

@@ -119,7 +119,7 @@ class Analysis:
     @property
     def load_total(self) -> float:
         """Total live load (N) per unit load level (1 without live loads)."""
-        return sum(ld.factor for ld in self.scene.loads) or 1.0
+        return self.scene.live_per_level
 
     @property
     def n_dofs(self) -> int:

@@ -152,7 +152,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,
                              enough)
     clock.lap("limit search")
-    solver, lp, total = fe.solver, fe.lp, sum(ld.factor for ld in scene.loads) or 1.0
+    solver, lp, total = fe.solver, fe.lp, scene.live_per_level
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
                       fill=not bare, slip=slip_check(scene, comm, search, lp, joints, blocks),
@@ -175,7 +175,7 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
     under_load = (load_displacement(solver, model.f_live, model.live_per_level)
                   if solver.material is not None and model.live_per_level > 0
                   else monitor_deflection(solver, model.monitor))
-    total = sum(ld.factor for ld in scene.loads) or 1.0  # N of live load per unit level
+    total = scene.live_per_level
     states: list[ConvergedState] = []
     attempted: list[LoadStep] = []
 

@@ -348,7 +348,7 @@ def _lp(args) -> int:
             print(f"  point loads on joints (least favourable): {', '.join(sides)}")
         if res.friction_model != "associative" and res.level_associative is not None:
             fixed = "a fixed point" if res.converged else f"no fixed point in {res.iterations} LPs"
-            print(f"  associative friction: {res.level_associative * res.load / res.level / 1e3:.3f} kN; "
+            print(f"  associative friction: {res.level_associative * scene.live_per_level / 1e3:.3f} kN; "
                   f"non-associative: {fixed} (one collapse state of several, not a bound: docs/joints-and-lp.md)")
     return 1 if Status.of(res.status) is Status.FAILURE else 0
 

@@ -258,6 +258,12 @@ class Scene:
         of them ``arch``), else ``arch`` alone."""
         return self.spans or (self.arch,)
 
+    @property
+    def live_per_level(self) -> float:
+        """Total live load (N) per unit load level: the loads' factors summed (1 without live loads, so that a
+        level is then read as N)."""
+        return sum(ld.factor for ld in self.loads) or 1.0
+
     def span_ranges(self) -> list[tuple[float, float]]:
         """Each span's horizontal extent between its springings' intrados corners (m, in the frame whose origin is
         the first span's midspan), left to right (:func:`span_ranges`)."""
