@@ -14,6 +14,7 @@ import scipy.sparse as sp
 from conftest import campaign_scene
 
 from bridgefem.analysis.runner import run_analysis
+from bridgefem.laws.coulomb import CoulombJoints
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.solver.tresca import TrescaProblem
@@ -26,9 +27,15 @@ BLOCK = TrescaProblem(K, G)
 NO_OFFSET, NO_SLIP = np.zeros((1, 2)), np.zeros(1)
 
 
-def fixed_point(push: float, lift: float = -W):
-    """The Coulomb fixed point from a start without joint force (its first capacity is the floor)."""
-    return BLOCK.coulomb_fixed_point(np.array([push, lift]), NO_OFFSET, NO_SLIP, np.array([MU]), np.zeros(1))
+def law(cohesion: float = 0.0) -> CoulombJoints:
+    """The Coulomb law at the one pair, with a cohesion (N)."""
+    return CoulombJoints(np.array([MU]), np.array([K_Y]), 1e-9 * W, cohesion=np.array([cohesion]))
+
+
+def fixed_point(push: float, lift: float = -W, cohesion: float = 0.0):
+    """The Coulomb fixed point from a start without joint force (its first capacity is the cohesion, or the
+    floor)."""
+    return BLOCK.coulomb_fixed_point(np.array([push, lift]), NO_OFFSET, NO_SLIP, law(cohesion), np.zeros(1))
 
 
 def test_block_sticks_below_its_sliding_load():
@@ -46,6 +53,26 @@ def test_block_slides_past_its_sliding_load_without_dilatancy():
     assert step.lam_t[0] == pytest.approx(-MU * W, rel=1e-6)
     assert step.lam_n[0] == pytest.approx(W, rel=1e-6)
     assert abs(step.u[1]) < 1e-6 * W / K_Y  # no opening while it slides
+
+
+@pytest.mark.parametrize("share", [0.5, 2.0])
+def test_cohesion_adds_to_the_shear_the_block_carries(share):
+    """With a cohesion k (N) the block sticks below H = mu W + k and slides past it with lam_t = -(mu W + k)."""
+    k = 0.4 * MU * W
+    push = share * (MU * W + k)
+    step = fixed_point(push, cohesion=k)
+    assert step is not None and step.lam_n[0] == pytest.approx(W, rel=1e-6)
+    assert step.lam_t[0] == pytest.approx(-min(push, MU * W + k), rel=1e-6)
+    assert step.u[0] == pytest.approx(max(push - MU * W - k, 0.0) / K_X, rel=1e-6, abs=1e-6 * W / K_X)
+
+
+def test_lifted_block_keeps_its_cohesion():
+    """Lifted off the ground (open) the block still carries a push below its cohesion k: u_x = 0, lam_t = -H."""
+    k, push = 0.3 * W, 0.2 * W
+    step = fixed_point(push, lift=3.0e3, cohesion=k)
+    assert step is not None and abs(step.lam_n[0]) < 1e-6 * W
+    assert step.u[1] == pytest.approx(3.0e3 / K_Y, rel=1e-6)
+    assert step.lam_t[0] == pytest.approx(-push, rel=1e-6) and abs(step.u[0]) < 1e-6 * W / K_X
 
 
 def test_lifted_block_opens_with_no_joint_force():

@@ -20,8 +20,9 @@ one method per stage of the active-set Newton method, as deal.II's step-42 asks 
    bond pairs closed (:meth:`bond`), open pairs (:meth:`release`), let a reversal pass through the holding state
    (:meth:`hold_reversals`), keep a joint from sliding both ways (:meth:`hold_opposed_slips`), close the pairs of a
    repair (:meth:`repaired`), the candidate states of an exact enumeration on a few pairs (:meth:`candidates`), the
-   law as a complementarity problem (:meth:`complementarity`) and the law at a subset of the pairs
-   (:meth:`gathered`, :meth:`tiled`).
+   law as a complementarity problem (:meth:`complementarity`), the law at a subset of the pairs
+   (:meth:`gathered`, :meth:`tiled`) and the shear a pair carries at a given normal force (:meth:`shear_capacity`,
+   for the Tresca predictor).
 6. **Verdicts.** What a diverging mode may not do at each pair (:meth:`mode_rules`: which pairs a closing mode
    penetrates, which slips run against the friction force, and the tension an open pair still carries, which a
    proof's load work must exceed) and the forces of the sliding rows (:meth:`sliding_forces`), for
@@ -282,6 +283,12 @@ class JointLaw(ABC):
     def scale_constants(self, factor: float) -> None:
         """The Alart-Curnier constants multiplied by ``factor`` (a retry's setting)."""
         self.c = self.c * factor
+
+    def shear_capacity(self, normal: np.ndarray) -> np.ndarray:
+        """The shear (N) each pair carries before it slides under the normal forces ``normal`` (N, compression
+        positive): mu max(n, 0) here; a law with cohesion adds it. The Tresca fixed point's capacities
+        (:mod:`bridgefem.solver.tresca`)."""
+        return self.mu * np.maximum(normal, 0.0)
 
     def set_friction_factor(self, factor: float) -> None:
         """The Coulomb coefficients ``factor`` x the scene's from now on (the self-weight's friction continuation)."""

@@ -117,7 +117,7 @@ class CoulombJoints(JointLaw):
         tol = self.force_tol
         was_closed = prev.state != self.OPEN
         closed = np.where(was_closed, sig_n >= -tol, sig_n > tol)
-        excess = np.abs(sig_t) - (self.mu * np.maximum(sig_n, 0.0) + self.cohesion)
+        excess = np.abs(sig_t) - self.shear_capacity(sig_n)
         was_slip = np.abs(prev.sign) == 1
         sign = np.sign(sig_t).astype(np.int8)
         reversed_slip = was_slip & (sign != prev.sign)
@@ -135,7 +135,7 @@ class CoulombJoints(JointLaw):
         """The residual (N) with the normal force projected on [0, ``capacity``] (N) and the shear on the bound
         mu lam_n + k (module docstring)."""
         sig_n = np.clip(lam[:, 0] - self.c * d[:, 0], 0.0, capacity)
-        bound = self.mu * sig_n + self.cohesion
+        bound = self.shear_capacity(sig_n)
         sig_t = lam[:, 1] - self.c * (d[:, 1] - slip_ref)
         return np.column_stack([lam[:, 0] - sig_n, lam[:, 1] - np.clip(sig_t, -bound, bound)])
 
@@ -177,6 +177,10 @@ class CoulombJoints(JointLaw):
         return active.state == self.OPEN, ~self._holding(active)
 
     # ----------------------------------------------------------------- the solver's safeguards
+    def shear_capacity(self, normal: np.ndarray) -> np.ndarray:
+        """mu max(n, 0) + k (N): friction and the pair's cohesion, which an open pair keeps."""
+        return self.mu * np.maximum(normal, 0.0) + self.cohesion
+
     def hold(self, active: ContactState, pairs: np.ndarray) -> None:
         """The closed ones of ``pairs`` stick; open ones stay open, holding their shear if they have cohesion."""
         fix = pairs & (active.state != self.OPEN)

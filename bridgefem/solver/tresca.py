@@ -10,10 +10,11 @@ ch. 10: minimum potential energy with the friction dissipation):
 
 with G the relative displacement operator and o the ground offsets (:mod:`bridgefem.solver.system`). Its multipliers are
 the joint forces of the solver's convention, ``K u = f + G_n^T lam_n + G_t^T lam_t``: lam_n >= 0 (N, compression) on the
-contact rows and lam_t = -g sign(slip) where a pair slides, |lam_t| <= g where it sticks. The Coulomb law is the fixed
-point g = mu lam_n (mu: the joint law's coefficients; the Tresca fixed point of :mod:`bridgefem.limit.rigid_block`; slip
-without dilatancy, the FE's non-associative law): from g = mu x the start's normal forces, each QP's normal forces give
-the next capacities, until they settle (largest change below ``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A
+contact rows and lam_t = -g sign(slip) where a pair slides, |lam_t| <= g where it sticks (open or closed: a pair's
+cohesion is shear it carries open). The Coulomb law is the fixed point g = mu lam_n + k (mu: the joint law's
+coefficients, k its cohesion: :meth:`bridgefem.laws.base.JointLaw.shear_capacity`; the Tresca fixed point of
+:mod:`bridgefem.limit.rigid_block`; slip without dilatancy, the FE's non-associative law): from the capacities at the
+start's normal forces, each QP's normal forces give the next capacities, until they settle (largest change below ``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A
 settled fixed point is an equilibrium of the FE's own laws up to the QP's tolerance; the solver's *Predictor* classifies
 it against the start (:meth:`bridgefem.solver.newton.ContactSolver.solve_step`) and the Newton iteration verifies it. A
 prediction changes only the iteration's path, never what counts as converged. When and how the search uses it:
@@ -35,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
+from ..laws.base import JointLaw
 from ..limit.conic import clarabel_solve
 from .newton import ContactSolver, Iterate
 from .system import g_entries
@@ -84,13 +86,14 @@ class TrescaProblem:
         z = np.asarray(sol.z)
         return TrescaStep(np.asarray(sol.x)[:n] * unit, z[:m] * force, (z[2 * m:] - z[m:2 * m]) * force)
 
-    def coulomb_fixed_point(self, f: np.ndarray, offset: np.ndarray, slip_ref: np.ndarray, mu: np.ndarray,
+    def coulomb_fixed_point(self, f: np.ndarray, offset: np.ndarray, slip_ref: np.ndarray, law: JointLaw,
                             normal: np.ndarray) -> TrescaStep | None:
-        """The Tresca fixed point g = mu lam_n from the normal forces ``normal`` (N per pair): the last QP's
-        solution once its normal forces settled, None when a QP was not solved or they did not settle."""
+        """The Tresca fixed point g = the ``law``'s shear capacity at lam_n (:meth:`JointLaw.shear_capacity`, the law
+        at every pair) from the normal forces ``normal`` (N per pair): the last QP's solution once its normal forces
+        settled, None when a QP was not solved or they did not settle."""
         previous = np.maximum(normal, 0.0)
         for _ in range(TRESCA_QPS):
-            step = self.step(f, offset, slip_ref, mu * previous)
+            step = self.step(f, offset, slip_ref, law.shear_capacity(previous))
             if step is None:
                 return None
             lam_n = np.maximum(step.lam_n, 0.0)
@@ -136,12 +139,12 @@ class TrescaPredictor:
         factor) from the converged ``start``; None when it did not settle. Collective."""
         system, solver = self.system, self.solver
         _, lam, _ = system.split(start.x)
-        gathered = [self._gathered(a) for a in (system.loads(level), lam[:, 0], start.slip_ref, system.ground,
-                                                 solver.law.mu)]
+        gathered = [self._gathered(a) for a in (system.loads(level), lam[:, 0], start.slip_ref, system.ground)]
+        law = solver.law.gathered(np.ones(len(solver.pairs), dtype=bool), self.comm)
         problem, step = self._problem(), None
         if self.comm.rank == 0:
-            f, normal, slip_ref, offset, mu = gathered
-            step = problem.coulomb_fixed_point(f, offset, slip_ref, mu, normal)
+            f, normal, slip_ref, offset = gathered
+            step = problem.coulomb_fixed_point(f, offset, slip_ref, law, normal)
         shares = None
         if self.comm.rank == 0 and step is not None:
             u_cuts = np.cumsum([s[0] for s in self.sizes])[:-1]
