@@ -14,10 +14,11 @@ contact rows and lam_t = -g sign(slip) where a pair slides, |lam_t| <= g where i
 cohesion is shear it carries open). The Coulomb law is the fixed point g = mu lam_n + k (mu: the joint law's
 coefficients, k its cohesion: :meth:`bridgefem.laws.base.JointLaw.shear_capacity`; the Tresca fixed point of
 :mod:`bridgefem.limit.rigid_block`; slip without dilatancy, the FE's non-associative law): from the capacities at the
-start's normal forces, each QP's normal forces give the next capacities, until they settle (largest change below ``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A
-settled fixed point is an equilibrium of the FE's own laws up to the QP's tolerance; the solver's *Predictor* classifies
-it against the start (:meth:`bridgefem.solver.newton.ContactSolver.solve_step`) and the Newton iteration verifies it. A
-prediction changes only the iteration's path, never what counts as converged. When and how the search uses it:
+start's normal forces, each QP's normal forces give the next capacities, until they settle (largest change below
+``SETTLED`` of the largest, within ``TRESCA_QPS`` QPs). A settled fixed point is an equilibrium of the FE's own laws up
+to the QP's tolerance; the solver's *Predictor* classifies it against the start
+(:meth:`bridgefem.solver.newton.ContactSolver.solve_step`) and the Newton iteration verifies it. A prediction changes
+only the iteration's path, never what counts as converged. When and how the search uses it:
 :mod:`bridgefem.search.pathfollow`, *Predictor*.
 
 Why: on rings of slice-like voussoirs the Newton iteration moves openings between neighbouring joints and fails
