@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -359,3 +362,35 @@ def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_agai
     assert between["programmes"]["lower"]["iterations"] == 16 + sol.iterations
     below = fill_bounds(scene, 0.99 * stalled)
     assert below["lower"] is None and below["upper"] == capped["upper"]
+
+
+MPI_BOUNDS_SCRIPT = """
+import json, sys
+from mpi4py import MPI
+from bridgefem.limit.bounds import fill_bounds
+from bridgefem.scene.reader import scene_from_dict
+entry = fill_bounds(scene_from_dict(json.loads(sys.argv[1])), None, MPI.COMM_WORLD)
+print(json.dumps([MPI.COMM_WORLD.rank, entry]))
+"""
+
+
+def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry():
+    """Under ``mpirun -n 2`` the static programme runs on rank 0 and the kinematic one on rank 1 at the same time:
+    rank 0's entry has the serial bounds, mechanism, statuses and iterations (the same programmes on the same data),
+    rank 1's is None (the caller broadcasts rank 0's)."""
+    data = scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH)
+    serial = fill_bounds(scene_from_dict(data))
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_BOUNDS_SCRIPT, json.dumps(data)],
+                          capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    entries = dict(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
+    assert entries[1] is None
+    parallel = entries[0]
+    assert parallel["lower"] == pytest.approx(serial["lower"], rel=1e-9)
+    assert parallel["upper"] == pytest.approx(serial["upper"], rel=1e-9)
+    assert parallel["mechanism"] == serial["mechanism"] and parallel["mesh"] == serial["mesh"]
+    for name in ("lower", "upper"):
+        assert {k: v for k, v in parallel["programmes"][name].items() if k != "seconds"} == pytest.approx(
+            {k: v for k, v in serial["programmes"][name].items() if k != "seconds"})

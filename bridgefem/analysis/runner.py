@@ -118,12 +118,13 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
 
 def _conclude(an: Analysis, comm: MPI.Comm) -> None:
     """The collective read-outs of the run ``an`` (module docstring, step 6), done once on every rank and stored on
-    it as plain data: the conic bounds of the bridge with its fill (solved on rank 0 and broadcast), the ring under
+    it as plain data: the conic bounds of the bridge with its fill (the static programme on rank 0, the kinematic one
+    on rank 1 at the same time: :func:`bridgefem.limit.bounds.fill_bounds`; broadcast), the ring under
     the loads the fill transmits, the collapse mode and the warnings; timed as the phase "checks". Collective."""
     clock = Clock(comm)
     solver_comm = an.solver.comm
     compared = an.search.upper * an.load_total if an.search.upper is not None else None  # the FE's upper end (N)
-    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared) if solver_comm.rank == 0 else None, root=0)
+    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared, solver_comm), root=0)
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
     coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs

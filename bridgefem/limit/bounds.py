@@ -17,6 +17,9 @@ between the static bound of :mod:`bridgefem.limit.bounds_lower` and the kinemati
    and soil velocities being its equality duals;
 4. reports the blocks' part of that mechanism as the rigid-block LP does (:func:`upper_mechanism`).
 
+Steps 2 and 3 are independent: under MPI (two ranks or more) each runs on its own rank at the same time
+(:func:`problem_bounds`).
+
 Both are second-order cone programmes solved by Clarabel (:mod:`bridgefem.limit.conic`); a refinement narrows the
 gap between them at a cost that grows faster than the number of triangles.
 
@@ -97,37 +100,59 @@ def _bound(problem: LimitProblem, solve) -> tuple[Bound, object, dict]:
                  sol.sizes), sol, layout
 
 
-def problem_bounds(problem: LimitProblem) -> Bounds:
-    """Both bounds of a :class:`LimitProblem`."""
-    start = time.perf_counter()
-    lower, sol_lo, lay_lo = _bound(problem, lower_bound)
-    t_lower = time.perf_counter() - start
-    upper, sol_up, lay_up = _bound(problem, upper_bound)
-    t_upper = time.perf_counter() - start - t_lower
+def problem_bounds(problem: LimitProblem, comm=None) -> Bounds | None:
+    """Both bounds of a :class:`LimitProblem`. With ``comm`` of two ranks or more (an mpi4py communicator; None: this
+    process alone) the two programmes are independent work: rank 0 solves the static one and rank 1 the kinematic
+    one at the same time, and rank 0 returns the bounds, the other ranks None. Collective over ``comm``."""
+    rank, size = (0, 1) if comm is None else (comm.rank, comm.size)
+    lower = _static_part(problem) if rank == 0 else None
+    upper = _kinematic_part(problem) if rank == min(1, size - 1) else None
+    if size > 1:
+        upper = comm.gather(upper, root=0)
+        upper = upper[1] if rank == 0 else None
+    if rank != 0:
+        return None
+    (lo, stress, t_lower), (up, block_velocities, soil_velocities, t_upper) = lower, upper
     mesh = problem.mesh
-    out = Bounds(lower, upper, None if mesh is None else {"triangles": mesh.n_triangles, "size": problem.size},
-                 {"lower": t_lower, "upper": t_upper}, problem=problem)
-    if lower.load is not None and mesh is not None:
-        out.stress = sol_lo.x[lay_lo["stress"]].reshape(-1, 3, 3)
+    return Bounds(lo, up, None if mesh is None else {"triangles": mesh.n_triangles, "size": problem.size},
+                  {"lower": t_lower, "upper": t_upper}, stress, block_velocities, soil_velocities, problem=problem)
+
+
+def _static_part(problem: LimitProblem) -> tuple[Bound, np.ndarray | None, float]:
+    """The lower bound, its fill stresses (None without a fill or an optimum) and its wall time (s)."""
+    start = time.perf_counter()
+    lower, sol, layout = _bound(problem, lower_bound)
+    stress = sol.x[layout["stress"]].reshape(-1, 3, 3) if lower.load is not None and problem.mesh is not None else None
+    return lower, stress, time.perf_counter() - start
+
+
+def _kinematic_part(problem: LimitProblem) -> tuple[Bound, np.ndarray | None, np.ndarray | None, float]:
+    """The upper bound, its block and soil velocities (None without an optimum; soil: without a fill) and its wall
+    time (s)."""
+    start = time.perf_counter()
+    upper, sol, layout = _bound(problem, upper_bound)
+    blocks = soil = None
     if upper.load is not None:
-        z = lay_up["velocities"] @ sol_up.z["zero"]
-        n_free = len(lay_up["free"])
-        out.block_velocities = z[n_free:].reshape(-1, 3)
-        if mesh is not None:
-            v = np.zeros(2 * (len(mesh.x) + len(mesh.edges)))
-            v[lay_up["free"]] = z[:n_free]
-            out.soil_velocities = v.reshape(-1, 2)
-    return out
+        z = layout["velocities"] @ sol.z["zero"]
+        n_free = len(layout["free"])
+        blocks = z[n_free:].reshape(-1, 3)
+        if problem.mesh is not None:
+            v = np.zeros(2 * (len(problem.mesh.x) + len(problem.mesh.edges)))
+            v[layout["free"]] = z[:n_free]
+            soil = v.reshape(-1, 2)
+    return upper, blocks, soil, time.perf_counter() - start
 
 
-def collapse_bounds(scene: Scene, refine: float = 1.0) -> Bounds:
+def collapse_bounds(scene: Scene, refine: float = 1.0, comm=None) -> Bounds | None:
     """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) /
-    refine`` near the ring)."""
+    refine`` near the ring); with ``comm``, the programmes shared out as :func:`problem_bounds` does (None on ranks
+    other than 0). Collective over ``comm``."""
     start = time.perf_counter()
     problem = bridge_problem(scene, refine)
     t_mesh = time.perf_counter() - start
-    out = problem_bounds(problem)
-    out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
+    out = problem_bounds(problem, comm)
+    if out is not None:
+        out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
     return out
 
 
@@ -152,19 +177,22 @@ def bounds_summary(b: Bounds) -> dict:
                                                                                     ("upper", b.upper))}}
 
 
-def fill_bounds(scene: Scene, compared: float | None = None) -> dict | None:
+def fill_bounds(scene: Scene, compared: float | None = None, comm=None) -> dict | None:
     """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
     cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``.
     ``compared``: the load (N) the lower bound is compared with (the FE bracket's upper end; None: none); a static
     programme that stopped short of full accuracy above it is solved again, and its lower bound is None when that
     solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3; iterations and seconds then count
-    both solves)."""
+    both solves). With ``comm`` (mpi4py; None: this process alone) the programmes are shared out as
+    :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill). Collective over ``comm``."""
     if scene.fill is None:
         return None
     try:
-        b = collapse_bounds(scene)
+        b = collapse_bounds(scene, comm=comm)
     except SceneError as err:
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
+    if b is None:
+        return None
     capped = b.lower
     if compared is None or capped.load is None or capped.load <= compared or capped.status == "optimal":
         return bounds_summary(b)
