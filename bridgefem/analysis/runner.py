@@ -62,6 +62,7 @@ from ..search.coarser_path import CoarserPath
 from ..search.pathfollow import find_limit_load
 from ..search.records import LimitSearch, LoadStep, SearchGuides, SearchObservers, SearchSettings, StaticCap
 from ..search.step import monitor_deflection
+from ..solver.condensed import CondensedPredictor
 from ..solver.linear import SolveBudgetSpent
 from ..solver.newton import ContactSolver, Iterate
 from ..solver.tresca import TrescaPredictor
@@ -189,8 +190,10 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
         states.append(ConvergedState(step.index, step.level * total, u.copy(), it.active.state.copy(), lam.copy(),
                                      d.copy()))
 
-    # a failed trial's predicted state (bridgefem.solver.tresca): every bare ring
+    # a failed trial's predicted state (bridgefem.solver.tresca) and a failed self-weight's
+    # (bridgefem.solver.condensed): every structure without a fill
     predictor = TrescaPredictor(solver) if scene.fill is None else None
+    condensed = CondensedPredictor(solver) if scene.fill is None else None
     lp = fe.lp
     try:
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.solver.linear)
@@ -198,6 +201,7 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, fe.pairs, fe.ring,
                                                           s.tolerance, total),
                                   predicted=predictor.predict if predictor is not None else None,
+                                  self_weight_states=condensed.states if condensed is not None else None,
                                   coarser_path=path.guide(solver) if path is not None else None)
             level = (lambda: enough() / total) if callable(enough) else enough / total
             settings = search_settings(scene, model.dead_weight, coarser, level)

@@ -142,7 +142,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     attempt = StepRecorder(solver, deflection, settings.stiffness_drop, observers)
     steps = attempt.steps
     falls = bound is not None and bound.falls
-    first = carry_self_weight(solver, attempt, falls)
+    first = carry_self_weight(solver, attempt, falls, guides.self_weight_states)
     if not first.converged:
         status = UNSTABLE if first.mechanism else Status.failure(first.reason)
         return LimitSearch(status, 0.0, 0.0 if first.mechanism else None, tolerance, steps, None, first.reason,

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Iterator
 
 from petsc4py import PETSc
 
@@ -143,6 +143,9 @@ class SearchGuides:
     state*).
     ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*). Collective.
+    ``self_weight_states(level, start)``: predicted states (combined vectors) for a self-weight step that the one
+    step and the continuation did not solve (:class:`bridgefem.solver.condensed.CondensedPredictor`), or None
+    (:mod:`bridgefem.search.selfweight`, step 2). Collective.
     ``coarser_path(trial, lower, state)``: a re-run's start of a trial from its converged ``state`` at ``lower`` on its
     coarser run's path (:class:`bridgefem.search.coarser_path.CoarserPath`), or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*).
@@ -154,6 +157,7 @@ class SearchGuides:
     collapse: CollapseCheck | None = None
     predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None
     coarser_path: Callable[[float, float, Iterate], PairPrediction | None] | None = None
+    self_weight_states: Callable[[float, Iterate], Iterator[PETSc.Vec]] | None = None
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,13 @@ joint closed and sticking:
    :mod:`bridgefem.analysis.evidence`). The continuation's last state has the pairs that slid as the friction was
    lowered sliding; a first live-load trial that would slide them backwards proposes them sticking
    (:mod:`bridgefem.solver.newton`, *Reversed slips*).
+   *Condensed states.* When the friction continuation fails without a mechanism and the search has them
+   (``states``: :class:`bridgefem.solver.condensed.CondensedPredictor`, every structure without a fill), the one
+   step is solved again from each state of the Tresca fixed point on the joint problem condensed onto the joint
+   forces, with ``CONDENSED_TRIAL`` iterations each, until one converges (once per self-weight, not again in its
+   retries). On barrels of rings the ring interfaces' active set keeps changing from the bonded start whatever the
+   friction (``docs/robustness.md``, *Rings*), while the fixed point's states carry their forces to the precision
+   the Newton test asks for.
 3. When the static theorem shows that no equilibrium under self-weight exists (``falls``: the rigid blocks under the
    FE's own dead loads need joint tension or cohesion beyond what any converged FE state's tolerances can hide,
    :class:`bridgefem.analysis.evidence.StaticBound`), a failed one step is the answer, a mechanism: no continuation
@@ -62,10 +69,11 @@ Safeguards:
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..solver.newton import RETRIES, ContactSolver, Iterate, StepOutcome, retried
 
@@ -77,21 +85,25 @@ RAMP_HALVINGS = 6  # failed continuation steps halved at most this many times in
 FRICTION_RAISE = 8.0  # the friction continuation starts at this multiple of the joints' Coulomb coefficients
 # (mu = 0.3 -> 2.4: the bonded thrust of a thick ring is well inside that cone)
 
+CONDENSED_TRIAL = 10  # Newton iterations of the one step from each condensed state (module docstring, step 2)
+
 SELF_WEIGHT_RETRIES = tuple(s for s in RETRIES if not s.fresh)  # the self-weight starts all closed and sticking
-Attempt = Callable[[float, Iterate], StepOutcome]
+Attempt = Callable[..., StepOutcome]
+States = Callable[[float, Iterate], Iterator[PETSc.Vec]]
 
 
 @dataclass
 class Progress:
     """Where the self-weight stands: the one step's outcome (None: not solved yet) and the continuation's last
     converged state ``state`` at strength excess ``done`` (None: no step converged; ``state`` the unloaded one),
-    the excess to solve next and the halvings spent (module docstring)."""
+    the excess to solve next, the halvings spent and whether the condensed states were tried (module docstring)."""
 
     state: Iterate
     first: StepOutcome | None = None
     done: float | None = None
     excess: float = 1.0
     halvings: int = 0
+    condensed: bool = False  # the condensed states were tried
 
 
 def self_weight_budget(solver: ContactSolver) -> int:
@@ -101,16 +113,17 @@ def self_weight_budget(solver: ContactSolver) -> int:
     return max(solver.max_iterations, joints)
 
 
-def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = False) -> StepOutcome:
-    """The self-weight state (module docstring): one step, else the continuation that fits the structure, and when
-    that fails without proof, resumed or both again with each of ``SELF_WEIGHT_RETRIES``, every step within
-    :func:`self_weight_budget`; ``falls``: the static theorem shows that no equilibrium exists (step 3: the one
-    step's failure is the answer, as a mechanism). ``attempt(level, start)`` solves and records one step. Returns
-    the last step's outcome."""
+def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = False, states: States | None = None
+                      ) -> StepOutcome:
+    """The self-weight state (module docstring): one step, else the continuation that fits the structure (and the
+    condensed ``states``), and when that fails without proof, resumed or both again with each of
+    ``SELF_WEIGHT_RETRIES``, every step within :func:`self_weight_budget`; ``falls``: the static theorem shows that
+    no equilibrium exists (step 3: the one step's failure is the answer, as a mechanism). ``attempt(level, start)``
+    solves and records one step. Returns the last step's outcome."""
     progress = Progress(solver.initial_iterate())
     scene_budget, solver.max_iterations = solver.max_iterations, self_weight_budget(solver)
     try:
-        out = _carry(solver, attempt, progress, falls)
+        out = _carry(solver, attempt, progress, falls, states)
         if out.converged or out.proved or falls:
             return out
         return retried(solver, lambda: _carry(solver, attempt, progress), out, SELF_WEIGHT_RETRIES)
@@ -118,9 +131,10 @@ def carry_self_weight(solver: ContactSolver, attempt: Attempt, falls: bool = Fal
         solver.max_iterations = scene_budget
 
 
-def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: bool = False) -> StepOutcome:
-    """One step, else (unless ``falls``) the continuation that fits the structure; a continuation with a converged
-    step resumes."""
+def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: bool = False,
+           states: States | None = None) -> StepOutcome:
+    """One step, else (unless ``falls``) the continuation that fits the structure, then the condensed ``states``;
+    a continuation with a converged step resumes."""
     if progress.done is None:
         progress.first = attempt(0.0, solver.initial_iterate())
     first = progress.first
@@ -132,10 +146,24 @@ def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: b
     fill = solver.material
     if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
         out = friction_continuation(solver, attempt, progress)
+        if not (out.converged or out.mechanism or progress.condensed) and states is not None:
+            progress.condensed = True
+            out = condensed_self_weight(solver, attempt, solver.initial_iterate(), states) or out
         return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
     if fill is not None and not first.mechanism and fill.cohesion < fill.overburden:
         return cohesion_continuation(solver, attempt, progress)
     return first
+
+
+def condensed_self_weight(solver: ContactSolver, attempt: Attempt, start: Iterate, states: States
+                          ) -> StepOutcome | None:
+    """The one step from ``start`` solved again from each of the condensed ``states`` (module docstring, step 2,
+    *Condensed states*) with ``CONDENSED_TRIAL`` iterations, until one converges: that step solved and recorded by
+    ``attempt``; None when none converges. Collective."""
+    for x in states(0.0, start):
+        if solver.solve_step(0.0, start, predictor=x, iterations=CONDENSED_TRIAL).converged:
+            return attempt(0.0, start, predictor=x)
+    return None
 
 
 def cohesion_continuation(solver: ContactSolver, attempt: Attempt, progress: Progress | None = None

@@ -104,59 +104,80 @@ class TrescaProblem:
         return None
 
 
-class TrescaPredictor:
+class GatheredOperators:
+    """The assembled stiffness K and relative displacement operator G of a
+    :class:`bridgefem.solver.newton.ContactSolver`, gathered on rank 0 for a predictor that solves there, and the
+    states it predicts scattered back. Collective."""
+
+    def __init__(self, solver: ContactSolver):
+        self.solver, self.system, self.comm = solver, solver.system, solver.comm
+        self.sizes = self.comm.allgather((self.system.n_u, len(solver.pairs)))
+
+    def operators(self) -> tuple[sp.csr_matrix, sp.csr_matrix] | tuple[None, None]:
+        """K (N/m) and G on rank 0, (None, None) elsewhere. Collective."""
+        system = self.system
+        ki, kj, kv = system.stiffness.getValuesCSR()
+        n_global = system.stiffness.getSize()[0]
+        rows, cols, vals = g_entries(self.solver.pairs)
+        K = sp.csr_matrix((kv, kj, ki), shape=(system.n_u, n_global))
+        G = sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(self.solver.pairs), n_global))
+        blocks = self.comm.gather((K, G), root=0)
+        if self.comm.rank != 0:
+            return None, None
+        return sp.vstack([b[0] for b in blocks]).tocsr(), sp.vstack([b[1] for b in blocks]).tocsr()
+
+    def gathered(self, local: np.ndarray) -> np.ndarray | None:
+        """The owned entries of every rank on rank 0, in rank order (None elsewhere). Collective."""
+        parts = self.comm.gather(local, root=0)
+        return np.concatenate(parts) if parts is not None else None
+
+    def scattered(self, u: np.ndarray | None, forces: np.ndarray | None) -> PETSc.Vec:
+        """The combined vector [u; lam] of rank 0's displacements u (m) and joint forces (N, (m, 2)), each rank's
+        share. Collective."""
+        shares = None
+        if self.comm.rank == 0:
+            u_cuts = np.cumsum([s[0] for s in self.sizes])[:-1]
+            pair_cuts = np.cumsum([s[1] for s in self.sizes])[:-1]
+            shares = list(zip(np.split(u, u_cuts), np.split(forces, pair_cuts)))
+        u, forces = self.comm.scatter(shares, root=0)
+        system = self.system
+        x = system.vector()
+        x.array[:system.n_u] = u
+        x.array[system.n_u:] = forces.ravel()
+        return x
+
+
+class TrescaPredictor(GatheredOperators):
     """Predicted states for the load steps of a ring's :class:`bridgefem.solver.newton.ContactSolver` (no plastic fill):
     K and G gathered on rank 0 once, at the first prediction (most searches ask for none). Collective."""
 
     def __init__(self, solver: ContactSolver):
-        self.solver, self.system, self.comm = solver, solver.system, solver.comm
+        super().__init__(solver)
         self.problem: TrescaProblem | None = None  # on rank 0, once gathered
-        self.gathered = False  # K and G gathered (the same on every rank)
-        self.sizes = self.comm.allgather((self.system.n_u, len(solver.pairs)))
+        self.built = False  # K and G gathered (the same on every rank)
 
     def _problem(self) -> TrescaProblem | None:
         """The Tresca QP of the assembled K and G on rank 0 (None elsewhere), gathered at the first call.
         Collective."""
-        if not self.gathered:
-            self.gathered = True
-            system = self.system
-            ki, kj, kv = system.stiffness.getValuesCSR()
-            n_global = system.stiffness.getSize()[0]
-            rows, cols, vals = g_entries(self.solver.pairs)
-            K = sp.csr_matrix((kv, kj, ki), shape=(system.n_u, n_global))
-            G = sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(self.solver.pairs), n_global))
-            blocks = self.comm.gather((K, G), root=0)
+        if not self.built:
+            self.built = True
+            K, G = self.operators()
             if self.comm.rank == 0:
-                self.problem = TrescaProblem(sp.vstack([b[0] for b in blocks]).tocsr(),
-                                             sp.vstack([b[1] for b in blocks]).tocsr())
+                self.problem = TrescaProblem(K, G)
         return self.problem
-
-    def _gathered(self, local: np.ndarray) -> np.ndarray | None:
-        parts = self.comm.gather(local, root=0)
-        return np.concatenate(parts) if parts is not None else None
 
     def predict(self, level: float, start: Iterate) -> PETSc.Vec | None:
         """The combined vector [u; lam] of the Coulomb fixed point at live-load level ``level`` (N per unit load
         factor) from the converged ``start``; None when it did not settle. Collective."""
         system, solver = self.system, self.solver
         _, lam, _ = system.split(start.x)
-        gathered = [self._gathered(a) for a in (system.loads(level), lam[:, 0], start.slip_ref, system.ground)]
+        gathered = [self.gathered(a) for a in (system.loads(level), lam[:, 0], start.slip_ref, system.ground)]
         law = solver.law.gathered(np.ones(len(solver.pairs), dtype=bool), self.comm)
         problem, step = self._problem(), None
         if self.comm.rank == 0:
             f, normal, slip_ref, offset = gathered
             step = problem.coulomb_fixed_point(f, offset, slip_ref, law, normal)
-        shares = None
-        if self.comm.rank == 0 and step is not None:
-            u_cuts = np.cumsum([s[0] for s in self.sizes])[:-1]
-            pair_cuts = np.cumsum([s[1] for s in self.sizes])[:-1]
-            forces = np.column_stack([step.lam_n, step.lam_t])
-            shares = list(zip(np.split(step.u, u_cuts), np.split(forces, pair_cuts)))
-        settled = self.comm.bcast(step is not None, root=0)
-        if not settled:
+        if not self.comm.bcast(step is not None, root=0):
             return None
-        u, forces = self.comm.scatter(shares, root=0)
-        x = system.vector()
-        x.array[:system.n_u] = u
-        x.array[system.n_u:] = forces.ravel()
-        return x
+        return self.scattered(step.u if step is not None else None,
+                              np.column_stack([step.lam_n, step.lam_t]) if step is not None else None)
