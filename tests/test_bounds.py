@@ -359,3 +359,20 @@ def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_agai
     assert between["programmes"]["lower"]["iterations"] == 16 + sol.iterations
     below = fill_bounds(scene, 0.99 * stalled)
     assert below["lower"] is None and below["upper"] == capped["upper"]
+
+
+def test_a_lower_bound_stopped_at_its_cap_without_a_value_is_solved_again(monkeypatch):
+    """The small bridge's static programme capped at 3 interior-point iterations stops without a value (Clarabel's
+    MaxIterations, not even its relaxed tolerances). Compared with a load, it is solved again with CHECK_ITERATIONS:
+    the lower bound is the one that solve alone gives (run without the cap); compared with no load it stays absent."""
+    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
+    problem = bridge_problem(scene, 1.0)
+    solve = bounds.lower_bound
+    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
+    alone = sol.x[layout["factor"]] * problem.live_total
+    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=3: solve(problem, max_iter))
+    stopped = fill_bounds(scene)
+    assert stopped["lower"] is None and stopped["programmes"]["lower"]["status"].startswith("solver failure")
+    checked = fill_bounds(scene, 2.0 * alone)
+    assert checked["lower"] == pytest.approx(alone, rel=1e-9)
+    assert checked["programmes"]["lower"]["iterations"] == 3 + sol.iterations
