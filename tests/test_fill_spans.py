@@ -58,7 +58,8 @@ def test_the_fill_is_meshed_alike_whichever_span_comes_first():
     within 5 % of each other in number (the far size twice the thick ring's element size, 0.6 m, not the thin one's,
     0.15 m, wherever the thin span stands); the load over the thin span's crown."""
     counts = []
-    for spans, x in (([THIN, THICK], THIN["span"] / 2), ([THICK, THIN], THICK["span"] + PIER["width"] + THIN["span"] / 2)):
+    thin_second = THICK["span"] + PIER["width"] + THIN["span"] / 2
+    for spans, x in (([THIN, THICK], THIN["span"] / 2), ([THICK, THIN], thin_second)):
         scene, ring = bridge(spans, load_x=x)  # the load over the thin span's crown
         bm = fill_mesh(scene, ring)
         counts.append(len(block_triangles(bm, bm.fill_block)))

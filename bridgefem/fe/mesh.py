@@ -37,10 +37,10 @@ them: the bearing zone under a load lies in the fill, whose depth, not the ring'
 
 Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) and the piers' courses of a bridge of several
 spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles of twice the finest
-ring element size of the spans each carries (:func:`~bridgefem.structure.sizing.support_element_size`); their tops share the springing joints' curves with the rings, a pier's bed joints are lines
-shared by its two courses, and a base or foundation on the ground is a joint with a single face, like a springing on
-rigid ground. The bridge's top (every span's outer extrados and the piers' top edges between them) is where loads
-act and a fill rests.
+ring element size of the spans each carries (:func:`~bridgefem.structure.sizing.support_element_size`); their tops
+share the springing joints' curves with the rings, a pier's bed joints are lines shared by its two courses, and a
+base or foundation on the ground is a joint with a single face, like a springing on rigid ground. The bridge's top
+(every span's outer extrados and the piers' top edges between them) is where loads act and a fill rests.
 
 Tags on the DOLFINx mesh:
 - cell tag = block id (voussoir, pier course, abutment), or ``fill_block`` (= the number of blocks) for the fill;
@@ -69,6 +69,7 @@ from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline, PierBloc
 from ..structure.sizing import (
     EXTRADOS_BAND,
     FILL_GRADING,
+    TopPiece,
     extrados_sizes,
     fill_far_size,
     ring_element_sizes,
@@ -230,7 +231,8 @@ def voussoir_element_sizes(ring: ArchRing, per_thickness: int) -> dict[int, floa
     return {v.id: ring_element_sizes(b, per_thickness)[v.ring] for b in ring.barrels for v in b.voussoirs}
 
 
-def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict, pieces) -> list[tuple[list[int], float]]:
+def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict, pieces: list[TopPiece]
+                ) -> list[tuple[list[int], float]]:
     """The bridge's top, left to right, as (curves, element size m): the curves of each of ``pieces``
     (:func:`~bridgefem.structure.sizing.top_pieces`: each span's outer extrados, where the loads act on a bare bridge
     and the fill rests, and the free top edge of each pier between two spans) with its size."""

@@ -157,8 +157,8 @@ def fill_bounds(scene: Scene, compared: float | None = None) -> dict | None:
     cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``.
     ``compared``: the load (N) the lower bound is compared with (the FE bracket's upper end; None: none); a static
     programme that stopped short of full accuracy above it, or at its cap without a value, is solved again, and its
-    lower bound is None when that solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3; iterations and seconds then count
-    both solves)."""
+    lower bound is None when that solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3;
+    iterations and seconds then count both solves)."""
     if scene.fill is None:
         return None
     try:

@@ -289,7 +289,8 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None,
                            for h in (finest[0], finest[-1]))
     cells += block_cells
     nodes += block_cells * (0.5 if degree == 1 else 2.0)
-    pairs += sum((p.blocks + 2) * (degree * p.width / (2 * min(finest[k:k + 2])) + 1) for k, p in enumerate(scene.piers))
+    pairs += sum((p.blocks + 2) * (degree * p.width / (2 * min(finest[k:k + 2])) + 1)
+                 for k, p in enumerate(scene.piers))
     dofs = int(2 * nodes + 2 * pairs)
     memory = MEMORY_BASE + MEMORY_PER_DOF * dofs * math.log2(max(dofs, 2))
     return SizeEstimate(int(cells), dofs, memory)
