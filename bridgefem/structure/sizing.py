@@ -14,7 +14,12 @@ estimate counts the graded joints when they are given, else the most the grading
 (:func:`graded_elements`), so that it never falls short of the model it guards. The memory
 is a fit ``MEMORY_BASE + MEMORY_PER_DOF x n log2 n`` (bytes, n unknowns) of the peak resident size of serial runs
 (MUMPS LU with nested dissection: the factor of a 2D mesh grows as n log n), measured on serial runs of the
-bare arch from 1k to 68k unknowns (117 to 127 bytes per n log2 n). The estimate comes within 1 % of the mesher's
+bare arch from 1k to 68k unknowns (117 to 127 bytes per n log2 n). With a fill the base is ``FILL_MEMORY_BASE``
+(its quadrature fields, the conic bounds' programmes), and quadratic elements take 255 bytes per n log2 n (a row
+couples about twice the unknowns): measured on Prestwood at 2, 4 and 8 elements through the ring (12k, 41k, 146k
+unknowns: 0.30, 0.41, 0.94 GB) and a three-span bridge (216k: 1.25 GB), each within 35 MB of the fit, and on an
+elastic fill over five spans on linear elements (35k: 0.35 GB, the fit 0.33 GB) (docs/robustness.md, *Several
+spans*). The estimate comes within 1 % of the mesher's
 cells and unknowns on a bare arch; with a fill, whose unstructured mesh Gmsh also grades from the sizes along its
 boundaries (which the field alone does not model), from 0.65 to 1.6 x the mesher's cells on the scenes measured
 (docs/robustness.md, *Several spans*): close enough to refuse a model beyond the machine, not to predict its exact
@@ -35,7 +40,9 @@ from ..scene.model import Arch, Scene
 from .grading import densest_grading
 
 MEMORY_BASE = 190e6  # bytes: Python, DOLFINx, PETSc and MUMPS loaded, before the model (measured)
-MEMORY_PER_DOF = 120.0  # bytes per n log2 n unknowns: matrix, factor and work space (fit, see the docstring)
+FILL_MEMORY_BASE = 270e6  # bytes: the same with a fill (its quadrature fields, the conic bounds' programmes; fit)
+MEMORY_PER_DOF = {1: 120.0, 2: 255.0}  # bytes per n log2 n unknowns by element degree: matrix, factor and work
+# space (fits, see the docstring)
 LARGE_DOFS = 200_000  # unknowns above which a run is announced with its estimate and set-up phases
 MAX_DOFS = 1_000_000  # unknowns above which a run is refused (unless asked for): a limit search factorises the
 # matrix 50-100 times, which at this size takes hours on a workstation
@@ -292,7 +299,8 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None,
     pairs += sum((p.blocks + 2) * (degree * p.width / (2 * min(finest[k:k + 2])) + 1)
                  for k, p in enumerate(scene.piers))
     dofs = int(2 * nodes + 2 * pairs)
-    memory = MEMORY_BASE + MEMORY_PER_DOF * dofs * math.log2(max(dofs, 2))
+    base = FILL_MEMORY_BASE if scene.fill is not None else MEMORY_BASE
+    memory = base + MEMORY_PER_DOF[degree] * dofs * math.log2(max(dofs, 2))
     return SizeEstimate(int(cells), dofs, memory)
 
 
