@@ -40,7 +40,8 @@ rigid-block LP on the same joints that the run reports (results.json ``lp``, ass
   apart;
 - *crash*: a traceback, a signal, another exit code, or the timeout (``--timeout`` per span of a bridge);
 - *unjudged (LP failed)*: the rigid-block LP of results.json failed, so that nothing confirms or contradicts the
-  FE's verdict (not confirmed);
+  FE's verdict (not confirmed); *unjudged (bounds failed)*: with a Mohr-Coulomb fill, a limit at most the conic upper
+  bound whose lower bound's programme gave no value (the dead-load LP is no floor: nothing confirms the limit);
 - *rejected*: the scene is refused as bad input (exit 2, one line naming the key), e.g. a patch whose edges would
   leave a voussoir of (almost) no length; not counted in the success rate.
 
@@ -445,6 +446,9 @@ def results_of(folder: Path) -> dict | None:
     return None
 
 
+UNJUDGED = ("unjudged (LP failed)", "unjudged (bounds failed)")  # the reference failed: no verdict either way
+
+
 def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) -> dict:
     """The class of a run (confirmed / solver failure / wrong / crash) and its numbers, from results.json."""
     if code == 2 and data is None and "Traceback" not in stderr:
@@ -479,6 +483,12 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
             cls = "wrong (fill mesh not converged)"
         else:
             cls = "confirmed" if bounds["lower"] * (1 - NO_SLIP_TOL) <= lim["lower"] else "wrong"
+    elif status == "limit load found" and fill and (data.get("fill_bounds") or {}).get("programmes"):
+        # conic bounds computed (a Mohr-Coulomb fill) without a lower bound: only the upper bound can contradict
+        upper = data["fill_bounds"]["upper"]
+        out.update(bound_lower=None, bound_upper=upper)
+        cls = ("wrong (fill mesh not converged)" if upper is not None and lim["upper"] > (1 + BOUND_TOL) * upper
+               else "unjudged (bounds failed)")
     elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
         cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict
         # is at or above that LP
@@ -501,7 +511,7 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = "confirmed" if ok else "wrong"
     else:
         cls = "confirmed"
-    if cls not in ("solver failure", "wrong (fill mesh not converged)", "unjudged (LP failed)") and code != 0:
+    if cls not in ("solver failure", "wrong (fill mesh not converged)", *UNJUDGED) and code != 0:
         cls = "wrong"  # a verdict must exit 0
     return {**out, "class": cls}
 
@@ -541,7 +551,7 @@ def report(rows: list[dict]) -> str:
     n = len(rows)
     classes = {c: sum(r["class"] == c for r in rows)
                for c in ("confirmed", "solver failure", "wrong", "wrong (fill mesh not converged)", "crash",
-                         "unjudged (LP failed)")}
+                         *UNJUDGED)}
     rejected = sum(r["class"] == "rejected" for r in rows)
     n -= rejected
     lines.append("")
@@ -566,8 +576,7 @@ def report(rows: list[dict]) -> str:
                      f"{len(mine)}")
     causes: dict[str, int] = {}
     for r in rows:
-        if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)",
-                          "unjudged (LP failed)"):
+        if r["class"] in ("solver failure", "crash", "wrong", "wrong (fill mesh not converged)", *UNJUDGED):
             key = f"{r['class']}: {failure_cause(r)}"
             causes[key] = causes.get(key, 0) + 1
     for key, k in sorted(causes.items(), key=lambda kv: -kv[1]):

@@ -369,8 +369,9 @@ import json, sys
 from mpi4py import MPI
 from bridgefem.limit.bounds import fill_bounds
 from bridgefem.scene.reader import scene_from_dict
-entry = fill_bounds(scene_from_dict(json.loads(sys.argv[1])), None, MPI.COMM_WORLD)
-print(json.dumps([MPI.COMM_WORLD.rank, entry]))
+entries = MPI.COMM_WORLD.gather(fill_bounds(scene_from_dict(json.loads(sys.argv[1])), None, MPI.COMM_WORLD))
+if MPI.COMM_WORLD.rank == 0:
+    print(json.dumps(entries))
 """
 
 
@@ -385,8 +386,8 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
     proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", MPI_BOUNDS_SCRIPT, json.dumps(data)],
                           capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    entries = dict(json.loads(line) for line in proc.stdout.splitlines() if line.startswith("["))
-    assert entries[1] is None
+    entries = json.loads(proc.stdout.strip().splitlines()[-1])  # every rank's entry, gathered on rank 0
+    assert len(entries) == 2 and entries[1] is None
     parallel = entries[0]
     assert parallel["lower"] == pytest.approx(serial["lower"], rel=1e-9)
     assert parallel["upper"] == pytest.approx(serial["upper"], rel=1e-9)
@@ -394,3 +395,20 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
     for name in ("lower", "upper"):
         assert {k: v for k, v in parallel["programmes"][name].items() if k != "seconds"} == pytest.approx(
             {k: v for k, v in serial["programmes"][name].items() if k != "seconds"})
+
+
+def test_a_lower_bound_stopped_at_its_cap_without_a_value_is_solved_again(monkeypatch):
+    """The small bridge's static programme capped at 3 interior-point iterations stops without a value (Clarabel's
+    MaxIterations, not even its relaxed tolerances). Compared with a load, it is solved again with CHECK_ITERATIONS:
+    the lower bound is the one that solve alone gives (run without the cap); compared with no load it stays absent."""
+    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
+    problem = bridge_problem(scene, 1.0)
+    solve = bounds.lower_bound
+    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
+    alone = sol.x[layout["factor"]] * problem.live_total
+    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=3: solve(problem, max_iter))
+    stopped = fill_bounds(scene)
+    assert stopped["lower"] is None and stopped["programmes"]["lower"]["status"].startswith("solver failure")
+    checked = fill_bounds(scene, 2.0 * alone)
+    assert checked["lower"] == pytest.approx(alone, rel=1e-9)
+    assert checked["programmes"]["lower"]["iterations"] == 3 + sol.iterations

@@ -207,6 +207,13 @@ def test_campaign_judges_a_fill_scene_against_the_conic_bounds():
                  "fill_bounds": {"lower": 419e3, "upper": None, "unit": "N"}}
     assert campaign.judge(unbounded, 0, "", fill=True)["class"] == "confirmed"
     assert campaign.judge({**unbounded, **{"limit_load": below["limit_load"]}}, 0, "", fill=True)["class"] == "wrong"
+    # the static programme gave no value (seed 20261235 #41: FE 341 kN, conic upper 436 kN, dead-load LP 13.3 MN):
+    # nothing confirms the limit, the dead-load LP cannot contradict it, the upper bound still can
+    stopped = {**data, "fill_bounds": {"lower": None, "upper": 1029e3, "unit": "N",
+                                       "programmes": {"lower": {"status": "solver failure: Clarabel MaxIterations"}}}}
+    assert campaign.judge(stopped, 0, "", fill=True)["class"] == "unjudged (bounds failed)"
+    assert campaign.judge({**stopped, **{"limit_load": above["limit_load"]}}, 0, "", fill=True)["class"] == \
+        "wrong (fill mesh not converged)"
 
 
 def test_an_elastic_fill_that_holds_up_a_ring_the_lp_drops_is_at_or_above_that_lp():

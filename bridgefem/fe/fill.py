@@ -17,7 +17,7 @@ import basix
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector, create_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -79,6 +79,7 @@ class PointFields:
                                                        "quadrature_scheme": "default"})
         v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
         self.f_form = fem.form(width * ufl.dot(self.stress, _voigt(v)) * dxq)
+        self._f_int = create_vector(self.f_form)
         self.k_form = fem.form(width * ufl.dot(ufl.dot(self.tangent, _voigt(du)), _voigt(v)) * dxq)
         self.n_owned = V.dofmap.index_map.size_local * 2
 
@@ -97,11 +98,15 @@ class PointFields:
         self.tangent.x.array.reshape(-1, 9)[self._dofs] = moduli.reshape(-1, 9)
 
     def internal_force(self, bcs: list) -> PETSc.Vec:
-        """The internal force (N) of the stress set, ghosts added, zero on the ``bcs``' dofs."""
-        f_int = assemble_vector(self.f_form)
-        f_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(f_int, bcs)
-        return f_int
+        """The internal force (N) of the stress set, ghosts added, zero on the ``bcs``' dofs: assembled into the one
+        vector this object keeps (valid until the next call), since a vector made per call is never freed (petsc4py
+        3.18 leaves a PETSc object that Python drops to ``PETSc.garbage_cleanup``)."""
+        with self._f_int.localForm() as local:
+            local.set(0.0)
+        assemble_vector(self._f_int, self.f_form)
+        self._f_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(self._f_int, bcs)
+        return self._f_int
 
 
 class PlasticFill:

@@ -27,18 +27,20 @@ then every rank builds the distributed DOLFINx mesh and its tags (:func:`dolfinx
 Under a fill the extrados (shared by the outer ring and fill) is divided at
 :func:`~bridgefem.structure.sizing.extrados_element_size` (of the outer ring's thickness, each span its own), at most
 ``sizing.FILL_DEPTH_SHARE`` x the fill's depth over the crown / ``elements_through_thickness`` (the voussoirs get as
-many segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at that
-size within the fill's depth of the
-extrados, graded to the far fill's size beyond. The road's load points (patch edges, point loads) get
-``LOAD_REFINEMENT`` x that extrados size: the bearing zone under a load lies in the fill, whose depth, not the
-ring's thickness, sets its scale (docs/fill.md, *Why the fill's scale at the loads*).
+many segments along, their joints keep ``elements_through_thickness``), and a Gmsh size field keeps the fill at each
+span's size within the fill's depth of its extrados, graded beyond to the far fill's size
+(:func:`~bridgefem.structure.sizing.fill_far_size`: twice the coarsest span's outer ring element size), the least of
+the spans' fields (:func:`~bridgefem.structure.sizing.fill_element_sizes`, the rule the size estimate integrates).
+The road's load points (patch edges, point loads) get ``LOAD_REFINEMENT`` x the extrados size of the span under
+them: the bearing zone under a load lies in the fill, whose depth, not the ring's thickness, sets its scale
+(docs/fill.md, *Why the fill's scale at the loads*).
 
 Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) and the piers' courses of a bridge of several
-spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles of twice the smallest
-ring's element size; their tops share the springing joints' curves with the rings, a pier's bed joints are lines
-shared by its two courses, and a base or foundation on the ground is a joint with a single face, like a springing on
-rigid ground. The bridge's top (every span's outer extrados and the piers' top edges between them) is where loads
-act and a fill rests.
+spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles of twice the finest
+ring element size of the spans each carries (:func:`~bridgefem.structure.sizing.support_element_size`); their tops
+share the springing joints' curves with the rings, a pier's bed joints are lines shared by its two courses, and a
+base or foundation on the ground is a joint with a single face, like a springing on rigid ground. The bridge's top
+(every span's outer extrados and the piers' top edges between them) is where loads act and a fill rests.
 
 Tags on the DOLFINx mesh:
 - cell tag = block id (voussoir, pier course, abutment), or ``fill_block`` (= the number of blocks) for the fill;
@@ -55,6 +57,7 @@ cell tag of its own (``beam_blocks``, after the fill's); the road under it is no
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import ufl
@@ -63,7 +66,17 @@ from dolfinx.mesh import GhostMode, Mesh, MeshTagsMetaClass, meshtags, meshtags_
 from mpi4py import MPI
 
 from ..geometry.ring import ROUND_OFF, Abutment, ArchRing, FillOutline, PierBlock
-from ..structure.sizing import EXTRADOS_BAND, extrados_element_size
+from ..structure.sizing import (
+    EXTRADOS_BAND,
+    FILL_GRADING,
+    TopPiece,
+    extrados_sizes,
+    fill_far_size,
+    ring_element_sizes,
+    size_under,
+    support_element_size,
+    top_pieces,
+)
 
 EXTRADOS_TAG = 1_000_000  # the ring's side of the extrados
 FILL_INTERFACE_TAG = 1_000_001  # the fill's side of the extrados (arch-fill interface)
@@ -73,7 +86,6 @@ FILL_BASE_TAG = 1_000_004  # base of the fill (fixed)
 BEAM_TOP_TAG = 1_000_005  # top face of a loading beam (where its patch load acts)
 BEAM_HEIGHT = 0.5  # height of a loading beam / its length
 LOAD_REFINEMENT = 0.5  # mesh size at a load's edge on the road / the extrados element size (the fill's own scale)
-FILL_GRADING = 0.5  # growth of the fill mesh size per unit distance beyond that band (m/m)
 BOUNDARY_TAGS = (EXTRADOS_TAG, FILL_INTERFACE_TAG, ROAD_TAG, FILL_END_TAG, FILL_BASE_TAG, BEAM_TOP_TAG)
 
 
@@ -214,35 +226,26 @@ class _RawMesh:
     h: float
 
 
-def ring_element_sizes(ring: ArchRing, per_thickness: int) -> tuple[float, ...]:
-    """The element size (m) of each ring of a barrel (one span's), from the intrados out: its thickness /
-    ``per_thickness``."""
-    return tuple(t / per_thickness for t in (ring.ring_thicknesses or (ring.thickness,)))
-
-
 def voussoir_element_sizes(ring: ArchRing, per_thickness: int) -> dict[int, float]:
     """The element size (m) of each voussoir (by id): its own ring's, in its own span (:func:`ring_element_sizes`)."""
     return {v.id: ring_element_sizes(b, per_thickness)[v.ring] for b in ring.barrels for v in b.voussoirs}
 
 
-def extrados_sizes(ring: ArchRing, per_thickness: int, depth: float | None) -> list[float]:
-    """The element size (m) along each span's extrados
-    (:func:`~bridgefem.structure.sizing.extrados_element_size` of its outer ring's thickness and the fill's
-    ``depth`` over the crown, m; None: no fill)."""
-    return [extrados_element_size((b.ring_thicknesses or (b.thickness,))[-1], per_thickness, depth)
-            for b in ring.barrels]
-
-
-def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict, sizes: list[float]) -> list[tuple[list[int], float]]:
-    """The bridge's top, left to right, as pieces (curves, element size m): each span's outer extrados (where the
-    loads act on a bare bridge, and the fill rests) at its span's size of ``sizes``, and the free top edge of each
-    pier between two spans at the finer of theirs."""
+def _top_curves(draw: _Drawing, ring: ArchRing, sides: dict, pieces: list[TopPiece]
+                ) -> list[tuple[list[int], float]]:
+    """The bridge's top, left to right, as (curves, element size m): the curves of each of ``pieces``
+    (:func:`~bridgefem.structure.sizing.top_pieces`: each span's outer extrados, where the loads act on a bare bridge
+    and the fill rests, and the free top edge of each pier between two spans) with its size."""
     out = []
-    for k, size in enumerate(sizes):
-        out.append(([c for v in ring.outer_voussoirs if v.span == k for *_, c in sides[v.id][1]], size))
-        for top in (b.top for b in ring.piers if b.pier == k and b.top is not None):
-            out.append(([c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))],
-                        min(size, sizes[k + 1])))
+    for piece in pieces:
+        curves = []
+        for block in (ring.blocks[i] for i in piece.blocks):
+            if isinstance(block, PierBlock):
+                top = block.top
+                curves += [c for a, b in zip(top[:-1], top[1:]) for c in draw.path(draw.point(a), draw.point(b))]
+            else:
+                curves += [c for *_, c in sides[block.id][1]]
+        out.append((curves, piece.size))
     return out
 
 
@@ -264,7 +267,7 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
         h = min(sizes.values())
         depth = outline.y_road - ring.crown_extrados if outline is not None else None
         span_extrados = extrados_sizes(ring, per_thickness, depth)
-        h_extrados = min(span_extrados)  # at the road's load points
+        top_sizes = top_pieces(ring, span_extrados)
         draw = _Drawing(geo, ROUND_OFF * ring.span)
         ring_joints = ring.ring_joints
         for end in ("intrados", "extrados"):
@@ -287,18 +290,20 @@ def _gmsh_bridge(ring: ArchRing, per_thickness: int, outline: FillOutline | None
                 first = next(k for k, (a, _, _) in enumerate(pieces) if a == draw.point(j.extrados))
                 last = next(k for k, (_, b, _) in enumerate(pieces) if b == draw.point(j.intrados))
                 joint_curves[j.id] = [c for *_, c in pieces[first:last + 1]]
-        support_surfaces = [(_add_support(draw, block, ring, joint_curves, 2 * h), block.id)
-                            for block in ring.piers + ring.abutments]
-        top = _top_curves(draw, ring, sides, span_extrados)
+        support_sizes = [support_element_size(ring, block, per_thickness) for block in ring.piers + ring.abutments]
+        support_surfaces = [(_add_support(draw, block, ring, joint_curves, size), block.id)
+                            for block, size in zip(ring.piers + ring.abutments, support_sizes)]
+        top = _top_curves(draw, ring, sides, top_sizes)
         extrados_curves = [c for curves, _ in top for c in curves]
         fill_curves = {}
         if outline is not None:  # the fill's base begins at the outer ring's springings' extrados corners
             corners = [draw.point(ring.springings(side)[-1].extrados) for side in ("left", "right")]
-            fill_curves = _add_fill(geo, outline, corners, extrados_curves, h_fill, LOAD_REFINEMENT * h_extrados,
-                                    beams)
+            fill_curves = _add_fill(geo, outline, corners, extrados_curves, h_fill,
+                                    lambda x: LOAD_REFINEMENT * size_under(top_sizes, x), beams)
         geo.synchronize()
         if outline is not None or ring.abutments or ring.piers:
-            gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h))
+            gmsh.option.setNumber("Mesh.MeshSizeMax", max(h_fill if outline is not None else 0.0, 2 * h,
+                                                          *support_sizes))
         mesh = gmsh.model.mesh
         if outline is not None:
             boundary = [c for tag in (FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG) for c in fill_curves[tag]]
@@ -429,18 +434,18 @@ def _grade_fill_from_extrados(surface: int, boundary: list[int], top: list[tuple
 
 
 def _add_fill(geo, outline: FillOutline, corners: list[int], extrados_curves: list[int], h_fill: float,
-              h_load: float, beams: tuple[tuple[float, float], ...] = ()) -> dict:
+              h_load: Callable[[float], float], beams: tuple[tuple[float, float], ...] = ()) -> dict:
     """The fill surface over the extrados and the loading beams on its road (one per x-range of ``beams``, whose
     ends are road points of ``outline``): the Gmsh surfaces ("surface", "beams") and the boundary curves per facet
-    tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load`` at the road's load points (patch edges, point
-    loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
+    tag. Mesh sizes (m): ``h_fill`` at the fill's corners, ``h_load(x)`` at the road's load point at x (patch edges,
+    point loads), where the bearing stress is singular, the beam's height at its top corners; the extrados's
     (:func:`~bridgefem.structure.sizing.extrados_element_size`) along it and within the fill's depth of it
     (:func:`_grade_fill_from_extrados`); Gmsh grades in between."""
     o = outline
     base_left, base_right = geo.addPoint(o.x_left, o.y_base, 0.0, h_fill), geo.addPoint(o.x_right, o.y_base, 0.0,
                                                                                          h_fill)
     road_x = [o.x_right, *sorted((x for x in o.road_x if o.x_left < x < o.x_right), reverse=True), o.x_left]
-    road = [geo.addPoint(x, o.y_road, 0.0, h_fill if i in (0, len(road_x) - 1) else h_load)
+    road = [geo.addPoint(x, o.y_road, 0.0, h_fill if i in (0, len(road_x) - 1) else h_load(x))
             for i, x in enumerate(road_x)]
     bases = [geo.addLine(base_left, corners[0]), geo.addLine(corners[1], base_right)]
     ends = [geo.addLine(base_right, road[0]), geo.addLine(road[-1], base_left)]
@@ -504,7 +509,8 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
                      joint_nodes: tuple[float, ...] | None = None) -> BlockMesh:
     """Mesh the ring (and the fill over it) on rank 0, split it at the joints and the extrados, distribute it.
 
-    ``fill_element_size`` (m) is the fill's mesh size away from the ring (0: twice the outer ring's element size);
+    ``fill_element_size`` (m) is the fill's mesh size away from the rings (0: twice the coarsest span's outer ring
+    element size, :func:`~bridgefem.structure.sizing.fill_far_size`);
     ``beams``: x-ranges (m) of loading beams on the fill's road (each end one of ``fill.road_x``; not overlapping);
     ``joint_nodes``: the ring joints' element ends, fractions of the depth from the intrados, 0 to 1 (None:
     ``per_thickness`` even elements, whose size is the ring's element size either way).
@@ -514,7 +520,7 @@ def build_block_mesh(ring: ArchRing, per_thickness: int, comm: MPI.Comm = MPI.CO
     beams = beams if fill is not None else ()
     beam_blocks = tuple(range(ring.n_blocks + 1, ring.n_blocks + 1 + len(beams)))
     if comm.rank == 0:
-        h_fill = fill_element_size or 2 * ring_element_sizes(ring.barrels[0], per_thickness)[-1]
+        h_fill = fill_far_size(ring, per_thickness, fill_element_size)
         raw = _gmsh_bridge(ring, per_thickness, fill, h_fill, beams, joint_nodes)
         # a beam is bonded to the road: its nodes are the fill's (split as one block)
         xs, cs, copy = split_blocks(raw.x, raw.cells, np.minimum(raw.blocks, ring.n_blocks))

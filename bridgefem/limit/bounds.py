@@ -32,12 +32,12 @@ against the fill's weight an equilibrium residual within the tolerance carries s
 capped value can lie above the collapse load. :func:`fill_bounds` therefore:
 
 1. solves both programmes with the cap;
-2. where the lower bound is compared with a load below it (the FE bracket's upper end) and its programme stopped
-   short of Clarabel's full tolerances, solves the static programme again with up to ``CHECK_ITERATIONS``
-   iterations;
+2. where the lower bound is compared with a load (the FE bracket's upper end) and its programme stopped short of
+   Clarabel's full tolerances, either above that load or without a value (not even the relaxed tolerances within the
+   cap), solves the static programme again with up to ``CHECK_ITERATIONS`` iterations;
 3. reports that solve's value as the lower bound when it reached the full tolerances, fell to the compared load or
    below, or stayed within ``SETTLED`` of the capped value (the cap had reached the optimum); else no lower bound,
-   the value still falling above the compared load: the comparison is undecided.
+   the value still falling above the compared load (or none): the comparison is undecided.
 """
 from __future__ import annotations
 
@@ -181,10 +181,11 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None) -> dict 
     """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
     cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``.
     ``compared``: the load (N) the lower bound is compared with (the FE bracket's upper end; None: none); a static
-    programme that stopped short of full accuracy above it is solved again, and its lower bound is None when that
-    solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3; iterations and seconds then count
-    both solves). With ``comm`` (mpi4py; None: this process alone) the programmes are shared out as
-    :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill). Collective over ``comm``."""
+    programme that stopped short of full accuracy above it, or at its cap without a value, is solved again, and its
+    lower bound is None when that solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3;
+    iterations and seconds then count both solves). With ``comm`` (mpi4py; None: this process alone) the programmes
+    are shared out as :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill). Collective
+    over ``comm``."""
     if scene.fill is None:
         return None
     try:
@@ -194,14 +195,16 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None) -> dict 
     if b is None:
         return None
     capped = b.lower
-    if compared is None or capped.load is None or capped.load <= compared or capped.status == "optimal":
+    stopped = capped.load is None and capped.status.startswith("solver failure")  # at the cap, without a value
+    if compared is None or capped.status == "optimal" or not (stopped or capped.load is not None
+                                                              and capped.load > compared):
         return bounds_summary(b)
     again, _, _ = _bound(b.problem, lambda problem: lower_bound(problem, CHECK_ITERATIONS))
     b.lower = replace(again, iterations=capped.iterations + again.iterations, seconds=capped.seconds + again.seconds)
     b.timings["total"] += again.seconds
     summary = bounds_summary(b)
-    decided = again.load is not None and (again.status == "optimal" or again.load <= compared
-                                          or abs(capped.load - again.load) <= SETTLED * again.load)
+    decided = again.load is not None and (again.status == "optimal" or again.load <= compared or (
+        capped.load is not None and abs(capped.load - again.load) <= SETTLED * again.load))
     return summary if decided else {**summary, "lower": None}
 
 

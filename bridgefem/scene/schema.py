@@ -232,9 +232,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "dilation_angle": _angle("dilation angle of the fill's plastic flow (0 to friction_angle)", None, only=_MC,
                                  derived="friction_angle (associated flow, the bound theorems' assumption)"),
         "interface_friction": _coefficient("Coulomb coefficient of the arch-fill interface (the extrados)", 0.5),
-        "element_size": _length("fill mesh size away from the ring (0: twice the ring's element size)", 2e-3, 1.0,
-                                0.0, zero=True, why="finer than 1/500 of the span meshes a fill in millions of "
-                                                    "cells, coarser than the span meshes nothing"),
+        "element_size": _length("fill mesh size away from the rings (0: twice the coarsest span's outer ring "
+                                "element size)", 2e-3, 1.0, 0.0, zero=True,
+                                why="finer than 1/500 of the span meshes a fill in millions of cells, coarser than the "
+                                    "span meshes nothing"),
         "loading_beam": Key(bool, "each patch load reaches the road through a rigid loading beam of the patch's "
                             "length, bonded to the road (false: a flexible uniform pressure)", True),
     },

@@ -202,6 +202,9 @@ class ContactSolver:
         for it in range(1, step.task.budget + 1):
             step.it = it
             outcome = self._iteration(step)
+            # the PETSc objects Python dropped (a copied iterate, a trial's vectors) are freed only here: petsc4py
+            # 3.18 defers their destruction to this collective call (about one vector of the system per iteration)
+            PETSc.garbage_cleanup(self.comm)
             if outcome is not None:
                 return outcome
         if self.material is not None and step.residual > 1.0:
