@@ -343,23 +343,30 @@ def test_a_lower_bound_above_the_compared_load_is_solved_again():
     assert checked["upper"] == capped["upper"]
 
 
+def capped_small_bridge(monkeypatch, cap: int):
+    """The small bridge with a fill, its static programme's value with ``CHECK_ITERATIONS`` (N) and that solve's
+    iterations; the static programme capped at ``cap`` interior-point iterations from now on (unless a caller asks
+    for more)."""
+    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
+    problem = bridge_problem(scene, 1.0)
+    solve = bounds.lower_bound
+    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
+    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=cap: solve(problem, max_iter))
+    return scene, sol.x[layout["factor"]] * problem.live_total, sol.iterations
+
+
 def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_again_decides(monkeypatch):
     """The small bridge's static programme capped at 16 interior-point iterations ends at reduced accuracy more than
     SETTLED above the value Clarabel stalls at with CHECK_ITERATIONS (the iterates carry more than the optimum:
     bridgefem.limit.bounds, *Accuracy*). Compared with a load between the two, the solve again falls below it and is
     the lower bound; compared with a load below both, it stays above it, still falling: no lower bound (undecided)."""
-    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
-    problem = bridge_problem(scene, 1.0)
-    solve = bounds.lower_bound
-    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
-    stalled = sol.x[layout["factor"]] * problem.live_total
-    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=16: solve(problem, max_iter))
+    scene, stalled, iterations = capped_small_bridge(monkeypatch, 16)
     capped = fill_bounds(scene)
     assert capped["programmes"]["lower"]["status"] == "optimal (reduced accuracy)"
     assert capped["lower"] > stalled * (1 + SETTLED)
     between = fill_bounds(scene, 0.5 * (capped["lower"] + stalled))
     assert between["lower"] == pytest.approx(stalled, rel=1e-9) and between["upper"] == capped["upper"]
-    assert between["programmes"]["lower"]["iterations"] == 16 + sol.iterations
+    assert between["programmes"]["lower"]["iterations"] == 16 + iterations
     below = fill_bounds(scene, 0.99 * stalled)
     assert below["lower"] is None and below["upper"] == capped["upper"]
 
@@ -401,14 +408,9 @@ def test_a_lower_bound_stopped_at_its_cap_without_a_value_is_solved_again(monkey
     """The small bridge's static programme capped at 3 interior-point iterations stops without a value (Clarabel's
     MaxIterations, not even its relaxed tolerances). Compared with a load, it is solved again with CHECK_ITERATIONS:
     the lower bound is the one that solve alone gives (run without the cap); compared with no load it stays absent."""
-    scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
-    problem = bridge_problem(scene, 1.0)
-    solve = bounds.lower_bound
-    sol, layout = solve(problem, bounds.CHECK_ITERATIONS)
-    alone = sol.x[layout["factor"]] * problem.live_total
-    monkeypatch.setattr(bounds, "lower_bound", lambda problem, max_iter=3: solve(problem, max_iter))
+    scene, alone, iterations = capped_small_bridge(monkeypatch, 3)
     stopped = fill_bounds(scene)
     assert stopped["lower"] is None and stopped["programmes"]["lower"]["status"].startswith("solver failure")
     checked = fill_bounds(scene, 2.0 * alone)
     assert checked["lower"] == pytest.approx(alone, rel=1e-9)
-    assert checked["programmes"]["lower"]["iterations"] == 3 + sol.iterations
+    assert checked["programmes"]["lower"]["iterations"] == 3 + iterations
