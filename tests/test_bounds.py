@@ -325,6 +325,7 @@ def test_a_mesh_over_the_cap_is_made_again_near_the_cap(monkeypatch):
     assert 0.5 * cap <= regrown.mesh.n_triangles <= 1.1 * cap
 
 
+@pytest.mark.slow  # conic or LP programmes of several seconds
 def test_a_lower_bound_above_the_compared_load_is_solved_again():
     """``fill_bounds(scene, compared)`` (bridgefem.limit.bounds, *Accuracy*): the capped static programme of the small
     bridge of test_fill_bounds_entry_of_results ends short of Clarabel's full tolerances. Compared with a load 1 %
@@ -355,6 +356,7 @@ def capped_small_bridge(monkeypatch, cap: int):
     return scene, sol.x[layout["factor"]] * problem.live_total, sol.iterations
 
 
+@pytest.mark.slow  # conic or LP programmes of several seconds
 def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_again_decides(monkeypatch):
     """The small bridge's static programme capped at 16 interior-point iterations ends at reduced accuracy more than
     SETTLED above the value Clarabel stalls at with CHECK_ITERATIONS (the iterates carry more than the optimum:
@@ -404,6 +406,7 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
             {k: v for k, v in serial["programmes"][name].items() if k != "seconds"})
 
 
+@pytest.mark.slow  # conic or LP programmes of several seconds
 def test_a_lower_bound_stopped_at_its_cap_without_a_value_is_solved_again(monkeypatch):
     """The small bridge's static programme capped at 3 interior-point iterations stops without a value (Clarabel's
     MaxIterations, not even its relaxed tolerances). Compared with a load, it is solved again with CHECK_ITERATIONS:

@@ -61,6 +61,7 @@ def check_and_run(capsys, monkeypatch, tmp_path, d: dict, name: str = "scene") -
         run_until_the_mesh(capsys, monkeypatch, path, tmp_path / f"{name}-out")
 
 
+@pytest.mark.slow  # 200 scenes checked and meshed (about 20 s)
 def test_campaign_draw_check_and_run_agree(capsys, monkeypatch, tmp_path):
     """The random campaign's scenes (150 drawn, 50 more with an option each: a second load, elastic abutments...)
     at thicknesses across the campaign's range (without the LP that puts its lower end at the least thickness that

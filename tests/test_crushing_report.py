@@ -47,6 +47,7 @@ def test_without_strength_no_joint_crushes(strong):
     assert "stress_block_depth" in data["units"]["length"]
 
 
+@pytest.mark.slow  # a crushing FE run of its own (about 10 s)
 def test_weak_masonry_crushes_its_hinges(weak):
     """f_c = 0.7 MPa, 16 elements: the four hinges at the last converged step are crushed; at each crushed hinge the
     stress block N / (f_c w) is as deep as the crushed length to within one element (the crushed pairs carry f_c w

@@ -131,6 +131,7 @@ STAGGERED = {"rings": 2, "bond": "staggered", "thickness": 0.9}
 """Two staggered rings of 0.45 m: each 12 % thinner than the least thickness of one ring (0.51 m)."""
 
 
+@pytest.mark.slow  # conic or LP programmes of several seconds
 def test_least_ring_friction_for_rings_thinner_than_the_least_thickness():
     """Each ring of 0.45 m alone falls (its least thickness is 0.51 m, an independent search on one ring); the
     barrel stands only above a ring friction, found by bisection; the deficit programme that lets the joints also
@@ -161,6 +162,7 @@ FILL = {"fill": {"unit_weight": 18000.0, "young": 50e6, "depth": 0.3, "extension
         "load": [{"kind": "patch", "position": 0.25, "length": 0.5}]}
 
 
+@pytest.mark.slow  # conic or LP programmes of several seconds
 def test_bounds_with_a_fill_on_the_outer_ring():
     """With a fill, aligned rings that cannot slide have the monolithic ring's conic bounds (the fill on the outer
     ring's extrados, the barrel's)."""
