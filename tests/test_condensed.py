@@ -95,7 +95,7 @@ def test_a_barrel_carries_its_weight_from_the_condensed_states():
     solver.max_iterations = self_weight_budget(solver)
     start = solver.initial_iterate()
     assert not solver.solve_step(0.0, start).converged
-    out = condensed_self_weight(solver, lambda level, begin, **options: solver.solve_step(level, begin, **options),
+    out = condensed_self_weight(lambda level, begin, **options: solver.solve_step(level, begin, **options),
                                 start, CondensedPredictor(solver).states)
     assert out is not None and out.converged
     _, lam, _ = solver.system.split(out.iterate.x)
@@ -118,7 +118,7 @@ comm = MPI.COMM_WORLD
 solver = build_model(scene_from_dict(json.loads(sys.argv[1])), comm, None, lambda name: None, Clock(comm)).solver
 solver.max_iterations = self_weight_budget(solver)
 start = solver.initial_iterate()
-out = condensed_self_weight(solver, lambda level, begin, **o: solver.solve_step(level, begin, **o), start,
+out = condensed_self_weight(lambda level, begin, **o: solver.solve_step(level, begin, **o), start,
                             CondensedPredictor(solver).states)
 _, lam, _ = solver.system.split(out.iterate.x)
 normal = comm.allreduce(float(abs(lam[:, 0]).sum()), op=MPI.SUM)
@@ -134,7 +134,7 @@ def test_two_ranks_carry_the_barrels_weight_from_the_same_condensed_states():
     solver = build_model(scene_from_dict(BARREL), comm, None, lambda name: None, Clock(comm)).solver
     solver.max_iterations = self_weight_budget(solver)
     start = solver.initial_iterate()
-    serial = condensed_self_weight(solver, lambda level, begin, **o: solver.solve_step(level, begin, **o), start,
+    serial = condensed_self_weight(lambda level, begin, **o: solver.solve_step(level, begin, **o), start,
                                    CondensedPredictor(solver).states)
     total = float(np.abs(solver.system.split(serial.iterate.x)[1][:, 0]).sum())
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",

@@ -219,7 +219,6 @@ def _run(args, petsc: dict) -> int:
 
     comm = MPI.COMM_WORLD
     check_environment_options(comm)
-    total = sum(ld.factor for ld in scene.loads)
     announce = not args.quiet and size.dofs > LARGE_DOFS and comm.rank == 0
     # with --json, stdout holds the JSON object alone: what the run prints on its way goes to stderr
     with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
@@ -228,7 +227,7 @@ def _run(args, petsc: dict) -> int:
                 _notice(line)
             if announce:
                 print(f"{scene.name}: {size.describe()}", flush=True)
-            report = (lambda s: None) if args.quiet else _progress(total, scene_law(scene).STATES)
+            report = (lambda s: None) if args.quiet else _progress(scene.live_per_level, scene_law(scene).STATES)
             an = run_analysis(scene, comm, petsc, report=report,
                               phase=_phase if announce else (lambda name: None), notice=_notice, max_dofs=max_dofs)
             failed = Status.of(an.search.status) is Status.FAILURE

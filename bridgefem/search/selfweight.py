@@ -148,21 +148,21 @@ def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: b
         out = friction_continuation(solver, attempt, progress)
         if not (out.converged or out.mechanism or progress.condensed) and states is not None:
             progress.condensed = True
-            out = condensed_self_weight(solver, attempt, solver.initial_iterate(), states) or out
+            out = condensed_self_weight(attempt, solver.initial_iterate(), states) or out
         return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
     if fill is not None and not first.mechanism and fill.cohesion < fill.overburden:
         return cohesion_continuation(solver, attempt, progress)
     return first
 
 
-def condensed_self_weight(solver: ContactSolver, attempt: Attempt, start: Iterate, states: States
-                          ) -> StepOutcome | None:
-    """The one step from ``start`` solved again from each of the condensed ``states`` (module docstring, step 2,
-    *Condensed states*) with ``CONDENSED_TRIAL`` iterations, until one converges: that step solved and recorded by
-    ``attempt``; None when none converges. Collective."""
+def condensed_self_weight(attempt: Attempt, start: Iterate, states: States) -> StepOutcome | None:
+    """The one step from ``start`` solved again by ``attempt`` (each try recorded) from each of the condensed
+    ``states`` (module docstring, step 2, *Condensed states*) with ``CONDENSED_TRIAL`` iterations, until one
+    converges: that step; None when none converges. Collective."""
     for x in states(0.0, start):
-        if solver.solve_step(0.0, start, predictor=x, iterations=CONDENSED_TRIAL).converged:
-            return attempt(0.0, start, predictor=x)
+        out = attempt(0.0, start, predictor=x, iterations=CONDENSED_TRIAL)
+        if out.converged:
+            return out
     return None
 
 
