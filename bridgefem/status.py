@@ -38,3 +38,7 @@ class Status(StrEnum):
     def no_collapse(self) -> bool:
         """Locked (FE) or unbounded (LP): no live load found that collapses the structure."""
         return self in (Status.LOCKED, Status.UNBOUNDED)
+
+
+RINGS_UNDER_FILL = "the rings under the loads the fill transmits"  # names evidence 5 of
+# bridgefem.analysis.evidence in a failure's reason, read back by the verdict and the command line

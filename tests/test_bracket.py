@@ -196,7 +196,7 @@ def collapse_state(settles):
     """A collapse check (bridgefem.analysis.checks.collapse_check) that answers ``settles``; records (lower, trial)."""
     asked = []
 
-    def collapsed(lower, trial, state):
+    def collapsed(lower, trial, state, settled):
         asked.append((lower, trial))
         return settles, "made up"
 
@@ -236,7 +236,7 @@ def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
     level = {"rising": lambda it: 1.002 * it.x.array[0],
              "falling": lambda it: LIMIT + 0.5 * (LIMIT - it.x.array[0])}.get(estimate, lambda it: estimate)
     s = search(estimated, guess=1.3 * LIMIT, bound=bound,
-               collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
+               collapse=CollapseCheck(level, lambda lower, trial, it, settled: (False, "no collapse state")))
     assert_bracket(s)
     if estimate in (LIMIT, "falling"):
         assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12)

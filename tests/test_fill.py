@@ -13,7 +13,7 @@ from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from bridgefem.analysis.interface import interface_forces, transmitted_load_check
+from bridgefem.analysis.interface import fill_collapse_check, interface_forces, transmitted_load_check
 from bridgefem.analysis.mechanism import joint_states, springing_reactions
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.fe.mesh import FILL_BASE_TAG
@@ -234,6 +234,10 @@ def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     # (test_very_soft_fill_only_passes_loads_to_the_ring).
     check = transmitted_load_check(an)
     assert check.lp.status == "no collapse (unbounded)" or check.ratio > 1.5, check.ratio
+    # so a closing failure from that state would not settle the bracket (evidence 5 refuses it)
+    s = an.search
+    collapse = fill_collapse_check(scene, an.solver, an.pairs, an.model.V, an.block_mesh, s.tolerance, an.load_total)
+    assert not collapse.settles(s.lower, s.lower * (1 + s.tolerance), s.last, s.settled)[0]
 
 
 # A fill 1e-5 as stiff as the masonry (as the extremes' case "fill young=1e-5 masonry"), with and without Poisson
@@ -268,7 +272,7 @@ def test_interface_forces_balance_the_ring(variant):
     s = an.search
     weight = an.model.dead_weight
     for it in (s.settled, s.last):
-        f = interface_forces(an, it)
+        f = interface_forces(an.solver, an.pairs, an.model.V, an.block_mesh, it)
         assert len(f.blocks) and set(f.blocks) <= set(range(an.ring.n_voussoirs)) and np.all(f.normal >= -1e-9 * weight)
         ground = springing_reactions(joint_states(an.solver, an.pairs, an.ring, it), an.ring).sum(axis=0)
         np.testing.assert_allclose(f.forces.sum(axis=0) + ground, [0.0, weight], atol=1e-6 * weight)
@@ -298,6 +302,26 @@ def test_very_soft_fill_only_passes_loads_to_the_ring(variant):
     columns = collapse_load(an.scene).load
     assert s.lower * an.load_total >= 0.99 * columns  # the FE carries at least that LP (1 %: FE/LP of a bare arch)
     assert columns < 0.75 * s.lower * an.load_total  # which would fail the check above by 25 % and more
+
+
+@pytest.mark.parametrize("variant", list(SOFT_VARIANTS))
+def test_a_closing_failure_where_the_rings_collapse_under_the_fills_loads_settles_the_bracket(variant):
+    """Evidence 5 (bridgefem.analysis.evidence): under an elastic fill a closing trial that fails without proof from
+    a state where the rings under the loads the fill transmits collapse within the bracket's width settles the
+    bracket. At the very soft fill's limit (the flat curve: its rings collapse under those loads at 1.0001 and 1.0009
+    x the FE, test above) the check settles a bracket of the scene's tolerance (0.005), with the LP's level in words;
+    it refuses where the rings keep a reserve beyond the width: the same state with a tolerance of 1e-6, and the
+    stiff rough fill's state (3.6 x, test_stiff_rough_fill_prevents_the_bare_arch_mechanism)."""
+    an = soft_fill(variant)
+    s = an.search
+    parts = an.scene, an.solver, an.pairs, an.model.V, an.block_mesh
+    ratio = transmitted_load_check(an).ratio
+    settles, check = fill_collapse_check(*parts, s.tolerance, an.load_total).settles(
+        s.lower, s.lower * (1 + s.tolerance), s.last, s.settled)
+    assert settles and f"{ratio:.7f} x" in check, check
+    tight = fill_collapse_check(*parts, 1e-6, an.load_total)
+    assert ratio > 1 + 1e-6 and not tight.settles(s.lower, s.lower * (1 + 1e-6), s.last, s.settled)[0]
+    assert fill_collapse_check(*parts, s.tolerance, an.load_total).level(s.last) is None  # no estimate
 
 
 @pytest.mark.mpi

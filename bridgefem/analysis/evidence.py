@@ -61,6 +61,19 @@ evidence of collapse only when
    exists, so no retry or continuation can find one: "unstable under self-weight" with this evidence (and, as always,
    only where the rigid-block LP with the exact voussoirs agrees).
 
+5. under an elastic fill, the *rings under the loads the fill transmits* (:mod:`bridgefem.analysis.interface`): the
+   rigid-block LP of the rings with the interface forces of the settled state as dead load and their change up to
+   the converged level L as live load collapses at lambda >= L (the FE's state is admissible for it, the static
+   theorem as in 4). A closing trial (within the width of L) that fails without proof from a state where lambda is
+   within [1 - ``AGREEMENT``, 1 + tolerance] x L settles the bracket [L, trial]: the rings are a mechanism under
+   the loads the fill passes on, and an elastic fill has no strength to give way, so only its elasticity could carry
+   more, by changing how it loads the rings (its passive restraint) with no bound of its own. Its load-deflection
+   curve need not flatten (the fill's stiffness stays), so the flat-curve test cannot see that collapse, and a
+   retry that converges only creeps up along the fill's elastic restraint. The verdict is the rings' collapse; its
+   bracket's width is the search's tolerance (``ring_under_transmitted_loads`` in results.json reads the same LP
+   at the last converged state). A plastic fill has its own failure (the flat curve's evidence and the conic
+   bounds), so there the rule does not apply.
+
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
 elastic path reaches, never that no other path carries more. The Tresca fixed point (Gilbert, Casapulla & Ahmed
@@ -79,7 +92,7 @@ With a fill the LP carries the fill as dead load only: it ignores the fill's str
 usually raise the collapse load, and the fill's own failure under the load (a bearing failure under a patch or a
 point load), which can lower it far below the LP, even below the conic upper bound of the bridge with its fill.
 So it cannot confirm an FE limit either way: the search's flat
-load-deflection curve is the FE's evidence, the conic bounds (``fill_bounds``, :mod:`bridgefem.limit.bounds`) the
+load-deflection curve, or under an elastic fill evidence 5, is the FE's evidence, the conic bounds (``fill_bounds``, :mod:`bridgefem.limit.bounds`) the
 independent check, and an FE limit below the LP gets a warning that names the likely cause. Under self-weight
 alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
 as for a bare ring.
@@ -106,7 +119,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..limit.rigid_block import Statics
-from ..status import Status
+from ..status import RINGS_UNDER_FILL, Status
 
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (the limit load's accuracy target)
 
@@ -278,14 +291,16 @@ def needs_slip_check(status: str, lower: float, upper: float | None, proved: boo
 
 def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
             lp_level: float | None, unit: float = 1.0, fill: bool = False, slip: SlipCheck | None = None,
-            static: StaticBound | None = None, closed: bool = False) -> Verdict:
+            static: StaticBound | None = None, closed: bool = False, failure: str = "") -> Verdict:
     """The evidence rule (module docstring) for a search's ``status`` and bracket [``lower``, ``upper``] (levels in N
     per unit load factor), ``proved`` when its last failed step proved the mechanism, against the LP's status and
     collapse level (same unit; None when the LP failed). ``unit``: N per unit level, for the messages (kN);
     ``fill``: the bridge has a fill, which the LP carries as dead load only; ``slip``: the non-associative check of
     a limit with sliding joints (:func:`needs_slip_check`), None when it did not run; ``static``: the static bound of
     a bare ring (evidence 4, None without one) and ``closed``: the search ended on it (a limit whose upper end is
-    the bound after an admissibility check, or a self-weight that the bound shows cannot stand)."""
+    the bound after an admissibility check, or a self-weight that the bound shows cannot stand); ``failure``: the
+    reason of the search's last failed step (evidence 5 names itself there:
+    :data:`bridgefem.status.RINGS_UNDER_FILL`)."""
     kind = Status.of(status)
     lp = Status.of(lp_status) if lp_status in set(Status) else None
     lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
@@ -293,9 +308,12 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
                else f"{lp_name} finds '{lp_status}'" if lp_status else "no rigid-block LP answer")
     if kind is Status.LIMIT and fill:
         below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
-        return Verdict(status, upper, "proof: an admissible rigid-block mode on which the loads do positive work"
-                       if proved else "the search's load-deflection curve (with a fill the LP cannot confirm it; the "
-                       "conic bounds fill_bounds are the check)", (f"FE limit below {lp_text}: the fill fails before "
+        evidence = ("proof: an admissible rigid-block mode on which the loads do positive work" if proved else
+                    f"collapse state: {RINGS_UNDER_FILL} collapse within the bracket, and an elastic fill has no "
+                    "strength to give way (evidence 5; failure_reason, ring_under_transmitted_loads)"
+                    if RINGS_UNDER_FILL in failure else "the search's load-deflection curve (with a fill the LP cannot "
+                    "confirm it; the conic bounds fill_bounds are the check)")
+        return Verdict(status, upper, evidence, (f"FE limit below {lp_text}: the fill fails before "
                        "the ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
     if kind is Status.LIMIT and closed and lp is Status.LIMIT and reaches(lower, upper, lp_level):
         return Verdict(status, upper, f"static theorem: the FE's equilibrium at {lower * unit / 1e3:.6g} kN (its "

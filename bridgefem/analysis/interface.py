@@ -1,14 +1,15 @@
 """The arch-fill interface at a converged state: the forces the fill exerts on the ring, and the ring's rigid-block
-LP under the loads the fill transmits, a lower-bound check of an FE limit with a fill.
+LP under the loads the fill transmits, a lower-bound check of an FE limit with a fill and, under an elastic fill,
+the search's collapse state (evidence 5 of :mod:`bridgefem.analysis.evidence`).
 
 Forces are in N for the scene's width, x to the right and y up; levels in N per unit load factor. The interface's
 joint forces are nodal forces (the multipliers of the interface pairs), so the rows of :func:`interface_forces`
 balance the ring's nodes exactly: the ring receives ``-(lam_n n + lam_t tau)`` at each interface pair, with n the
 pair's normal from the ring into the fill and tau that normal turned +90 degrees.
 
-The check (:func:`transmitted_load_check`):
+The check (:func:`ring_under_transmitted_loads`):
 
-1. read the interface forces F_S after self-weight and F_L at the last converged level P_L;
+1. read the interface forces F_S at the settled state (live load 0) and F_L at a converged level P_L;
 2. load the ring's rigid-block LP (:func:`bridgefem.limit.ring_blocks.ring_under_forces`) with the dead load ring
    weight + F_S and the live load (F_L - F_S) / P_L;
 3. solve it (associative friction, on rank 0): its collapse level lambda.
@@ -18,6 +19,9 @@ pair, so it is statically admissible for that LP: lambda >= P_L, up to the LP's 
 (the static theorem, Livesley 1978). When the FE limit is a mechanism of the ring (the fill only passes loads on),
 the ring under F_L is itself at collapse and lambda ~ P_L; lambda well above P_L means that the fill carried the rest
 by changing how it loads the ring (its stiffness or strength restrains the mechanism).
+
+The run reads it at its last converged state (:func:`transmitted_load_check`); under an elastic fill the search
+reads it at the state below a closing trial that failed without proof (:func:`fill_collapse_check`).
 
 Safeguard: *the ring-side node check*: every interface pair's ring-side node must lie on the extrados, else the
 forces would be put on the wrong voussoir; a mismatch raises instead.
@@ -29,12 +33,16 @@ from dataclasses import dataclass
 import numpy as np
 from dolfinx import fem
 
-from ..fe.mesh import EXTRADOS_TAG
+from ..fe.mesh import EXTRADOS_TAG, BlockMesh
 from ..fe.model import node_blocks
-from ..fe.pairs import ARCH_FILL
+from ..fe.pairs import ARCH_FILL, JointPairs
 from ..limit.rigid_block import LPResult, solve_blocks
 from ..limit.ring_blocks import ring_under_forces
-from ..solver.newton import Iterate
+from ..scene.model import Scene
+from ..search.records import CollapseCheck
+from ..solver.newton import ContactSolver, Iterate
+from ..status import RINGS_UNDER_FILL
+from .evidence import AGREEMENT
 from .result import Analysis, TransmittedLoadCheck
 
 
@@ -54,9 +62,10 @@ class InterfaceForces:
     shear: np.ndarray
 
 
-def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
-    """The arch-fill interface forces on the ring at a converged iterate (collective; empty without a fill)."""
-    solver, pairs, V, bm = an.solver, an.pairs, an.model.V, an.block_mesh
+def interface_forces(solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSpace, bm: BlockMesh, it: Iterate
+                     ) -> InterfaceForces:
+    """The arch-fill interface forces on the ring at a converged iterate of the ``solver`` with the joint ``pairs``,
+    the displacement space ``V`` and the mesh ``bm`` (collective; empty without a fill)."""
     comm = solver.comm
     imap = V.dofmap.index_map
     n_owned = imap.size_local
@@ -82,22 +91,54 @@ def interface_forces(an: Analysis, it: Iterate) -> InterfaceForces:
                            rows[order, 5], rows[order, 6])
 
 
+def ring_under_transmitted_loads(scene: Scene, dead: InterfaceForces, live: InterfaceForces, level: float,
+                                 friction_model: str = "associative") -> TransmittedLoadCheck:
+    """The scene's rings under the loads the fill transmits (module docstring, steps 2-3): ``dead`` the interface
+    forces at the settled state, ``live`` those at the converged ``level`` (N per unit load factor, > 0). Not
+    collective (the LP on the calling rank); an LP that fails is reported in ``lp.status`` ("LP failed: ...")."""
+    increment = (live.forces - dead.forces) / level  # N per unit load level
+    model = ring_under_forces(scene, dead.blocks, dead.points, dead.forces, increment)
+    try:
+        lp = solve_blocks(model, friction_model)
+    except RuntimeError as err:  # a check, never the reason a run fails: report it
+        lp = LPResult(None, None, f"LP failed: {err}", friction_model)
+    return TransmittedLoadCheck(level, lp.level, lp.level / level if lp.level is not None else None, lp)
+
+
 def transmitted_load_check(an: Analysis, friction_model: str = "associative") -> TransmittedLoadCheck | None:
-    """The ring under the loads the fill transmits, a lower-bound check of the FE limit with a fill (module
-    docstring, steps 1-3). The LP on rank 0, broadcast (collective); None without a fill, a live load or a converged
-    live-load step above 0; an LP that fails is reported in ``lp.status`` ("LP failed: ...")."""
+    """The ring under the loads the fill transmits at the run's last converged state, a lower-bound check of the FE
+    limit with a fill (module docstring, steps 1-3). The LP on rank 0, broadcast (collective); None without a fill, a
+    live load or a converged live-load step above 0."""
     s = an.search
     if an.scene.fill is None or not an.scene.loads or s.settled is None or s.last is None or not s.lower > 0:
         return None
-    dead, live = interface_forces(an, s.settled), interface_forces(an, s.last)
-    out = None
-    if an.solver.comm.rank == 0:
-        increment = (live.forces - dead.forces) / s.lower  # N per unit load level
-        model = ring_under_forces(an.scene, dead.blocks, dead.points, dead.forces, increment)
-        try:
-            lp = solve_blocks(model, friction_model)
-        except RuntimeError as err:  # a check, never the reason a run fails: report it
-            lp = LPResult(None, None, f"LP failed: {err}", friction_model)
-        ratio = lp.level / s.lower if lp.level is not None else None
-        out = TransmittedLoadCheck(s.lower, lp.level, ratio, lp)
+    parts = an.solver, an.pairs, an.model.V, an.block_mesh
+    dead, live = interface_forces(*parts, s.settled), interface_forces(*parts, s.last)
+    out = ring_under_transmitted_loads(an.scene, dead, live, s.lower, friction_model) if an.solver.comm.rank == 0 \
+        else None
     return an.solver.comm.bcast(out, root=0)
+
+
+def fill_collapse_check(scene: Scene, solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSpace, bm: BlockMesh,
+                        tolerance: float, unit: float) -> CollapseCheck | None:
+    """Evidence 5 of :mod:`bridgefem.analysis.evidence` for the search
+    (:class:`bridgefem.search.records.CollapseCheck`): under an elastic fill with live loads, a converged state at ``lower`` settles the bracket [``lower``, trial] of
+    relative width ``tolerance`` when the rings under the loads the fill transmits there
+    (:func:`ring_under_transmitted_loads`, from the settled state) collapse at a level within [1 - ``AGREEMENT``,
+    1 + ``tolerance``] x ``lower``, with the check in words (``unit``: N of live load per unit level). No estimate of
+    the limit (``level`` None). None without a fill, with a plastic fill (whose own yielding the flat curve shows) or
+    without live loads. Collective."""
+    if scene.fill is None or solver.material is not None or not scene.loads:
+        return None
+
+    def settles(lower: float, trial: float, state: Iterate, settled: Iterate) -> tuple[bool, str]:
+        dead, live = (interface_forces(solver, pairs, V, bm, it) for it in (settled, state))
+        check = ring_under_transmitted_loads(scene, dead, live, lower) if solver.comm.rank == 0 else None
+        check = solver.comm.bcast(check, root=0)
+        if check.lp_level is None:
+            return False, f"{RINGS_UNDER_FILL}: {check.lp.status}"
+        ok = (1 - AGREEMENT) * lower <= check.lp_level <= (1 + tolerance) * lower
+        return ok, (f"{RINGS_UNDER_FILL} (rigid-block LP, associative friction) collapse at "
+                    f"{check.lp_level * unit / 1e3:.6g} kN, {check.ratio:.7f} x the converged load below the trial")
+
+    return CollapseCheck(lambda state: None, settles)

@@ -12,7 +12,8 @@ rigid-block LP of Livesley 1978 and Gilbert & Melbourne 1994 as its independent 
    :mod:`bridgefem.analysis.evidence`).
 3. The limit search (:mod:`bridgefem.search.pathfollow`), with its settings from the scene's keys
    (:func:`search_settings`) and its guides: the LP's level as a guess, the static bound, a coarser run's level and
-   path, the collapse-state check at its converged states (:func:`bridgefem.analysis.checks.collapse_check`) and,
+   path, the collapse-state check at its converged states (:func:`bridgefem.analysis.checks.collapse_check`; under
+   an elastic fill :func:`bridgefem.analysis.interface.fill_collapse_check`) and,
    on a bare ring, a predicted state for a failed trial (:class:`bridgefem.solver.tresca.TrescaPredictor`). It
    measures the deflection under the live load: the mean of the monitored nodes, or with a plastic fill the live
    load's work-conjugate displacement (:func:`load_displacement`).
@@ -71,7 +72,7 @@ from ..structure.sizing import MAX_DOFS
 from .build import BridgeModel, Clock, JointLawFactory, build_model
 from .checks import collapse_check, slip_check
 from .evidence import confirm
-from .interface import transmitted_load_check
+from .interface import fill_collapse_check, transmitted_load_check
 from .mechanism import collapse_mode, joint_states
 from .refinement import MAX_REFINEMENTS, coarse_stress_block, refine
 from .result import Analysis, ConvergedState, user_warnings
@@ -158,7 +159,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
                       fill=not bare, slip=slip_check(scene, comm, search, lp, joints, blocks),
-                      static=bound[0] if bound else None, closed=search.static)
+                      static=bound[0] if bound else None, closed=search.static, failure=search.failure)
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, fe.ring, fe.block_mesh, fe.model, fe.pairs, solver, search, joints, lp, clock.timings,
                     states, verdict, static=bound[0] if bound else None)
@@ -199,7 +200,9 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.solver.linear)
             guides = SearchGuides(guess=lp.level if lp.status == Status.LIMIT else None, bound=bound, coarser=coarser,
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, fe.pairs, fe.ring,
-                                                          s.tolerance, total),
+                                                          s.tolerance, total)
+                                  or fill_collapse_check(scene, solver, fe.pairs, model.V, fe.block_mesh, s.tolerance,
+                                                         total),
                                   predicted=predictor.predict if predictor is not None else None,
                                   self_weight_states=condensed.states if condensed is not None else None,
                                   coarser_path=path.guide(solver) if path is not None else None)

@@ -255,7 +255,7 @@ class _Search:
         out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
         if not out.converged and self._final(trial, out) and not out.proved and (
                 not self.target.plausible(trial) or not out.mechanism):
-            out = _settled(self.target.collapse, lower, trial, state, out) or retried(
+            out = _settled(self.target.collapse, lower, trial, state, self.settled, out) or retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
         predicted = self.guides.predicted
         if out.converged or out.proved or not far or predicted is None or self.futile >= FUTILE_PREDICTIONS:
@@ -319,14 +319,15 @@ class _Search:
         return None
 
 
-def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
-             ) -> StepOutcome | None:
+def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, settled: Iterate,
+             failed: StepOutcome) -> StepOutcome | None:
     """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower``, as a
     mechanism when ``collapse`` finds that state a collapse state settling the bracket [lower, trial]
-    (:mod:`bridgefem.search.target`, *Collapse state*, step 4), else None (the failure is retried). Collective."""
+    (:mod:`bridgefem.search.target`, *Collapse state*, step 4; ``settled``: the state at live load 0), else None (the
+    failure is retried). Collective."""
     if collapse is None:
         return None
-    settles, check = collapse.settles(lower, trial, state)
+    settles, check = collapse.settles(lower, trial, state, settled)
     return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
                                                   f"state: {check}") if settles else None
 

@@ -79,15 +79,15 @@ class StaticCap:
 
 @dataclass
 class CollapseCheck:
-    """Evidence 3 (:mod:`bridgefem.analysis.evidence`) at a converged state of a bare ring
-    (:mod:`bridgefem.search.target`, *Collapse state*): ``level(state)`` the level (N per unit load factor) at which
-    the state's rigid blocks with its friction capacities (mu x its joint normal forces) collapse, on a mechanism
-    that slides only where the state's joints are at their Coulomb limit (None: no such mechanism);
-    ``settles(lower, trial, state)`` whether the state at ``lower`` is the collapse state that settles the bracket
-    [lower, trial], with the check in words. Both collective."""
+    """A converged state read as a collapse state (:mod:`bridgefem.search.target`, *Collapse state*): evidence 3
+    (:mod:`bridgefem.analysis.evidence`) on a bare ring, evidence 5 (the rings under the loads an elastic fill
+    transmits) under a fill. ``level(state)``: the level (N per unit load factor) at which the state's rigid blocks
+    collapse, the search's estimate of the limit (None: none); ``settles(lower, trial, state, settled)``: whether the
+    state at ``lower`` is the collapse state that settles the bracket [lower, trial], with the check in words
+    (``settled``: the converged state at live load 0, where the live load started). Both collective."""
 
     level: Callable[[Iterate], float | None]
-    settles: Callable[[float, float, Iterate], tuple[bool, str]]
+    settles: Callable[[float, float, Iterate, Iterate], tuple[bool, str]]
 
 
 @dataclass(frozen=True)
@@ -139,8 +139,8 @@ class SearchGuides:
     ``bound``: the static theorem's bound (:mod:`bridgefem.search.pathfollow`, *Static bound*).
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor;
     :mod:`bridgefem.search.target`, *Guess*); None on a first run.
-    ``collapse``: evidence 3 at the converged states of a bare ring (:mod:`bridgefem.search.target`, *Collapse
-    state*).
+    ``collapse``: the collapse-state reading of the converged states (:class:`CollapseCheck`;
+    :mod:`bridgefem.search.target`, *Collapse state*).
     ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*). Collective.
     ``self_weight_states(level, start)``: predicted states (combined vectors) for a self-weight step that the one
