@@ -101,7 +101,7 @@ def search_rows() -> list[Row]:
         bound = static_cap(1.3 * LIMIT)[0]
         search(plain, guess=1.3 * LIMIT, bound=bound)
         search(estimated, guess=1.3 * LIMIT, bound=bound,
-               collapse=CollapseCheck(level, lambda lower, trial, it, settled: (False, "no collapse state")))
+               collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
         if name == "rising":  # never settled: the search as without an estimate
             rows.append(check("collapse-state estimate rising with the load: solves", estimated.solves, "==",
                               plain.solves, "as without an estimate"))

@@ -196,7 +196,7 @@ def collapse_state(settles):
     """A collapse check (bridgefem.analysis.checks.collapse_check) that answers ``settles``; records (lower, trial)."""
     asked = []
 
-    def collapsed(lower, trial, state, settled):
+    def collapsed(lower, trial, state):
         asked.append((lower, trial))
         return settles, "made up"
 
@@ -221,6 +221,32 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
             assert solver.retries == len(RETRIES)
 
 
+def test_a_collapse_state_by_itself_ends_the_search_at_the_first_failure_without_a_mechanism_above_it():
+    """Evidence 5 (bridgefem.analysis.evidence; bridgefem.search.target, *Collapse state*, step 5): a state that is a
+    collapse state by itself (the rings at collapse under an elastic fill's loads; here every state from 0.9 LIMIT,
+    proving the bracket of the width above it) ends the search at the first trial above it that fails without a
+    mechanism, whatever its step (the fake fails every step longer than LIMIT / 40): the bracket [lower, min(trial,
+    the state's upper end)] with lower from 0.9 LIMIT, no retries. A check that finds no such state leaves the search
+    as it is: the same trials."""
+    read = []
+
+    def bracket(lower, state, settled):
+        read.append(lower)
+        assert settled.x.array[0] == 0.0  # the state at live load 0
+        return (lower * (1 + 1e-4), "made up") if lower >= 0.9 * LIMIT else (None, "none")
+
+    plain = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT)
+    s = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT, collapse=CollapseCheck(bracket=bracket))
+    assert s.status == Status.LIMIT and 0.9 * LIMIT <= s.lower < LIMIT and not s.proved
+    assert s.lower < s.upper <= s.lower * (1 + 1e-4) and s.failure.startswith("no convergence")
+    assert s.failure.endswith("the converged state below is a collapse state: made up")
+    assert read[-1] == s.lower and all(level < 0.9 * LIMIT for level in read[:-1])
+    assert trials(s) == trials(plain)[:len(trials(s))]  # the same path until the collapse state ends it
+    never = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT,
+                   collapse=CollapseCheck(bracket=lambda lower, state, settled: (None, "none")))
+    assert trials(never) == trials(plain) and never.upper == plain.upper
+
+
 @pytest.mark.parametrize("estimate", [LIMIT, 0.9 * LIMIT, 0.999 * LIMIT, "rising", "falling"])
 def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
     """Unproven failures 30 % below the static bound (suspect): with the exact limit as every converged state's
@@ -236,7 +262,7 @@ def test_a_collapse_states_estimate_sets_the_path_never_the_bracket(estimate):
     level = {"rising": lambda it: 1.002 * it.x.array[0],
              "falling": lambda it: LIMIT + 0.5 * (LIMIT - it.x.array[0])}.get(estimate, lambda it: estimate)
     s = search(estimated, guess=1.3 * LIMIT, bound=bound,
-               collapse=CollapseCheck(level, lambda lower, trial, it, settled: (False, "no collapse state")))
+               collapse=CollapseCheck(level, lambda lower, trial, it: (False, "no collapse state")))
     assert_bracket(s)
     if estimate in (LIMIT, "falling"):
         assert s.lower == pytest.approx(LIMIT / (1 + 0.5e-4), rel=1e-12)

@@ -234,10 +234,10 @@ def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
     # (test_very_soft_fill_only_passes_loads_to_the_ring).
     check = transmitted_load_check(an)
     assert check.lp.status == "no collapse (unbounded)" or check.ratio > 1.5, check.ratio
-    # so a closing failure from that state would not settle the bracket (evidence 5 refuses it)
+    # so a failure above that state would not end the search there (evidence 5 refuses it)
     s = an.search
     collapse = fill_collapse_check(scene, an.solver, an.pairs, an.model.V, an.block_mesh, s.tolerance, an.load_total)
-    assert not collapse.settles(s.lower, s.lower * (1 + s.tolerance), s.last, s.settled)[0]
+    assert collapse.bracket(s.lower, s.last, s.settled)[0] is None
 
 
 # A fill 1e-5 as stiff as the masonry (as the extremes' case "fill young=1e-5 masonry"), with and without Poisson
@@ -305,23 +305,22 @@ def test_very_soft_fill_only_passes_loads_to_the_ring(variant):
 
 
 @pytest.mark.parametrize("variant", list(SOFT_VARIANTS))
-def test_a_closing_failure_where_the_rings_collapse_under_the_fills_loads_settles_the_bracket(variant):
-    """Evidence 5 (bridgefem.analysis.evidence): under an elastic fill a closing trial that fails without proof from
-    a state where the rings under the loads the fill transmits collapse within the bracket's width settles the
-    bracket. At the very soft fill's limit (the flat curve: its rings collapse under those loads at 1.0001 and 1.0009
-    x the FE, test above) the check settles a bracket of the scene's tolerance (0.005), with the LP's level in words;
-    it refuses where the rings keep a reserve beyond the width: the same state with a tolerance of 1e-6, and the
-    stiff rough fill's state (3.6 x, test_stiff_rough_fill_prevents_the_bare_arch_mechanism)."""
+def test_a_state_where_the_rings_collapse_under_the_fills_loads_brackets_the_limit(variant):
+    """Evidence 5 (bridgefem.analysis.evidence): under an elastic fill a state where the rings under the loads the
+    fill transmits collapse within the bracket's width is a collapse state by itself, whose bracket [lower, lambda]
+    ends the search after a failure above it. At the very soft fill's limit (the flat curve: its rings collapse
+    under those loads at 1.0001 and 1.0009 x the FE, test above) the check proves the bracket up to that LP's level
+    (the scene's tolerance 0.005), with the level in words; it refuses where the rings keep a reserve beyond the
+    width: the same state with a tolerance of 1e-6, and the stiff rough fill's state (3.6 x,
+    test_stiff_rough_fill_prevents_the_bare_arch_mechanism)."""
     an = soft_fill(variant)
     s = an.search
     parts = an.scene, an.solver, an.pairs, an.model.V, an.block_mesh
-    ratio = transmitted_load_check(an).ratio
-    settles, check = fill_collapse_check(*parts, s.tolerance, an.load_total).settles(
-        s.lower, s.lower * (1 + s.tolerance), s.last, s.settled)
-    assert settles and f"{ratio:.7f} x" in check, check
+    ring = transmitted_load_check(an)
+    upper, check = fill_collapse_check(*parts, s.tolerance, an.load_total).bracket(s.lower, s.last, s.settled)
+    assert upper == pytest.approx(ring.lp_level, rel=1e-9) and f"{ring.ratio:.7f} x" in check, check
     tight = fill_collapse_check(*parts, 1e-6, an.load_total)
-    assert ratio > 1 + 1e-6 and not tight.settles(s.lower, s.lower * (1 + 1e-6), s.last, s.settled)[0]
-    assert fill_collapse_check(*parts, s.tolerance, an.load_total).level(s.last) is None  # no estimate
+    assert ring.ratio > 1 + 1e-6 and tight.bracket(s.lower, s.last, s.settled)[0] is None
 
 
 @pytest.mark.mpi

@@ -211,7 +211,7 @@ class Readings:
             self.read.append(state)
             return self.levels[state]
 
-        return CollapseCheck(level, lambda lower, trial, state, settled: (False, "not used"))
+        return CollapseCheck(level, lambda lower, trial, state: (False, "not used"))
 
 
 def test_a_falling_collapse_level_is_extrapolated_along_the_secant_to_where_it_meets_the_load():

@@ -134,7 +134,7 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
                 out = None
         return comm.bcast(out, root=0)
 
-    def settles(lower: float, trial: float, state: Iterate, settled: Iterate) -> tuple[bool, str]:
+    def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
         slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
         return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
 

@@ -64,9 +64,9 @@ evidence of collapse only when
 5. under an elastic fill, the *rings under the loads the fill transmits* (:mod:`bridgefem.analysis.interface`): the
    rigid-block LP of the rings with the interface forces of the settled state as dead load and their change up to
    the converged level L as live load collapses at lambda >= L (the FE's state is admissible for it, the static
-   theorem as in 4). A closing trial (within the width of L) that fails without proof from a state where lambda is
-   within [1 - ``AGREEMENT``, 1 + tolerance] x L settles the bracket [L, trial]: the rings are a mechanism under
-   the loads the fill passes on, and an elastic fill has no strength to give way, so only its elasticity could carry
+   theorem as in 4). A trial that fails without a mechanism (at any step length) from a state where lambda is
+   within [1 - ``AGREEMENT``, 1 + tolerance] x L ends the search with the bracket [L, min(trial, max(lambda, L))]:
+   the rings are a mechanism under the loads the fill passes on, and an elastic fill has no strength to give way, so only its elasticity could carry
    more, by changing how it loads the rings (its passive restraint) with no bound of its own. Its load-deflection
    curve need not flatten (the fill's stiffness stays), so the flat-curve test cannot see that collapse, and a
    retry that converges only creeps up along the fill's elastic restraint. The verdict is the rings' collapse; its

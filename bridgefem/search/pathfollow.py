@@ -72,7 +72,11 @@ under the FE's own loads.
    Tresca friction at its Coulomb fixed point, built for every bare ring), before the step is halved; its outcome
    is judged as any other.
 
-**Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never decisive:
+**Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never decisive
+by itself:
+
+0. where the converged state it started from is a collapse state by itself (:mod:`bridgefem.search.target`,
+   *Collapse state*, step 5: under an elastic fill), that state's bracket ends the search, at any step length;
 
 1. the search halves the step towards it, down to ``SUBSTEP`` widths (:mod:`bridgefem.search.bracket`), and only
    then reports a solver failure;
@@ -189,6 +193,7 @@ class _Search:
     schedule: StepSchedule
     target: Target
     futile: int = 0  # predicted trials in a row that failed or found no settled state (*Predictor*)
+    collapsed: float | None = None  # the upper end a collapse state proved below the last failed trial (None: none)
 
     @property
     def steps(self) -> list[LoadStep]:
@@ -240,8 +245,9 @@ class _Search:
 
     def solve(self, trial: float) -> StepOutcome:
         """Solve ``trial`` from ``lower`` (module docstring, step 5b): with the secant's predictor and start
-        (*Predictor*) and the budget of a trial that cannot close the bracket; a failure that would end the search
-        without proof, or a suspect one, is settled by the collapse state or retried (*Failures without proof*); a
+        (*Predictor*) and the budget of a trial that cannot close the bracket; a failure without a mechanism from a
+        state that is a collapse state by itself is its mechanism, a failure that would end the search without proof,
+        or a suspect one, is settled by the collapse state or retried (*Failures without proof*); a
         trial that cannot close the bracket and failed without proof is solved once more from the ``predicted``
         state (*Predictor*)."""
         b = self.bracket
@@ -253,9 +259,13 @@ class _Search:
         estimate = secant if self.plastic else None
         budget = self.schedule.budget(not self.plastic and b.failed_before(trial)) if far else None
         out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
+        if not out.converged and not out.mechanism:
+            proved = self._collapse_bracket(trial, out)
+            if proved is not None:
+                return proved
         if not out.converged and self._final(trial, out) and not out.proved and (
                 not self.target.plausible(trial) or not out.mechanism):
-            out = _settled(self.target.collapse, lower, trial, state, self.settled, out) or retried(
+            out = _settled(self.target.collapse, lower, trial, state, out) or retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
         predicted = self.guides.predicted
         if out.converged or out.proved or not far or predicted is None or self.futile >= FUTILE_PREDICTIONS:
@@ -266,6 +276,20 @@ class _Search:
         helped = again.converged or again.proved
         self.futile = 0 if helped else self.futile + 1
         return again if helped else out
+
+    def _collapse_bracket(self, trial: float, out: StepOutcome) -> StepOutcome | None:
+        """The ``trial`` that ``out`` failed without a mechanism, as one when the converged state below it is a
+        collapse state by itself (:mod:`bridgefem.search.target`, *Collapse state*, step 5), which then sets the
+        bracket's upper end (``collapsed``: the trial, or the state's proved upper end if lower); else None."""
+        reading, b = self.target.collapse, self.bracket
+        if reading is None or reading.bracket is None:
+            return None
+        upper, check = reading.bracket(b.lower, b.state, self.settled)
+        if upper is None:
+            return None
+        self.collapsed = min(trial, upper)
+        return replace(out, mechanism=True, reason=f"{out.reason}; the converged state below is a collapse state: "
+                                                   f"{check}")
 
     def _final(self, trial: float, out: StepOutcome) -> bool:
         """The failure ``out`` at ``trial`` ends the search (:meth:`Bracket.ends`); the same before and after its
@@ -302,9 +326,12 @@ class _Search:
         return None
 
     def take_failed(self, trial: float, out: StepOutcome) -> LimitSearch | None:
-        """The failed ``trial`` (module docstring, step 5d): a backtrack (*Suspect failures*), the end of the search
-        (*Bracket rule*), else a soft bound and a halved step (*Steps*); then the collapse-state reading. The outcome
-        when the search ends."""
+        """The failed ``trial`` (module docstring, step 5d): the end of the search on a collapse state's bracket
+        (*Collapse state*, step 5, :mod:`bridgefem.search.target`), a backtrack (*Suspect failures*), the end of the
+        search (*Bracket rule*), else a soft bound and a halved step (*Steps*); then the collapse-state reading. The
+        outcome when the search ends."""
+        if self.collapsed is not None:
+            return self.result(LIMIT_FOUND, self.collapsed, out.reason)
         b = self.bracket
         b.fail(trial)
         if b.backs_away(trial, not self.target.plausible(trial)):
@@ -319,15 +346,14 @@ class _Search:
         return None
 
 
-def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, settled: Iterate,
-             failed: StepOutcome) -> StepOutcome | None:
+def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
+             ) -> StepOutcome | None:
     """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower``, as a
     mechanism when ``collapse`` finds that state a collapse state settling the bracket [lower, trial]
-    (:mod:`bridgefem.search.target`, *Collapse state*, step 4; ``settled``: the state at live load 0), else None (the
-    failure is retried). Collective."""
+    (:mod:`bridgefem.search.target`, *Collapse state*, step 4), else None (the failure is retried). Collective."""
     if collapse is None:
         return None
-    settles, check = collapse.settles(lower, trial, state, settled)
+    settles, check = collapse.settles(lower, trial, state)
     return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
                                                   f"state: {check}") if settles else None
 

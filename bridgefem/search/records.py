@@ -77,17 +77,35 @@ class StaticCap:
     admissible: Callable[[LoadStep, Iterate], tuple[bool, str]]
 
 
+def _no_level(state: Iterate) -> float | None:
+    """No estimate of the limit from a state."""
+    return None
+
+
+def _never(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+    """No state settles a closing trial's bracket."""
+    return False, ""
+
+
 @dataclass
 class CollapseCheck:
     """A converged state read as a collapse state (:mod:`bridgefem.search.target`, *Collapse state*): evidence 3
-    (:mod:`bridgefem.analysis.evidence`) on a bare ring, evidence 5 (the rings under the loads an elastic fill
-    transmits) under a fill. ``level(state)``: the level (N per unit load factor) at which the state's rigid blocks
-    collapse, the search's estimate of the limit (None: none); ``settles(lower, trial, state, settled)``: whether the
-    state at ``lower`` is the collapse state that settles the bracket [lower, trial], with the check in words
-    (``settled``: the converged state at live load 0, where the live load started). Both collective."""
+    (:mod:`bridgefem.analysis.evidence`) on a bare ring, evidence 5 under an elastic fill. Levels in N per unit load
+    factor; every callable collective.
 
-    level: Callable[[Iterate], float | None]
-    settles: Callable[[float, float, Iterate, Iterate], tuple[bool, str]]
+    ``level(state)``: the level at which the state's rigid blocks with its friction capacities (mu x its joint
+    normal forces) collapse, on a mechanism that slides only where the state's joints are at their Coulomb limit,
+    the search's estimate of the limit (None: no such mechanism).
+    ``settles(lower, trial, state)``: whether the state at ``lower`` is the collapse state that settles the bracket
+    [lower, trial] of a closing trial, with the check in words.
+    ``bracket(lower, state, settled)``: for a state that is a collapse state by itself, the upper end of the bracket
+    [lower, upper] it proves, with the check in words (upper None: the state is none); read after any trial above
+    the state that fails without a mechanism (``settled``: the converged state at live load 0). None: no such
+    reading."""
+
+    level: Callable[[Iterate], float | None] = _no_level
+    settles: Callable[[float, float, Iterate], tuple[bool, str]] = _never
+    bracket: Callable[[float, Iterate, Iterate], tuple[float | None, str]] | None = None
 
 
 @dataclass(frozen=True)
@@ -139,7 +157,7 @@ class SearchGuides:
     ``bound``: the static theorem's bound (:mod:`bridgefem.search.pathfollow`, *Static bound*).
     ``coarser``: the lower end of the bracket of a run on a coarser mesh (N per unit load factor;
     :mod:`bridgefem.search.target`, *Guess*); None on a first run.
-    ``collapse``: the collapse-state reading of the converged states (:class:`CollapseCheck`;
+    ``collapse``: the collapse-state readings of the converged states (:class:`CollapseCheck`;
     :mod:`bridgefem.search.target`, *Collapse state*).
     ``predicted(level, start)``: a predicted state (combined vector) for a failed trial from ``start``, or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*). Collective.

@@ -39,10 +39,12 @@ since the state's forces are admissible for those blocks (the lower-bound theore
    :meth:`bridgefem.analysis.evidence.SlipCheck.settles`): the verdict confirms the bracket from that very state,
    and a retry could only reach another non-associative collapse state (they are not unique: Gilbert, Casapulla &
    Ahmed 2006) by raising the sliding joints' normal forces along a flat curve.
-5. Under an elastic fill the reading is evidence 5 of :mod:`bridgefem.analysis.evidence` instead: no estimate F
-   (the rings' collapse level under the loads the fill transmits rises with the load wherever the fill restrains
-   them), and a closing trial that fails without proof from a state at which the rings under those loads collapse
-   within the width settles the bracket (:func:`bridgefem.analysis.interface.fill_collapse_check`).
+5. Under an elastic fill the reading is evidence 5 of :mod:`bridgefem.analysis.evidence` instead
+   (:func:`bridgefem.analysis.interface.fill_collapse_check`, ``collapse.bracket``): no estimate F (the rings'
+   collapse level under the loads the fill transmits rises with the load wherever the fill restrains them), but a
+   state at which the rings under those loads collapse within the width, at lambda, is a collapse state by itself:
+   a trial above it that fails without a mechanism, whatever its step, ends the search with the bracket [lower,
+   min(trial, lambda)] (:mod:`bridgefem.search.pathfollow`, *Failures without proof*, 0).
 
 Safeguards:
 
