@@ -321,6 +321,8 @@ def test_a_state_where_the_rings_collapse_under_the_fills_loads_brackets_the_lim
     assert upper == pytest.approx(ring.lp_level, rel=1e-9) and f"{ring.ratio:.7f} x" in check, check
     tight = fill_collapse_check(*parts, 1e-6, an.load_total)
     assert ring.ratio > 1 + 1e-6 and tight.bracket(s.lower, s.last, s.settled)[0] is None
+    # a failure of the first live-load step has no transmitted load to read: no bracket
+    assert fill_collapse_check(*parts, s.tolerance, an.load_total).bracket(0.0, s.settled, s.settled)[0] is None
 
 
 @pytest.mark.mpi

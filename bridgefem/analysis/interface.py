@@ -134,6 +134,8 @@ def fill_collapse_check(scene: Scene, solver: ContactSolver, pairs: JointPairs, 
         return None
 
     def bracket(lower: float, state: Iterate, settled: Iterate) -> tuple[float | None, str]:
+        if not lower > 0:
+            return None, "no live load carried yet"
         dead, live = (interface_forces(solver, pairs, V, bm, it) for it in (settled, state))
         check = ring_under_transmitted_loads(scene, dead, live, lower) if solver.comm.rank == 0 else None
         check = solver.comm.bcast(check, root=0)
