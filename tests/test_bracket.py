@@ -221,29 +221,26 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
             assert solver.retries == len(RETRIES)
 
 
-def test_a_collapse_state_by_itself_ends_the_search_at_the_first_failure_without_a_mechanism_above_it():
-    """Evidence 5 (bridgefem.analysis.evidence; bridgefem.search.target, *Collapse state*, step 5): a state that is a
-    collapse state by itself (the rings at collapse under an elastic fill's loads; here every state from 0.9 LIMIT,
-    proving the bracket of the width above it) ends the search at the first trial above it that fails without a
-    mechanism, whatever its step (the fake fails every step longer than LIMIT / 40): the bracket [lower, min(trial,
-    the state's upper end)] with lower from 0.9 LIMIT, no retries. A check that finds no such state leaves the search
-    as it is: the same trials."""
-    read = []
+@pytest.mark.parametrize("reach", [math.inf, LIMIT / 40])
+def test_a_state_at_collapse_by_itself_counts_as_failed_and_the_bracket_closes_on_the_first_one(reach):
+    """Evidence 5 (bridgefem.analysis.evidence; bridgefem.search.step, *Collapse state*): a converged state that is
+    a collapse state by itself (the rings at collapse under an elastic fill's loads; here every state from 0.9 LIMIT
+    on, though equilibrium exists up to LIMIT) counts as failed with a mechanism, so the bracket closes on 0.9
+    LIMIT within the tolerance, also where the fake fails every step longer than LIMIT / 40 without proof; each
+    reading gets the settled state (live load 0). A reading that never finds one leaves the search as it is: the
+    same trials."""
+    first = 0.9 * LIMIT
 
-    def bracket(lower, state, settled):
-        read.append(lower)
-        assert settled.x.array[0] == 0.0  # the state at live load 0
-        return (lower * (1 + 1e-4), "made up") if lower >= 0.9 * LIMIT else (None, "none")
+    def at_collapse(level, state, settled):
+        assert settled.x.array[0] == 0.0 and state.x.array[0] == level
+        return level >= first, "made up"
 
-    plain = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT)
-    s = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT, collapse=CollapseCheck(bracket=bracket))
-    assert s.status == Status.LIMIT and 0.9 * LIMIT <= s.lower < LIMIT and not s.proved
-    assert s.lower < s.upper <= s.lower * (1 + 1e-4) and s.failure.startswith("no convergence")
-    assert s.failure.endswith("the converged state below is a collapse state: made up")
-    assert read[-1] == s.lower and all(level < 0.9 * LIMIT for level in read[:-1])
-    assert trials(s) == trials(plain)[:len(trials(s))]  # the same path until the collapse state ends it
-    never = search(OneDof(reach=LIMIT / 40), guess=1.3 * LIMIT,
-                   collapse=CollapseCheck(bracket=lambda lower, state, settled: (None, "none")))
+    s = search(OneDof(reach=reach), guess=1.3 * LIMIT, collapse=CollapseCheck(at_collapse=at_collapse))
+    assert s.status == Status.LIMIT and s.lower < first <= s.upper and s.upper - s.lower <= 1e-4 * s.lower
+    assert s.failure.startswith("the converged state is a collapse state: made up") and not s.proved
+    plain = search(OneDof(reach=reach), guess=1.3 * LIMIT)
+    never = search(OneDof(reach=reach), guess=1.3 * LIMIT,
+                   collapse=CollapseCheck(at_collapse=lambda level, state, settled: (False, "none")))
     assert trials(never) == trials(plain) and never.upper == plain.upper
 
 

@@ -63,16 +63,17 @@ evidence of collapse only when
 
 5. under an elastic fill, the *rings under the loads the fill transmits* (:mod:`bridgefem.analysis.interface`): the
    rigid-block LP of the rings with the interface forces of the settled state as dead load and their change up to
-   the converged level L as live load collapses at lambda >= L (the FE's state is admissible for it, the static
-   theorem as in 4). A trial that fails without a mechanism (at any step length) from a state where lambda is
-   within [1 - ``AGREEMENT``, 1 + tolerance] x L ends the search with the bracket [L, min(trial, max(lambda, L))]:
-   the rings are a mechanism under the loads the fill passes on, and an elastic fill has no strength to give way, so only its elasticity could carry
-   more, by changing how it loads the rings (its passive restraint) with no bound of its own. Its load-deflection
-   curve need not flatten (the fill's stiffness stays), so the flat-curve test cannot see that collapse, and a
-   retry that converges only creeps up along the fill's elastic restraint. The verdict is the rings' collapse; its
-   bracket's width is the search's tolerance (``ring_under_transmitted_loads`` in results.json reads the same LP
-   at the last converged state). A plastic fill has its own failure (the flat curve's evidence and the conic
-   bounds), so there the rule does not apply.
+   a converged level L as live load collapses at lambda >= L (the FE's state is admissible for it, the static
+   theorem as in 4). A converged state with lambda <= (1 + tolerance) L is a collapse state: its step counts as
+   failed with a mechanism (:mod:`bridgefem.search.step`, *Collapse state*), so that the bracket rule closes on the
+   first load at which the rings are a mechanism under the loads the fill passes on. An elastic fill has no
+   strength to give way: past that load only its elasticity carries more, by changing how it loads the rings (a
+   restraint without bound, in tension too), and its load-deflection curve need not flatten (the fill's stiffness
+   stays in the tangent), so the flat curve cannot show that collapse, and a search that went on would creep up
+   along the fill's elastic restraint wherever its Newton method let it. The verdict is the rings' collapse
+   (``ring_under_transmitted_loads`` in results.json reads the same LP at the last converged state, below it). A
+   plastic fill has its own failure (the flat curve's evidence and the conic bounds), so there the rule does not
+   apply.
 
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
@@ -309,8 +310,8 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
     if kind is Status.LIMIT and fill:
         below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         evidence = ("proof: an admissible rigid-block mode on which the loads do positive work" if proved else
-                    f"collapse state: {RINGS_UNDER_FILL} collapse within the bracket, and an elastic fill has no "
-                    "strength to give way (evidence 5; failure_reason, ring_under_transmitted_loads)"
+                    f"collapse state: {RINGS_UNDER_FILL} collapse at the bracket's upper end, and an elastic fill has "
+                    "no strength to give way (evidence 5; failure_reason, ring_under_transmitted_loads)"
                     if RINGS_UNDER_FILL in failure else "the search's load-deflection curve (with a fill the LP cannot "
                     "confirm it; the conic bounds fill_bounds are the check)")
         return Verdict(status, upper, evidence, (f"FE limit below {lp_text}: the fill fails before "

@@ -21,7 +21,7 @@ the ring under F_L is itself at collapse and lambda ~ P_L; lambda well above P_L
 by changing how it loads the ring (its stiffness or strength restrains the mechanism).
 
 The run reads it at its last converged state (:func:`transmitted_load_check`); under an elastic fill the search
-reads it at the state below a trial that failed without a mechanism (:func:`fill_collapse_check`).
+reads it at every converged live-load state (:func:`fill_collapse_check`).
 
 Safeguard: *the ring-side node check*: every interface pair's ring-side node must lie on the extrados, else the
 forces would be put on the wrong voussoir; a mismatch raises instead.
@@ -42,7 +42,6 @@ from ..scene.model import Scene
 from ..search.records import CollapseCheck
 from ..solver.newton import ContactSolver, Iterate
 from ..status import RINGS_UNDER_FILL
-from .evidence import AGREEMENT
 from .result import Analysis, TransmittedLoadCheck
 
 
@@ -122,28 +121,23 @@ def transmitted_load_check(an: Analysis, friction_model: str = "associative") ->
 def fill_collapse_check(scene: Scene, solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSpace, bm: BlockMesh,
                         tolerance: float, unit: float) -> CollapseCheck | None:
     """Evidence 5 of :mod:`bridgefem.analysis.evidence` for the search
-    (:class:`bridgefem.search.records.CollapseCheck`, ``bracket``): under an elastic fill with live loads, a converged
-    state at ``lower`` is a collapse state by itself when the rings under the loads the fill transmits there
-    (:func:`ring_under_transmitted_loads`, from the settled state) collapse at a level lambda within [1 -
-    ``AGREEMENT``, 1 + ``tolerance``] x ``lower``; it proves the bracket [``lower``, max(lambda, ``lower``)]
-    (lambda below ``lower``: the LP's polygonal voussoirs against the mesh, the rings at collapse under the load
-    carried). The check in words (``unit``: N of live load per unit level). No estimate of the limit and no
-    closing-trial rule (the defaults). None without a fill, with a plastic fill (whose own yielding the flat curve
-    shows) or without live loads. Collective."""
+    (:class:`bridgefem.search.records.CollapseCheck`, ``at_collapse``): under an elastic fill with live loads, a
+    converged state at ``level`` is a collapse state by itself when the rings under the loads the fill transmits
+    there (:func:`ring_under_transmitted_loads`, from the settled state) collapse at a level lambda of at most (1 +
+    ``tolerance``) x ``level``; the check in words (``unit``: N of live load per unit level). No estimate of the
+    limit and no closing-trial rule (the defaults). None without a fill, with a plastic fill (whose own yielding the
+    flat curve shows) or without live loads. Collective."""
     if scene.fill is None or solver.material is not None or not scene.loads:
         return None
 
-    def bracket(lower: float, state: Iterate, settled: Iterate) -> tuple[float | None, str]:
-        if not lower > 0:
-            return None, "no live load carried yet"
+    def at_collapse(level: float, state: Iterate, settled: Iterate) -> tuple[bool, str]:
         dead, live = (interface_forces(solver, pairs, V, bm, it) for it in (settled, state))
-        check = ring_under_transmitted_loads(scene, dead, live, lower) if solver.comm.rank == 0 else None
+        check = ring_under_transmitted_loads(scene, dead, live, level) if solver.comm.rank == 0 else None
         check = solver.comm.bcast(check, root=0)
         if check.lp_level is None:
-            return None, f"{RINGS_UNDER_FILL}: {check.lp.status}"
-        ok = (1 - AGREEMENT) * lower <= check.lp_level <= (1 + tolerance) * lower
-        return max(check.lp_level, lower) if ok else None, (
+            return False, f"{RINGS_UNDER_FILL}: {check.lp.status}"
+        return check.lp_level <= (1 + tolerance) * level, (
             f"{RINGS_UNDER_FILL} (rigid-block LP, associative friction) collapse at "
-            f"{check.lp_level * unit / 1e3:.6g} kN, {check.ratio:.7f} x the converged load below the trial")
+            f"{check.lp_level * unit / 1e3:.6g} kN, {check.ratio:.7f} x the load")
 
-    return CollapseCheck(bracket=bracket)
+    return CollapseCheck(at_collapse=at_collapse)

@@ -16,7 +16,9 @@ path dependent, so every trial is solved from the last converged state ``lower``
    many equal increments, a failed increment halved (at most ``MOVEMENT_HALVINGS`` times); it stays for the live
    load. The state reached is the *settled* state, from which the live load starts.
 3. Without live loads (``max_load`` <= 0) the search ends: "stable under self-weight". With a flat-curve check the
-   settled state's tangent stiffness is measured (:mod:`bridgefem.search.step`, *Flat curve*).
+   settled state's tangent stiffness is measured (:mod:`bridgefem.search.step`, *Flat curve*); with a collapse
+   state of its own (``guides.collapse.at_collapse``) each converged live-load state is read against the settled
+   one (:mod:`bridgefem.search.step`, *Collapse state*).
 4. The target T is set from the static bound, the guess and a coarser run's bracket (:mod:`bridgefem.search.target`,
    *Guess*).
 5. Until a rule ends the search, ``max_load`` or the settings' ``enough`` level (as it is before each trial) is
@@ -72,11 +74,7 @@ under the FE's own loads.
    Tresca friction at its Coulomb fixed point, built for every bare ring), before the step is halved; its outcome
    is judged as any other.
 
-**Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never decisive
-by itself:
-
-0. where the converged state it started from is a collapse state by itself (:mod:`bridgefem.search.target`,
-   *Collapse state*, step 5: under an elastic fill), that state's bracket ends the search, at any step length;
+**Failures without proof.** A failure that shows no mechanism (the Newton method not converging) is never decisive:
 
 1. the search halves the step towards it, down to ``SUBSTEP`` widths (:mod:`bridgefem.search.bracket`), and only
    then reports a solver failure;
@@ -164,6 +162,9 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if settings.stiffness_drop > 0:
         attempt.k_initial = tangent_stiffness(solver, deflection, state) or math.inf
+    if guides.collapse is not None and guides.collapse.at_collapse is not None:
+        reading = guides.collapse.at_collapse
+        attempt.at_collapse = lambda level, it: reading(level, it, settled)
     g = guides.guess
     guess = solver.comm.bcast(g if g is not None and math.isfinite(g) and g > 0 else None, root=0)
     cap = bound.level if bound is not None and bound.level is not None and bound.level > 0 else math.inf
@@ -193,7 +194,6 @@ class _Search:
     schedule: StepSchedule
     target: Target
     futile: int = 0  # predicted trials in a row that failed or found no settled state (*Predictor*)
-    collapsed: float | None = None  # the upper end a collapse state proved below the last failed trial (None: none)
 
     @property
     def steps(self) -> list[LoadStep]:
@@ -245,9 +245,8 @@ class _Search:
 
     def solve(self, trial: float) -> StepOutcome:
         """Solve ``trial`` from ``lower`` (module docstring, step 5b): with the secant's predictor and start
-        (*Predictor*) and the budget of a trial that cannot close the bracket; a failure without a mechanism from a
-        state that is a collapse state by itself is its mechanism, a failure that would end the search without proof,
-        or a suspect one, is settled by the collapse state or retried (*Failures without proof*); a
+        (*Predictor*) and the budget of a trial that cannot close the bracket; a failure that would end the search
+        without proof, or a suspect one, is settled by the collapse state or retried (*Failures without proof*); a
         trial that cannot close the bracket and failed without proof is solved once more from the ``predicted``
         state (*Predictor*)."""
         b = self.bracket
@@ -259,10 +258,6 @@ class _Search:
         estimate = secant if self.plastic else None
         budget = self.schedule.budget(not self.plastic and b.failed_before(trial)) if far else None
         out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
-        if not out.converged and not out.mechanism:
-            proved = self._collapse_bracket(trial, out)
-            if proved is not None:
-                return proved
         if not out.converged and self._final(trial, out) and not out.proved and (
                 not self.target.plausible(trial) or not out.mechanism):
             out = _settled(self.target.collapse, lower, trial, state, out) or retried(
@@ -276,20 +271,6 @@ class _Search:
         helped = again.converged or again.proved
         self.futile = 0 if helped else self.futile + 1
         return again if helped else out
-
-    def _collapse_bracket(self, trial: float, out: StepOutcome) -> StepOutcome | None:
-        """The ``trial`` that ``out`` failed without a mechanism, as one when the converged state below it is a
-        collapse state by itself (:mod:`bridgefem.search.target`, *Collapse state*, step 5), which then sets the
-        bracket's upper end (``collapsed``: the trial, or the state's proved upper end if lower); else None."""
-        reading, b = self.target.collapse, self.bracket
-        if reading is None or reading.bracket is None:
-            return None
-        upper, check = reading.bracket(b.lower, b.state, self.settled)
-        if upper is None:
-            return None
-        self.collapsed = min(trial, upper)
-        return replace(out, mechanism=True, reason=f"{out.reason}; the converged state below is a collapse state: "
-                                                   f"{check}")
 
     def _final(self, trial: float, out: StepOutcome) -> bool:
         """The failure ``out`` at ``trial`` ends the search (:meth:`Bracket.ends`); the same before and after its
@@ -326,12 +307,9 @@ class _Search:
         return None
 
     def take_failed(self, trial: float, out: StepOutcome) -> LimitSearch | None:
-        """The failed ``trial`` (module docstring, step 5d): the end of the search on a collapse state's bracket
-        (*Collapse state*, step 5, :mod:`bridgefem.search.target`), a backtrack (*Suspect failures*), the end of the
-        search (*Bracket rule*), else a soft bound and a halved step (*Steps*); then the collapse-state reading. The
-        outcome when the search ends."""
-        if self.collapsed is not None:
-            return self.result(LIMIT_FOUND, self.collapsed, out.reason)
+        """The failed ``trial`` (module docstring, step 5d): a backtrack (*Suspect failures*), the end of the search
+        (*Bracket rule*), else a soft bound and a halved step (*Steps*); then the collapse-state reading. The outcome
+        when the search ends."""
         b = self.bracket
         b.fail(trial)
         if b.backs_away(trial, not self.target.plausible(trial)):

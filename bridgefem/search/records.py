@@ -98,14 +98,14 @@ class CollapseCheck:
     the search's estimate of the limit (None: no such mechanism).
     ``settles(lower, trial, state)``: whether the state at ``lower`` is the collapse state that settles the bracket
     [lower, trial] of a closing trial, with the check in words.
-    ``bracket(lower, state, settled)``: for a state that is a collapse state by itself, the upper end of the bracket
-    [lower, upper] it proves, with the check in words (upper None: the state is none); read after any trial above
-    the state that fails without a mechanism (``settled``: the converged state at live load 0). None: no such
+    ``at_collapse(level, state, settled)``: whether the converged live-load ``state`` at ``level`` is a collapse
+    state by itself, with the check in words; its step then counts as failed, with a mechanism
+    (:mod:`bridgefem.search.step`, *Collapse state*; ``settled``: the converged state at live load 0). None: no such
     reading."""
 
     level: Callable[[Iterate], float | None] = _no_level
     settles: Callable[[float, float, Iterate], tuple[bool, str]] = _never
-    bracket: Callable[[float, Iterate, Iterate], tuple[float | None, str]] | None = None
+    at_collapse: Callable[[float, Iterate, Iterate], tuple[bool, str]] | None = None
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,12 @@ secant averages the curve over the step, so a long step from below the flat leve
 tangent holds the joints' active set, so where the flattening comes from joints that open or slide further within
 the next increment it stays well above the secant, and only the secant sees it.
 
+**Collapse state.** A structure whose collapse a reading of its converged state shows by itself
+(``at_collapse``, :class:`bridgefem.search.records.CollapseCheck`: under an elastic fill, the rings under the loads
+the fill transmits at their collapse, evidence 5 of :mod:`bridgefem.analysis.evidence`): each converged live-load
+step whose state the reading finds at collapse counts as failed, with a mechanism, after the flat-curve test; the
+bracket rule then closes on the first load at which it does, whatever the path beyond.
+
 Safeguards:
 
 - *Secant and tangent*: either alone misses a flat curve (above); the tangent's solve is spent only where the
@@ -48,7 +54,9 @@ from .records import LoadStep, SearchObservers
 class StepRecorder:
     """Solves and records one load step (``LoadStep``), as ``attempt(level, start, ...)`` for the self-weight, the
     support movement and the live-load search; collective. ``k_initial``: the tangent stiffness after self-weight
-    (N/m; inf: no flatness check, module docstring, *Flat curve*)."""
+    (N/m; inf: no flatness check, module docstring, *Flat curve*); ``at_collapse(level, state)``: whether a converged
+    live-load state is a collapse state by itself, with the check in words (None: no such reading, module
+    docstring, *Collapse state*)."""
 
     solver: ContactSolver
     deflection: Callable[[Iterate], float]
@@ -56,6 +64,7 @@ class StepRecorder:
     observers: SearchObservers
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
+    at_collapse: Callable[[float, Iterate], tuple[bool, str]] | None = None
 
     def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *,
                  predictor: PETSc.Vec | PairPrediction | None = None,
@@ -73,6 +82,11 @@ class StepRecorder:
         if reached is not None and self.k_initial < math.inf:
             flat = self._flat(level - start_level, reached - self.deflection(start), out)
             out, reached = (flat, None) if flat is not None else (out, reached)
+        if reached is not None and self.at_collapse is not None and level > 0:
+            collapsed, check = self.at_collapse(level, out.iterate)
+            if collapsed:
+                out, reached = StepOutcome(False, f"the converged state is a collapse state: {check}", out.iterations,
+                                           out.residual, out.factorisations, mechanism=True), None
         step = LoadStep(len(self.steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
                         _raised_cohesion(solver), out.mechanism,

@@ -40,11 +40,10 @@ since the state's forces are admissible for those blocks (the lower-bound theore
    and a retry could only reach another non-associative collapse state (they are not unique: Gilbert, Casapulla &
    Ahmed 2006) by raising the sliding joints' normal forces along a flat curve.
 5. Under an elastic fill the reading is evidence 5 of :mod:`bridgefem.analysis.evidence` instead
-   (:func:`bridgefem.analysis.interface.fill_collapse_check`, ``collapse.bracket``): no estimate F (the rings'
+   (:func:`bridgefem.analysis.interface.fill_collapse_check`, ``collapse.at_collapse``): no estimate F (the rings'
    collapse level under the loads the fill transmits rises with the load wherever the fill restrains them), but a
-   state at which the rings under those loads collapse within the width, at lambda, is a collapse state by itself:
-   a trial above it that fails without a mechanism, whatever its step, ends the search with the bracket [lower,
-   min(trial, lambda)] (:mod:`bridgefem.search.pathfollow`, *Failures without proof*, 0).
+   converged state at which the rings under those loads collapse within the width is a collapse state by itself,
+   and its step counts as failed with a mechanism (:mod:`bridgefem.search.step`, *Collapse state*).
 
 Safeguards:
 
