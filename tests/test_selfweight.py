@@ -7,11 +7,13 @@ import pytest
 from conftest import campaign_scene
 from mpi4py import MPI
 
+from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight
+from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight, self_weight_budget
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
+from bridgefem.solver.settings import Setting
 from bridgefem.status import Status
 
 UNLOADED = "unloaded"
@@ -160,3 +162,44 @@ def test_a_ring_held_by_friction_at_both_springings_carries_its_weight_in_one_st
     for springing in (joints.min(), joints.max()):
         thrust = abs(lam[joints == springing, 1].sum())
         assert thrust == pytest.approx(0.376 * an.model.dead_weight / 2, rel=1e-5)
+
+
+def mohr_coulomb_fill_model():
+    """Campaign seed 20261241 #15 (pointed, 98 voussoirs, mu 8.54, a Mohr-Coulomb fill with c = 5 kPa under a
+    patch; 2 elements through the thickness) as ``bridgefem run`` builds it: its self-weight needs the cohesion
+    continuation."""
+    scene = scene_from_dict(campaign_scene(15, 3.6474, seed=20261241))
+    return build_model(scene, MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
+
+
+def test_a_plastic_fill_step_whose_active_set_repeats_itself_converges():
+    """Seed 20261241 #15's self-weight with the fill's cohesion raised to its overburden stress, from the unloaded
+    state with the Alart-Curnier constants x 10 (the first retry): the line-searched iteration returns to the same
+    active sets with the same merit (a ring joint's pair next to a hinge cycling, the fill in equilibrium within
+    1e-4 of the largest nodal force); taken as a cycle and broken, the step converges within its budget (before: all
+    99 iterations, the set still changing)."""
+    solver = mohr_coulomb_fill_model().solver
+    solver.max_iterations = self_weight_budget(solver)
+    solver.material.set_cohesion(solver.material.overburden)
+    solver.use(Setting(scale=10.0))
+    out = solver.solve_step(0.0, solver.initial_iterate())
+    assert out.converged, out.reason
+    assert out.iterations < solver.max_iterations // 2
+
+
+@pytest.mark.slow
+def test_a_mohr_coulomb_fill_carries_its_self_weight_through_the_cohesion_continuation():
+    """Seed 20261241 #15 carries its self-weight at the scene's cohesion (before: the cohesion continuation failed,
+    every raised step from the unloaded state diverging or cycling with each setting); the steps tried lower the
+    cohesion from the overburden stress to the scene's 5 kPa."""
+    fe = mohr_coulomb_fill_model()
+    solver, fill = fe.solver, fe.solver.material
+    tried = []
+
+    def attempt(level, start, **kwargs):
+        tried.append(fill.material.cohesion)
+        return solver.solve_step(level, start, **kwargs)
+
+    out = carry_self_weight(solver, attempt)
+    assert out.converged, out.reason
+    assert fill.material.cohesion == 5000.0 and tried[-1] == 5000.0 and max(tried) == pytest.approx(fill.overburden)

@@ -15,7 +15,11 @@ return would repeat the same path for ever. In this order:
    the discrete law can have no consistent state at a pair next to a crack tip. The convergence test bounds what is
    waived (:mod:`bridgefem.solver.convergence`).
 
-With a line search the iterate moves between visits: a return is no cycle, and the step's budget bounds it.
+With a line search (a plastic fill) the iterate moves between visits, and a return is a cycle only when the
+line search's merit at the iterate that proposes the set again has not fallen by ``ARMIJO`` of its value at the
+iterate that proposed it before: the iteration then repeats itself (on a pair near a hinge, or of the arch-fill
+interface, whose discrete law has no consistent state while the fill is in equilibrium within its tolerance) and
+would spend the step's budget. A return with that decrease clears the visited sets: the iteration progresses.
 """
 from __future__ import annotations
 
@@ -24,6 +28,7 @@ import numpy as np
 from ..laws.base import ContactState, JointLaw
 from .condensation import ENUMERATED_PAIRS
 from .cycles import CycleCondenser
+from .line_search import ARMIJO
 from .proposals import Proposals
 from .state import NewtonStep, Proposal, Ranks, StepOutcome
 
@@ -37,12 +42,13 @@ class CycleBreaker:
 
     def advance(self, step: NewtonStep, proposal: Proposal, changed: int) -> StepOutcome | None:
         """The active set changed: the proposed set is solved next, unless it returns to a set visited at this level
-        without a line search (a cycle: :meth:`break_cycle`). Collective."""
-        key = self.ranks.key(proposal.proposal)
-        if key in step.memory.seen and not step.task.searching:
+        without a line search, or with one but without the merit's decrease since that visit (a cycle:
+        :meth:`break_cycle`). Collective."""
+        key, seen = self.ranks.key(proposal.proposal), step.memory.seen
+        if key in seen and not (step.task.searching and step.merit < (1.0 - ARMIJO) * seen[key]):
             return self.break_cycle(step, proposal, changed, key)
-        if key in step.memory.seen:
-            step.memory.seen.clear()
+        if key in seen:
+            seen.clear()
         step.take(proposal, key)
         return None
 

@@ -66,9 +66,9 @@ exists, with the scenes that showed the need: ``docs/robustness.md``, *Why each 
   only.
 - *Leaps*: a solution that moves the structure far beyond the last iterate and the start is nearly a mechanism; it is
   not classified, and the proposal that led to it is damped.
-- *Cycles*: a return to a visited set is solved exactly on the condensed compliance of its few pairs, else damped,
-  its friction flips frozen and its open / closed toggles bonded, the law they waive bounded
-  (:mod:`bridgefem.solver.cycle_breaking`).
+- *Cycles*: a return to a visited set (with a line search: one without the merit's decrease since that visit) is
+  solved exactly on the condensed compliance of its few pairs, else damped, its friction flips frozen and its open /
+  closed toggles bonded, the law they waive bounded (:mod:`bridgefem.solver.cycle_breaking`).
 - *Refinement*: one step of iterative refinement before an unchanged set is called singular, so that rounding
   under large support-movement forces is not taken for a mechanism (:mod:`bridgefem.solver.convergence`).
 - *Line search*: with a plastic fill every step is backtracked on the residual's Euclidean norm (Armijo), since full
@@ -238,7 +238,7 @@ class ContactSolver:
                                                     self.setting.through_stick)
         if step.predicted is not None:  # no solved active set yet: a failure proves nothing
             step.base, step.active = step.predicted, step.predicted.proposal
-        step.memory.seen = {self.ranks.key(step.active)}  # the start's set: visited only once solved at this level
+        step.memory.seen = {self.ranks.key(step.active): np.inf}  # the start's set: visited only once solved here
         return step
 
     def _iteration(self, step: NewtonStep) -> StepOutcome | None:

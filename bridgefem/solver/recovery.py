@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+import numpy as np
 from mpi4py import MPI
 
 from ..laws.base import JointLaw
@@ -107,7 +108,7 @@ class FailureRecovery:
         fix = self.ranks.key(step.recovery.fix)
         if fix in step.memory.seen:
             return False
-        step.memory.seen.add(fix)
+        step.memory.seen[fix] = np.inf
         step.active = step.recovery.fix
         return True
 

@@ -106,7 +106,9 @@ class CycleMemory:
     frozen: np.ndarray  # local pairs whose friction state cycled: kept holding while closed
     bonded: np.ndarray  # local pairs whose open / closed state cycled: kept closed and holding
     churn: np.ndarray  # the proposals of this step that changed each local pair
-    seen: set = field(default_factory=set)  # global keys of the active sets visited at this level
+    # global keys of the active sets visited at this level -> the line search's merit at the iterate that proposed
+    # each (inf: none, or not proposed by a solved iterate)
+    seen: dict = field(default_factory=dict)
     condensed: int | None = None  # global key of the last set a cycle's condensation proposed (no leap test)
 
     @classmethod
@@ -157,7 +159,7 @@ class NewtonStep:
 
     def take(self, proposal: Proposal, key: int) -> None:
         """The proposed set (global key ``key``) is solved next; the set that proposed it is the good one."""
-        self.memory.seen.add(key)
+        self.memory.seen[key] = self.merit
         self.base, self.active = proposal, proposal.proposal
 
 
