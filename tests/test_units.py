@@ -57,6 +57,9 @@ def test_a_proven_collapse_reads_as_a_mechanism_not_a_divergence():
     assert text == "no equilibrium: the voussoirs move as a mechanism" and "9.02e+04" not in text
     assert "flat" in _collapse("load-deflection curve flat: secant stiffness 3 N/m below 0.02 x the initial")
     assert "static theorem" in _collapse("no trial above the bracket: its upper end is the static theorem's bound")
+    rings = _collapse("the converged state is a collapse state: the rings under the loads the fill transmits "
+                      "(rigid-block LP, associative friction) collapse at 6091.51 kN, 1.0000385 x the load")
+    assert "the rings move as a mechanism" in rings and "no equilibrium" not in rings  # evidence 5: no such claim
 
 
 def results_dict():
