@@ -313,7 +313,8 @@ def test_a_state_where_the_rings_collapse_under_the_fills_loads_is_a_collapse_st
     failed, with a mechanism). At the very soft fill's last converged state (its rings under those loads at most a
     tolerance above it, test above) the reading finds the collapse within twice the scene's tolerance (0.005), with
     the LP's level in words; it refuses where the rings keep a reserve beyond the width: the same state with a
-    tolerance of 1e-6, and the stiff rough fill's state (3.6 x, test_stiff_rough_fill_prevents_the_bare_arch_mechanism)."""
+    tolerance of 1e-6, and the stiff rough fill's state (3.6 x,
+    test_stiff_rough_fill_prevents_the_bare_arch_mechanism)."""
     an = soft_fill(variant)
     s = an.search
     parts = an.scene, an.solver, an.pairs, an.model.V, an.block_mesh

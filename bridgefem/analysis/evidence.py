@@ -93,8 +93,9 @@ With a fill the LP carries the fill as dead load only: it ignores the fill's str
 usually raise the collapse load, and the fill's own failure under the load (a bearing failure under a patch or a
 point load), which can lower it far below the LP, even below the conic upper bound of the bridge with its fill.
 So it cannot confirm an FE limit either way: the search's flat
-load-deflection curve, or under an elastic fill evidence 5, is the FE's evidence, the conic bounds (``fill_bounds``, :mod:`bridgefem.limit.bounds`) the
-independent check, and an FE limit below the LP gets a warning that names the likely cause. Under self-weight
+load-deflection curve, or under an elastic fill evidence 5, is the FE's evidence, the conic bounds (``fill_bounds``,
+:mod:`bridgefem.limit.bounds`) the independent check, and an FE limit below the LP gets a warning that names the
+likely cause. Under self-weight
 alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
 as for a bare ring.
 
