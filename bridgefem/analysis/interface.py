@@ -90,32 +90,35 @@ def interface_forces(solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSp
                            rows[order, 5], rows[order, 6])
 
 
-def ring_under_transmitted_loads(scene: Scene, dead: InterfaceForces, live: InterfaceForces, level: float,
+def ring_under_transmitted_loads(scene: Scene, solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSpace,
+                                 bm: BlockMesh, settled: Iterate, state: Iterate, level: float,
                                  friction_model: str = "associative") -> TransmittedLoadCheck:
-    """The scene's rings under the loads the fill transmits (module docstring, steps 2-3): ``dead`` the interface
-    forces at the settled state, ``live`` those at the converged ``level`` (N per unit load factor, > 0). Not
-    collective (the LP on the calling rank); an LP that fails is reported in ``lp.status`` ("LP failed: ...")."""
-    increment = (live.forces - dead.forces) / level  # N per unit load level
-    model = ring_under_forces(scene, dead.blocks, dead.points, dead.forces, increment)
-    try:
-        lp = solve_blocks(model, friction_model)
-    except RuntimeError as err:  # a check, never the reason a run fails: report it
-        lp = LPResult(None, None, f"LP failed: {err}", friction_model)
-    return TransmittedLoadCheck(level, lp.level, lp.level / level if lp.level is not None else None, lp)
+    """The scene's rings under the loads the fill transmits (module docstring, steps 1-3): the interface forces
+    (:func:`interface_forces`, the model's ``solver``, ``pairs``, space ``V`` and mesh ``bm``) at the ``settled``
+    state and at the converged ``state`` at ``level`` (N per unit load factor, > 0). The LP on rank 0, broadcast
+    (collective); an LP that fails is reported in ``lp.status`` ("LP failed: ...")."""
+    dead, live = (interface_forces(solver, pairs, V, bm, it) for it in (settled, state))
+    out = None
+    if solver.comm.rank == 0:
+        increment = (live.forces - dead.forces) / level  # N per unit load level
+        model = ring_under_forces(scene, dead.blocks, dead.points, dead.forces, increment)
+        try:
+            lp = solve_blocks(model, friction_model)
+        except RuntimeError as err:  # a check, never the reason a run fails: report it
+            lp = LPResult(None, None, f"LP failed: {err}", friction_model)
+        out = TransmittedLoadCheck(level, lp.level, lp.level / level if lp.level is not None else None, lp)
+    return solver.comm.bcast(out, root=0)
 
 
 def transmitted_load_check(an: Analysis, friction_model: str = "associative") -> TransmittedLoadCheck | None:
     """The ring under the loads the fill transmits at the run's last converged state, a lower-bound check of the FE
-    limit with a fill (module docstring, steps 1-3). The LP on rank 0, broadcast (collective); None without a fill, a
-    live load or a converged live-load step above 0."""
+    limit with a fill (:func:`ring_under_transmitted_loads`; collective); None without a fill, a live load or a
+    converged live-load step above 0."""
     s = an.search
     if an.scene.fill is None or not an.scene.loads or s.settled is None or s.last is None or not s.lower > 0:
         return None
-    parts = an.solver, an.pairs, an.model.V, an.block_mesh
-    dead, live = interface_forces(*parts, s.settled), interface_forces(*parts, s.last)
-    out = ring_under_transmitted_loads(an.scene, dead, live, s.lower, friction_model) if an.solver.comm.rank == 0 \
-        else None
-    return an.solver.comm.bcast(out, root=0)
+    return ring_under_transmitted_loads(an.scene, an.solver, an.pairs, an.model.V, an.block_mesh, s.settled, s.last,
+                                        s.lower, friction_model)
 
 
 def fill_collapse_check(scene: Scene, solver: ContactSolver, pairs: JointPairs, V: fem.FunctionSpace, bm: BlockMesh,
@@ -131,9 +134,7 @@ def fill_collapse_check(scene: Scene, solver: ContactSolver, pairs: JointPairs, 
         return None
 
     def at_collapse(level: float, state: Iterate, settled: Iterate) -> tuple[bool, str]:
-        dead, live = (interface_forces(solver, pairs, V, bm, it) for it in (settled, state))
-        check = ring_under_transmitted_loads(scene, dead, live, level) if solver.comm.rank == 0 else None
-        check = solver.comm.bcast(check, root=0)
+        check = ring_under_transmitted_loads(scene, solver, pairs, V, bm, settled, state, level)
         if check.lp_level is None:
             return False, f"{RINGS_UNDER_FILL}: {check.lp.status}"
         return check.lp_level <= (1 + tolerance) * level, (
