@@ -31,6 +31,7 @@ from bridgefem.limit.thickness import min_thickness
 from bridgefem.scene.model import Scene
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.pathfollow import LIMIT_FOUND, LOCKED, UNSTABLE
+from bridgefem.status import RINGS_UNDER_FILL
 
 pytestmark = pytest.mark.slow  # end-to-end analyses
 
@@ -313,21 +314,23 @@ def expect_tight(an):
 
 def expect_soft_fill(an):
     # A fill 1e-5 as stiff as the masonry: the ring's mechanism is held only by the soft fill, so the
-    # load-deflection curve goes flat (stiffness_drop) instead of singular. The continuum fill spreads the point
-    # load over the extrados and presses on the haunches, which the LP with the fill as dead load only ignores:
-    # the FE carries at least that LP (measured 1.63 x; 1 % as for the bare arch).
+    # load-deflection curve never goes singular; it does not reach a plateau either (the fill's elasticity keeps it
+    # rising), so the search ends where the ring under the loads the fill transmits collapses (evidence 5), or where
+    # the curve is flat at its plateau. The continuum fill spreads the point load over the extrados and presses on
+    # the haunches, which the LP with the fill as dead load only ignores: the FE carries at least that LP (measured
+    # 1.63 x; 1 % as for the bare arch).
     s = an.search
-    assert s.status == LIMIT_FOUND and s.failure.startswith("load-deflection curve flat"), s.failure
+    assert s.status == LIMIT_FOUND and (s.failure.startswith("load-deflection curve flat")
+                                        or RINGS_UNDER_FILL in s.failure), s.failure
     assert s.lower * an.load_total >= (1 - FE_LP_REL) * collapse_load(an.scene).load
     # The soft fill only passes loads on: the ring's LP under the loads it transmits across the interface (after
-    # self-weight, and their change up to the last converged level P_L) collapses near P_L, with the FE's hinges. It
-    # cannot be below P_L (the FE state is statically admissible for it; 1e-3 for the LP's polygonal voussoirs). The
-    # default stiffness_drop 0.02 counts the curve flat while the fourth hinge is still forming (joint 1's thrust at
-    # e/t = -0.49, not yet on the edge pair), so the ring keeps a small reserve: measured 1.0064 here, 1.026 with
-    # nu = 0 and a smooth interface, 1.019 with a bracket tolerance of 1e-3; 3 % covers these. With stiffness_drop
-    # 0.005 the hinges complete first and the reserve is within the bracket (tests/test_fill.py).
+    # self-weight, and their change up to the last converged level P_L) collapses at P_L, with the FE's hinges. It
+    # cannot be below P_L (the FE state is statically admissible for it; 1e-3 for the LP's polygonal voussoirs), nor
+    # above it by more than the bracket's width (the search ends on the first state at which it collapses, or on a
+    # plateau within the tolerance; 1e-3 as below). Measured 1.00003; a flat-curve rule that stopped at a stiffness
+    # threshold left 1.0064 (the fourth hinge still forming).
     check = transmitted_load_check(an)
-    assert 1 - 1e-3 <= check.ratio <= 1.03, check.ratio
+    assert 1 - 1e-3 <= check.ratio <= 1 + s.tolerance + 1e-3, check.ratio
     assert set(check.lp.hinges) == fe_hinges(an)
 
 

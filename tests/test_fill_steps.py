@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import pytest
 from test_bracket import LIMIT, SETTINGS, WEIGHT, OneDof, assert_bracket, search
 
+from bridgefem.search.step import plateau_reserve
 from bridgefem.solver.newton import StepOutcome
 from bridgefem.status import Status
 
@@ -16,6 +17,7 @@ FILL_ITERATIONS = 12  # Newton iterations of every converged live-load step (the
 STIFFNESS = 1e6  # N/m: the softening structure's initial stiffness
 DROP = 0.02  # the default stiffness_drop
 FLAT = (1.0 - DROP) * LIMIT  # N: where the softening structure's tangent stiffness falls to DROP x STIFFNESS
+PLATEAU = LIMIT / (1.0 + SETTINGS.tolerance)  # N: from here on the plateau LIMIT lies within the tolerance above
 
 
 class PlasticFillOneDof(OneDof):
@@ -74,11 +76,55 @@ class Softening(OneDof):
 
 @pytest.mark.parametrize("guess", [None, 0.8 * LIMIT, LIMIT, 1.5 * LIMIT])
 @pytest.mark.parametrize("initial_step", [0.5 * WEIGHT / 4, WEIGHT / 4, 2 * WEIGHT / 4])
-def test_a_flattening_curve_is_bracketed_where_its_tangent_drops_whatever_the_steps(guess, initial_step):
-    """The flat-curve limit is the level FLAT = 0.98 LIMIT where the tangent stiffness falls to DROP x the initial
-    one, a property of the curve: the bracket holds it for every step schedule (the guess sets the approach, the
-    initial step the first steps). A secant over a converged step is above the tangent at its end on this concave
-    curve: alone, a long step from below FLAT to above it converges and counts as steep."""
+def test_a_flattening_curve_is_bracketed_at_its_plateau_whatever_the_steps(guess, initial_step):
+    """The curve's plateau is LIMIT; its tangent stiffness falls to DROP x the initial one already at FLAT = 0.98
+    LIMIT, 2 % below it. The bracket holds the level PLATEAU from which LIMIT lies within the tolerance above, for
+    every step schedule (the guess sets the approach, the initial step the first steps): the exponential fitted to a
+    step's secant and end tangent is this curve's own, so each flat step's reserve is exact. A secant over a
+    converged step is above the tangent at its end on this concave curve: alone, a long step from below FLAT to above
+    it converges and counts as steep."""
     s = search(Softening(), replace(SETTINGS, initial_step=initial_step, stiffness_drop=DROP), guess=guess)
     assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
-    assert s.lower <= FLAT < s.upper and s.upper - s.lower <= 1e-4 * s.lower * (1 + 1e-9), (s.lower, s.upper)
+    assert FLAT < s.lower <= PLATEAU < s.upper <= LIMIT, (s.lower, s.upper)
+    assert s.upper - s.lower <= SETTINGS.tolerance * s.lower * (1 + 1e-9)
+
+
+class Hardening(Softening):
+    """``Softening`` with a residual stiffness of DROP / 2 x STIFFNESS in parallel (an elastic restraint that never
+    yields): the tangent falls below DROP x STIFFNESS but the curve rises without a plateau; no equilibrium above
+    its ``limit`` (N)."""
+
+    def _iterate(self, level):
+        # invert P = LIMIT (1 - exp(-K d / LIMIT)) + (DROP / 2) K d for the deflection d by Newton's method
+        d = level / STIFFNESS
+        for _ in range(100):
+            e = math.exp(-STIFFNESS * d / LIMIT)
+            d -= (LIMIT * (1 - e) + DROP / 2 * STIFFNESS * d - level) / (STIFFNESS * (e + DROP / 2))
+        return OneDof._iterate(self, d)
+
+    def live_load_tangent(self, it):
+        e = math.exp(-STIFFNESS * it.x.array[0] / LIMIT)
+        return OneDof._iterate(self, 1.0 / (STIFFNESS * (e + DROP / 2)))
+
+
+def test_a_curve_that_keeps_rising_is_never_flat():
+    """Below the threshold but without a plateau (the tangent not below the step's secant once the residual stiffness
+    dominates, or a plateau far above): no step counts as flat; the search goes on to the structure's real end."""
+    end = 3 * LIMIT
+    s = search(Hardening(limit=end), replace(SETTINGS, stiffness_drop=DROP))
+    assert s.status == Status.LIMIT and not s.failure.startswith("load-deflection curve flat"), s.failure
+    assert s.lower <= end < s.upper
+
+
+@pytest.mark.parametrize("start, end", [(0.0, 0.5), (0.5, 0.9), (0.9, 0.999), (0.99, 0.9901)])
+def test_the_plateau_fitted_to_a_step_of_an_exponential_curve_is_its_own(start, end):
+    """On P = P_inf (1 - exp(-delta)) the reserve fitted to a step's secant and end tangent is P_inf - P_end, for long
+    and short steps, far from the plateau and close to it."""
+    deflection = lambda p: -math.log1p(-p)  # noqa: E731  (P_inf = 1, c = 1)
+    secant = (end - start) / (deflection(end) - deflection(start))
+    assert plateau_reserve(end - start, secant, 1.0 - end) == pytest.approx(1.0 - end, rel=1e-6)
+
+
+def test_a_step_that_does_not_soften_has_no_plateau_and_a_peak_has_no_reserve():
+    assert plateau_reserve(10.0, 2e6, 2e6) == math.inf and plateau_reserve(10.0, 2e6, 3e6) == math.inf
+    assert plateau_reserve(10.0, 2e6, 0.0) == 0.0

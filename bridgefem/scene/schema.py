@@ -285,7 +285,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "max_steps": Key(int, "load steps in all", 200, low=1, high=100000,
                          why="from one to far more than any limit search takes"),
         "stiffness_drop": Key(float, "with a fill: a step whose secant stiffness, or tangent stiffness at its end, "
-                              "falls below this fraction of the initial one marks the limit (0: off)", 0.02, low=0.0,
+                              "falls below this fraction of the initial one, with its curve's plateau within the "
+                              "tolerance above, marks the limit (0: off)", 0.02, low=0.0,
                               high=1.0, high_open=True, why="a fraction of the initial stiffness"),
         "petsc": Key(dict, "PETSc options of the contact solver, from the allow-list below", {}),
     },

@@ -141,7 +141,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
     whose stiffness the flat-curve check measures (:mod:`bridgefem.search.step`, *Flat curve*). Collective.
     """
     tolerance, bound = settings.tolerance, guides.bound
-    attempt = StepRecorder(solver, deflection, settings.stiffness_drop, observers)
+    attempt = StepRecorder(solver, deflection, settings.stiffness_drop, tolerance, observers)
     steps = attempt.steps
     falls = bound is not None and bound.falls
     first = carry_self_weight(solver, attempt, falls, guides.self_weight_states)

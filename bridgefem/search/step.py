@@ -8,20 +8,30 @@ start, optionally from an estimate of its displacements and joint forces (the se
 a :class:`bridgefem.search.records.LoadStep` for the observers.
 
 **Flat curve.** A structure whose mechanism is restrained by a soft or yielding fill never loses equilibrium
-exactly: its load-deflection curve flattens. With ``stiffness_drop`` set:
+exactly: its load-deflection curve flattens towards a plateau, the plastic limit. With ``stiffness_drop`` set:
 
 1. the tangent stiffness after self-weight, k0, is measured once (:func:`tangent_stiffness`: the live load's
    response with the joints' active set held and the fill's consistent tangent, one solve);
-2. each converged step's secant stiffness from the state it started from (load over deflection increment) is
-   compared with ``stiffness_drop`` x k0, and where the secant is not below it, so is the tangent stiffness of its
-   converged state;
-3. a step with either below counts as failed, with a mechanism.
+2. each converged step's secant stiffness s from the state it started from (load increment dP over deflection
+   increment) and the tangent stiffness k of its converged state are measured;
+3. where the lesser is below ``stiffness_drop`` x k0, the plateau the curve approaches is estimated: the
+   exponential approach P = P_inf - A exp(-delta / c), whose tangent falls in proportion to the load still to come
+   (P_inf - P = c k), through the step's end and the two converged states before it on the search's path (its
+   start and the start of the step that reached it: :func:`plateau_through`), or, where the step starts from the
+   settled state, fitted to the step's secant and its end tangent (:func:`plateau_reserve`); the reserve
+   R = P_inf - P is the load still to come above the step's end;
+4. a step whose reserve is within the bracket's tolerance of its level (R <= tolerance x P) counts as failed, with a
+   mechanism: the curve is flat at its plateau. A step whose curve is not softening (its secant not below the one
+   before it, or its tangent not below its secant) has no plateau in sight and converges.
 
 On a softening (concave) curve the secant over a step exceeds the tangent at its end, so such a failure is as
-decisive as a lost equilibrium, and the bracket rule is unchanged. Each measure covers the other's blind spot: the
-secant averages the curve over the step, so a long step from below the flat level to above it would converge; the
-tangent holds the joints' active set, so where the flattening comes from joints that open or slide further within
-the next increment it stays well above the secant, and only the secant sees it.
+decisive as a lost equilibrium, and the bracket rule is unchanged: the bracket closes where the plateau lies within
+its tolerance above the step, not where the stiffness first falls below the threshold (on a curve that softens
+slowly the plastic limit can lie several per cent above that point). Each measure covers the other's blind spot:
+the secant averages the curve over the step, so a long step from below the flat level to above it would converge;
+the tangent holds the joints' active set, so where the flattening comes from joints that open or slide further
+within the next increment it stays well above the secant, and only the secant sees it. For the same reason the
+plateau is fitted to the path's converged points, not to the tangent, wherever the path has them.
 
 **Collapse state.** A structure whose collapse a reading of its converged state shows by itself
 (``at_collapse``, :class:`bridgefem.search.records.CollapseCheck`: under an elastic fill, the rings under the loads
@@ -31,8 +41,10 @@ bracket rule then closes on the first load at which it does, whatever the path b
 
 Safeguards:
 
-- *Secant and tangent*: either alone misses a flat curve (above); the tangent's solve is spent only where the
-  secant has not already shown the curve flat.
+- *Secant and tangent*: either alone misses a flat curve (above); the tangent's solve is spent on every converged
+  live-load step (one solve), the plateau's estimate needs both.
+- *Threshold before plateau*: the plateau is estimated only below ``stiffness_drop`` x k0, so a curve that bends
+  early (joints opening in a still stiff structure) is never read as near its plateau.
 - *Displaced start keeps the converged state's active set*: an estimate changes where the Newton iteration starts,
   never what counts as converged.
 """
@@ -45,6 +57,7 @@ from typing import Callable
 
 import numpy as np
 from petsc4py import PETSc
+from scipy.optimize import brentq
 
 from ..solver.newton import ContactSolver, Iterate, PairPrediction, StepOutcome
 from .records import LoadStep, SearchObservers
@@ -61,10 +74,14 @@ class StepRecorder:
     solver: ContactSolver
     deflection: Callable[[Iterate], float]
     stiffness_drop: float
+    tolerance: float  # the bracket's relative width: a plateau within it above a step is reached (*Flat curve*)
     observers: SearchObservers
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
     at_collapse: Callable[[float, Iterate], tuple[bool, str]] | None = None
+    # the converged live-load states of the path: level -> (its deflection in m, the level of the state its step
+    # started from; None for the settled state)
+    path: dict[float, tuple[float, float | None]] = field(default_factory=dict)
 
     def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *,
                  predictor: PETSc.Vec | PairPrediction | None = None,
@@ -80,7 +97,8 @@ class StepRecorder:
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
         reached = self.deflection(out.iterate) if out.converged else None
         if reached is not None and self.k_initial < math.inf:
-            flat = self._flat(level - start_level, reached - self.deflection(start), out)
+            self.path.setdefault(start_level, (self.deflection(start), None))
+            flat = self._flat(level, start_level, reached, out)
             out, reached = (flat, None) if flat is not None else (out, reached)
         if reached is not None and self.at_collapse is not None and level > 0:
             collapsed, check = self.at_collapse(level, out.iterate)
@@ -94,25 +112,77 @@ class StepRecorder:
         self.steps.append(step)
         self.observers.report(step)
         if step.converged:
+            if self.k_initial < math.inf and level > 0:
+                self.path[level] = (reached, start_level)
             self.observers.converged(step, out.iterate)
         return out
 
-    def _flat(self, load: float, rise: float, out: StepOutcome) -> StepOutcome | None:
-        """The converged ``out`` as a failed step with a mechanism when the load-deflection curve is flat there
-        (module docstring, *Flat curve*): its secant stiffness over the step (``load`` in N per unit load factor
-        over the deflection ``rise`` in m) or its tangent stiffness below ``stiffness_drop`` x ``k_initial``; else
-        None."""
+    def _flat(self, level: float, start_level: float, reached: float, out: StepOutcome) -> StepOutcome | None:
+        """The converged ``out`` at ``level`` (its deflection ``reached``, m) as a failed step with a mechanism when
+        the load-deflection curve is flat there (module docstring, *Flat curve*): its secant stiffness from the
+        converged state at ``start_level`` (N per unit load factor) or its tangent stiffness below ``stiffness_drop``
+        x ``k_initial``, and the curve's plateau within ``tolerance`` x ``level`` above it; else None."""
+        start, before = self.path[start_level]
+        load, rise = level - start_level, reached - start
         secant = load / rise if rise > 0 else math.inf
-        flat = self.stiffness_drop * self.k_initial
-        # the tangent (one solve) only where the secant has not already shown the curve flat
-        tangent = tangent_stiffness(self.solver, self.deflection, out.iterate) if secant >= flat else None
-        if min(secant, tangent or math.inf) >= flat:
+        tangent = tangent_stiffness(self.solver, self.deflection, out.iterate)
+        threshold = self.stiffness_drop * self.k_initial
+        if min(secant, tangent or math.inf) >= threshold:
             return None
-        at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "tangent not needed"
+        if before is None:
+            reserve, fit = plateau_reserve(load, secant, tangent or 0.0), "the step's secant and end tangent"
+        else:
+            reserve = plateau_through((before, self.path[before][0]), (start_level, start), (level, reached))
+            fit = "the path's last three converged states"
+        if reserve > self.tolerance * level:
+            return None
+        at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "no tangent at its end"
         return StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m over the step, "
-                                  f"{at_end}: the lesser is below {self.stiffness_drop:g} x the initial "
-                                  f"{self.k_initial:.3g} N/m (collapse)", out.iterations, out.residual,
+                                  f"{at_end}, below {self.stiffness_drop:g} x the initial {self.k_initial:.3g} "
+                                  f"N/m; its plateau, fitted to {fit}, {reserve:.3g} N per unit load factor above "
+                                  f"it, within the tolerance (collapse)", out.iterations, out.residual,
                            out.factorisations, mechanism=True)
+
+
+def plateau_through(first: tuple[float, float], second: tuple[float, float], third: tuple[float, float]) -> float:
+    """The load still to come (N per unit load factor) above the ``third`` of three points (load level, deflection
+    in m) of a load-deflection curve, rising in both, on the exponential approach to a plateau through them,
+    P = P_inf - A exp(-delta / c) (module docstring, *Flat curve*, step 3): with the increments (a, u) and (b, v)
+    between them, 1 / c = L solves exp(-u L) (1 - exp(-v L)) / (1 - exp(-u L)) = b / a, and the reserve is
+    b / (exp(v L) - 1). inf where the second secant b / v is not below the first a / u (no softening) or the points
+    do not rise."""
+    (p0, d0), (p1, d1), (p2, d2) = first, second, third
+    a, u, b, v = p1 - p0, d1 - d0, p2 - p1, d2 - d1
+    if min(a, u, b, v) <= 0 or (b / v) >= (a / u) * (1.0 - 1e-12):
+        return math.inf
+
+    def excess(rate: float) -> float:  # the model's b / a at 1 / c = rate, less the points'; falls from v/u - b/a
+        return math.exp(-u * rate) * -math.expm1(-v * rate) / -math.expm1(-u * rate) - b / a
+
+    low, high = 1e-9 / max(u, v), 1.0 / min(u, v)
+    while excess(high) > 0:
+        high *= 2.0
+    rate = brentq(excess, low, high, xtol=1e-300, rtol=1e-13) if excess(low) > 0 else low
+    return b / math.expm1(v * rate)
+
+
+def plateau_reserve(load: float, secant: float, tangent: float) -> float:
+    """The load still to come (N per unit load factor) above the end of a converged step of ``load`` (its increment,
+    N per unit load factor) on the exponential approach to a plateau, P = P_inf (1 - exp(-delta / c)), fitted to the
+    step's ``secant`` stiffness and the ``tangent`` stiffness at its end (N/m): R = P_inf - P_end solves
+    ln(1 + x) / x = tangent / secant with x = load / R (module docstring, *Flat curve*, step 3). 0 where the tangent
+    is 0 (the curve at its peak), inf where it is not below the secant (the curve not softening over the step)."""
+    ratio = tangent / secant if secant < math.inf else 0.0
+    if ratio >= 1.0:
+        return math.inf
+    if ratio <= 0.0:
+        return 0.0
+    if ratio > 1.0 - 1e-8:  # ln(1 + x) / x = 1 - x / 2 + O(x^2): x = 2 (1 - ratio)
+        return load / (2.0 * (1.0 - ratio))
+    # ln(1 + x) - ratio x is positive at x = 1 - ratio ((1 - ratio)^2 / 2 + ...) and negative at the upper end
+    x = brentq(lambda x: math.log1p(x) - ratio * x, 1.0 - ratio, 2.0 / ratio * math.log(2.0 / ratio) + 1.0,
+               xtol=1e-14, rtol=1e-12)
+    return load / x
 
 
 def _displaced(state: Iterate, predictor: PETSc.Vec) -> Iterate:
