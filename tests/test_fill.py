@@ -242,11 +242,11 @@ def test_stiff_rough_fill_prevents_the_bare_arch_mechanism():
 
 
 # A fill 1e-5 as stiff as the masonry (as the extremes' case "fill young=1e-5 masonry"), with and without Poisson
-# effect and interface friction. stiffness_drop 0.005 instead of the default 0.02: with 0.02 the load-deflection curve
-# counts as flat while the fourth hinge is still forming (joint 1's thrust at e/t = -0.49 and -0.45, not yet on the
-# edge pair), so the ring under the transmitted loads keeps a reserve of 0.6 % and 2.6 %; with 0.005 the four hinges
-# are complete first. (Much lower, 0.001, is no better: with nu = 0.3 the soft fill's own elastic restraint of the
-# mechanism is then above the threshold and the FE climbs to 2.5 MN on metres of geometrically linear deflection.)
+# effect and interface friction, stiffness_drop 0.005 instead of the default 0.02. Where a step's stiffness below the
+# threshold was enough for a flat curve (without the plateau's estimate), 0.02 stopped while the fourth hinge was still
+# forming (joint 1's thrust at e/t = -0.49 and -0.45, not yet on the edge pair: a reserve of 0.6 % and 2.6 % in the
+# ring under the transmitted loads), and 0.005 let the four hinges complete first. (Much lower, 0.001, is no better:
+# with nu = 0.3 the soft fill's own elastic restraint of the mechanism is then above the threshold.)
 SOFT_VARIANTS = {"nu=0.3, mu=0.5": {"poisson": 0.3, "interface_friction": 0.5},
                  "nu=0, mu=0": {"poisson": 0.0, "interface_friction": 0.0}}
 SOFT_DROP = 0.005
