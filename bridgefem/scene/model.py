@@ -217,8 +217,9 @@ class SolverOptions:
     defaults;
     stiffness_drop: with a fill, a load step whose secant stiffness (load over deflection increment), or tangent
     stiffness at its converged state, falls below this fraction of the tangent stiffness after self-weight, and
-    whose curve's plateau fitted to the step lies within ``tolerance`` above it, marks the limit (the
-    load-deflection curve is flat: :mod:`bridgefem.search.step`, *Flat curve*; 0: only a lost equilibrium).
+    whose curve's plateau, fitted to its last converged states, lies within ``tolerance`` above it, marks the
+    limit (the load-deflection curve is flat: :mod:`bridgefem.search.step`, *Flat curve*; 0: only a lost
+    equilibrium).
     """
 
     tolerance: float = _default("solver", "tolerance")

@@ -121,9 +121,9 @@ class SearchSettings:
     a solver failure.
     ``stiffness_drop`` > 0: a converged step whose secant stiffness (load over deflection increment, N/m), or
     tangent stiffness at its converged state, is below this fraction of the tangent stiffness after self-weight, and
-    whose curve's plateau, fitted to the step, lies within ``tolerance`` above it, counts as failed, like a step
-    without equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft or yielding
-    fill, which never becomes exactly singular; :mod:`bridgefem.search.step`, *Flat curve*);
+    whose curve's plateau, fitted to its last converged states, lies within ``tolerance`` above it, counts as failed,
+    like a step without equilibrium: the load-deflection curve is flat (collapse of a structure restrained by a soft
+    or yielding fill, which never becomes exactly singular; :mod:`bridgefem.search.step`, *Flat curve*);
     0: no such check.
     ``movement_steps``: the increments of the solver's support movement (:mod:`bridgefem.search.pathfollow`, *Support
     movement*); 0: no movement.
