@@ -128,3 +128,29 @@ def test_the_plateau_fitted_to_a_step_of_an_exponential_curve_is_its_own(start, 
 def test_a_step_that_does_not_soften_has_no_plateau_and_a_peak_has_no_reserve():
     assert plateau_reserve(10.0, 2e6, 2e6) == math.inf and plateau_reserve(10.0, 2e6, 3e6) == math.inf
     assert plateau_reserve(10.0, 2e6, 0.0) == 0.0
+
+
+class Knee(OneDof):
+    """A curve with a knee at KNEE: stiffness STIFFNESS below it, DROP / 4 x STIFFNESS above it up to LIMIT (no
+    equilibrium above): the exponential through states on both sides of the knee puts a plateau just above every step
+    that crosses it, where the curve goes on rising."""
+
+    KNEE = 0.5 * LIMIT
+
+    def _iterate(self, level):
+        below, above = min(level, self.KNEE), max(level - self.KNEE, 0.0)
+        return super()._iterate(below / STIFFNESS + above / (DROP / 4 * STIFFNESS))
+
+    def live_load_tangent(self, it):
+        soft = it.x.array[0] > self.KNEE / STIFFNESS
+        return OneDof._iterate(self, 1.0 / (STIFFNESS * (DROP / 4 if soft else 1.0)))
+
+
+def test_a_plateau_below_a_converged_state_is_no_plateau():
+    """A step that crosses the knee converges with its stiffness below the threshold, and its fit across the knee
+    puts the plateau just above it: it counts as flat. The shorter trials below it cross the knee too, and their fits
+    put the plateau lower still; but an equilibrium exists at the flat step's level, so the plateau lies no lower:
+    the search goes past the knee, where the curve keeps rising, to the structure's real end."""
+    s = search(Knee(), replace(SETTINGS, stiffness_drop=DROP), guess=0.45 * LIMIT)
+    assert s.status == Status.LIMIT and not s.failure.startswith("load-deflection curve flat"), s.failure
+    assert_bracket(s)

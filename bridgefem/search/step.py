@@ -19,7 +19,8 @@ exactly: its load-deflection curve flattens towards a plateau, the plastic limit
    (P_inf - P = c k), through the step's end and the two converged states before it on the search's path (its
    start and the start of the step that reached it: :func:`plateau_through`), or, where the step starts from the
    settled state, fitted to the step's secant and its end tangent (:func:`plateau_reserve`); the reserve
-   R = P_inf - P is the load still to come above the step's end;
+   R = P_inf - P is the load still to come above the step's end, at least up to the highest level at which a step
+   has converged (flat or not: an equilibrium exists there, so the plateau lies no lower);
 4. a step whose reserve is within the bracket's tolerance of its level (R <= tolerance x P) counts as failed, with a
    mechanism: the curve is flat at its plateau. A step whose curve is not softening (its secant not below the one
    before it, or its tangent not below its secant) has no plateau in sight and converges.
@@ -82,6 +83,7 @@ class StepRecorder:
     # the converged live-load states of the path: level -> (its deflection in m, the level of the state its step
     # started from; None for the settled state)
     path: dict[float, tuple[float, float | None]] = field(default_factory=dict)
+    highest: float = 0.0  # the highest live-load level at which a step converged, flat or not
 
     def __call__(self, level: float, start: Iterate, start_level: float = 0.0, *,
                  predictor: PETSc.Vec | PairPrediction | None = None,
@@ -97,6 +99,7 @@ class StepRecorder:
         out = solver.solve_step(level, begin, predictor, give_up, iterations)
         reached = self.deflection(out.iterate) if out.converged else None
         if reached is not None and self.k_initial < math.inf:
+            self.highest = max(self.highest, level)
             self.path.setdefault(start_level, (self.deflection(start), None))
             flat = self._flat(level, start_level, reached, out)
             out, reached = (flat, None) if flat is not None else (out, reached)
@@ -134,6 +137,7 @@ class StepRecorder:
         else:
             reserve = plateau_through((before, self.path[before][0]), (start_level, start), (level, reached))
             fit = "the path's last three converged states"
+        reserve = max(reserve, self.highest - level)
         if reserve > self.tolerance * level:
             return None
         at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "no tangent at its end"
