@@ -46,6 +46,9 @@ Safeguards:
   live-load step (one solve), the plateau's estimate needs both.
 - *Threshold before plateau*: the plateau is estimated only below ``stiffness_drop`` x k0, so a curve that bends
   early (joints opening in a still stiff structure) is never read as near its plateau.
+- *An equilibrium is a floor* (step 3): an exponential fitted across a knee of the curve (a long stiff step, then a
+  short soft one) puts its plateau just above the step; a level at which a step converged, even one counted as flat,
+  keeps the bracket from closing below it.
 - *Displaced start keeps the converged state's active set*: an estimate changes where the Newton iteration starts,
   never what counts as converged.
 """
