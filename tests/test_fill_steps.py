@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import pytest
 from test_bracket import LIMIT, SETTINGS, WEIGHT, OneDof, assert_bracket, search
 
-from bridgefem.search.step import plateau_reserve
+from bridgefem.search.step import plateau_reserve, plateau_through
 from bridgefem.solver.newton import StepOutcome
 from bridgefem.status import Status
 
@@ -79,8 +79,9 @@ class Softening(OneDof):
 def test_a_flattening_curve_is_bracketed_at_its_plateau_whatever_the_steps(guess, initial_step):
     """The curve's plateau is LIMIT; its tangent stiffness falls to DROP x the initial one already at FLAT = 0.98
     LIMIT, 2 % below it. The bracket holds the level PLATEAU from which LIMIT lies within the tolerance above, for
-    every step schedule (the guess sets the approach, the initial step the first steps): the exponential fitted to a
-    step's secant and end tangent is this curve's own, so each flat step's reserve is exact. A secant over a
+    every step schedule (the guess sets the approach, the initial step the first steps): the exponential through the
+    path's last three converged states (or fitted to the first step's secant and end tangent) is this curve's own,
+    so each flat step's reserve is exact. A secant over a
     converged step is above the tangent at its end on this concave curve: alone, a long step from below FLAT to above
     it converges and counts as steep."""
     s = search(Softening(), replace(SETTINGS, initial_step=initial_step, stiffness_drop=DROP), guess=guess)
@@ -123,6 +124,16 @@ def test_the_plateau_fitted_to_a_step_of_an_exponential_curve_is_its_own(start, 
     deflection = lambda p: -math.log1p(-p)  # noqa: E731  (P_inf = 1, c = 1)
     secant = (end - start) / (deflection(end) - deflection(start))
     assert plateau_reserve(end - start, secant, 1.0 - end) == pytest.approx(1.0 - end, rel=1e-6)
+
+
+@pytest.mark.parametrize("levels", [(0.1, 0.5, 0.9), (0.5, 0.9, 0.91), (0.9, 0.95, 0.999), (0.99, 0.995, 0.9951)])
+def test_the_plateau_through_three_points_of_an_exponential_curve_is_its_own(levels):
+    """On P = P_inf - A exp(-delta / c) (P_inf = 2, A = 3, c = 0.5, deflections shifted) the plateau through three of
+    its points lies P_inf - P above the third, for unequal steps, far from the plateau and close to it; a straight
+    line has none."""
+    points = [(2.0 - 3.0 * (1.0 - p), 0.7 - 0.5 * math.log1p(-p)) for p in levels]
+    assert plateau_through(*points) == pytest.approx(2.0 - points[2][0], rel=1e-6)
+    assert plateau_through((0.0, 0.0), (1.0, 1.0), (3.0, 3.0)) == math.inf
 
 
 def test_a_step_that_does_not_soften_has_no_plateau_and_a_peak_has_no_reserve():
