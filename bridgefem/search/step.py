@@ -13,7 +13,8 @@ exactly: its load-deflection curve flattens towards a plateau, the plastic limit
 1. the tangent stiffness after self-weight, k0, is measured once (:func:`tangent_stiffness`: the live load's
    response with the joints' active set held and the fill's consistent tangent, one solve);
 2. each converged step's secant stiffness s from the state it started from (load increment dP over deflection
-   increment) and the tangent stiffness k of its converged state are measured;
+   increment) is measured, and the tangent stiffness k of its converged state where s is not below
+   ``stiffness_drop`` x k0 or the step starts from the settled state;
 3. where the lesser is below ``stiffness_drop`` x k0, the plateau the curve approaches is estimated: the
    exponential approach P = P_inf - A exp(-delta / c), whose tangent falls in proportion to the load still to come
    (P_inf - P = c k), through the step's end and the two converged states before it on the search's path (its
@@ -42,8 +43,8 @@ bracket rule then closes on the first load at which it does, whatever the path b
 
 Safeguards:
 
-- *Secant and tangent*: either alone misses a flat curve (above); the tangent's solve is spent on every converged
-  live-load step (one solve), the plateau's estimate needs both.
+- *Secant and tangent*: either alone misses a flat curve (above); the tangent's solve is spent only where the
+  secant has not already shown the curve below the threshold, or where the plateau is fitted to it.
 - *Threshold before plateau*: the plateau is estimated only below ``stiffness_drop`` x k0, so a curve that bends
   early (joints opening in a still stiff structure) is never read as near its plateau.
 - *An equilibrium is a floor* (step 3): an exponential fitted across a knee of the curve (a long stiff step, then a
@@ -103,7 +104,8 @@ class StepRecorder:
         reached = self.deflection(out.iterate) if out.converged else None
         if reached is not None and self.k_initial < math.inf:
             self.highest = max(self.highest, level)
-            self.path.setdefault(start_level, (self.deflection(start), None))
+            if start_level not in self.path:  # the settled state, or a start the path has not recorded
+                self.path[start_level] = (self.deflection(start), None)
             flat = self._flat(level, start_level, reached, out)
             out, reached = (flat, None) if flat is not None else (out, reached)
         if reached is not None and self.at_collapse is not None and level > 0:
@@ -131,8 +133,11 @@ class StepRecorder:
         start, before = self.path[start_level]
         load, rise = level - start_level, reached - start
         secant = load / rise if rise > 0 else math.inf
-        tangent = tangent_stiffness(self.solver, self.deflection, out.iterate)
         threshold = self.stiffness_drop * self.k_initial
+        # the tangent (one solve) where the secant has not shown the curve below the threshold, or where the plateau
+        # is fitted to it (a step from the settled state)
+        needed = secant >= threshold or before is None
+        tangent = tangent_stiffness(self.solver, self.deflection, out.iterate) if needed else None
         if min(secant, tangent or math.inf) >= threshold:
             return None
         if before is None:
@@ -143,7 +148,8 @@ class StepRecorder:
         reserve = max(reserve, self.highest - level)
         if reserve > self.tolerance * level:
             return None
-        at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else "no tangent at its end"
+        at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else (
+            "no tangent at its end" if needed else "tangent not needed")
         return StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m over the step, "
                                   f"{at_end}, below {self.stiffness_drop:g} x the initial {self.k_initial:.3g} "
                                   f"N/m; its plateau, fitted to {fit}, {reserve:.3g} N per unit load factor above "
