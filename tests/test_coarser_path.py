@@ -21,7 +21,8 @@ def joint_pairs(per_joint: int, joints: int = 3, fill: int = 0) -> JointPairs:
     n = len(joint)
     zeros = np.zeros((n, 2))
     kind = np.where(joint == ARCH_FILL, FILL_KIND, "voussoir")
-    return JointPairs(joint, kind, np.zeros(n, int), np.zeros(n, int), zeros, zeros, length, position, 0, n)
+    return JointPairs(joint, kind, np.zeros(n, int), np.zeros(n, int), zeros, zeros, length, position, zeros,
+                      np.zeros((n, 2), int), 0, n)
 
 
 def fields(pairs: JointPairs, level: float) -> tuple[np.ndarray, np.ndarray]:

@@ -26,12 +26,14 @@ from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..laws.crushing import scene_law
 from ..limit.collapse import collapse_load, collapse_state_from
+from ..limit.contacts import PointContacts, frozen_contact_collapse
 from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
+from ..limit.ring_blocks import ring_model
 from ..scene.model import Scene
 from ..search.records import CollapseCheck, LimitSearch
 from ..solver.newton import ContactSolver, Iterate
 from ..status import Status
-from .evidence import SlipCheck, coulomb_limited, needs_slip_check
+from .evidence import AGREEMENT, SlipCheck, coulomb_limited, needs_slip_check
 from .mechanism import JointState, joint_states
 
 
@@ -52,18 +54,21 @@ def rigid_block_check(scene: Scene, comm: MPI.Comm, nodes: tuple[float, ...] | N
 
 
 def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, joints: list[JointState],
-               blocks: BlockModel | None) -> SlipCheck | None:
+               blocks: BlockModel | None, contacts: PairCheck | None) -> SlipCheck | None:
     """The non-associative rigid-block check (:func:`slip_state`) of an unproven limit with sliding joints that the
     associative LP does not confirm (:func:`bridgefem.analysis.evidence.needs_slip_check`), from the joint forces of
     the last converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check).
-    Collective; None when no check is needed, and on blocks whose joints are pieces of the FE's (a ring interface's
-    chords: :func:`per_piece`)."""
-    if not per_piece(blocks):
+    On a barrel of rings (blocks whose joints are pieces of the FE's: a ring interface's chords, :func:`per_piece`)
+    the check is on the FE's own pairs (``contacts``, :class:`PairCheck`), and a ring interface slides where any of
+    its pairs does. Collective; None when no check is needed."""
+    if not per_piece(blocks) and contacts is None:
         return None
+    slides = any(j.sliding for j in joints) or (contacts is not None and search.last is not None
+                                                and contacts.slides(search.last))
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
-                            scene.fill is not None, any(j.sliding for j in joints)):
+                            scene.fill is not None, slides):
         return None
-    return slip_state(scene, comm, lp, joints, blocks)
+    return contacts.state(search.last) if contacts is not None else slip_state(scene, comm, lp, joints, blocks)
 
 
 def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
@@ -112,6 +117,71 @@ def frozen_collapse(joints: list[JointState], blocks: BlockModel) -> tuple[np.nd
     return normal, frozen, limited
 
 
+class PairCheck:
+    """Evidence 3 on a barrel of rings, whose ring interfaces are curves that the LP's joints cut into chords: the
+    frozen LP on the FE's own joint pairs (:func:`bridgefem.limit.contacts.frozen_contact_collapse`), each block of
+    the mesh rigid, each pair a point contact with its shear capacity frozen at the joint law's at the FE's normal
+    force there. The blocks are loaded as the FE loads them (``blocks``' loads, :func:`bridgefem.analysis.static_bound
+    .fe_blocks`) and, for the exact voussoirs' weights, as the scene's blocks are (:func:`bridgefem.limit.ring_blocks
+    .ring_model` with the LP's load sides). A joint of the structure slides in the mechanism where its pairs do more
+    than ``AGREEMENT`` of the mechanism's friction dissipation, and is at its Coulomb limit where the FE's shears do
+    all but ``AGREEMENT`` of its pairs' share (:meth:`bridgefem.limit.contacts.ContactCollapse.shortfall`): a
+    degenerate programme's mechanism may slide a pair or two elsewhere at rates that change its level by far less
+    than the bracket's width. The pairs' geometry is gathered once, on rank 0. Collective."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel, solver: ContactSolver,
+                 pairs: JointPairs, ring: ArchRing):
+        self.comm, self.solver, self.pairs, self.ring = comm, solver, pairs, ring
+        local = np.column_stack([pairs.joint, pairs.point, pairs.normal, pairs.tangent, pairs.block])
+        table = comm.gather(local, root=0)
+        self.joint, self.fe, self.exact = None, None, None
+        if comm.rank == 0:
+            table = np.vstack(table)
+            self.joint = table[:, 0].astype(int)
+            geometry = dict(point=table[:, 1:3], normal=table[:, 3:5], tangent=table[:, 5:7],
+                            left=table[:, 7].astype(int), right=table[:, 8].astype(int))
+            self.fe = PointContacts(blocks.ref, blocks.dead, blocks.live, **geometry)
+            sides = tuple(side or "split" for side in (lp.load_sides or [None] * len(scene.loads)))
+            exact = ring_model(scene, load_at_joint=sides, ring=ring)
+            self.exact = PointContacts(exact.ref, exact.dead, exact.live, **geometry)
+
+    @classmethod
+    def of(cls, scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel | None, solver: ContactSolver,
+           pairs: JointPairs, ring: ArchRing) -> "PairCheck | None":
+        """The check of a barrel of rings whose LP found a limit; None elsewhere (a bare ring's joints are the
+        LP's: :func:`per_piece`)."""
+        if blocks is None or per_piece(blocks) or lp.status != Status.LIMIT or lp.level is None:
+            return None
+        return cls(scene, comm, lp, blocks, solver, pairs, ring)
+
+    def slides(self, state: Iterate) -> bool:
+        """Whether any pair slides at the converged ``state``. Collective."""
+        return self.comm.allreduce(bool(self.solver.law.sliding(state.active).any()), op=MPI.LOR)
+
+    def state(self, state: Iterate) -> SlipCheck:
+        """The frozen LPs at the converged ``state`` (under the FE's and the scene's exact block loads), as a
+        :class:`bridgefem.analysis.evidence.SlipCheck` without the Tresca fixed point. Collective."""
+        joints = joint_states(self.solver, self.pairs, self.ring, state)
+        sliding = tuple(j.id for j in joints if j.sliding)
+        _, lam, _ = self.solver.system.split(state.x)
+        gathered = self.comm.gather(np.column_stack([lam, self.solver.law.shear_capacity(lam[:, 0])]), root=0)
+        out = None
+        if self.comm.rank == 0:
+            forces = np.vstack(gathered)
+            capacity = forces[:, 2]
+            frozen = frozen_contact_collapse(self.fe, capacity)
+            exact = frozen_contact_collapse(self.exact, capacity)
+            size = int(self.joint.max(initial=-1)) + 1
+            work = np.bincount(self.joint, frozen.dissipation(capacity), size)
+            short = np.bincount(self.joint, frozen.shortfall(forces[:, :2], capacity), size)
+            slides = work > AGREEMENT * work.sum()
+            out = SlipCheck(sliding, frozen.level, tuple(int(j) for j in np.flatnonzero(slides)),
+                            tuple(int(j) for j in np.unique(self.joint[frozen.opening])),
+                            tuple(int(j) for j in np.flatnonzero(slides & (short <= AGREEMENT * work))),
+                            exact.level, False, None, (), (), 0)
+        return self.comm.bcast(out, root=0)
+
+
 def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel | None, solver: ContactSolver,
                    pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float) -> CollapseCheck | None:
     """Evidence 3 at the search's converged states (:class:`bridgefem.search.records.CollapseCheck`): the frozen
@@ -120,7 +190,8 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
     bracket [``lower``, ``trial``] of relative width ``tolerance``
     (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`), with the check in words (``unit``: N of live load per
     unit level), on the rigid ``blocks`` loaded as the FE loads them. None with a fill (``blocks`` None), on a barrel
-    of rings (:func:`per_piece`) or without an LP limit (evidence 3 does not apply). Collective."""
+    of rings (:func:`per_piece`: the verdict's check alone is on its pairs, :class:`PairCheck`, ``docs/robustness.md``,
+    *Rings*) or without an LP limit (evidence 3 does not apply). Collective."""
     if not per_piece(blocks) or lp.status != Status.LIMIT or lp.level is None:
         return None
 

@@ -70,7 +70,7 @@ from ..solver.tresca import TrescaPredictor
 from ..status import Status
 from ..structure.sizing import MAX_DOFS
 from .build import BridgeModel, Clock, JointLawFactory, build_model
-from .checks import collapse_check, slip_check
+from .checks import PairCheck, collapse_check, slip_check
 from .evidence import confirm
 from .interface import fill_collapse_check, transmitted_load_check
 from .mechanism import collapse_mode, joint_states
@@ -152,13 +152,14 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     blocks = fe_blocks(scene, fe.model, fe.block_mesh, fe.ring) if bare else None  # the blocks loaded as the FE loads
     bound = static_cap(blocks, fe.model, fe.block_mesh, fe.pairs, fe.solver) if bare else None
     clock.lap("static bound")
+    contacts = PairCheck.of(scene, comm, fe.lp, blocks, fe.solver, fe.pairs, fe.ring)  # a barrel: evidence 3 on pairs
     search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,
                              enough)
     clock.lap("limit search")
     solver, lp, total = fe.solver, fe.lp, scene.live_per_level
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
     verdict = confirm(search.status, search.lower, search.upper, search.proved, lp.status, lp.level, total,
-                      fill=not bare, slip=slip_check(scene, comm, search, lp, joints, blocks),
+                      fill=not bare, slip=slip_check(scene, comm, search, lp, joints, blocks, contacts),
                       static=bound[0] if bound else None, closed=search.static, failure=search.failure)
     search.status, search.upper = verdict.status, verdict.upper
     return Analysis(scene, fe.ring, fe.block_mesh, fe.model, fe.pairs, solver, search, joints, lp, clock.timings,

@@ -54,7 +54,8 @@ class JointPairs:
     ground); ``normal`` and ``tangent`` the unit vectors at the pair (the joint's, or on a curved ring interface and
     the arch-fill interface the curve's there); ``length`` is the tributary length (m) of the pair along its joint;
     ``position`` its distance along the joint from its intrados end (m), or its x (m) on the arch-fill interface
-    (joint id ``ARCH_FILL``).
+    (joint id ``ARCH_FILL``); ``point`` its place (m, (k, 2)); ``block`` the blocks (cell tags) of its left and right
+    nodes ((k, 2), ``GROUND`` for the ground).
     """
 
     joint: np.ndarray
@@ -65,6 +66,8 @@ class JointPairs:
     tangent: np.ndarray
     length: np.ndarray
     position: np.ndarray
+    point: np.ndarray
+    block: np.ndarray
     offset: int
     total: int
 
@@ -156,7 +159,8 @@ def _interface_pairs(V: fem.FunctionSpace, bm: BlockMesh, match_tol: float) -> d
     return {"joint": np.full(n, ARCH_FILL), "kind": np.full(n, FILL_KIND), "left": ring_node.astype(np.int64),
             "right": fill_rows[:, 1].astype(np.int64), "normal": normal,
             "tangent": np.column_stack([-normal[:, 1], normal[:, 0]]), "length": fill_rows[:, 4],
-            "position": x[:, 0]}
+            "position": x[:, 0], "point": x,
+            "block": np.column_stack([ring_rows[idx[np.arange(len(idx)), left], 5], fill_rows[:, 5]]).astype(np.int64)}
 
 
 def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: float) -> JointPairs:
@@ -180,7 +184,8 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
     local_tags = [int(t) for t in np.unique(bm.facet_tags.values) if t not in BOUNDARY_TAGS]
     table = _gather_face_nodes(V, bm, sorted(set(comm.allreduce(local_tags))))
 
-    cols = {k: [] for k in ("joint", "kind", "left", "right", "normal", "tangent", "length", "position", "point")}
+    cols = {k: [] for k in ("joint", "kind", "left", "right", "normal", "tangent", "length", "position", "point",
+                            "block")}
     for jt in (j for j in ring.joints if not j.free):
         faces = []
         for side in (0, 1):
@@ -195,6 +200,8 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
         n = len(ref)
         position, normal, tangent = jt.frame_at(ref[:, 2:4])
         side_nodes = [f[:, 1].astype(np.int64) if len(f) else np.full(n, GROUND) for f in faces]
+        cols["block"].append(np.column_stack([f[:, 5].astype(np.int64) if len(f) else np.full(n, GROUND)
+                                              for f in faces]))
         cols["joint"].append(np.full(n, jt.id))
         cols["kind"].append(np.full(n, jt.kind))
         cols["left"].append(side_nodes[0])
@@ -206,7 +213,7 @@ def build_pairs(V: fem.FunctionSpace, bm: BlockMesh, ring: ArchRing, match_tol: 
         cols["point"].append(ref[:, 2:4])
     keep, length = _forest(*(np.concatenate(cols[k]) for k in ("kind", "left", "right", "length", "point")),
                            match_tol)
-    cols = {k: [np.concatenate(v)[keep]] for k, v in cols.items() if k != "point"}
+    cols = {k: [np.concatenate(v)[keep]] for k, v in cols.items()}
     cols["length"] = [length[keep]]
     if bm.fill_block is not None:
         for k, v in _interface_pairs(V, bm, match_tol).items():
