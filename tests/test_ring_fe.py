@@ -11,7 +11,9 @@ import pytest
 from conftest import assert_two_ranks_give, scene_dict, write_toml
 from mpi4py import MPI
 
+from bridgefem.analysis.checks import PairCheck
 from bridgefem.analysis.runner import run_analysis
+from bridgefem.analysis.static_bound import fe_blocks
 from bridgefem.fe.mesh import _gmsh_bridge, build_block_mesh, ring_element_sizes
 from bridgefem.fe.model import build_elastic_model
 from bridgefem.fe.pairs import GROUND, build_pairs
@@ -212,17 +214,20 @@ def test_frictionless_ring_interfaces_give_the_lp(rings, bond, thickness):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="rough ring interfaces (mu 0.6): the active-set search stops 1.5 % (aligned) to 10 % "
-                          "(staggered) below the associative LP with an unproven mode or a cycling active set, the "
-                          "bracket open; the sliding interfaces are the hard case of #41 item 5 (not run: "
-                          "--runxfail runs it)", strict=False, run=False)
 @pytest.mark.parametrize("bond", ["staggered", "aligned"])
 def test_rough_ring_interfaces_stay_below_the_associative_lp(bond):
     """Ring friction 0.6: the FE (non-associative) closes its bracket at or below the associative LP on the same
-    blocks."""
+    blocks, confirmed (by the LP, or where it stops below it by the frozen LP on its own pairs: evidence 3); and the
+    FE's last converged forces are admissible for that frozen LP, whose level is therefore at least the FE's (the
+    lower-bound property the check rests on; it fails if a pair's force acted on the wrong block or point)."""
     an = analyse(2, bond, 1.5)
     assert an.search.upper is not None, an.search.status
     assert an.search.upper * an.load_total <= (1 + AGREEMENT) * an.lp.load
+    assert an.verdict.evidence.startswith(("proof", "agreement")), an.verdict.evidence
+    blocks = fe_blocks(an.scene, an.model, an.block_mesh, an.ring)
+    check = PairCheck.of(an.scene, MPI.COMM_WORLD, an.lp, blocks, an.solver, an.pairs, an.ring).state(an.search.last)
+    assert check.frozen_level >= (1 - 1e-6) * an.search.lower
+    assert check.frozen_level <= (1 + AGREEMENT) * an.search.upper  # the FE stopped at that collapse state
 
 
 @pytest.mark.slow

@@ -13,7 +13,8 @@ collective; an LP that fails is a check that confirms nothing, never the reason 
    are at their Coulomb limit against the slip.
 3. *The slip check* (:func:`slip_check`, :func:`slip_state`): for an unproven limit with sliding joints that the
    associative LP does not confirm, the frozen LP at the last converged state, the same under the scene's exact
-   voussoir weights, and the Tresca fixed point from it (Gilbert, Casapulla & Ahmed 2006).
+   voussoir weights, and the Tresca fixed point from it (Gilbert, Casapulla & Ahmed 2006); on a barrel of rings the
+   frozen LPs on the FE's own blocks and pairs (:class:`PairCheck`).
 4. *The collapse check* (:func:`collapse_check`): the frozen LP at each converged state of the search, for its
    *Collapse state* rule (:mod:`bridgefem.search.target`).
 """

@@ -25,7 +25,14 @@ evidence of collapse only when
    weights within ``AGREEMENT`` too (the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a limit
    that is small against the self-weight by far more; otherwise the limit depends on the mesh and a finer one is tried),
    and the FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
-   Radenkovic's first theorem).
+   Radenkovic's first theorem). On a barrel of rings the LP cuts each curved ring interface into chords, whose forces
+   the FE's pairs along the curve do not give, so the rule reads the FE's own blocks and pairs instead, each pair a
+   point contact with its shear capacity frozen at the law's at the FE's normal force there
+   (:class:`bridgefem.analysis.checks.PairCheck`, :mod:`bridgefem.limit.contacts`): the FE's forces satisfy those rows
+   exactly, the joint's moment rows being its pairs' no-tension; a joint slides in that mechanism where its pairs do
+   more than ``AGREEMENT`` of its friction dissipation, and is at its Coulomb limit where the FE's shears do all but
+   ``AGREEMENT`` of its pairs' share. There the rule confirms the verdict only; the search's collapse-state readings
+   (:mod:`bridgefem.search.target`) stay on single rings (``docs/robustness.md``, *Rings*).
 
 4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the FE's own
    assembled block loads (:func:`bridgefem.analysis.static_bound.block_loads`) has the collapse level LP_fe. A converged

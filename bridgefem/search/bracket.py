@@ -117,10 +117,12 @@ class Bracket:
         middle = 0.5 * (self.lower + self.soft)
         return max(middle, below(self.soft, self.tolerance)) if self.linear else middle
 
-    def failed_here(self, level: float) -> bool:
-        """A trial at ``level`` already failed from the converged state at lower (:mod:`bridgefem.search.target`,
-        *Guess*: no landing there)."""
-        return (self.visit, level) in self.failed_from
+    def landing_failures(self, level: float) -> int:
+        """-1 when a trial at ``level`` already failed from the converged state at lower, else the converged states
+        it failed from (:mod:`bridgefem.search.target`, *Guess*: no landing there)."""
+        if (self.visit, level) in self.failed_from:
+            return -1
+        return sum(failed == level for _, failed in self.failed_from)
 
     def failed_before(self, level: float) -> bool:
         """A trial at ``level`` already failed, from any state (:mod:`bridgefem.search.schedule`, *Trial

@@ -11,7 +11,10 @@ lower`` (:mod:`bridgefem.search.bracket`).
 2. Each approach step leaves ``APPROACH`` of the distance to T, at most the schedule's step long
    (:mod:`bridgefem.search.schedule`); a step that would stop within ``LANDING`` x T of T goes to T, unless T
    already failed from the same converged state (after a backtrack: the solve is deterministic, so that landing
-   would replay the failure the search backed away from).
+   would replay the failure the search backed away from) or from ``FUTILE_LANDINGS`` states (a T above the limit of
+   the path, as a coarser mesh's level can be, fails from every state: landing there again spends the steps of a
+   bisection back down each time). An approach step that may not land is at least the width long, so that it
+   crosses T instead of halving the distance to it for ever.
 3. The step after T is the width, so that a limit in [T, g] is bracketed in two trials.
 4. A failure below (1 - ``PLAUSIBLE``) T contradicts the guess: it is *suspect* (usually the Newton method failing
    on a long step) and closes the bracket only under the stricter rules of :mod:`bridgefem.search.bracket`
@@ -49,7 +52,8 @@ Safeguards:
 
 - *Plausibility* ``PLAUSIBLE``: a failure far below the estimate is more likely the Newton method's than the
   limit's, so it must pass the suspect rules before it closes the bracket.
-- *No landing where T failed*: a landing that already failed from the same state would replay that failure.
+- *No landing where T failed*: a landing that already failed from the same state would replay that failure, and
+  one that failed from ``FUTILE_LANDINGS`` states is above the path's limit more likely than not.
 - *Settled collapse level only*: aiming at an F that keeps rising with the load would creep up in ever shorter
   steps.
 - *Reading cap* ``RISINGS``: a reading costs a rigid-block LP and the joints' resultants, about a Newton
@@ -66,6 +70,7 @@ from .records import CollapseCheck
 
 APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
 LANDING = 0.08  # an approach step that would stop within this fraction of T goes to T
+FUTILE_LANDINGS = 2  # no landing on a T that failed from this many converged states
 PLAUSIBLE = 0.02  # failures below (1 - PLAUSIBLE) T contradict the guess (suspect)
 RISE = 0.5  # a collapse level that rose by at most this fraction of the step to its state is the estimate itself;
 # one that rose faster, but by less than the step, is extrapolated to where its reserve vanishes
@@ -101,12 +106,14 @@ class Target:
         """A failure at ``level`` does not contradict the target (*Guess*)."""
         return self.level == math.inf or level >= (1.0 - PLAUSIBLE) * self.level
 
-    def approach(self, lower: float, step: float, failed_here: bool) -> float:
+    def approach(self, lower: float, step: float, failures: int, width: float) -> float:
         """The approach step from ``lower`` (*Guess*): ``APPROACH`` of the distance to T left, at most ``step``
-        long, to T itself when that leaves at most ``LANDING`` x T, unless T already ``failed_here``."""
+        long, to T itself when that leaves at most ``LANDING`` x T, unless T already failed from this state
+        (``failures`` < 0) or from ``FUTILE_LANDINGS`` states (``failures``); then at least the ``width`` long."""
         trial = min(self.level - APPROACH * (self.level - lower), lower + step)
-        landing = self.level - trial <= LANDING * self.level and not failed_here
-        return self.level if landing else trial
+        if failures < 0 or failures >= FUTILE_LANDINGS:
+            return max(trial, lower + width)
+        return self.level if self.level - trial <= LANDING * self.level else trial
 
     def read(self, bracket: Bracket) -> None:
         """The converged state's settled collapse level and the target it sets: ``aim``, or while a failure lies
