@@ -184,15 +184,24 @@ class PairCheck:
 
 
 def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockModel | None, solver: ContactSolver,
-                   pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float) -> CollapseCheck | None:
+                   pairs: JointPairs, ring: ArchRing, tolerance: float, unit: float, contacts: PairCheck | None
+                   ) -> CollapseCheck | None:
     """Evidence 3 at the search's converged states (:class:`bridgefem.search.records.CollapseCheck`): the frozen
     LP's level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
     (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
     bracket [``lower``, ``trial``] of relative width ``tolerance``
     (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`), with the check in words (``unit``: N of live load per
-    unit level), on the rigid ``blocks`` loaded as the FE loads them. None with a fill (``blocks`` None), on a barrel
-    of rings (:func:`per_piece`: the verdict's check alone is on its pairs, :class:`PairCheck`, ``docs/robustness.md``,
-    *Rings*) or without an LP limit (evidence 3 does not apply). Collective."""
+    unit level), on the rigid ``blocks`` loaded as the FE loads them. On a barrel of rings (:func:`per_piece`) the
+    closing trial's settling alone, on its own pairs (``contacts``, :class:`PairCheck`), without the estimate: the
+    estimate steers the search's path, which on a barrel can then reach another non-associative collapse state
+    (``docs/robustness.md``, *Rings*). None with a fill (``blocks`` None) or without an LP limit (evidence 3 does not
+    apply). Collective."""
+    if contacts is not None:
+        def pair_settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+            slip = contacts.state(state)
+            return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
+
+        return CollapseCheck(settles=pair_settles)
     if not per_piece(blocks) or lp.status != Status.LIMIT or lp.level is None:
         return None
 

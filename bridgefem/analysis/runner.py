@@ -154,7 +154,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     clock.lap("static bound")
     contacts = PairCheck.of(scene, comm, fe.lp, blocks, fe.solver, fe.pairs, fe.ring)  # a barrel: evidence 3 on pairs
     search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,
-                             enough)
+                             enough, contacts)
     clock.lap("limit search")
     solver, lp, total = fe.solver, fe.lp, scene.live_per_level
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
@@ -168,11 +168,13 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
 
 def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | None, bound: StaticCap | None,
             report: Callable[[LoadStep], None], coarser: float | None, budget: int | None, path: CoarserPath | None,
-            enough: float | Callable[[], float] = math.inf) -> tuple[LimitSearch, list[ConvergedState]]:
+            enough: float | Callable[[], float], contacts: PairCheck | None
+            ) -> tuple[LimitSearch, list[ConvergedState]]:
     """The limit search of one run (module docstring, step 3) on the model ``fe``, with the rigid ``blocks`` loaded
     as the FE loads them and the static ``bound`` (None with a fill); returns the search and its converged states,
     each kept for the output's time series and a re-run's coarser path. A search that spends its ``budget`` of linear
-    solves is a failure (:func:`_analyse`); ``enough`` (N) as in :func:`run_analysis`. Collective."""
+    solves is a failure (:func:`_analyse`); ``enough`` (N) as in :func:`run_analysis`; ``contacts``: a barrel's
+    evidence 3 on its own pairs (:class:`bridgefem.analysis.checks.PairCheck`; None elsewhere). Collective."""
     solver, model, s = fe.solver, fe.model, scene.solver
     # a plastic fill can fail under the load before the ring does: watch the load's own displacement; an elastic
     # fill cannot, and its elastic settlement would hide the ring's mechanism from the flat-curve test
@@ -201,7 +203,7 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
         with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.solver.linear)
             guides = SearchGuides(guess=lp.level if lp.status == Status.LIMIT else None, bound=bound, coarser=coarser,
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, fe.pairs, fe.ring,
-                                                          s.tolerance, total)
+                                                          s.tolerance, total, contacts)
                                   or fill_collapse_check(scene, solver, fe.pairs, model.V, fe.block_mesh, s.tolerance,
                                                          total),
                                   predicted=predictor.predict if predictor is not None else None,

@@ -80,8 +80,8 @@ class PointContacts:
 class ContactCollapse:
     """The frozen-capacity collapse of :func:`frozen_contact_collapse`: ``level`` (same unit as the live load's
     factor; None without an optimum), the optimal pair forces ``forces`` (k, 2: normal, shear; N), the mechanism's
-    ``opening`` pairs (bool, (k,)) and each pair's ``slip`` rate (k,; 0 where it does not slide), the block
-    velocities scaled so that the live load's work is 1."""
+    ``opening`` pairs (bool, (k,)) and each pair's ``slip`` rate (k,; 0 where it does not slide) for block velocities
+    on which the live load does unit work."""
 
     level: float | None
     forces: np.ndarray
