@@ -11,7 +11,7 @@ import pytest
 from conftest import assert_two_ranks_give, scene_dict, write_toml
 from mpi4py import MPI
 
-from bridgefem.analysis.checks import PairCheck
+from bridgefem.analysis.checks import PairCheck, collapse_check
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.analysis.static_bound import fe_blocks
 from bridgefem.fe.mesh import _gmsh_bridge, build_block_mesh, ring_element_sizes
@@ -225,9 +225,17 @@ def test_rough_ring_interfaces_stay_below_the_associative_lp(bond):
     assert an.search.upper * an.load_total <= (1 + AGREEMENT) * an.lp.load
     assert an.verdict.evidence.startswith(("proof", "agreement")), an.verdict.evidence
     blocks = fe_blocks(an.scene, an.model, an.block_mesh, an.ring)
-    check = PairCheck.of(an.scene, MPI.COMM_WORLD, an.lp, blocks, an.solver, an.pairs, an.ring).state(an.search.last)
-    assert check.frozen_level >= (1 - 1e-6) * an.search.lower
+    contacts = PairCheck.of(an.scene, MPI.COMM_WORLD, an.lp, blocks, an.solver, an.pairs, an.ring)
+    check = contacts.state(an.search.last)
+    lower = an.search.lower
+    assert check.frozen_level >= (1 - 1e-6) * lower
     assert check.frozen_level <= (1 + AGREEMENT) * an.search.upper  # the FE stopped at that collapse state
+    # a closing trial that fails from this state is settled when the frozen reserve is within the bracket's width
+    reserve = check.frozen_level / lower - 1
+    for tolerance, settled in ((2 * reserve + 1e-9, True), (reserve / 2, False)):
+        collapse = collapse_check(an.scene, MPI.COMM_WORLD, an.lp, blocks, an.solver, an.pairs, an.ring, tolerance,
+                                  an.load_total, contacts)
+        assert collapse.settles(lower, (1 + tolerance) * lower, an.search.last)[0] is settled
 
 
 @pytest.mark.slow
