@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from bridgefem.search.bracket import BACKTRACKS, SETTLED, SUBSTEP, SUSPECT, Bracket
+from bridgefem.search.bracket import BACKTRACKS, FUTILE_LANDINGS, SETTLED, SUBSTEP, SUSPECT, Bracket
 from bridgefem.search.records import CollapseCheck
 from bridgefem.search.schedule import BACKTRACK_STEP, BUDGET, BUDGET_FLOOR, EASY_ITERATIONS, RETRY_FLOOR, StepSchedule
-from bridgefem.search.target import APPROACH, FUTILE_LANDINGS, LANDING, PLAUSIBLE, RISE, RISINGS, STRADDLE, Target
+from bridgefem.search.target import APPROACH, LANDING, PLAUSIBLE, RISE, RISINGS, STRADDLE, Target
 
 TOLERANCE = 1e-3
 
@@ -106,15 +106,19 @@ def test_reaching_the_soft_bound_discards_it():
 
 
 def test_a_level_failed_from_this_state_and_from_any_state():
+    """failed_before: from any state; the target's landing is refused where it failed from this state or from
+    FUTILE_LANDINGS states."""
     b = climbed(1000.0)
     b.fail(1200.0)
-    b.advance(1100.0, "S2", 2, iterations=3)
-    assert b.failed_before(1200.0) and b.landing_failures(1200.0) == 1
-    b.advance(1150.0, "S3", 3, iterations=3)
-    b.fail(1200.0)
-    assert b.landing_failures(1200.0) == -1 and not b.failed_before(1150.0)
-    b.advance(1160.0, "S4", 4, iterations=3)
-    assert b.landing_failures(1200.0) == 2  # from two states before this one
+    level = 1000.0
+    for visit in range(2, FUTILE_LANDINGS + 1):
+        level += 10.0
+        b.advance(level, f"S{visit}", visit, iterations=3)
+        assert b.failed_before(1200.0) and not b.landing_refused(1200.0)  # from fewer states before this one
+        b.fail(1200.0)
+        assert b.landing_refused(1200.0)  # from this one
+    b.advance(level + 10.0, "next", FUTILE_LANDINGS + 1, iterations=3)
+    assert b.landing_refused(1200.0) and not b.failed_before(1150.0)  # from FUTILE_LANDINGS states before this one
 
 
 def test_without_a_fill_every_converged_step_doubles_the_next():
@@ -196,20 +200,19 @@ def test_a_failure_below_the_target_by_more_than_plausible_is_suspect():
 
 def test_an_approach_step_leaves_a_fraction_of_the_distance_and_lands_on_the_target_when_near():
     t = Target(1000.0, None)
-    assert t.approach(0.0, 10000.0, 0, 0.1) == pytest.approx(1000.0 - APPROACH * 1000.0)
-    assert t.approach(0.0, 100.0, 0, 0.1) == 100.0  # the step bounds it
+    assert t.approach(0.0, 10000.0, False, 0.1) == pytest.approx(1000.0 - APPROACH * 1000.0)
+    assert t.approach(0.0, 100.0, False, 0.1) == 100.0  # the step bounds it
     near = 1000.0 - LANDING * 1000.0 / APPROACH + 1.0  # leaves less than LANDING x T
-    assert t.approach(near, 10000.0, FUTILE_LANDINGS - 1, 0.1) == 1000.0
-    for failures in (-1, FUTILE_LANDINGS):  # T failed from this state, or from that many: no landing
-        assert t.approach(near, 10000.0, failures, 0.1) == pytest.approx(1000.0 - APPROACH * (1000.0 - near))
+    assert t.approach(near, 10000.0, False, 0.1) == 1000.0
+    assert t.approach(near, 10000.0, True, 0.1) == pytest.approx(1000.0 - APPROACH * (1000.0 - near))
 
 
 def test_an_approach_that_may_not_land_crosses_the_target_by_the_width():
     """Without landing, an approach halving the distance to T would never reach it: within two widths of T the
     step is the width, and it crosses T."""
     t = Target(1000.0, None)
-    assert t.approach(999.95, 10000.0, -1, 0.1) == pytest.approx(1000.05)
-    assert t.approach(999.0, 10000.0, FUTILE_LANDINGS, 0.1) == pytest.approx(999.5)
+    assert t.approach(999.95, 10000.0, True, 0.1) == pytest.approx(1000.05)
+    assert t.approach(999.0, 10000.0, True, 0.1) == pytest.approx(999.5)
 
 
 class Readings:

@@ -56,6 +56,7 @@ BACKTRACK = 4  # converged states kept for backtracking
 BACKTRACKS = 2  # backtracks per search: a suspect failure that recurs after them is decisive
 SUBSTEP = 0.125  # a failure without proof of collapse is retried with halved steps down to this many widths
 CLOSE = 1.0 - 1e-9  # the closing trial is this fraction of the width, so that rounding keeps it inside
+FUTILE_LANDINGS = 2  # no landing on the search's target where a trial failed from this many converged states
 
 
 class Converged(NamedTuple):
@@ -117,12 +118,11 @@ class Bracket:
         middle = 0.5 * (self.lower + self.soft)
         return max(middle, below(self.soft, self.tolerance)) if self.linear else middle
 
-    def landing_failures(self, level: float) -> int:
-        """-1 when a trial at ``level`` already failed from the converged state at lower, else the converged states
-        it failed from (:mod:`bridgefem.search.target`, *Guess*: no landing there)."""
-        if (self.visit, level) in self.failed_from:
-            return -1
-        return sum(failed == level for _, failed in self.failed_from)
+    def landing_refused(self, level: float) -> bool:
+        """A trial at ``level`` already failed from the converged state at lower, or from ``FUTILE_LANDINGS``
+        converged states (:mod:`bridgefem.search.target`, *Guess*: no landing there)."""
+        return ((self.visit, level) in self.failed_from
+                or sum(failed == level for _, failed in self.failed_from) >= FUTILE_LANDINGS)
 
     def failed_before(self, level: float) -> bool:
         """A trial at ``level`` already failed, from any state (:mod:`bridgefem.search.schedule`, *Trial

@@ -236,7 +236,7 @@ class _Search:
         elif target.foreseen is not None and b.closes_at(target.foreseen):
             trial = b.closing()
         elif b.lower < target.level < b.soft:
-            trial = target.approach(b.lower, self.schedule.step, b.landing_failures(target.level), b.width)
+            trial = target.approach(b.lower, self.schedule.step, b.landing_refused(target.level), b.width)
         elif b.soft < math.inf:
             trial = b.bisection()
         else:

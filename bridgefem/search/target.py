@@ -11,7 +11,8 @@ lower`` (:mod:`bridgefem.search.bracket`).
 2. Each approach step leaves ``APPROACH`` of the distance to T, at most the schedule's step long
    (:mod:`bridgefem.search.schedule`); a step that would stop within ``LANDING`` x T of T goes to T, unless T
    already failed from the same converged state (after a backtrack: the solve is deterministic, so that landing
-   would replay the failure the search backed away from) or from ``FUTILE_LANDINGS`` states (a T above the limit of
+   would replay the failure the search backed away from) or from ``FUTILE_LANDINGS`` states
+   (:mod:`bridgefem.search.bracket`; a T above the limit of
    the path, as a coarser mesh's level can be, fails from every state: landing there again spends the steps of a
    bisection back down each time). An approach step that may not land is at least the width long, so that it
    crosses T instead of halving the distance to it for ever.
@@ -73,7 +74,6 @@ from .records import CollapseCheck
 
 APPROACH = 0.5  # fraction of the distance to the target T left by an approach step
 LANDING = 0.08  # an approach step that would stop within this fraction of T goes to T
-FUTILE_LANDINGS = 2  # no landing on a T that failed from this many converged states
 PLAUSIBLE = 0.02  # failures below (1 - PLAUSIBLE) T contradict the guess (suspect)
 RISE = 0.5  # a collapse level that rose by at most this fraction of the step to its state is the estimate itself;
 # one that rose faster, but by less than the step, is extrapolated to where its reserve vanishes
@@ -109,12 +109,12 @@ class Target:
         """A failure at ``level`` does not contradict the target (*Guess*)."""
         return self.level == math.inf or level >= (1.0 - PLAUSIBLE) * self.level
 
-    def approach(self, lower: float, step: float, failures: int, width: float) -> float:
+    def approach(self, lower: float, step: float, refused: bool, width: float) -> float:
         """The approach step from ``lower`` (*Guess*): ``APPROACH`` of the distance to T left, at most ``step``
-        long, to T itself when that leaves at most ``LANDING`` x T, unless T already failed from this state
-        (``failures`` < 0) or from ``FUTILE_LANDINGS`` states (``failures``); then at least the ``width`` long."""
+        long, to T itself when that leaves at most ``LANDING`` x T, unless the landing is ``refused``
+        (:meth:`bridgefem.search.bracket.Bracket.landing_refused`); then at least the ``width`` long."""
         trial = min(self.level - APPROACH * (self.level - lower), lower + step)
-        if failures < 0 or failures >= FUTILE_LANDINGS:
+        if refused:
             return max(trial, lower + width)
         return self.level if self.level - trial <= LANDING * self.level else trial
 
