@@ -60,8 +60,9 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     associative LP does not confirm (:func:`bridgefem.analysis.evidence.needs_slip_check`), from the joint forces of
     the last converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check).
     On a barrel of rings (blocks whose joints are pieces of the FE's: a ring interface's chords, :func:`per_piece`)
-    the check is on the FE's own pairs (``contacts``, :class:`PairCheck`), and a ring interface slides where any of
-    its pairs does. Collective; None when no check is needed."""
+    the check is on the FE's own pairs (``contacts``, :class:`PairCheck`), and it is needed where any pair slides (a
+    curved ring interface slides with some of its pairs, seldom with all). Collective; None when no check is
+    needed."""
     if not per_piece(blocks) and contacts is None:
         return None
     slides = any(j.sliding for j in joints) or (contacts is not None and search.last is not None
