@@ -26,10 +26,9 @@ from mpi4py import MPI
 from ..fe.pairs import JointPairs
 from ..geometry.ring import ArchRing
 from ..laws.crushing import scene_law
-from ..limit.collapse import collapse_load, collapse_state_from
+from ..limit.collapse import collapse_load, collapse_state_from, sided_ring
 from ..limit.contacts import PointContacts, frozen_contact_collapse
 from ..limit.rigid_block import BlockModel, LPResult, frozen_capacity_collapse, solve_blocks
-from ..limit.ring_blocks import ring_model
 from ..scene.model import Scene
 from ..search.records import CollapseCheck, LimitSearch
 from ..solver.newton import ContactSolver, Iterate
@@ -125,7 +124,7 @@ class PairCheck:
     the mesh rigid, each pair a point contact with its shear capacity frozen at the joint law's at the FE's normal
     force there. The blocks are loaded as the FE loads them (``blocks``' loads, :func:`bridgefem.analysis.static_bound
     .fe_blocks`) and, for the exact voussoirs' weights, as the scene's blocks are (:func:`bridgefem.limit.ring_blocks
-    .ring_model` with the LP's load sides). A joint of the structure slides in the mechanism where its pairs do more
+    .ring_model` with the LP's load sides, :func:`bridgefem.limit.collapse.sided_ring`). A joint of the structure slides in the mechanism where its pairs do more
     than ``AGREEMENT`` of the mechanism's friction dissipation, and is at its Coulomb limit where the FE's shears do
     all but ``AGREEMENT`` of its pairs' share (:meth:`bridgefem.limit.contacts.ContactCollapse.shortfall`): a
     degenerate programme's mechanism may slide a pair or two elsewhere at rates that change its level by far less
@@ -143,8 +142,7 @@ class PairCheck:
             geometry = dict(point=table[:, 1:3], normal=table[:, 3:5], tangent=table[:, 5:7],
                             left=table[:, 7].astype(int), right=table[:, 8].astype(int))
             self.fe = PointContacts(blocks.ref, blocks.dead, blocks.live, **geometry)
-            sides = tuple(side or "split" for side in (lp.load_sides or [None] * len(scene.loads)))
-            exact = ring_model(scene, load_at_joint=sides, ring=ring)
+            exact = sided_ring(scene, lp.load_sides, ring)
             self.exact = PointContacts(exact.ref, exact.dead, exact.live, **geometry)
 
     @classmethod

@@ -26,7 +26,7 @@ from ..scene.keys import SceneError
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
 from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER, Outline, SoilMesh, triangulate
-from .collapse import collapse_load
+from .collapse import collapse_load, sided_ring
 from .conic import NONNEG, SOC, ConicProgramme
 from .rigid_block import BlockModel, _Programme
 from .ring_blocks import ring_model
@@ -158,8 +158,7 @@ def bridge_problem(scene: Scene, refine: float = 1.0) -> LimitProblem:
     width = scene.arch.width
     live_total = float(sum(ld.factor for ld in scene.loads))
     if scene.fill is None:  # a point load on a joint goes on the block the LP finds least favourable
-        sides = tuple(side or "split" for side in collapse_load(scene).load_sides)
-        return LimitProblem(ring_model(scene, load_at_joint=sides), width, live_total)
+        return LimitProblem(sided_ring(scene, collapse_load(scene).load_sides), width, live_total)
     f = scene.fill
     if f.material != "mohr-coulomb":
         raise SceneError('[fill] material = "elastic": the collapse bounds need a mohr-coulomb fill')

@@ -34,7 +34,7 @@ from ..geometry.ring import ArchRing, joint_under
 from ..laws.base import JointLaw
 from ..scene.model import Scene
 from ..structure.ring import scene_ring
-from .rigid_block import LPResult, dead_load_deficit, solve_blocks
+from .rigid_block import BlockModel, LPResult, dead_load_deficit, solve_blocks
 from .ring_blocks import live_loads, ring_model
 
 LEAST_FAVOURABLE = "least-favourable"
@@ -89,10 +89,17 @@ def collapse_state_from(scene: Scene, normal_forces: np.ndarray, load_sides: lis
     (:func:`collapse_load`'s ``load_sides``; None entries and None: shared). The result's ``converged`` says whether
     a fixed point was reached; ``options`` go to :func:`~bridgefem.limit.rigid_block.solve_blocks`.
     """
-    sides = tuple(side or "split" for side in (load_sides or [None] * len(scene.loads)))
-    res = solve_blocks(ring_model(scene, load_at_joint=sides), "non-associative", seed=normal_forces, **options)
+    res = solve_blocks(sided_ring(scene, load_sides), "non-associative", seed=normal_forces, **options)
     res.load_sides = list(load_sides or [None] * len(scene.loads))
     return res
+
+
+def sided_ring(scene: Scene, load_sides: list[str | None] | None, ring: ArchRing | None = None) -> BlockModel:
+    """The scene's ring as rigid blocks (:func:`~bridgefem.limit.ring_blocks.ring_model`) with each point load on a
+    joint carried by the block ``load_sides`` names (:func:`collapse_load`'s ``load_sides``; None entries and None:
+    shared by both); ``ring``: the scene's ring when the caller has built it (None: built here)."""
+    sides = tuple(side or "split" for side in (load_sides or [None] * len(scene.loads)))
+    return ring_model(scene, load_at_joint=sides, ring=ring)
 
 
 def _level(res: LPResult) -> float:
