@@ -729,7 +729,8 @@ def add_abutments(ring: ArchRing, height: float, length: float) -> ArchRing:
 def joint_under(ring: ArchRing, x: float) -> int | None:
     """The interior joint whose extrados corner is at horizontal position x (m), within ``AT_JOINT_TOL`` x span,
     or None (springing corners do not count: a load there is on the end voussoir only)."""
-    inner = [j for j in ring.joints if j.kind == "voussoir" and j.right in {v.id for v in ring.outer_voussoirs}]
+    outer = {v.id for v in ring.outer_voussoirs}
+    inner = [j for j in ring.joints if j.kind == "voussoir" and j.right in outer]
     if not inner:
         return None
     j = min(inner, key=lambda jt: abs(jt.extrados[0] - x))
