@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from contextlib import contextmanager
-from typing import Iterator, NamedTuple
+from typing import TYPE_CHECKING, Iterator, NamedTuple
 
 import numpy as np
 from mpi4py import MPI
@@ -27,6 +27,9 @@ from petsc4py import PETSc
 from ..petsc_start import startup_options
 from ..scene.keys import SceneError
 from ..scene.petsc_options import PETSC_PREFIX
+
+if TYPE_CHECKING:
+    from .interior import InteriorCondensation
 
 DEFAULT_PETSC_OPTIONS = {
     "ksp_type": "preonly",
@@ -65,8 +68,8 @@ class CheckedSolve:
     (:func:`environment_options`: they replace the defaults on every run), overridden by ``options`` (the scene's
     and the command line's, which are the run's own)."""
 
-    def __init__(self, A: PETSc.Mat, options: dict):
-        self.A = A
+    def __init__(self, A: PETSc.Mat, options: dict, condensation: "InteriorCondensation | None" = None):
+        self.A, self.condensation = A, condensation
         self.comm = A.getComm().tompi4py()
         merged = {**DEFAULT_PETSC_OPTIONS, **environment_options(), **options}
         self.options = {k: str(v) for k, v in merged.items()}
@@ -96,10 +99,11 @@ class CheckedSolve:
         opts = PETSc.Options()
         for key, value in self.options.items():
             opts[PETSC_PREFIX + key] = value
-        ksp = PETSc.KSP().create(self.comm)
+        condensed = self.condensation is not None
+        ksp = PETSc.KSP().create(PETSc.COMM_SELF if condensed else self.comm)
         try:
             ksp.setOptionsPrefix(PETSC_PREFIX)
-            ksp.setOperators(self.A)
+            ksp.setOperators(self.condensation.R if condensed else self.A)
             ksp.setFromOptions()
             ksp.setUp()
         finally:
@@ -107,9 +111,14 @@ class CheckedSolve:
                 opts.delValue(PETSC_PREFIX + key)
         return ksp
 
-    def matrix_changed(self) -> None:
-        """The matrix's values changed: the next solve refactorises."""
-        self.ksp.setOperators(self.A)
+    def matrix_changed(self, law_values: np.ndarray | None = None) -> None:
+        """The matrix's values changed: the next solve refactorises; with a condensation only the law's rows may
+        change, and ``law_values`` are their new values (the rank's law rows, CSR order), for the reduced system."""
+        if self.condensation is not None:
+            self.condensation.law_changed(law_values)
+            self.ksp.setOperators(self.condensation.R)
+        else:
+            self.ksp.setOperators(self.A)
         self.stats["factorisations"] += 1
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
@@ -123,7 +132,10 @@ class CheckedSolve:
             if self._broken:
                 self.ksp.destroy()
                 self.ksp, self._broken = self._new_ksp(), False
-            self.ksp.solve(b, x)
+            if self.condensation is not None:
+                self.condensation.solve(self.ksp, b, x)
+            else:
+                self.ksp.solve(b, x)
         except PETSc.Error as err:  # e.g. MUMPS refusing to solve with a factorisation that failed
             # an error inside KSPSolve leaves the KSP unusable (PCPreSolve's nesting count is never reset: after two
             # such errors every solve fails with PETSc error 56): the next solve builds a new one

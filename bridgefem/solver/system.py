@@ -40,6 +40,7 @@ from petsc4py import PETSc
 
 from ..fe.pairs import GROUND, JointPairs
 from ..laws.base import ContactState, JointLaw, LawRows
+from .interior import InteriorCondensation
 from .linear import CheckedSolve, SolveFailure
 
 if TYPE_CHECKING:
@@ -153,7 +154,10 @@ class ContactSystem:
         return np.concatenate([self._const, g_part, diag])[self._perm]
 
     def _ksp(self, options: dict) -> None:
-        self.linear = CheckedSolve(self.A, options)
+        condensation = None if self.material is not None else \
+            InteriorCondensation.of(self.A, np.arange(self.n_u, self.n_local))
+        self._law_rows = (self.starts[self.comm.rank] + np.arange(self.n_u, self.n_local)).astype(PETSc.IntType)
+        self.linear = CheckedSolve(self.A, options, condensation)
         self.stats, self.petsc_options = self.linear.stats, self.linear.options
         self._matrix_key = self.law.bonded(len(self.pairs)).key() + bytes([False])
 
@@ -245,9 +249,17 @@ class ContactSystem:
         failure."""
         key = active.key() + bytes([proximal])
         if self.comm.allreduce(int(key != self._matrix_key), op=MPI.MAX):  # a new active set, or a new fill tangent
-            self.A.setValuesCSR(self._indptr, self._indices, self._values(active, proximal))
-            self.A.assemble()
-            self.linear.matrix_changed()
+            values = self._values(active, proximal)
+            if self.linear.condensation is None:
+                self.A.setValuesCSR(self._indptr, self._indices, values)
+                self.A.assemble()
+                self.linear.matrix_changed()
+            else:  # only the law's rows change
+                law = values[self._indptr[self.n_u]:]
+                self.A.setValuesIJV(self._indptr[self.n_u:] - self._indptr[self.n_u],
+                                    self._indices[self._indptr[self.n_u]:], law, rowmap=self._law_rows)
+                self.A.assemble()
+                self.linear.matrix_changed(law)
             self._matrix_key = key
         failure = self.linear.solve(self.b, x)
         if failure is not None:

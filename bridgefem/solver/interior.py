@@ -1,0 +1,177 @@
+"""The contact system's linear solves with the blocks' interiors condensed out once (static condensation).
+
+Only the joint law's rows of the contact system (:mod:`bridgefem.solver.system`) change with the active set; without a
+plastic fill the stiffness K is constant. The law's rows touch the displacements only at the joint faces' nodes
+(through G), so the displacement unknowns split into the *interface* dofs B (every dof a law row touches) and the
+*interior* dofs I (all others: inside the voussoirs, on their intrados and extrados, an elastic fill's), and with the
+joint forces L the combined matrix is
+
+    [ K_II  K_IB   0    ] [u_I]   [b_I]
+    [ K_BI  K_BB  -G_B^T] [u_B] = [b_B]
+    [ 0     A_LB   A_LL ] [lam]   [b_L]
+
+where only A_LB and A_LL (the law's rows) change. K_II is the stiffness of every block with its faces held: it is
+nonsingular and block-diagonal (one block per connected component: a voussoir, a pier course, a fill), factorised
+once; its Schur complement Z = K_BI K_II^-1 K_IB is dense within each block and computed once. A solve of the
+active set's system is then (Saad 2003, *Iterative Methods for Sparse Linear Systems*, sec. 14.2; the substructuring
+of Przemieniecki 1963):
+
+1. y_I = K_II^-1 b_I (each block's factor);
+2. solve the reduced system R x_S = b_S - A_SI y_I for S = (B, L), with R = A_SS - [[Z, 0], [0, 0]] (its law rows the
+   active set's), by the run's solver (by default MUMPS LU), refactorised only when the law's rows changed;
+3. u_I = K_II^-1 (b_I - K_IB u_B).
+
+R is singular exactly when the whole system is (K_II is nonsingular): MUMPS finding R numerically singular marks the
+solve singular, as it would the whole system's. Every solve is checked on the whole system by the caller
+(:class:`bridgefem.solver.linear.CheckedSolve`: its backward error), so a condensed solve that lost accuracy is a
+failure, never a mechanism. R has the joint faces' and the joints' unknowns only: a refactorisation costs a fraction
+of the whole system's, and the blocks' interiors are factorised once per analysis instead of once per active set.
+
+The whole matrix is gathered on every rank once; each rank solves the same reduced system (identical on every rank,
+so every rank's decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
+None, and the caller factorises the whole system, when a law row touches an interior dof's row, when a block has no
+interface dof (its K_II singular) or when a block's factorisation fails.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from mpi4py import MPI
+from petsc4py import PETSc
+from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import splu
+
+
+class InteriorCondensation:
+    """The condensed solves of the module docstring for a combined matrix whose rows ``law_rows`` (global combined
+    indices, the same on every rank) are the only ones that change."""
+
+    def __init__(self, A: sp.csr_matrix, law: np.ndarray, comm, ranges: np.ndarray):
+        self.comm, self.ranges, self.N = comm, ranges, A.shape[0]
+        is_law = np.zeros(self.N, dtype=bool)
+        is_law[law] = True
+        law_part = A[law]
+        touched = np.zeros(self.N, dtype=bool)
+        touched[law_part.indices] = True
+        self.B = np.flatnonzero(touched & ~is_law)
+        self.I = np.flatnonzero(~touched & ~is_law)
+        self.L = law
+        self.S = np.concatenate([self.B, self.L])
+        A_I = A[self.I]
+        self.A_II, self.A_IS, self.A_SI = A_I[:, self.I].tocsc(), A_I[:, self.S].tocsr(), A[self.S][:, self.I].tocsr()
+        self.blocks = self._factorise_blocks()
+        position = np.full(self.N, -1, dtype=np.int64)
+        position[self.S] = np.arange(len(self.S))
+        upper = (A[self.B][:, self.S] - self._interior_schur()).tocoo()
+        self._upper_values = upper.data
+        rows = np.concatenate([upper.row, len(self.B) + np.repeat(np.arange(len(law)), np.diff(law_part.indptr))])
+        cols = np.concatenate([upper.col, position[law_part.indices]])
+        n_s = len(self.S)
+        slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(n_s, n_s))
+        slots.sort_indices()
+        self._perm = slots.data.astype(np.int64) - 1
+        self._indptr, self._indices = slots.indptr.astype(PETSc.IntType), slots.indices.astype(PETSc.IntType)
+        self.R = PETSc.Mat().createAIJ(size=(n_s, n_s), csr=(self._indptr, self._indices,
+                                                             self._values(law_part.data)), comm=PETSc.COMM_SELF)
+        self.R.assemble()
+        first = self._indptr[len(self.B)]  # R's law rows: the last |L|, their entries from ``first`` on
+        self._law_indptr, self._law_indices = self._indptr[len(self.B):] - first, self._indices[first:]
+        self._law_perm = self._perm[first:] - len(self._upper_values)
+        self._law_rows = np.arange(len(self.B), n_s, dtype=PETSc.IntType)
+        self._rhs, self._x = self.R.createVecLeft(), self.R.createVecRight()
+        self._last = (np.zeros(0), np.zeros(0))  # the last interior loads b_I and K_II^-1 b_I
+
+    @classmethod
+    def of(cls, A: PETSc.Mat, law_local: np.ndarray) -> "InteriorCondensation | None":
+        """The condensation of the distributed combined matrix A whose local rows ``law_local`` (indices into the
+        rank's owned rows) are the law's; None where it does not apply (module docstring). Collective."""
+        comm = A.getComm().tompi4py()
+        first, last = A.getOwnershipRange()
+        indptr, indices, data = A.getValuesCSR()
+        parts = comm.allgather((indptr, indices, data, first + np.asarray(law_local, dtype=np.int64)))
+        N = A.getSize()[0]
+        full = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d, _ in parts]).tocsr()
+        ranges = np.array(comm.allgather((first, last)))
+        law = np.concatenate([p[3] for p in parts])
+        ok, built = True, None
+        try:
+            built = cls(full, law, comm, ranges)
+        except ValueError:
+            ok = False
+        ok = comm.allreduce(int(ok), op=MPI.MIN) == 1
+        return built if ok else None
+
+    def _factorise_blocks(self) -> list[tuple[np.ndarray, object]]:
+        """Each connected component of K_II (its positions in I) and its sparse LU; ValueError where a block
+        cannot be condensed (a law row in an interior row, a block without interface dofs, a singular factor)."""
+        if self.A_IS[:, len(self.B):].nnz:
+            raise ValueError("a joint force acts on an interior dof")
+        count, label = connected_components(self.A_II, directed=False)
+        order = np.argsort(label, kind="stable")
+        cuts = np.searchsorted(label[order], np.arange(1, count))
+        blocks = []
+        for dofs in np.split(order, cuts):
+            K = self.A_II[dofs][:, dofs].tocsc()
+            try:
+                blocks.append((dofs, splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                          options={"SymmetricMode": True})))
+            except RuntimeError as err:  # an exactly singular block: one without interface dofs
+                raise ValueError(str(err)) from None
+        return blocks
+
+    def _interior_schur(self) -> sp.csr_matrix:
+        """Z = K_BI K_II^-1 K_IB (N/m), padded with zeros to (|B|, |S|), block by block."""
+        rows, cols, vals = [], [], []
+        A_IB = self.A_IS.tocsc()[:, :len(self.B)].tocsr()
+        A_BI = self.A_SI[:len(self.B)].tocsc()
+        for dofs, lu in self.blocks:
+            coupling = A_IB[dofs]
+            faces = np.unique(coupling.indices)
+            if not len(faces):
+                raise ValueError("a block has no interface dofs")
+            X = lu.solve(coupling[:, faces].toarray())
+            if not np.all(np.isfinite(X)):
+                raise ValueError("a block's factorisation is singular")
+            back = A_BI[:, dofs].tocsr()
+            touching = np.flatnonzero(np.diff(back.indptr))
+            block = back[touching] @ X
+            rows.append(np.repeat(touching, len(faces)))
+            cols.append(np.tile(faces, len(touching)))
+            vals.append(block.ravel())
+        n_b = len(self.B)
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(n_b, len(self.S)))
+
+    def _values(self, law_values: np.ndarray) -> np.ndarray:
+        """R's values (its CSR order) with the law rows' ``law_values`` in the order of the gathered rows."""
+        return np.concatenate([self._upper_values, law_values])[self._perm]
+
+    def law_changed(self, law_values: np.ndarray) -> None:
+        """Take the law rows' new values (this rank's law rows, CSR order) into R. Collective."""
+        gathered = np.concatenate(self.comm.allgather(law_values))
+        self.R.setValuesIJV(self._law_indptr, self._law_indices, gathered[self._law_perm], rowmap=self._law_rows)
+        self.R.assemble()
+
+    def _interior_solve(self, rhs: np.ndarray) -> np.ndarray:
+        """K_II^-1 rhs, block by block."""
+        out = np.empty_like(rhs)
+        for dofs, lu in self.blocks:
+            out[dofs] = lu.solve(rhs[dofs])
+        return out
+
+    def solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """x = A^-1 b by steps 1-3 of the module docstring, the reduced system solved by ``ksp`` (its operator R).
+        Raises PETSc.Error where ``ksp`` fails. Collective."""
+        full = np.concatenate(self.comm.allgather(b.array))
+        b_I, b_S = full[self.I], full[self.S]
+        if not np.array_equal(b_I, self._last[0]):  # step 1 again only for new interior loads
+            self._last = (b_I, self._interior_solve(b_I) if b_I.any() else np.zeros_like(b_I))
+        y = self._last[1]
+        self._rhs.array[:] = b_S - self.A_SI @ y
+        ksp.solve(self._rhs, self._x)
+        x_S = self._x.array
+        solution = np.empty(self.N)
+        solution[self.S] = x_S
+        solution[self.I] = self._interior_solve(b_I - self.A_IS @ x_S)
+        first, last = self.ranges[self.comm.rank]
+        x.array[:] = solution[first:last]

@@ -1,0 +1,117 @@
+"""The contact system's solves with the blocks' interiors condensed out (bridgefem.solver.interior) against the whole
+system factorised by MUMPS: the same solution for active sets of every kind, a mechanism found singular by both, and
+the whole system solved where the interiors cannot be condensed."""
+import numpy as np
+import pytest
+from conftest import scene_dict
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from bridgefem.analysis.build import Clock, build_model
+from bridgefem.laws.base import ContactState
+from bridgefem.scene.reader import scene_from_dict
+from bridgefem.solver.interior import InteriorCondensation
+from bridgefem.solver.linear import CheckedSolve
+
+
+@pytest.fixture(scope="module")
+def system():
+    scene = scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4}))
+    model = build_model(scene, MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
+    return model.solver.system
+
+
+def active_set(system, seed: int, open_share: float, slip_share: float) -> ContactState:
+    """Pairs stuck, but ``open_share`` of them open and ``slip_share`` sliding either way, drawn with ``seed``."""
+    law, m = system.law, len(system.pairs)
+    draw = np.random.default_rng(seed).random(m)
+    state = np.full(m, law.STICK, dtype=np.int8)
+    state[draw < open_share + slip_share] = law.SLIP
+    state[draw < open_share] = law.OPEN
+    sign = np.where(state == law.SLIP, np.where(draw * 1e3 % 2 < 1, 1, -1), 0).astype(np.int8)
+    return ContactState(state, sign)
+
+
+def both_solves(system, active: ContactState, level: float):
+    """The condensed solve of ``active``'s system and the whole system's MUMPS LU of the same matrix and right-hand
+    side: (x condensed, failure), (x whole, failure)."""
+    assert system.linear.condensation is not None
+    x = system.vector()
+    condensed = system.solve_set(level, active, np.zeros(len(system.pairs)), x)
+    whole = CheckedSolve(system.A, {})
+    y = system.vector()
+    failure = whole.solve(system.b, y)
+    whole.ksp.destroy()
+    return (x, condensed), (y, failure)
+
+
+@pytest.mark.parametrize("seed, open_share, slip_share",
+                         [(0, 0.0, 0.0), (1, 0.2, 0.0), (2, 0.1, 0.3), (3, 0.3, 0.3), (4, 0.0, 0.6)])
+def test_a_condensed_solve_is_the_whole_systems(system, seed, open_share, slip_share):
+    active = active_set(system, seed, open_share, slip_share)
+    (x, condensed), (y, whole) = both_solves(system, active, level=7.5e4)
+    assert (condensed is None) == (whole is None)
+    if whole is None:
+        scale = y.norm(PETSc.NormType.INFINITY)
+        assert (x - y).norm(PETSc.NormType.INFINITY) <= 1e-8 * scale
+
+
+def test_every_pair_open_is_a_mechanism_for_both(system):
+    """Voussoirs without a closed joint are a mechanism: the condensed solve fails as the whole one does, or both
+    return displacements of kilometres (what the divergence test reads as a mechanism's mode)."""
+    m = len(system.pairs)
+    active = ContactState(np.full(m, system.law.OPEN, dtype=np.int8), np.zeros(m, dtype=np.int8))
+    (x, condensed), (y, whole) = both_solves(system, active, level=0.0)
+    assert (condensed is None) == (whole is None)
+    if whole is None:
+        u = slice(0, system.n_u)
+        assert np.abs(x.array[u]).max() > 1e3 and np.abs(y.array[u]).max() > 1e3
+    else:
+        assert condensed.singular == whole.singular
+
+
+def combined(blocks: list[np.ndarray], law_rows: list[dict[int, float]]) -> PETSc.Mat:
+    """A serial combined matrix: the stiffness blocks on the diagonal, then one row per law row (column: value)
+    whose own diagonal is 1."""
+    n_u = sum(len(b) for b in blocks)
+    N = n_u + len(law_rows)
+    A = np.zeros((N, N))
+    at = 0
+    for b in blocks:
+        A[at:at + len(b), at:at + len(b)] = b
+        at += len(b)
+    for r, row in enumerate(law_rows):
+        A[n_u + r, n_u + r] = 1.0
+        for col, value in row.items():
+            A[n_u + r, col] = value
+            A[col, n_u + r] = -value
+    M = PETSc.Mat().createAIJ(A.shape, csr=_csr(A), comm=PETSc.COMM_SELF)
+    M.assemble()
+    return M
+
+
+def _csr(A: np.ndarray):
+    rows, cols = np.nonzero(A)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=A.shape[0]))])
+    return indptr.astype(PETSc.IntType), cols.astype(PETSc.IntType), A[rows, cols]
+
+
+SPRING = np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 2.0]])  # held at both ends: nonsingular
+FREE = np.array([[1.0, -1.0], [-1.0, 1.0]])  # a free two-node bar: singular
+
+
+def test_a_chain_is_condensed_onto_its_law_dofs():
+    A = combined([SPRING], [{2: 1.0}])
+    condensation = InteriorCondensation.of(A, np.array([3]))
+    assert list(condensation.B) == [2] and list(condensation.I) == [0, 1]
+    b = A.createVecLeft()
+    b.array[:] = [1.0, -2.0, 0.5, 0.25]
+    x, ksp = A.createVecRight(), CheckedSolve(A, {}, condensation).ksp
+    condensation.solve(ksp, b, x)
+    assert x.array == pytest.approx(np.linalg.solve(A.convert("dense").getDenseArray(), b.array), rel=1e-12)
+
+
+def test_a_block_no_law_row_touches_is_not_condensed():
+    """The free bar has no interface dof: its K_II is singular, so the whole system is solved instead."""
+    A = combined([SPRING, FREE], [{2: 1.0}])
+    assert InteriorCondensation.of(A, np.array([5])) is None
