@@ -321,7 +321,9 @@ def keys_markdown() -> str:
         out.append("")
     out += ["## [solver.petsc]", "",
             "A scene may set only these solver options (prefix `bridgefem_` is added); anything else, e.g. "
-            "viewers and monitors, only on the command line (`--petsc KEY=VALUE`).", "",
+            "viewers and monitors, only on the command line (`--petsc KEY=VALUE`). Without a plastic fill they set "
+            "the solver of the reduced system (the joint faces' displacements and the joint forces, the blocks' "
+            "interiors condensed out once: `bridgefem/solver/interior.py`); with one, of the whole system.", "",
             "| key | allowed | meaning |", "|---|---|---|"]
     out += [f"| `{k}` | {key.allowed()} | {key.doc} |" for k, key in PETSC_SCENE_OPTIONS.items()]
     out += [f"| `mat_mumps_icntl_{n}` | {petsc_key(f'mat_mumps_icntl_{n}').allowed()} | MUMPS ICNTL({n}) |"

@@ -27,8 +27,10 @@ solve singular, as it would the whole system's. Every solve is checked on the wh
 failure, never a mechanism. R has the joint faces' and the joints' unknowns only: a refactorisation costs a fraction
 of the whole system's, and the blocks' interiors are factorised once per analysis instead of once per active set.
 
-The whole matrix is gathered on every rank once; each rank solves the same reduced system (identical on every rank,
-so every rank's decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
+The whole matrix is gathered on every rank once. The blocks are shared out over the ranks: each rank factorises
+its blocks, forms their Schur complements (gathered into R on every rank) and solves them in steps 1 and 3 (the
+results summed over the ranks); every rank solves the same reduced system (identical on every rank, so every rank's
+decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
 None, and the caller factorises the whole system, when a law row touches an interior dof's row, when a block has no
 interface dof (its K_II singular) or when a block's factorisation fails.
 """
@@ -43,43 +45,26 @@ from scipy.sparse.linalg import splu
 
 
 class InteriorCondensation:
-    """The condensed solves of the module docstring for a combined matrix whose rows ``law_rows`` (global combined
-    indices, the same on every rank) are the only ones that change."""
+    """The condensed solves of the module docstring for the gathered combined matrix A (global combined numbering, on
+    every rank) whose rows ``law`` (the joint law's) are the only ones that change. The blocks are shared out over
+    the ranks (each factorised and solved by one); :meth:`of` builds it from the distributed matrix."""
 
     def __init__(self, A: sp.csr_matrix, law: np.ndarray, comm, ranges: np.ndarray):
         self.comm, self.ranges, self.N = comm, ranges, A.shape[0]
         is_law = np.zeros(self.N, dtype=bool)
         is_law[law] = True
-        law_part = A[law]
+        self._law_part = A[law]
         touched = np.zeros(self.N, dtype=bool)
-        touched[law_part.indices] = True
+        touched[self._law_part.indices] = True
         self.B = np.flatnonzero(touched & ~is_law)
         self.I = np.flatnonzero(~touched & ~is_law)
         self.L = law
         self.S = np.concatenate([self.B, self.L])
         A_I = A[self.I]
         self.A_II, self.A_IS, self.A_SI = A_I[:, self.I].tocsc(), A_I[:, self.S].tocsr(), A[self.S][:, self.I].tocsr()
-        self.blocks = self._factorise_blocks()
-        position = np.full(self.N, -1, dtype=np.int64)
-        position[self.S] = np.arange(len(self.S))
-        upper = (A[self.B][:, self.S] - self._interior_schur()).tocoo()
-        self._upper_values = upper.data
-        rows = np.concatenate([upper.row, len(self.B) + np.repeat(np.arange(len(law)), np.diff(law_part.indptr))])
-        cols = np.concatenate([upper.col, position[law_part.indices]])
-        n_s = len(self.S)
-        slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(n_s, n_s))
-        slots.sort_indices()
-        self._perm = slots.data.astype(np.int64) - 1
-        self._indptr, self._indices = slots.indptr.astype(PETSc.IntType), slots.indices.astype(PETSc.IntType)
-        self.R = PETSc.Mat().createAIJ(size=(n_s, n_s), csr=(self._indptr, self._indices,
-                                                             self._values(law_part.data)), comm=PETSc.COMM_SELF)
-        self.R.assemble()
-        first = self._indptr[len(self.B)]  # R's law rows: the last |L|, their entries from ``first`` on
-        self._law_indptr, self._law_indices = self._indptr[len(self.B):] - first, self._indices[first:]
-        self._law_perm = self._perm[first:] - len(self._upper_values)
-        self._law_rows = np.arange(len(self.B), n_s, dtype=PETSc.IntType)
-        self._rhs, self._x = self.R.createVecLeft(), self.R.createVecRight()
+        self._A_BS = A[self.B][:, self.S]
         self._last = (np.zeros(0), np.zeros(0))  # the last interior loads b_I and K_II^-1 b_I
+        self.blocks: list[tuple[np.ndarray, object]] = []  # this rank's blocks: positions in I, sparse LU
 
     @classmethod
     def of(cls, A: PETSc.Mat, law_local: np.ndarray) -> "InteriorCondensation | None":
@@ -91,56 +76,78 @@ class InteriorCondensation:
         parts = comm.allgather((indptr, indices, data, first + np.asarray(law_local, dtype=np.int64)))
         N = A.getSize()[0]
         full = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d, _ in parts]).tocsr()
-        ranges = np.array(comm.allgather((first, last)))
-        law = np.concatenate([p[3] for p in parts])
-        ok, built = True, None
-        try:
-            built = cls(full, law, comm, ranges)
-        except ValueError:
-            ok = False
-        ok = comm.allreduce(int(ok), op=MPI.MIN) == 1
-        return built if ok else None
+        built = cls(full, np.concatenate([p[3] for p in parts]), comm, np.array(comm.allgather((first, last))))
+        if built.A_IS[:, len(built.B):].nnz:  # a joint force acting on an interior dof: not a contact system
+            return None
+        schur = built._factorise_blocks()
+        if not comm.allreduce(int(schur is not None), op=MPI.MIN):
+            return None
+        built._reduced_system(schur)
+        return built
 
-    def _factorise_blocks(self) -> list[tuple[np.ndarray, object]]:
-        """Each connected component of K_II (its positions in I) and its sparse LU; ValueError where a block
-        cannot be condensed (a law row in an interior row, a block without interface dofs, a singular factor)."""
-        if self.A_IS[:, len(self.B):].nnz:
-            raise ValueError("a joint force acts on an interior dof")
+    def _factorise_blocks(self) -> "tuple[np.ndarray, np.ndarray, np.ndarray] | None":
+        """Factorise this rank's share of the connected components of K_II (sparse LU; shared out by size, the
+        largest first, each to the rank with the fewest dofs so far) and return their Schur complements
+        Z = K_BI K_II^-1 K_IB (N/m) as (rows in B, columns in S, values); None where a block cannot be condensed
+        (one without interface dofs, whose K_II is singular)."""
         count, label = connected_components(self.A_II, directed=False)
         order = np.argsort(label, kind="stable")
-        cuts = np.searchsorted(label[order], np.arange(1, count))
-        blocks = []
-        for dofs in np.split(order, cuts):
-            K = self.A_II[dofs][:, dofs].tocsc()
-            try:
-                blocks.append((dofs, splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                          options={"SymmetricMode": True})))
-            except RuntimeError as err:  # an exactly singular block: one without interface dofs
-                raise ValueError(str(err)) from None
-        return blocks
-
-    def _interior_schur(self) -> sp.csr_matrix:
-        """Z = K_BI K_II^-1 K_IB (N/m), padded with zeros to (|B|, |S|), block by block."""
-        rows, cols, vals = [], [], []
-        A_IB = self.A_IS.tocsc()[:, :len(self.B)].tocsr()
-        A_BI = self.A_SI[:len(self.B)].tocsc()
-        for dofs, lu in self.blocks:
+        blocks = np.split(order, np.searchsorted(label[order], np.arange(1, count)))
+        load = np.zeros(self.comm.size)
+        A_IB, A_BI = self.A_IS[:, :len(self.B)].tocsr(), self.A_SI[:len(self.B)].tocsc()
+        rows, cols, vals = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
+        for b in sorted(range(count), key=lambda b: (-len(blocks[b]), b)):
+            rank = int(np.argmin(load))
+            load[rank] += len(blocks[b])
+            if rank != self.comm.rank:
+                continue
+            dofs = blocks[b]
             coupling = A_IB[dofs]
             faces = np.unique(coupling.indices)
-            if not len(faces):
-                raise ValueError("a block has no interface dofs")
-            X = lu.solve(coupling[:, faces].toarray())
-            if not np.all(np.isfinite(X)):
-                raise ValueError("a block's factorisation is singular")
+            try:
+                lu = splu(self.A_II[dofs][:, dofs].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                          options={"SymmetricMode": True})
+            except RuntimeError:  # exactly singular: a block without interface dofs
+                return None
+            X = lu.solve(coupling[:, faces].toarray()) if len(faces) else np.zeros((len(dofs), 0))
+            if not len(faces) or not np.all(np.isfinite(X)):
+                return None
+            self.blocks.append((dofs, lu))
             back = A_BI[:, dofs].tocsr()
             touching = np.flatnonzero(np.diff(back.indptr))
-            block = back[touching] @ X
             rows.append(np.repeat(touching, len(faces)))
             cols.append(np.tile(faces, len(touching)))
-            vals.append(block.ravel())
-        n_b = len(self.B)
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(n_b, len(self.S)))
+            vals.append((back[touching] @ X).ravel())
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+
+    def _reduced_system(self, schur: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        """R = A_SS - [[Z, 0], [0, 0]] (step 2), the same on every rank: the blocks' Schur complements gathered
+        (their entries disjoint: each face dof is one block's), the law rows last. Collective."""
+        parts = self.comm.allgather(schur)
+        n_b, n_s = len(self.B), len(self.S)
+        Z = sp.csr_matrix((np.concatenate([p[2] for p in parts]),
+                           (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))),
+                          shape=(n_b, n_s))
+        upper = (self._A_BS - Z).tocoo()
+        law_part = self._law_part
+        position = np.full(self.N, -1, dtype=np.int64)
+        position[self.S] = np.arange(n_s)
+        self._upper_values = upper.data
+        rows = np.concatenate([upper.row, n_b + np.repeat(np.arange(law_part.shape[0]), np.diff(law_part.indptr))])
+        cols = np.concatenate([upper.col, position[law_part.indices]])
+        slots = sp.csr_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(n_s, n_s))
+        slots.sort_indices()
+        self._perm = slots.data.astype(np.int64) - 1
+        self._indptr, self._indices = slots.indptr.astype(PETSc.IntType), slots.indices.astype(PETSc.IntType)
+        self.R = PETSc.Mat().createAIJ(size=(n_s, n_s), csr=(self._indptr, self._indices,
+                                                             self._values(law_part.data)), comm=PETSc.COMM_SELF)
+        self.R.assemble()
+        first = self._indptr[n_b]  # R's law rows: the last |L|, their entries from ``first`` on
+        self._law_indptr, self._law_indices = self._indptr[n_b:] - first, self._indices[first:]
+        self._law_perm = self._perm[first:] - len(self._upper_values)
+        self._law_rows = np.arange(n_b, n_s, dtype=PETSc.IntType)
+        self._rhs, self._x = self.R.createVecLeft(), self.R.createVecRight()
+        del self._A_BS, self._law_part
 
     def _values(self, law_values: np.ndarray) -> np.ndarray:
         """R's values (its CSR order) with the law rows' ``law_values`` in the order of the gathered rows."""
@@ -153,10 +160,13 @@ class InteriorCondensation:
         self.R.assemble()
 
     def _interior_solve(self, rhs: np.ndarray) -> np.ndarray:
-        """K_II^-1 rhs, block by block."""
-        out = np.empty_like(rhs)
+        """K_II^-1 rhs, each rank solving its blocks, the results summed over the ranks (every block's dofs are
+        zero on the others). Collective."""
+        out = np.zeros_like(rhs)
         for dofs, lu in self.blocks:
             out[dofs] = lu.solve(rhs[dofs])
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
         return out
 
     def solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
