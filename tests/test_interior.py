@@ -10,13 +10,13 @@ from petsc4py import PETSc
 from bridgefem.analysis.build import Clock, build_model
 from bridgefem.laws.base import ContactState
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.solver.interior import InteriorCondensation
+from bridgefem.solver.interior import REDUCED_SHARE, InteriorCondensation
 from bridgefem.solver.linear import CheckedSolve
 
 
 @pytest.fixture(scope="module")
 def system():
-    scene = scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4}))
+    scene = scene_from_dict(scene_dict(mesh={"elements_through_thickness": 8}))  # a reduced system of 30 %
     model = build_model(scene, MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
     return model.solver.system
 
@@ -96,16 +96,20 @@ def _csr(A: np.ndarray):
     return indptr.astype(PETSc.IntType), cols.astype(PETSc.IntType), A[rows, cols]
 
 
-SPRING = np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 2.0]])  # held at both ends: nonsingular
+def chain(n: int) -> np.ndarray:
+    """The stiffness (N/m) of n nodes joined by unit springs and held at both ends by unit springs: nonsingular."""
+    return 2.0 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1)
+
+
 FREE = np.array([[1.0, -1.0], [-1.0, 1.0]])  # a free two-node bar: singular
 
 
 def test_a_chain_is_condensed_onto_its_law_dofs():
-    A = combined([SPRING], [{2: 1.0}])
-    condensation = InteriorCondensation.of(A, np.array([3]))
-    assert list(condensation.B) == [2] and list(condensation.I) == [0, 1]
+    A = combined([chain(6)], [{5: 1.0}])
+    condensation = InteriorCondensation.of(A, np.array([6]))
+    assert list(condensation.B) == [5] and list(condensation.I) == [0, 1, 2, 3, 4]
     b = A.createVecLeft()
-    b.array[:] = [1.0, -2.0, 0.5, 0.25]
+    b.array[:] = [1.0, -2.0, 0.5, 0.0, 3.0, 0.25, -1.5]
     x, ksp = A.createVecRight(), CheckedSolve(A, {}, condensation).ksp
     condensation.solve(ksp, b, x)
     assert x.array == pytest.approx(np.linalg.solve(A.convert("dense").getDenseArray(), b.array), rel=1e-12)
@@ -113,5 +117,11 @@ def test_a_chain_is_condensed_onto_its_law_dofs():
 
 def test_a_block_no_law_row_touches_is_not_condensed():
     """The free bar has no interface dof: its K_II is singular, so the whole system is solved instead."""
-    A = combined([SPRING, FREE], [{2: 1.0}])
-    assert InteriorCondensation.of(A, np.array([5])) is None
+    A = combined([chain(6), FREE], [{5: 1.0}])
+    assert InteriorCondensation.of(A, np.array([8])) is None
+
+
+def test_a_reduced_system_of_more_than_its_share_is_not_condensed():
+    """Two of four unknowns on the law's side: the whole system is solved."""
+    assert 2 / 4 > REDUCED_SHARE
+    assert InteriorCondensation.of(combined([chain(3)], [{2: 1.0}]), np.array([3])) is None

@@ -32,7 +32,10 @@ its blocks, forms their Schur complements (gathered into R on every rank) and so
 results summed over the ranks); every rank solves the same reduced system (identical on every rank, so every rank's
 decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
 None, and the caller factorises the whole system, when a law row touches an interior dof's row, when a block has no
-interface dof (its K_II singular) or when a block's factorisation fails.
+interface dof (its K_II singular) or when a block's factorisation fails; and where the reduced system would have more
+than ``REDUCED_SHARE`` of the unknowns (elements of a joint's length or more: a whole factorisation then costs little
+more than the reduced one, and the condensation's set-up more than it saves; measured with
+``benchmarks/cost_growth.py``, docs/benchmarks.md).
 """
 from __future__ import annotations
 
@@ -42,6 +45,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
+
+REDUCED_SHARE = 1.0 / 3.0  # condensed only where the reduced system has at most this share of the unknowns
 
 
 class InteriorCondensation:
@@ -78,6 +83,8 @@ class InteriorCondensation:
         full = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d, _ in parts]).tocsr()
         built = cls(full, np.concatenate([p[3] for p in parts]), comm, np.array(comm.allgather((first, last))))
         if built.A_IS[:, len(built.B):].nnz:  # a joint force acting on an interior dof: not a contact system
+            return None
+        if len(built.S) > REDUCED_SHARE * N:
             return None
         schur = built._factorise_blocks()
         if not comm.allreduce(int(schur is not None), op=MPI.MIN):
