@@ -199,13 +199,7 @@ def analyse(rings, bond, thickness, ring_friction=None, cohesion=0.0, voussoirs=
 
 @pytest.mark.slow
 @pytest.mark.parametrize("rings,bond,thickness", [
-    (2, "staggered", 1.5), (2, "aligned", 1.5),
-    pytest.param(3, "aligned", 2.5, marks=pytest.mark.xfail(
-        reason="the 4-element run stops at a non-associative collapse state 2.8 % below the LP (174.91 kN, sliding "
-               "voussoir joints at their Coulomb limit: the frozen-friction LP gives 174.96 kN) and its re-run on 8 "
-               "elements ends in active-set cycling; whether that re-run reaches the LP depends on the rounding of "
-               "its solves (it did, at 179.19 kN, with the whole system factorised): #41 item 5's cycling class "
-               "(not run: --runxfail runs it)", strict=False, run=False)),
+    (2, "staggered", 1.5), (2, "aligned", 1.5), (3, "aligned", 2.5),
     pytest.param(3, "staggered", 2.5, marks=pytest.mark.xfail(
         reason="the active-set search stops 1.3 % below the LP with an unproven mode (the LP under the FE's forces "
                "finds a reserve: a solver failure, not a weaker model); the frictionless middle ring of a staggered "
