@@ -68,7 +68,7 @@ class InteriorCondensation:
         A_I = A[self.I]
         self.A_II, self.A_IS, self.A_SI = A_I[:, self.I].tocsc(), A_I[:, self.S].tocsr(), A[self.S][:, self.I].tocsr()
         self._A_BS = A[self.B][:, self.S]
-        self._last = (np.zeros(0), np.zeros(0))  # the last interior loads b_I and K_II^-1 b_I
+        self._last = (np.zeros(0), np.zeros(0))  # the last interior loads b_I and A_SI K_II^-1 b_I
         self.blocks: list[tuple[np.ndarray, object]] = []  # this rank's blocks: positions in I, sparse LU
 
     @classmethod
@@ -90,6 +90,9 @@ class InteriorCondensation:
         if not comm.allreduce(int(schur is not None), op=MPI.MIN):
             return None
         built._reduced_system(schur)
+        own = [dofs for dofs, _ in built.blocks]
+        built._own = np.concatenate(own) if own else np.zeros(0, dtype=np.int64)
+        built._A_IS_own, built._A_SI_own = built.A_IS[built._own], built.A_SI[:, built._own].tocsr()
         return built
 
     def _factorise_blocks(self) -> "tuple[np.ndarray, np.ndarray, np.ndarray] | None":
@@ -166,29 +169,38 @@ class InteriorCondensation:
         self.R.setValuesIJV(self._law_indptr, self._law_indices, gathered[self._law_perm], rowmap=self._law_rows)
         self.R.assemble()
 
-    def _interior_solve(self, rhs: np.ndarray) -> np.ndarray:
-        """K_II^-1 rhs, each rank solving its blocks, the results summed over the ranks (every block's dofs are
-        zero on the others). Collective."""
-        out = np.zeros_like(rhs)
+    def _own_solve(self, rhs: np.ndarray) -> np.ndarray:
+        """K_II^-1 rhs on this rank's blocks (``rhs`` and the result on :attr:`_own`, the blocks' positions in I in
+        their order)."""
+        out = np.empty_like(rhs)
+        at = 0
         for dofs, lu in self.blocks:
-            out[dofs] = lu.solve(rhs[dofs])
-        if self.comm.size > 1:
-            self.comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
+            out[at:at + len(dofs)] = lu.solve(rhs[at:at + len(dofs)])
+            at += len(dofs)
         return out
 
     def solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        """x = A^-1 b by steps 1-3 of the module docstring, the reduced system solved by ``ksp`` (its operator R).
-        Raises PETSc.Error where ``ksp`` fails. Collective."""
+        """x = A^-1 b by steps 1-3 of the module docstring, the reduced system solved by ``ksp`` (its operator R):
+        each rank solves its blocks, A_SI y summed over the ranks in step 1 and u_I in step 3. Raises PETSc.Error
+        where ``ksp`` fails. Collective."""
         full = np.concatenate(self.comm.allgather(b.array))
         b_I, b_S = full[self.I], full[self.S]
         if not np.array_equal(b_I, self._last[0]):  # step 1 again only for new interior loads
-            self._last = (b_I, self._interior_solve(b_I) if b_I.any() else np.zeros_like(b_I))
-        y = self._last[1]
-        self._rhs.array[:] = b_S - self.A_SI @ y
+            coupled = self._A_SI_own @ self._own_solve(b_I[self._own]) if b_I.any() else np.zeros(len(self.S))
+            self._last = (b_I, self._summed(coupled))
+        self._rhs.array[:] = b_S - self._last[1]
         ksp.solve(self._rhs, self._x)
         x_S = self._x.array
+        interior = np.zeros(len(self.I))
+        interior[self._own] = self._own_solve(b_I[self._own] - self._A_IS_own @ x_S)
         solution = np.empty(self.N)
         solution[self.S] = x_S
-        solution[self.I] = self._interior_solve(b_I - self.A_IS @ x_S)
+        solution[self.I] = self._summed(interior)
         first, last = self.ranges[self.comm.rank]
         x.array[:] = solution[first:last]
+
+    def _summed(self, a: np.ndarray) -> np.ndarray:
+        """``a`` summed over the ranks (each rank's entries zero where another's blocks are). Collective."""
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
+        return a

@@ -99,11 +99,11 @@ class CheckedSolve:
         opts = PETSc.Options()
         for key, value in self.options.items():
             opts[PETSC_PREFIX + key] = value
-        condensed = self.condensation is not None
-        ksp = PETSc.KSP().create(PETSc.COMM_SELF if condensed else self.comm)
+        operator = self.A if self.condensation is None else self.condensation.R
+        ksp = PETSc.KSP().create(operator.getComm())
         try:
             ksp.setOptionsPrefix(PETSC_PREFIX)
-            ksp.setOperators(self.condensation.R if condensed else self.A)
+            ksp.setOperators(operator)
             ksp.setFromOptions()
             ksp.setUp()
         finally:
