@@ -1,9 +1,11 @@
 """The contact system's solves with the blocks' interiors condensed out (bridgefem.solver.interior) against the whole
 system factorised by MUMPS: the same solution for active sets of every kind, a mechanism found singular by both, and
 the whole system solved where the interiors cannot be condensed."""
+import tomllib
+
 import numpy as np
 import pytest
-from conftest import scene_dict
+from conftest import ROOT, scene_dict
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -125,3 +127,15 @@ def test_a_reduced_system_of_more_than_its_share_is_not_condensed():
     """Two of four unknowns on the law's side: the whole system is solved."""
     assert 2 / 4 > REDUCED_SHARE
     assert InteriorCondensation.of(combined([chain(3)], [{2: 1.0}]), np.array([3])) is None
+
+
+def test_an_elastic_fill_along_the_extrados_is_not_condensed():
+    """The fill is one block whose faces run along the whole extrados: its dense Schur complement would give R more
+    entries than the whole system, so the whole system is factorised (though under a third of its unknowns are on
+    the joints)."""
+    d = tomllib.loads((ROOT / "demos" / "small_bridge.toml").read_text())
+    d["fill"] = {k: v for k, v in d["fill"].items() if k not in ("friction_angle", "cohesion")}
+    d["fill"]["material"] = "elastic"
+    model = build_model(scene_from_dict(d), MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
+    system = model.solver.system
+    assert system.material is None and system.linear.condensation is None

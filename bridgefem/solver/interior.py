@@ -32,10 +32,12 @@ its blocks, forms their Schur complements (gathered into R on every rank) and so
 results summed over the ranks); every rank solves the same reduced system (identical on every rank, so every rank's
 decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
 None, and the caller factorises the whole system, when a law row touches an interior dof's row, when a block has no
-interface dof (its K_II singular) or when a block's factorisation fails; and where the reduced system would have more
-than ``REDUCED_SHARE`` of the unknowns (elements of a joint's length or more: a whole factorisation then costs little
-more than the reduced one, and the condensation's set-up more than it saves; measured with
-``benchmarks/cost_growth.py``, docs/benchmarks.md).
+interface dof (its K_II singular) or when a block's factorisation fails; where the reduced system would have more than
+``REDUCED_SHARE`` of the unknowns (elements of a joint's length or more: a whole factorisation then costs little more
+than the reduced one, and the condensation's set-up more than it saves); and where R would store more entries than
+the whole system (a block with long faces, such as an elastic fill along the whole extrados: its dense Schur
+complement factorises slower than the whole system's sparse one). Both measured with ``benchmarks/cost_growth.py``
+and a fill's run (docs/benchmarks.md).
 """
 from __future__ import annotations
 
@@ -86,7 +88,11 @@ class InteriorCondensation:
             return None
         if len(built.S) > REDUCED_SHARE * N:
             return None
-        schur = built._factorise_blocks()
+        blocks = built._blocks()
+        dense = sum(len(faces) ** 2 for _, faces in blocks)  # the entries of the blocks' Schur complements
+        if full[built.S][:, built.S].nnz + dense > full.nnz:
+            return None
+        schur = built._factorise_blocks(blocks)
         if not comm.allreduce(int(schur is not None), op=MPI.MIN):
             return None
         built._reduced_system(schur)
@@ -95,25 +101,31 @@ class InteriorCondensation:
         built._A_IS_own, built._A_SI_own = built.A_IS[built._own], built.A_SI[:, built._own].tocsr()
         return built
 
-    def _factorise_blocks(self) -> "tuple[np.ndarray, np.ndarray, np.ndarray] | None":
-        """Factorise this rank's share of the connected components of K_II (sparse LU; shared out by size, the
+    def _blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The connected components of K_II (each a block's interior: positions in I) with their face dofs (the
+        positions in B its rows couple to)."""
+        count, label = connected_components(self.A_II, directed=False)
+        order = np.argsort(label, kind="stable")
+        A_IB = self.A_IS[:, :len(self.B)].tocsr()
+        return [(dofs, np.unique(A_IB[dofs].indices))
+                for dofs in np.split(order, np.searchsorted(label[order], np.arange(1, count)))]
+
+    def _factorise_blocks(self, blocks: list[tuple[np.ndarray, np.ndarray]]
+                          ) -> "tuple[np.ndarray, np.ndarray, np.ndarray] | None":
+        """Factorise this rank's share of the ``blocks`` (:meth:`_blocks`; sparse LU; shared out by size, the
         largest first, each to the rank with the fewest dofs so far) and return their Schur complements
         Z = K_BI K_II^-1 K_IB (N/m) as (rows in B, columns in S, values); None where a block cannot be condensed
         (one without interface dofs, whose K_II is singular)."""
-        count, label = connected_components(self.A_II, directed=False)
-        order = np.argsort(label, kind="stable")
-        blocks = np.split(order, np.searchsorted(label[order], np.arange(1, count)))
         load = np.zeros(self.comm.size)
         A_IB, A_BI = self.A_IS[:, :len(self.B)].tocsr(), self.A_SI[:len(self.B)].tocsc()
         rows, cols, vals = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
-        for b in sorted(range(count), key=lambda b: (-len(blocks[b]), b)):
+        for b in sorted(range(len(blocks)), key=lambda b: (-len(blocks[b][0]), b)):
             rank = int(np.argmin(load))
-            load[rank] += len(blocks[b])
+            load[rank] += len(blocks[b][0])
             if rank != self.comm.rank:
                 continue
-            dofs = blocks[b]
+            dofs, faces = blocks[b]
             coupling = A_IB[dofs]
-            faces = np.unique(coupling.indices)
             try:
                 lu = splu(self.A_II[dofs][:, dofs].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                           options={"SymmetricMode": True})
