@@ -27,17 +27,18 @@ solve singular, as it would the whole system's. Every solve is checked on the wh
 failure, never a mechanism. R has the joint faces' and the joints' unknowns only: a refactorisation costs a fraction
 of the whole system's, and the blocks' interiors are factorised once per analysis instead of once per active set.
 
-The whole matrix is gathered on every rank once. The blocks are shared out over the ranks: each rank factorises
-its blocks, forms their Schur complements (gathered into R on every rank) and solves them in steps 1 and 3 (the
-results summed over the ranks); every rank solves the same reduced system (identical on every rank, so every rank's
-decisions agree) and keeps its owned share of the solution. :meth:`InteriorCondensation.of` returns
-None, and the caller factorises the whole system, when a law row touches an interior dof's row, when a block has no
-interface dof (its K_II singular) or when a block's factorisation fails; where the reduced system would have more than
-``REDUCED_SHARE`` of the unknowns (elements of a joint's length or more: a whole factorisation then costs little more
-than the reduced one, and the condensation's set-up more than it saves); and where R would store more entries than
-the whole system (a block with long faces, such as an elastic fill along the whole extrados: its dense Schur
-complement factorises slower than the whole system's sparse one). Both measured with ``benchmarks/cost_growth.py``
-and a fill's run (docs/benchmarks.md).
+The whole matrix is gathered on every rank once. The blocks are shared out over the ranks: each rank factorises its
+blocks, forms their Schur complements (gathered into R on every rank) and solves them in steps 1 and 3 (the results
+summed over the ranks); every rank factorises and solves the same reduced system (identical on every rank, so every
+rank's decisions agree; distributed over the ranks by MUMPS it was slower) and keeps its owned share of the solution.
+
+:meth:`InteriorCondensation.of` returns None, and the caller factorises the whole system, when a law row touches an
+interior dof's row, when a block has no interface dof (its K_II singular) or when a block's factorisation fails; where
+the reduced system would have more than ``REDUCED_SHARE`` of the unknowns (elements a joint long or more: a whole
+factorisation then costs little more than the reduced one, and the condensation's set-up more than it saves); and where
+R would store more entries than the whole system (a block with long faces, such as an elastic fill along the whole
+extrados: its dense Schur complement factorises slower than the whole system's sparse one). Both measured with
+``benchmarks/cost_growth.py`` and a fill's run (docs/benchmarks.md, *The blocks' interiors condensed once*).
 """
 from __future__ import annotations
 

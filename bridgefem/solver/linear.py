@@ -63,7 +63,9 @@ def environment_options() -> dict:
 
 
 class CheckedSolve:
-    """The KSP of a matrix ``A`` and counters ``stats`` (factorisations, solves, seconds factorising and solving).
+    """The KSP of a matrix ``A`` and counters ``stats`` (factorisations, solves, seconds factorising and solving);
+    with a ``condensation`` (:class:`bridgefem.solver.interior.InteriorCondensation`) the KSP is its reduced system's,
+    each solve goes through it and is checked on ``A`` as any other, and a factorisation is the reduced system's.
     Its options (without the prefix): the defaults, overridden by the user's environment's
     (:func:`environment_options`: they replace the defaults on every run), overridden by ``options`` (the scene's
     and the command line's, which are the run's own)."""

@@ -14,7 +14,9 @@ movement adds a known offset g to the relative displacements of the pairs on the
 (:func:`bridgefem.fe.pairs.ground_offsets`, scaled by :meth:`ContactSystem.set_support_movement`): the closed and stick
 laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). The system lives in one PETSc AIJ matrix whose sparsity
 pattern never changes (entries of inactive laws are explicit zeros), so the direct solver's symbolic factorisation is
-reused; the matrix is refactorised only when the active set changed. Rank r owns [its u rows, its 2 m_r lam rows]
+reused; the matrix is refactorised only when the active set changed. Without a plastic fill only the law's rows
+change, and the blocks' interiors are condensed out once (:mod:`bridgefem.solver.interior`, where it pays): only the
+reduced system of the joint faces and the joint forces is refactorised. Rank r owns [its u rows, its 2 m_r lam rows]
 (:meth:`ContactSystem.comb_u`, :meth:`ContactSystem.comb_lam`).
 
 With a Mohr-Coulomb fill (:mod:`bridgefem.fe.fill`) the stiffness block is the fill's consistent tangent K_t at the
