@@ -1,6 +1,6 @@
 """The contact system's solves with the blocks' interiors condensed out (bridgefem.solver.interior) against the whole
-system factorised by MUMPS: the same solution for active sets of every kind, a mechanism found singular by both, and
-the whole system solved where the interiors cannot be condensed."""
+system factorised by MUMPS: the same solution for active sets of every kind, a mechanism the same for both, and the
+whole system solved where condensing cannot be done or does not pay."""
 import tomllib
 
 import numpy as np
