@@ -123,10 +123,10 @@ class PairCheck:
     frozen LP on the FE's own joint pairs (:func:`bridgefem.limit.contacts.frozen_contact_collapse`), each block of
     the mesh rigid, each pair a point contact with its shear capacity frozen at the joint law's at the FE's normal
     force there. The blocks are loaded as the FE loads them (``blocks``' loads, :func:`bridgefem.analysis.static_bound
-    .fe_blocks`) and, for the exact voussoirs' weights, as the scene's blocks are (:func:`bridgefem.limit.ring_blocks
-    .ring_model` with the LP's load sides, :func:`bridgefem.limit.collapse.sided_ring`). A joint of the structure slides in the mechanism where its pairs do more
-    than ``AGREEMENT`` of the mechanism's friction dissipation, and is at its Coulomb limit where the FE's shears do
-    all but ``AGREEMENT`` of its pairs' share (:meth:`bridgefem.limit.contacts.ContactCollapse.shortfall`): a
+    .fe_blocks`) and, for the exact voussoirs' weights, as the scene's blocks are with the LP's load sides
+    (:func:`bridgefem.limit.collapse.sided_ring`). A joint of the structure slides in the mechanism where its pairs do
+    more than ``AGREEMENT`` of the mechanism's friction dissipation, and is at its Coulomb limit where the FE's shears
+    do all but ``AGREEMENT`` of its pairs' share (:meth:`bridgefem.limit.contacts.ContactCollapse.shortfall`): a
     degenerate programme's mechanism may slide a pair or two elsewhere at rates that change its level by far less
     than the bracket's width. The pairs' geometry is gathered once, on rank 0. Collective."""
 

@@ -12,10 +12,9 @@ lower`` (:mod:`bridgefem.search.bracket`).
    (:mod:`bridgefem.search.schedule`); a step that would stop within ``LANDING`` x T of T goes to T, unless T
    already failed from the same converged state (after a backtrack: the solve is deterministic, so that landing
    would replay the failure the search backed away from) or from ``FUTILE_LANDINGS`` states
-   (:mod:`bridgefem.search.bracket`; a T above the limit of
-   the path, as a coarser mesh's level can be, fails from every state: landing there again spends the steps of a
-   bisection back down each time). An approach step that may not land is at least the width long, so that it
-   crosses T instead of halving the distance to it for ever.
+   (:mod:`bridgefem.search.bracket`; a T above the limit of the path, as a coarser mesh's level can be, fails from
+   every state: landing there again spends the steps of a bisection back down each time). An approach step that may
+   not land is at least the width long, so that it crosses T instead of halving the distance to it for ever.
 3. The step after T is the width, so that a limit in [T, g] is bracketed in two trials.
 4. A failure below (1 - ``PLAUSIBLE``) T contradicts the guess: it is *suspect* (usually the Newton method failing
    on a long step) and closes the bracket only under the stricter rules of :mod:`bridgefem.search.bracket`

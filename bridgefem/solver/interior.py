@@ -58,7 +58,7 @@ class InteriorCondensation:
     the ranks (each factorised and solved by one); :meth:`of` builds it from the distributed matrix."""
 
     def __init__(self, A: sp.csr_matrix, law: np.ndarray, comm, ranges: np.ndarray):
-        self.comm, self.ranges, self.N = comm, ranges, A.shape[0]
+        self.comm, self.ranges, self.N, self.L = comm, ranges, A.shape[0], law
         is_law = np.zeros(self.N, dtype=bool)
         is_law[law] = True
         self._law_part = A[law]
@@ -66,13 +66,16 @@ class InteriorCondensation:
         touched[self._law_part.indices] = True
         self.B = np.flatnonzero(touched & ~is_law)
         self.I = np.flatnonzero(~touched & ~is_law)
-        self.L = law
         self.S = np.concatenate([self.B, self.L])
-        A_I = A[self.I]
-        self.A_II, self.A_IS, self.A_SI = A_I[:, self.I].tocsc(), A_I[:, self.S].tocsr(), A[self.S][:, self.I].tocsr()
-        self._A_BS = A[self.B][:, self.S]
         self._last = (np.zeros(0), np.zeros(0))  # the last interior loads b_I and A_SI K_II^-1 b_I
         self.blocks: list[tuple[np.ndarray, object]] = []  # this rank's blocks: positions in I, sparse LU
+
+    def _couplings(self, A: sp.csr_matrix) -> None:
+        """The parts of A the condensation reads: K_II, A_IS (its first |B| columns K_IB), A_SI and A_BS."""
+        A_I = A[self.I]
+        self.A_II, self.A_IS, self.A_SI = A_I[:, self.I].tocsc(), A_I[:, self.S].tocsr(), A[self.S][:, self.I].tocsr()
+        self.A_IB = self.A_IS[:, :len(self.B)].tocsr()
+        self._A_BS = A[self.B][:, self.S]
 
     @classmethod
     def of(cls, A: PETSc.Mat, law_local: np.ndarray) -> "InteriorCondensation | None":
@@ -85,13 +88,14 @@ class InteriorCondensation:
         N = A.getSize()[0]
         full = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d, _ in parts]).tocsr()
         built = cls(full, np.concatenate([p[3] for p in parts]), comm, np.array(comm.allgather((first, last))))
-        if built.A_IS[:, len(built.B):].nnz:  # a joint force acting on an interior dof: not a contact system
-            return None
         if len(built.S) > REDUCED_SHARE * N:
+            return None
+        built._couplings(full)
+        if built.A_IS[:, len(built.B):].nnz:  # a joint force acting on an interior dof: not a contact system
             return None
         blocks = built._blocks()
         dense = sum(len(faces) ** 2 for _, faces in blocks)  # the entries of the blocks' Schur complements
-        if full[built.S][:, built.S].nnz + dense > full.nnz:
+        if built._A_BS.nnz + built._law_part.nnz + dense > full.nnz:  # R's entries: A_SS's and Z's
             return None
         schur = built._factorise_blocks(blocks)
         if not comm.allreduce(int(schur is not None), op=MPI.MIN):
@@ -107,8 +111,7 @@ class InteriorCondensation:
         positions in B its rows couple to)."""
         count, label = connected_components(self.A_II, directed=False)
         order = np.argsort(label, kind="stable")
-        A_IB = self.A_IS[:, :len(self.B)].tocsr()
-        return [(dofs, np.unique(A_IB[dofs].indices))
+        return [(dofs, np.unique(self.A_IB[dofs].indices))
                 for dofs in np.split(order, np.searchsorted(label[order], np.arange(1, count)))]
 
     def _factorise_blocks(self, blocks: list[tuple[np.ndarray, np.ndarray]]
@@ -118,7 +121,7 @@ class InteriorCondensation:
         Z = K_BI K_II^-1 K_IB (N/m) as (rows in B, columns in S, values); None where a block cannot be condensed
         (one without interface dofs, whose K_II is singular)."""
         load = np.zeros(self.comm.size)
-        A_IB, A_BI = self.A_IS[:, :len(self.B)].tocsr(), self.A_SI[:len(self.B)].tocsc()
+        A_BI = self.A_SI[:len(self.B)].tocsc()
         rows, cols, vals = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
         for b in sorted(range(len(blocks)), key=lambda b: (-len(blocks[b][0]), b)):
             rank = int(np.argmin(load))
@@ -126,7 +129,7 @@ class InteriorCondensation:
             if rank != self.comm.rank:
                 continue
             dofs, faces = blocks[b]
-            coupling = A_IB[dofs]
+            coupling = self.A_IB[dofs]
             try:
                 lu = splu(self.A_II[dofs][:, dofs].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                           options={"SymmetricMode": True})

@@ -101,11 +101,10 @@ class CheckedSolve:
         opts = PETSc.Options()
         for key, value in self.options.items():
             opts[PETSC_PREFIX + key] = value
-        operator = self.A if self.condensation is None else self.condensation.R
-        ksp = PETSc.KSP().create(operator.getComm())
+        ksp = PETSc.KSP().create(self.operator.getComm())
         try:
             ksp.setOptionsPrefix(PETSC_PREFIX)
-            ksp.setOperators(operator)
+            ksp.setOperators(self.operator)
             ksp.setFromOptions()
             ksp.setUp()
         finally:
@@ -113,14 +112,17 @@ class CheckedSolve:
                 opts.delValue(PETSC_PREFIX + key)
         return ksp
 
+    @property
+    def operator(self) -> PETSc.Mat:
+        """The matrix the KSP factorises: ``A``, or the condensation's reduced system."""
+        return self.A if self.condensation is None else self.condensation.R
+
     def matrix_changed(self, law_values: np.ndarray | None = None) -> None:
         """The matrix's values changed: the next solve refactorises; with a condensation only the law's rows may
         change, and ``law_values`` are their new values (the rank's law rows, CSR order), for the reduced system."""
         if self.condensation is not None:
             self.condensation.law_changed(law_values)
-            self.ksp.setOperators(self.condensation.R)
-        else:
-            self.ksp.setOperators(self.A)
+        self.ksp.setOperators(self.operator)
         self.stats["factorisations"] += 1
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
