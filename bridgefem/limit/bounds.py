@@ -17,8 +17,11 @@ between the static bound of :mod:`bridgefem.limit.bounds_lower` and the kinemati
    and soil velocities being its equality duals;
 4. reports the blocks' part of that mechanism as the rigid-block LP does (:func:`upper_mechanism`).
 
-Steps 2 and 3 are independent: under MPI (two ranks or more) each runs on its own rank at the same time
-(:func:`problem_bounds`).
+Steps 2 and 3 are independent: under MPI (two ranks or more) each runs on its own rank at the same time, and a
+process alone with a core to spare (:func:`spare_core`) solves them on two threads at once (:func:`problem_bounds`;
+Clarabel releases Python's lock while it iterates). :class:`BoundsAhead` solves both on a thread of their own while
+its caller goes on with other work (the FE search), the problem built first on the caller's thread (Gmsh is one
+state per process: never two meshes at once).
 
 Both are second-order cone programmes solved by Clarabel (:mod:`bridgefem.limit.conic`); a refinement narrows the
 gap between them at a cost that grows faster than the number of triangles.
@@ -41,8 +44,11 @@ capped value can lie above the collapse load. :func:`fill_bounds` therefore:
 """
 from __future__ import annotations
 
+import os
+import threading
 import time
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
@@ -100,13 +106,48 @@ def _bound(problem: LimitProblem, solve) -> tuple[Bound, object, dict]:
                  sol.sizes), sol, layout
 
 
-def problem_bounds(problem: LimitProblem, comm=None) -> Bounds | None:
+def spare_core(comm=None) -> bool:
+    """Whether this process runs alone (``comm``, every process of the run, None or of one rank) and may use more
+    than one core: then independent work can go on a thread of its own (under MPI every rank keeps its core busy;
+    Open MPI binds each of a few ranks to one core)."""
+    return (comm is None or comm.size == 1) and len(os.sched_getaffinity(0)) > 1
+
+
+class OnThread:
+    """A call on a daemon thread of its own (a process that ends does not wait for it), started at once;
+    :meth:`result` waits for it and returns its value or raises its exception on the caller's thread."""
+
+    def __init__(self, call: Callable[[], object]):
+        self._out: dict = {}
+        self._thread = threading.Thread(target=self._run, args=(call,), daemon=True)
+        self._thread.start()
+
+    def _run(self, call: Callable[[], object]) -> None:
+        try:
+            self._out["value"] = call()
+        except BaseException as err:  # handed to the caller's thread by result()
+            self._out["error"] = err
+
+    def result(self):
+        self._thread.join()
+        if "error" in self._out:
+            raise self._out["error"]
+        return self._out["value"]
+
+
+def problem_bounds(problem: LimitProblem, comm=None, threads: bool = False) -> Bounds | None:
     """Both bounds of a :class:`LimitProblem`. With ``comm`` of two ranks or more (an mpi4py communicator; None: this
     process alone) the two programmes are independent work: rank 0 solves the static one and rank 1 the kinematic
-    one at the same time, and rank 0 returns the bounds, the other ranks None. Collective over ``comm``."""
+    one at the same time, and rank 0 returns the bounds, the other ranks None; a process alone with ``threads``
+    solves the static one on a thread of its own while it solves the kinematic one. Collective over ``comm``."""
     rank, size = (0, 1) if comm is None else (comm.rank, comm.size)
-    lower = _static_part(problem) if rank == 0 else None
-    upper = _kinematic_part(problem) if rank == min(1, size - 1) else None
+    if size == 1 and threads:
+        static = OnThread(lambda: _static_part(problem))
+        upper = _kinematic_part(problem)
+        lower = static.result()
+    else:
+        lower = _static_part(problem) if rank == 0 else None
+        upper = _kinematic_part(problem) if rank == min(1, size - 1) else None
     if size > 1:
         upper = comm.gather(upper, root=0)
         upper = upper[1] if rank == 0 else None
@@ -146,14 +187,47 @@ def _kinematic_part(problem: LimitProblem) -> tuple[Bound, np.ndarray | None, np
 def collapse_bounds(scene: Scene, refine: float = 1.0, comm=None) -> Bounds | None:
     """Lower and upper collapse bounds of a scene (mesh size ``min(ring thickness / 2, fill depth over the crown) /
     refine`` near the ring); with ``comm``, the programmes shared out as :func:`problem_bounds` does (None on ranks
-    other than 0). Collective over ``comm``."""
+    other than 0), on two threads where this process alone has a core to spare. Collective over ``comm``."""
     start = time.perf_counter()
     problem = bridge_problem(scene, refine)
     t_mesh = time.perf_counter() - start
-    out = problem_bounds(problem, comm)
+    out = problem_bounds(problem, comm, threads=spare_core(comm))
     if out is not None:
         out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
     return out
+
+
+class BoundsAhead:
+    """The collapse bounds of a scene (:func:`collapse_bounds`, ``refine`` 1) solved on a thread of their own while
+    the caller goes on; :meth:`result` waits for them.
+
+    1. The problem is built on the caller's thread (its fill mesh: Gmsh is one state per process); a scene whose
+       model the bounds do not cover raises :class:`SceneError` there, kept for :meth:`result`.
+    2. Both programmes are solved one after the other on a daemon thread (:class:`OnThread`); Clarabel releases
+       Python's lock while it iterates, so the caller's work goes on beside it.
+    3. :meth:`result` returns the :class:`Bounds` with the timings of :func:`collapse_bounds` (``total``: from the
+       start to the end of the programmes), or raises the scene's error or the thread's."""
+
+    def __init__(self, scene: Scene):
+        start = time.perf_counter()
+        self.error: SceneError | None = None
+        try:
+            problem = bridge_problem(scene, 1.0)
+        except SceneError as err:
+            self.error = err
+            return
+        t_mesh = time.perf_counter() - start
+
+        def solve() -> Bounds:
+            out = problem_bounds(problem)
+            out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
+            return out
+        self.pending = OnThread(solve)
+
+    def result(self) -> Bounds:
+        if self.error is not None:
+            raise self.error
+        return self.pending.result()
 
 
 def upper_mechanism(b: Bounds) -> dict | None:
@@ -177,19 +251,20 @@ def bounds_summary(b: Bounds) -> dict:
                                                                                     ("upper", b.upper))}}
 
 
-def fill_bounds(scene: Scene, compared: float | None = None, comm=None) -> dict | None:
+def fill_bounds(scene: Scene, compared: float | None = None, comm=None, ahead: BoundsAhead | None = None
+                ) -> dict | None:
     """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
     cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``.
     ``compared``: the load (N) the lower bound is compared with (the FE bracket's upper end; None: none); a static
     programme that stopped short of full accuracy above it, or at its cap without a value, is solved again, and its
     lower bound is None when that solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3;
     iterations and seconds then count both solves). With ``comm`` (mpi4py; None: this process alone) the programmes
-    are shared out as :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill). Collective
-    over ``comm``."""
+    are shared out as :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill); ``ahead``:
+    the scene's bounds already under way (:class:`BoundsAhead`; this process alone). Collective over ``comm``."""
     if scene.fill is None:
         return None
     try:
-        b = collapse_bounds(scene, comm=comm)
+        b = ahead.result() if ahead is not None else collapse_bounds(scene, comm=comm)
     except SceneError as err:
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
     if b is None:
