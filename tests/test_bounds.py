@@ -413,22 +413,24 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
 
 def test_bounds_on_threads_are_the_serial_ones_and_raise_on_the_callers_thread(monkeypatch):
     """The two programmes on two threads (a process alone with a core to spare) and both on a thread beside the
-    caller's work (:class:`bounds.BoundsAhead`, as the FE search runs) give the serial bounds, statuses and iterations
+    caller's work (:class:`bounds.SceneBounds` ahead, as the FE search runs) give the serial bounds, statuses and iterations
     to every digit (the same programmes on the same data); a scene the bounds do not cover keeps its reason, and an
     error on a thread is raised on the caller's."""
     scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
     problem = bridge_problem(scene, 1.0)
     serial = problem_bounds(problem)
-    ahead = bounds.BoundsAhead(scene)
+    ahead = bounds.SceneBounds(scene, ahead=True)
     for other in (problem_bounds(problem, threads=True), ahead.result()):
         for name in ("lower", "upper"):
             a, b = getattr(serial, name), getattr(other, name)
             assert (a.load, a.status, a.iterations) == (b.load, b.status, b.iterations)
         assert np.array_equal(serial.block_velocities, other.block_velocities)
-    assert fill_bounds(scene, ahead=ahead)["lower"] == serial.lower.load
+    assert fill_bounds(scene, known=ahead)["lower"] == serial.lower.load
     assert set(ahead.result().timings) == {"mesh", "lower", "upper", "total"}
+    assert ahead.upper() == serial.upper.load == bounds.SceneBounds(scene).upper()
     elastic = scene_from_dict(scene_dict(fill=ELASTIC_FILL, load=PATCH))
-    assert fill_bounds(elastic, ahead=bounds.BoundsAhead(elastic)) == fill_bounds(elastic)
+    for known in (bounds.SceneBounds(elastic, ahead=True), bounds.SceneBounds(elastic)):
+        assert fill_bounds(elastic, known=known) == fill_bounds(elastic) and known.upper() is None
 
     def broken(problem):
         raise RuntimeError("the static programme broke")
@@ -436,7 +438,7 @@ def test_bounds_on_threads_are_the_serial_ones_and_raise_on_the_callers_thread(m
     with pytest.raises(RuntimeError, match="broke"):
         problem_bounds(problem, threads=True)
     with pytest.raises(RuntimeError, match="broke"):
-        bounds.BoundsAhead(scene).result()
+        bounds.SceneBounds(scene, ahead=True).result()
 
 
 @pytest.mark.slow  # conic or LP programmes of several seconds

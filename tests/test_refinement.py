@@ -41,7 +41,8 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
                   solves=(30, 40, 50), tolerance=1e-4, paths=None):
     """``_analyse`` replaced by runs whose verdicts are mesh dependent or not, in turn, that carry ``lowers`` (N per
     unit level), with ``statuses`` (default: a failure when mesh dependent, else a limit), after ``solves`` linear
-    solves, each search with ``tolerance``; returns the meshes run, and appends to the list ``coarser`` the coarser
+    solves, each search with ``tolerance`` (its mechanism unproved, the LP's ring unstable: a failure that is not
+    mesh dependent is not re-run); returns the meshes run, and appends to the list ``coarser`` the coarser
     run's level each run was given, to ``budgets`` its budget of linear solves and to ``paths`` the coarser run's
     path it was given (each run has no converged state; its ``pairs`` name its elements through the thickness; the
     read-outs of the last run, ``_conclude``, are skipped)."""
@@ -61,13 +62,13 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
         return SimpleNamespace(verdict=SimpleNamespace(mesh_dependent=queue.pop(0)), refinements=None,
                                load_total=1.0, timings={"limit search": 1.0}, scene=scene,
                                solver=SimpleNamespace(stats={"solves": solves.pop(0)}),
-                               lp=SimpleNamespace(load=100.0, level=100.0),
+                               lp=SimpleNamespace(load=100.0, level=100.0, status=Status.UNSTABLE),
                                search=SimpleNamespace(status=statuses.pop(0), lower=lower, upper=lower + 0.01,
-                                                      tolerance=tolerance),
+                                                      tolerance=tolerance, proved=False),
                                pairs=f"pairs of {scene.mesh.elements_through_thickness}", converged=[])
 
     monkeypatch.setattr(analysis, "_analyse", fake)
-    monkeypatch.setattr(analysis, "_conclude", lambda an, comm: None)
+    monkeypatch.setattr(analysis, "_conclude", lambda an, comm, known=None: None)
     return meshes
 
 
@@ -127,6 +128,45 @@ def test_a_re_run_that_moved_the_limit_less_than_the_settled_move_is_not_re_run_
     ran = fake_analyses(monkeypatch, (True, True, True), lowers=(97.0, 97.0 * (1 + move), 99.0), tolerance=tolerance)
     run_analysis(scene_from_dict(scene_dict(mesh={"elements_through_thickness": 4})))
     assert ran == meshes
+
+
+MOHR_COULOMB = {"depth": 0.5, "extension": 1.0, "unit_weight": 18000.0, "young": 5e7, "material": "mohr-coulomb",
+                "friction_angle": 30.0, "cohesion": 5000.0}
+PATCH = [{"kind": "patch", "position": 0.25, "length": 0.5}]
+
+
+@pytest.mark.parametrize("fill, lowers, statuses, meshes", [
+    (MOHR_COULOMB, (101.0, 99.5), None, [4, 8]),  # above the bound, then at it: the fill mesh converged
+    (MOHR_COULOMB, (102.0, 101.0, 100.3), None, [4, 8, 16]),  # above it twice, moving: re-run twice at most
+    (MOHR_COULOMB, (101.0, 100.8), None, [4, 8]),  # still above it, but the finer mesh did not move the limit
+    (MOHR_COULOMB, (99.5,), None, [4]),  # within the bound
+    (MOHR_COULOMB, (101.0,), ("solver failure: x",), [4]),  # a failure: the bound is not asked
+    (ELASTIC_FILL, (101.0,), None, [4])])  # an elastic fill: no bound
+def test_a_limit_above_the_fills_conic_upper_bound_is_re_run_on_a_finer_mesh(monkeypatch, fill, lowers, statuses,
+                                                                                meshes):
+    """Under a Mohr-Coulomb fill a limit that carries more than the conic upper bound of the bridge with its fill
+    (here 100 N per unit level) is a fill mesh that has not converged: it is re-run on finer meshes, as long as
+    each carries more than the bound and moved the limit (at most MAX_REFINEMENTS; the bound is asked only after a
+    limit)."""
+    asked = []
+
+    class Known:
+        def __init__(self, scene, comm, ahead=False):
+            assert scene.fill.material == "mohr-coulomb"  # no bound to compute for an elastic fill either way
+
+        def upper(self):
+            asked.append(True)
+            return 100.0
+
+    monkeypatch.setattr(analysis, "SceneBounds", Known)
+    ran = fake_analyses(monkeypatch, (False,) * len(lowers), lowers=lowers, statuses=statuses)
+    lines = []
+    run_analysis(scene_from_dict(scene_dict(fill=fill, load=PATCH, mesh={"elements_through_thickness": 4})),
+                 notice=lines.append)
+    assert ran == meshes
+    assert len(asked) == (len(meshes) if statuses is None and fill is MOHR_COULOMB else 0)
+    assert all("above the rigid-plastic upper bound of the bridge with its fill (0.1 kN" in line for line in lines)
+    assert len(lines) == len(meshes) - 1
 
 
 @pytest.mark.parametrize("finer, kept", [("solver failure: y", 4), (Status.LIMIT, 8)])

@@ -15,7 +15,12 @@ once from the bonded start, reaches only where the voussoirs are an element long
 - a live-load trial that failed without proof where the rigid-block LP finds the ring standing, on a bare ring or,
   under a fill, on voussoirs shorter than an element;
 - a self-weight that failed without proof on voussoirs shorter than an element, where the LP finds the ring
-  standing.
+  standing;
+- under a Mohr-Coulomb fill, a limit whose bracket carries more than the rigid-plastic upper bound of the bridge with
+  its fill (:func:`bridgefem.limit.bounds.fill_bounds`, the conic bounds: an upper bound of every collapse load of the
+  blocks and the fill with associated flow, which bounds the FE's with its own flow rule too): the FE's fill mesh has
+  not converged (its discrete fill is stiffer and stronger than the continuum, docs/fill.md); a finer one comes
+  down towards the bound.
 - with a compressive strength, joints whose pairs crush as a polygon more than ``AGREEMENT`` stronger than the
   rectangular stress block (the rigid-block LP on the FE's joints against the LP on the parabola,
   :func:`coarse_stress_block`): the FE's answer is then its mesh's, not the strength's; unless the finer mesh's
@@ -83,7 +88,8 @@ Analyse = Callable[[Scene, float | None, int | None, CoarserPath | None], Analys
 
 
 def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str], None],
-           max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS) -> Analysis:
+           max_refinements: int = MAX_REFINEMENTS, max_dofs: float = MAX_DOFS,
+           upper_bound: Callable[[], float | None] = lambda: None) -> Analysis:
     """The scene's run, re-run on finer meshes while they can settle it (module docstring, *The loop*);
     ``analyse(scene, coarser, budget, path)`` runs one mesh given the level the run before it reached (None on a
     first run), its budget of linear solves (None: none) and the bare ring's path of the run before it (None: none);
@@ -101,7 +107,7 @@ def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str
             confirmed.refinements = refinements[:-1] + [_replaced(an, ett)]
             return confirmed
         moved = previous is None or abs(carried - previous) > max(an.search.tolerance, SETTLED_MOVE) * previous
-        finer, why = None, refinement_reason(an, ett)
+        finer, why = None, refinement_reason(an, ett, upper_bound)
         if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
             finer = refined_elements(scene, max_dofs)
         finer = comm.bcast(finer, root=0)
@@ -122,13 +128,14 @@ def _replaced(an: Analysis, ett: int) -> MeshRefinement:
     return MeshRefinement(ett, an.search.status, sum(an.timings.values()), an.solver.stats["solves"])
 
 
-def refinement_reason(an: Analysis, ett: int) -> str:
+def refinement_reason(an: Analysis, ett: int, upper_bound: Callable[[], float | None] = lambda: None) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness, in words (empty: it cannot;
     module docstring, *Cases a finer mesh settles*): a confirmed non-associative collapse state below the associative
     LP, or a failed run whose limit depends on the mesh (both ``Verdict.mesh_dependent``), or a run that failed
     without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
-    such voussoirs."""
+    such voussoirs; or a limit under a Mohr-Coulomb fill above ``upper_bound()``, the conic upper bound of the scene
+    (N; None: none; collective, asked only there)."""
     coarse = coarse_stress_block(an)
     if coarse and finer_joints(an, ett):
         return coarse
@@ -140,6 +147,14 @@ def refinement_reason(an: Analysis, ett: int) -> str:
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
                 f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
                 f"{an.lp.load / 1e3:.6g} kN)")
+    if Status.of(an.search.status) is Status.LIMIT and an.scene.fill is not None \
+            and an.scene.fill.material == "mohr-coulomb":
+        upper = upper_bound()
+        carried = an.search.lower * an.load_total
+        if upper is not None and carried > upper:
+            return (f"{ett} elements through the thickness carry {carried / 1e3:.6g} kN, above the rigid-plastic "
+                    f"upper bound of the bridge with its fill ({upper / 1e3:.6g} kN, fill_bounds): the fill mesh has "
+                    "not converged")
     if (Status.of(an.search.status) is not Status.FAILURE or an.search.proved
             or an.lp.status not in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)):
         return ""

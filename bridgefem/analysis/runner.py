@@ -26,9 +26,10 @@ Then, for the scene (:func:`run_analysis`):
 
 5. Re-runs on finer meshes while a finer mesh can settle the run (:mod:`bridgefem.analysis.refinement`).
 6. The collective read-outs of the last run, done once on every rank (:func:`_conclude`): the conic bounds of the
-   bridge with its fill (:func:`bridgefem.limit.bounds.fill_bounds`; a process alone with a core to spare solves
-   them on a thread of their own from the start, beside steps 1-5: :class:`bridgefem.limit.bounds.BoundsAhead`;
-   they depend on the scene, not on its mesh), the ring under the loads the fill transmits
+   bridge with its fill (:func:`bridgefem.limit.bounds.fill_bounds`; computed once for steps 5 and 6, by a process
+   alone with a core to spare on a thread of their own from the start, beside steps 1-5:
+   :class:`bridgefem.limit.bounds.SceneBounds`; they depend on the scene, not on its mesh), the ring under the loads
+   the fill transmits
    (:mod:`bridgefem.analysis.interface`), the collapse mode (:mod:`bridgefem.analysis.mechanism`) and the warnings
    (:mod:`bridgefem.analysis.result`). Reading the returned :class:`bridgefem.analysis.result.Analysis` is then local
    on every rank.
@@ -58,7 +59,7 @@ from typing import Callable
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..limit.bounds import BoundsAhead, fill_bounds, spare_core
+from ..limit.bounds import SceneBounds, fill_bounds, spare_core
 from ..limit.rigid_block import BlockModel
 from ..scene.model import Scene
 from ..search.coarser_path import CoarserPath
@@ -115,24 +116,26 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough)
 
     with quiet_compiler():
-        # a process alone in its run (not one of an assessment's groups) with a core to spare solves the conic
-        # bounds beside the search (step 6)
-        ahead = BoundsAhead(scene) if scene.fill is not None and spare_core(MPI.COMM_WORLD) else None
-        an = refine(scene, comm, analyse, notice, max_refinements, max_dofs)
-        _conclude(an, comm, ahead)
+        # the conic bounds of a fill, once (steps 5-6): a process alone in its run (not one of an assessment's
+        # groups) with a core to spare solves them beside the search
+        plastic = scene.fill is not None and scene.fill.material == "mohr-coulomb"  # the fills the bounds cover
+        known = SceneBounds(scene, comm, ahead=spare_core(MPI.COMM_WORLD)) if plastic else None
+        an = refine(scene, comm, analyse, notice, max_refinements, max_dofs,
+                    upper_bound=(lambda: None) if known is None else known.upper)
+        _conclude(an, comm, known)
     return an
 
 
-def _conclude(an: Analysis, comm: MPI.Comm, ahead: BoundsAhead | None = None) -> None:
+def _conclude(an: Analysis, comm: MPI.Comm, known: SceneBounds | None = None) -> None:
     """The collective read-outs of the run ``an`` (module docstring, step 6), done once on every rank and stored on
     it as plain data: the conic bounds of the bridge with its fill (the static programme on rank 0, the kinematic one
-    on rank 1 at the same time: :func:`bridgefem.limit.bounds.fill_bounds`; broadcast; ``ahead``: those of a process
-    alone, solved on a thread beside the search), the ring under the loads the fill transmits, the collapse mode and
-    the warnings; timed as the phase "checks". Collective."""
+    on rank 1 at the same time: :func:`bridgefem.limit.bounds.fill_bounds`; broadcast; ``known``: the scene's,
+    computed once, :class:`bridgefem.limit.bounds.SceneBounds`), the ring under the loads the fill transmits, the
+    collapse mode and the warnings; timed as the phase "checks". Collective."""
     clock = Clock(comm)
     solver_comm = an.solver.comm
     compared = an.search.upper * an.load_total if an.search.upper is not None else None  # the FE's upper end (N)
-    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared, solver_comm, ahead), root=0)
+    an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared, solver_comm, known), root=0)
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
     coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs

@@ -19,7 +19,7 @@ between the static bound of :mod:`bridgefem.limit.bounds_lower` and the kinemati
 
 Steps 2 and 3 are independent: under MPI (two ranks or more) each runs on its own rank at the same time, and a
 process alone with a core to spare (:func:`spare_core`) solves them on two threads at once (:func:`problem_bounds`;
-Clarabel releases Python's lock while it iterates). :class:`BoundsAhead` solves both on a thread of their own while
+Clarabel releases Python's lock while it iterates). :class:`SceneBounds` solves both on a thread of their own while
 its caller goes on with other work (the FE search), the problem built first on the caller's thread (Gmsh is one
 state per process: never two meshes at once).
 
@@ -197,37 +197,63 @@ def collapse_bounds(scene: Scene, refine: float = 1.0, comm=None) -> Bounds | No
     return out
 
 
-class BoundsAhead:
-    """The collapse bounds of a scene (:func:`collapse_bounds`, ``refine`` 1) solved on a thread of their own while
-    the caller goes on; :meth:`result` waits for them.
+class SceneBounds:
+    """The collapse bounds of one scene (:func:`collapse_bounds`, ``refine`` 1), computed once for all who read them
+    (an FE run's mesh refinement and its read-outs: they depend on the scene, not on the FE's mesh).
 
-    1. The problem is built on the caller's thread (its fill mesh: Gmsh is one state per process); a scene whose
-       model the bounds do not cover raises :class:`SceneError` there, kept for :meth:`result`.
-    2. Both programmes are solved one after the other on a daemon thread (:class:`OnThread`); Clarabel releases
-       Python's lock while it iterates, so the caller's work goes on beside it.
-    3. :meth:`result` returns the :class:`Bounds` with the timings of :func:`collapse_bounds` (``total``: from the
-       start to the end of the programmes), or raises the scene's error or the thread's."""
+    1. ``ahead`` (a process alone with a core to spare, :func:`spare_core`): the problem is built now on the
+       caller's thread (its fill mesh: Gmsh is one state per process) and both programmes are solved on a thread of
+       their own (:class:`OnThread`) while the caller goes on; Clarabel releases Python's lock while it iterates.
+       Otherwise they are solved at the first :meth:`result`, shared out over ``comm`` as :func:`problem_bounds` does.
+    2. :meth:`result` returns the :class:`Bounds` (rank 0's; None on the other ranks) with the timings of
+       :func:`collapse_bounds` (``total``: from the start to the end of the programmes), or raises the scene's
+       :class:`SceneError` (a model the bounds do not cover) or the thread's error.
+    3. :meth:`upper` is the upper bound (N) on every rank, None where there is none."""
 
-    def __init__(self, scene: Scene):
-        start = time.perf_counter()
-        self.error: SceneError | None = None
+    def __init__(self, scene: Scene, comm=None, ahead: bool = False):
+        self.scene, self.comm = scene, comm
+        self._known: Bounds | SceneError | None = None
+        self._pending: OnThread | None = None
+        if ahead:
+            start = time.perf_counter()
+            try:
+                problem = bridge_problem(scene, 1.0)
+            except SceneError as err:
+                self._known = err
+                return
+            t_mesh = time.perf_counter() - start
+
+            def solve() -> Bounds:
+                out = problem_bounds(problem)
+                out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
+                return out
+            self._pending = OnThread(solve)
+
+    def result(self) -> Bounds | None:
+        if self._known is None:
+            if self._pending is not None:
+                self._known = self._pending.result()
+            else:
+                try:
+                    self._known = collapse_bounds(self.scene, comm=self.comm)
+                except SceneError as err:
+                    self._known = err
+            if self._known is None:  # another rank than 0 under MPI: rank 0 holds them
+                self._known = _ELSEWHERE
+        if isinstance(self._known, SceneError):
+            raise self._known
+        return None if self._known is _ELSEWHERE else self._known
+
+    def upper(self) -> float | None:
         try:
-            problem = bridge_problem(scene, 1.0)
-        except SceneError as err:
-            self.error = err
-            return
-        t_mesh = time.perf_counter() - start
+            b = self.result()
+        except SceneError:
+            return None
+        load = None if b is None else b.upper.load
+        return load if self.comm is None or self.comm.size == 1 else self.comm.bcast(load, root=0)
 
-        def solve() -> Bounds:
-            out = problem_bounds(problem)
-            out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
-            return out
-        self.pending = OnThread(solve)
 
-    def result(self) -> Bounds:
-        if self.error is not None:
-            raise self.error
-        return self.pending.result()
+_ELSEWHERE = object()  # SceneBounds on a rank other than 0: the bounds are rank 0's
 
 
 def upper_mechanism(b: Bounds) -> dict | None:
@@ -251,7 +277,7 @@ def bounds_summary(b: Bounds) -> dict:
                                                                                     ("upper", b.upper))}}
 
 
-def fill_bounds(scene: Scene, compared: float | None = None, comm=None, ahead: BoundsAhead | None = None
+def fill_bounds(scene: Scene, compared: float | None = None, comm=None, known: SceneBounds | None = None
                 ) -> dict | None:
     """The ``fill_bounds`` entry of results.json: None without a fill; with a fill whose model the bounds do not
     cover (elastic fill, point loads) ``{"lower": None, "upper": None, "unit": "N", "status": reason}``.
@@ -259,12 +285,12 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None, ahead: B
     programme that stopped short of full accuracy above it, or at its cap without a value, is solved again, and its
     lower bound is None when that solve does not decide the comparison (module docstring, *Accuracy*, steps 2-3;
     iterations and seconds then count both solves). With ``comm`` (mpi4py; None: this process alone) the programmes
-    are shared out as :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill); ``ahead``:
-    the scene's bounds already under way (:class:`BoundsAhead`; this process alone). Collective over ``comm``."""
+    are shared out as :func:`problem_bounds` does and the entry is rank 0's (None elsewhere with a fill); ``known``:
+    the scene's bounds computed once (:class:`SceneBounds`, over the same ``comm``). Collective over ``comm``."""
     if scene.fill is None:
         return None
     try:
-        b = ahead.result() if ahead is not None else collapse_bounds(scene, comm=comm)
+        b = known.result() if known is not None else collapse_bounds(scene, comm=comm)
     except SceneError as err:
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
     if b is None:
