@@ -10,7 +10,7 @@ import pytest
 from test_bracket import LIMIT, SETTINGS, WEIGHT, OneDof, assert_bracket, search
 
 from bridgefem.search.step import plateau_reserve, plateau_through
-from bridgefem.solver.newton import StepOutcome
+from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
 from bridgefem.status import Status
 
 FILL_ITERATIONS = 12  # Newton iterations of every converged live-load step (the self-weight takes 2)
@@ -88,6 +88,28 @@ def test_a_flattening_curve_is_bracketed_at_its_plateau_whatever_the_steps(guess
     assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
     assert FLAT < s.lower <= PLATEAU < s.upper <= LIMIT, (s.lower, s.upper)
     assert s.upper - s.lower <= SETTINGS.tolerance * s.lower * (1 + 1e-9)
+
+
+class CountedSoftening(Softening):
+    """``Softening`` that counts the steps it solves again with other settings (bridgefem.solver.newton.retried)."""
+
+    def __init__(self):
+        super().__init__()
+        self.retries = 0
+
+    def use(self, setting):
+        self.retries += setting != DEFAULT_SETTING
+
+
+def test_a_flat_curve_below_a_guess_far_above_it_is_not_solved_again():
+    """A guess 1.5 x the plateau makes the flat steps near LIMIT suspect (far below the guess): a failure without a
+    mechanism there would be solved again with the solver's other settings. A flat curve is read off a converged
+    equilibrium, which those settings reach alike: it is bracketed without a retry."""
+    solver = CountedSoftening()
+    s = search(solver, replace(SETTINGS, stiffness_drop=DROP), guess=1.5 * LIMIT)
+    assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
+    assert FLAT < s.lower <= PLATEAU < s.upper <= LIMIT
+    assert solver.retries == 0
 
 
 class Hardening(Softening):

@@ -80,7 +80,10 @@ under the FE's own loads.
    then reports a solver failure;
 2. a failure that would end the search without proof, or a suspect one, is first checked against the collapse
    state it started from (:mod:`bridgefem.search.target`, *Collapse state*, step 4), else solved again with the
-   solver's other settings (:func:`bridgefem.solver.newton.retried`); a retry that converges continues the search;
+   solver's other settings (:func:`bridgefem.solver.newton.retried`); a retry that converges continues the search.
+   A failure read off a converged equilibrium (a flat load-deflection curve, a collapse state under an elastic
+   fill: :mod:`bridgefem.search.step`) is not a solver's failure and is not solved again: the other settings
+   reach the same equilibrium and the same reading, at the cost of their Newton iterations;
 3. live-load trials are solved with ``give_up`` (the solver's *Damping chains*): a Newton iteration that keeps
    wandering into mechanisms stops early, as such a failure, instead of spending its iterations; a trial that
    cannot close the bracket has a budget of Newton iterations (:mod:`bridgefem.search.schedule`, *Trial budgets*).
@@ -260,8 +263,8 @@ class _Search:
         out = self.attempt(trial, state, lower, predictor=predictor, give_up=True, iterations=budget, estimate=estimate)
         if not out.converged and self._final(trial, out) and not out.proved and (
                 not self.target.plausible(trial) or not out.mechanism):
-            out = _settled(self.target.collapse, lower, trial, state, out) or retried(
-                self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out)
+            out = _settled(self.target.collapse, lower, trial, state, out) or (out if out.equilibrium else retried(
+                self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out))
         predicted = self.guides.predicted
         if out.converged or out.proved or not far or predicted is None or self.futile >= FUTILE_PREDICTIONS:
             return out

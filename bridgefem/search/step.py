@@ -112,7 +112,7 @@ class StepRecorder:
             collapsed, check = self.at_collapse(level, out.iterate)
             if collapsed:
                 out, reached = StepOutcome(False, f"the converged state is a collapse state: {check}", out.iterations,
-                                           out.residual, out.factorisations, mechanism=True), None
+                                           out.residual, out.factorisations, mechanism=True, equilibrium=True), None
         step = LoadStep(len(self.steps), level, out.converged, out.reason, out.iterations, out.factorisations,
                         out.residual, reached, out.counts, time.perf_counter() - t0, solver.movement,
                         _raised_cohesion(solver), out.mechanism,
@@ -154,7 +154,7 @@ class StepRecorder:
                                   f"{at_end}, below {self.stiffness_drop:g} x the initial {self.k_initial:.3g} "
                                   f"N/m; its plateau, fitted to {fit}, {reserve:.3g} N per unit load factor above "
                                   f"it, within the tolerance (collapse)", out.iterations, out.residual,
-                           out.factorisations, mechanism=True)
+                           out.factorisations, mechanism=True, equilibrium=True)
 
 
 def plateau_through(first: tuple[float, float], second: tuple[float, float], third: tuple[float, float]) -> float:

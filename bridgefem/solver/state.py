@@ -55,6 +55,8 @@ class StepOutcome:
     proved: bool = False
     unbounded: bool = False  # the failed step ended on a solve that was singular or diverged (along any mode)
     diverged: bool = False  # some solve of the failed step was singular or diverged
+    equilibrium: bool = False  # a failure read off a converged equilibrium (a flat load-deflection curve, a collapse
+    # state): the solver did not fail, so no other solver setting is tried for it
 
 
 class Proposal(NamedTuple):
