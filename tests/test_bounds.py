@@ -413,9 +413,9 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
 
 def test_bounds_on_threads_are_the_serial_ones_and_raise_on_the_callers_thread(monkeypatch):
     """The two programmes on two threads (a process alone with a core to spare) and both on a thread beside the
-    caller's work (:class:`bounds.SceneBounds` ahead, as the FE search runs) give the serial bounds, statuses and iterations
-    to every digit (the same programmes on the same data); a scene the bounds do not cover keeps its reason, and an
-    error on a thread is raised on the caller's."""
+    caller's work (:class:`bounds.SceneBounds` ahead, as the FE search runs) give the serial bounds, statuses and
+    iterations to every digit (the same programmes on the same data); a scene the bounds do not cover keeps its
+    reason, and an error on a thread is raised on the caller's."""
     scene = scene_from_dict(scene_dict(fill={**FILL, "depth": 0.5, "extension": 0.5}, load=PATCH))
     problem = bridge_problem(scene, 1.0)
     serial = problem_bounds(problem)

@@ -216,10 +216,10 @@ def test_frictionless_ring_interfaces_give_the_lp(rings, bond, thickness):
 @pytest.mark.slow
 @pytest.mark.parametrize("bond", [
     pytest.param("staggered", marks=pytest.mark.xfail(
-        reason="the FE's path stops about 0.5 % below its own frozen pair LP, at the agreement threshold: the machine's "
-               "rounding decides the verdict (confirmed [126.392, 126.394] kN, frozen 127.022 kN on one machine; "
-               "unproven at 126.474 kN, frozen 127.12 kN on another; #41 item 5, docs/robustness.md, *Rings*; not "
-               "run: --runxfail runs it)", strict=False, run=False)),
+        reason="the FE's path stops about 0.5 % below its own frozen pair LP, at the agreement threshold: the "
+               "machine's rounding decides the verdict (confirmed [126.392, 126.394] kN, frozen 127.022 kN on one "
+               "machine; unproven at 126.474 kN, frozen 127.12 kN on another; #41 item 5, docs/robustness.md, "
+               "*Rings*; not run: --runxfail runs it)", strict=False, run=False)),
     "aligned"])
 def test_rough_ring_interfaces_stay_below_the_associative_lp(bond):
     """Ring friction 0.6: the FE (non-associative) closes its bracket at or below the associative LP on the same
