@@ -147,7 +147,7 @@ def test_a_limit_above_the_fills_conic_upper_bound_is_re_run_on_a_finer_mesh(mon
     """Under a Mohr-Coulomb fill a limit that carries more than the conic upper bound of the bridge with its fill
     (here 100 N per unit level) is a fill mesh that has not converged: it is re-run on finer meshes, as long as
     each carries more than the bound and moved the limit (at most MAX_REFINEMENTS; the bound is asked only after a
-    limit)."""
+    limit, and the wait for it is the phase "conic bounds" of the run's timings)."""
     asked = []
 
     class Known:
@@ -161,10 +161,11 @@ def test_a_limit_above_the_fills_conic_upper_bound_is_re_run_on_a_finer_mesh(mon
     monkeypatch.setattr(analysis, "SceneBounds", Known)
     ran = fake_analyses(monkeypatch, (False,) * len(lowers), lowers=lowers, statuses=statuses)
     lines = []
-    run_analysis(scene_from_dict(scene_dict(fill=fill, load=PATCH, mesh={"elements_through_thickness": 4})),
-                 notice=lines.append)
+    an = run_analysis(scene_from_dict(scene_dict(fill=fill, load=PATCH, mesh={"elements_through_thickness": 4})),
+                      notice=lines.append)
     assert ran == meshes
     assert len(asked) == (len(meshes) if statuses is None and fill is MOHR_COULOMB else 0)
+    assert ("conic bounds" in an.timings) == bool(asked)  # the wait for the bound is a timed phase
     assert all("above the rigid-plastic upper bound of the bridge with its fill (0.1 kN" in line for line in lines)
     assert len(lines) == len(meshes) - 1
 

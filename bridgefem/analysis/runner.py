@@ -120,9 +120,19 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         # groups) with a core to spare solves them beside the search
         plastic = scene.fill is not None and scene.fill.material == "mohr-coulomb"  # the fills the bounds cover
         known = SceneBounds(scene, comm, ahead=spare_core(MPI.COMM_WORLD)) if plastic else None
-        an = refine(scene, comm, analyse, notice, max_refinements, max_dofs,
-                    upper_bound=(lambda: None) if known is None else known.upper)
+        waited: dict[str, float] = {}
+
+        def upper_bound() -> float | None:  # the refinement's bound, its wait timed as the phase "conic bounds"
+            if known is None:
+                return None
+            clock = Clock(comm)
+            upper = known.upper()
+            clock.lap("conic bounds")
+            waited["conic bounds"] = waited.get("conic bounds", 0.0) + clock.timings["conic bounds"]
+            return upper
+        an = refine(scene, comm, analyse, notice, max_refinements, max_dofs, upper_bound)
         _conclude(an, comm, known)
+        an.timings.update(waited)
     return an
 
 
