@@ -189,9 +189,14 @@ def collapse_bounds(scene: Scene, refine: float = 1.0, comm=None) -> Bounds | No
     refine`` near the ring); with ``comm``, the programmes shared out as :func:`problem_bounds` does (None on ranks
     other than 0), on two threads where this process alone has a core to spare. Collective over ``comm``."""
     start = time.perf_counter()
-    problem = bridge_problem(scene, refine)
+    return _timed(bridge_problem(scene, refine), start, comm, threads=spare_core(comm))
+
+
+def _timed(problem: LimitProblem, start: float, comm=None, threads: bool = False) -> Bounds | None:
+    """:func:`problem_bounds` of a problem built since ``start`` (:func:`time.perf_counter`), with the timings of
+    :func:`collapse_bounds`: its mesh (start to now), each programme and the total (start to the end)."""
     t_mesh = time.perf_counter() - start
-    out = problem_bounds(problem, comm, threads=spare_core(comm))
+    out = problem_bounds(problem, comm, threads)
     if out is not None:
         out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
     return out
@@ -212,37 +217,27 @@ class SceneBounds:
 
     def __init__(self, scene: Scene, comm=None, ahead: bool = False):
         self.scene, self.comm = scene, comm
-        self._known: Bounds | SceneError | None = None
+        self._done, self._bounds, self._error = False, None, None
         self._pending: OnThread | None = None
         if ahead:
             start = time.perf_counter()
             try:
                 problem = bridge_problem(scene, 1.0)
             except SceneError as err:
-                self._known = err
+                self._done, self._error = True, err
                 return
-            t_mesh = time.perf_counter() - start
-
-            def solve() -> Bounds:
-                out = problem_bounds(problem)
-                out.timings = {"mesh": t_mesh, **out.timings, "total": time.perf_counter() - start}
-                return out
-            self._pending = OnThread(solve)
+            self._pending = OnThread(lambda: _timed(problem, start))
 
     def result(self) -> Bounds | None:
-        if self._known is None:
-            if self._pending is not None:
-                self._known = self._pending.result()
-            else:
-                try:
-                    self._known = collapse_bounds(self.scene, comm=self.comm)
-                except SceneError as err:
-                    self._known = err
-            if self._known is None:  # another rank than 0 under MPI: rank 0 holds them
-                self._known = _ELSEWHERE
-        if isinstance(self._known, SceneError):
-            raise self._known
-        return None if self._known is _ELSEWHERE else self._known
+        if not self._done:
+            try:
+                self._bounds = self._pending.result() if self._pending else collapse_bounds(self.scene, comm=self.comm)
+            except SceneError as err:
+                self._error = err
+            self._done = True
+        if self._error is not None:
+            raise self._error
+        return self._bounds
 
     def upper(self) -> float | None:
         try:
@@ -251,9 +246,6 @@ class SceneBounds:
             return None
         load = None if b is None else b.upper.load
         return load if self.comm is None or self.comm.size == 1 else self.comm.bcast(load, root=0)
-
-
-_ELSEWHERE = object()  # SceneBounds on a rank other than 0: the bounds are rank 0's
 
 
 def upper_mechanism(b: Bounds) -> dict | None:
