@@ -170,6 +170,29 @@ def test_a_limit_above_the_fills_conic_upper_bound_is_re_run_on_a_finer_mesh(mon
     assert len(lines) == len(meshes) - 1
 
 
+@pytest.mark.parametrize("finer, returned", [(Status.LIMIT, 8), ("solver failure: y", 8)])
+def test_the_re_run_of_a_limit_above_the_bound_starts_at_the_bound_without_a_budget(monkeypatch, finer, returned):
+    """A limit above the fill's conic upper bound (100 N per unit level) is contradicted by it: its re-run's first
+    step and target start from the bound, not from the limit above it; it is no confirmed run, so its re-run has no
+    budget and, failing, is the answer (the coarse run listed as replaced), where a confirmed run would stand."""
+    class Known:
+        def __init__(self, scene, comm, ahead=False):
+            pass
+
+        def upper(self):
+            return 100.0
+
+    monkeypatch.setattr(analysis, "SceneBounds", Known)
+    given, budgets = [], []
+    fake_analyses(monkeypatch, (False, False), lowers=(104.0, 99.0), statuses=(Status.LIMIT, finer), coarser=given,
+                  budgets=budgets)
+    an = run_analysis(scene_from_dict(scene_dict(fill=MOHR_COULOMB, load=PATCH,
+                                                 mesh={"elements_through_thickness": 4})))
+    assert given == [None, 100.0] and budgets == [None, None]
+    assert an.scene.mesh.elements_through_thickness == returned and an.search.status == finer
+    assert [r.elements_through_thickness for r in an.refinements] == [4]
+
+
 @pytest.mark.parametrize("finer, kept", [("solver failure: y", 4), (Status.LIMIT, 8)])
 def test_a_confirmed_collapse_state_below_the_lp_is_re_run_and_stands_if_the_finer_run_fails(monkeypatch, finer,
                                                                                                kept):

@@ -42,12 +42,15 @@ limit, and its re-runs are costly).
    ``REFINED_ELEMENTS_MAX`` or the size estimate (:func:`refined_elements`). The decision is rank 0's, broadcast:
    every rank re-runs or none.
 4. Otherwise run again with twice the elements through the thickness: its first live-load step and its search's
-   target are the level the run before it reached (:func:`bridgefem.analysis.runner.first_step`;
-   :mod:`bridgefem.search.target`, *Guess*); a bare ring's re-run starts its trials from that run's converged path
-   (:mod:`bridgefem.search.coarser_path`); a re-run of a confirmed run may spend ``REFINEMENT_BUDGET`` times that
-   run's linear solves, at least ``REFINEMENT_FLOOR``, exactly (the solve past it is never made:
-   :meth:`bridgefem.solver.linear.CheckedSolve.limited`), and one that spends it unsettled is a failure "not
-   settled within its budget" (step 2). Go to step 2.
+   target are the level the run before it reached, or the conic upper bound's where that level exceeds it
+   (:func:`exceeded_bound`: a level above an upper bound is no estimate of the limit;
+   :func:`bridgefem.analysis.runner.first_step`; :mod:`bridgefem.search.target`, *Guess*); a bare ring's re-run
+   starts its trials from that run's converged path (:mod:`bridgefem.search.coarser_path`); a re-run of a confirmed
+   run may spend ``REFINEMENT_BUDGET`` times that run's linear solves, at least ``REFINEMENT_FLOOR``, exactly (the
+   solve past it is never made: :meth:`bridgefem.solver.linear.CheckedSolve.limited`), and one that spends it
+   unsettled is a failure "not settled within its budget" (step 2). A limit above the conic upper bound is not
+   confirmed (an independent bound contradicts it): its re-run has no budget, and its failure is the answer. Go to
+   step 2.
 
 The last run is the answer, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same
 evidence as any other.
@@ -94,11 +97,11 @@ def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str
     ``analyse(scene, coarser, budget, path)`` runs one mesh given the level the run before it reached (None on a
     first run), its budget of linear solves (None: none) and the bare ring's path of the run before it (None: none);
     ``notice(line)`` announces each re-run. Collective."""
-    refinements, previous, confirmed, path = [], None, None, None
+    refinements, previous, start, confirmed, path = [], None, None, None, None
     while True:
         budget = max(REFINEMENT_FLOOR, REFINEMENT_BUDGET * refinements[-1].solves) if confirmed is not None \
             else None
-        an = analyse(scene, previous, budget, path)
+        an = analyse(scene, start, budget, path)
         ett, carried = scene.mesh.elements_through_thickness, an.search.lower
         failed = Status.of(an.search.status) is Status.FAILURE
         if failed and confirmed is not None:
@@ -107,7 +110,8 @@ def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str
             confirmed.refinements = refinements[:-1] + [_replaced(an, ett)]
             return confirmed
         moved = previous is None or abs(carried - previous) > max(an.search.tolerance, SETTLED_MOVE) * previous
-        finer, why = None, refinement_reason(an, ett, upper_bound)
+        above = exceeded_bound(an, upper_bound)
+        finer, why = None, refinement_reason(an, ett, above)
         if comm.rank == 0 and why and moved and len(refinements) < max_refinements:
             finer = refined_elements(scene, max_dofs)
         finer = comm.bcast(finer, root=0)
@@ -115,7 +119,8 @@ def refine(scene: Scene, comm: MPI.Comm, analyse: Analyse, notice: Callable[[str
             an.refinements = refinements
             return an
         refinements.append(_replaced(an, ett))
-        previous, confirmed = carried, None if failed else an
+        previous, confirmed = carried, None if failed or above is not None else an
+        start = carried if above is None else above / an.load_total  # the bound, below the contradicted limit
         path = CoarserPath.of(an.pairs, [(c.load / an.load_total, c.lam, c.d) for c in an.converged], comm) \
             if scene.fill is None else None
         notice(f"{why}: re-running with {finer} elements through the thickness")
@@ -128,14 +133,14 @@ def _replaced(an: Analysis, ett: int) -> MeshRefinement:
     return MeshRefinement(ett, an.search.status, sum(an.timings.values()), an.solver.stats["solves"])
 
 
-def refinement_reason(an: Analysis, ett: int, upper_bound: Callable[[], float | None] = lambda: None) -> str:
+def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str:
     """Why a finer mesh can settle a run with ``ett`` elements through the thickness, in words (empty: it cannot;
     module docstring, *Cases a finer mesh settles*): a confirmed non-associative collapse state below the associative
     LP, or a failed run whose limit depends on the mesh (both ``Verdict.mesh_dependent``), or a run that failed
     without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
-    such voussoirs; or a limit under a Mohr-Coulomb fill above ``upper_bound()``, the conic upper bound of the scene
-    (N; None: none; collective, asked only there)."""
+    such voussoirs; or a limit above ``above``, the conic upper bound of the scene it exceeds (N, from
+    :func:`exceeded_bound`; None: none exceeded)."""
     coarse = coarse_stress_block(an)
     if coarse and finer_joints(an, ett):
         return coarse
@@ -147,14 +152,10 @@ def refinement_reason(an: Analysis, ett: int, upper_bound: Callable[[], float | 
         return (f"the limit depends on the mesh ({ett} elements through the thickness carry "
                 f"{an.search.lower * an.load_total / 1e3:.6g} kN, the rigid-block LP's mechanism at "
                 f"{an.lp.load / 1e3:.6g} kN)")
-    if Status.of(an.search.status) is Status.LIMIT and an.scene.fill is not None \
-            and an.scene.fill.material == "mohr-coulomb":
-        upper = upper_bound()
-        carried = an.search.lower * an.load_total
-        if upper is not None and carried > upper:
-            return (f"{ett} elements through the thickness carry {carried / 1e3:.6g} kN, above the rigid-plastic "
-                    f"upper bound of the bridge with its fill ({upper / 1e3:.6g} kN, fill_bounds): the fill mesh has "
-                    "not converged")
+    if above is not None:
+        return (f"{ett} elements through the thickness carry {an.search.lower * an.load_total / 1e3:.6g} kN, above "
+                f"the rigid-plastic upper bound of the bridge with its fill ({above / 1e3:.6g} kN, fill_bounds): the "
+                "fill mesh has not converged")
     if (Status.of(an.search.status) is not Status.FAILURE or an.search.proved
             or an.lp.status not in (Status.LIMIT, Status.STABLE, Status.UNBOUNDED)):
         return ""
@@ -168,6 +169,17 @@ def refinement_reason(an: Analysis, ett: int, upper_bound: Callable[[], float | 
         return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
                 f"the thickness), where the rigid-block LP finds the ring standing")
     return ""
+
+
+def exceeded_bound(an: Analysis, upper_bound: Callable[[], float | None]) -> float | None:
+    """The conic upper bound ``upper_bound()`` of the scene (N; collective, asked only here: after a limit under a
+    Mohr-Coulomb fill) when the run's limit carries more than it, else None. Such a limit is contradicted by an
+    independent bound: its re-run starts at the bound and is not the re-run of a confirmed run (:func:`refine`)."""
+    if Status.of(an.search.status) is not Status.LIMIT or an.scene.fill is None \
+            or an.scene.fill.material != "mohr-coulomb":
+        return None
+    upper = upper_bound()
+    return upper if upper is not None and an.search.lower * an.load_total > upper else None
 
 
 def coarse_stress_block(an: Analysis) -> str:
