@@ -15,6 +15,7 @@ import numpy as np
 from conftest import SMALL_RING
 from mpi4py import MPI
 
+from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.analysis.static_bound import fe_blocks
 from bridgefem.laws.base import BlockYield, ContactState, ModeRules
@@ -109,3 +110,28 @@ def test_a_tensile_strength_raises_the_limit_to_the_rigid_blocks_with_the_same_s
     assert toy.search.status == "limit load found" and toy.search.proved
     assert toy.search.lower > 1.5 * coulomb.search.upper and lp.level > 1.5 * lp_coulomb.level
     assert toy.search.lower <= lp.level * (1 + 1e-9) and toy.search.upper >= lp.level * (1 - 1e-3)
+
+
+def test_a_clamp_on_coulombs_joints_is_the_tensile_strength_law():
+    """The self-weight's tension continuation clamps each pair of Coulomb's joints by its tensile capacity T
+    (ContactSolver.set_tension) instead of changing the law: the same steps as the toy law with f_t = 20 kPa, here a
+    self-weight and a live-load step of the small ring, give the same active sets and displacements, and the clamped
+    joint forces are the toy's plus (T, 0)."""
+    scene = scene_from_dict(RING)
+    clock = Clock(MPI.COMM_WORLD)
+    toy = build_model(scene, MPI.COMM_WORLD, None, lambda name: None, clock, tensile_law(20e3, 1.0)).solver
+    clamped = build_model(scene, MPI.COMM_WORLD, None, lambda name: None, clock).solver
+    tension = 20e3 * 1.0 * clamped.pairs.length
+    clamped.set_tension(tension)
+    starts = [toy.initial_iterate(), clamped.initial_iterate()]
+    for level in (0.0, 5e3):
+        steps = [s.solve_step(level, start) for s, start in zip((toy, clamped), starts)]
+        assert all(out.converged for out in steps)
+        (u_toy, lam_toy, _), (u, lam, _) = (s.system.split(out.iterate.x) for s, out in zip((toy, clamped), steps))
+        assert np.array_equal(steps[0].iterate.active.state, steps[1].iterate.active.state)
+        assert np.allclose(u, u_toy, rtol=1e-9, atol=1e-12 * np.abs(u_toy).max())
+        assert np.allclose(lam - lam_toy, np.column_stack([tension, np.zeros_like(tension)]), rtol=0,
+                           atol=1e-7 * np.abs(lam_toy).max())
+        starts = [s.converged_slip_reference(out.iterate) for s, out in zip((toy, clamped), steps)]
+    clamped.set_tension(None)
+    assert np.array_equal(clamped.system.loads(0.0), clamped.system.f_dead.array)

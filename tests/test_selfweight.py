@@ -11,7 +11,8 @@ from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.search.selfweight import FRICTION_RAISE, SELF_WEIGHT_RETRIES, carry_self_weight, self_weight_budget
+from bridgefem.search.selfweight import (FRICTION_RAISE, RAMP_RATIO, SELF_WEIGHT_RETRIES, carry_self_weight,
+                                         self_weight_budget)
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
 from bridgefem.solver.settings import Setting
 from bridgefem.status import Status
@@ -24,18 +25,26 @@ SCENE_251 = campaign_scene(251, 0.5347)
 
 
 class RingSolver:
-    """A bare ring's solver as the self-weight sees it: one joint friction, its factor and the setting in use."""
+    """A bare ring's solver as the self-weight sees it: one joint friction, its factor, the setting in use and the
+    pair's clamp (its tension, N); its bonded state's tensile stress ``stress`` (N per m; 0: none in tension)."""
 
     material = None
     comm = MPI.COMM_SELF
     max_iterations = 60
-    pairs = SimpleNamespace(joint=np.zeros(1, int))  # one joint: the self-weight's budget is max_iterations
+    pairs = SimpleNamespace(joint=np.zeros(1, int), length=np.array([0.5]))  # one joint: the budget is max_iterations
 
-    def __init__(self):
+    def __init__(self, stress=0.0):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING
+        self.stress, self.tension = stress, None
 
     def set_friction_factor(self, factor):
         self.friction_factor = factor
+
+    def set_tension(self, tension):
+        self.tension = tension
+
+    def bonded_tensile_stress(self):
+        return np.array([self.stress])
 
     def use(self, setting):
         self.setting = setting
@@ -86,6 +95,29 @@ def test_a_retry_starts_again_when_no_continuation_step_converged():
     assert carry_self_weight(solver, attempt).converged
     resumed = [r for r in record if r[1] == retry]
     assert resumed == [(1.0, retry, UNLOADED)]
+
+
+def test_a_friction_continuation_that_fails_gives_way_to_the_tension_continuation():
+    """Nothing converges at the scene's tensile strength (none) unless reached through raised ones: the one step and
+    the friction continuation fail; the tension continuation starts from the unloaded state at the bonded state's
+    tensile stress (400 N per m over the pair's 0.5 m: a clamp of 200 N), lowers it by RAMP_RATIO at each step and
+    ends converged with no clamp left."""
+    solver = RingSolver(stress=400.0)
+    clamps = []
+
+    def attempt(level, start):
+        clamps.append(None if solver.tension is None else float(solver.tension[0]))
+        if solver.tension is not None:
+            return StepOutcome(True, "", 1, 0.0, 1, iterate=f"state at {clamps[-1]:.6g}")
+        if len(clamps) > 1 and clamps[-2] is not None:  # reached from a clamped state: the scene's
+            return StepOutcome(True, "", 1, 0.0, 1, iterate="state unclamped")
+        return StepOutcome(False, "max iterations", 60, 1e-3, 60)
+
+    out = carry_self_weight(solver, attempt)
+    assert out.converged and out.iterate == "state unclamped" and solver.tension is None
+    raised = [c for c in clamps if c is not None]
+    assert raised[0] == pytest.approx(200.0) and clamps.index(raised[0]) == 2  # after the one step, friction's
+    assert all(b == pytest.approx(RAMP_RATIO * a) for a, b in zip(raised, raised[1:]))
 
 
 def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved=False, lp=Status.LIMIT,

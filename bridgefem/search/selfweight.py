@@ -20,6 +20,14 @@ joint closed and sticking:
      opening at many joints at once and wanders into mechanisms. Lowering the friction lets the springings slip and
      the joints crack gradually, as the thrust falls to what friction can carry.
 
+   - a structure without a plastic fill whose friction continuation failed without a mechanism (or that has no
+     friction): the *tension continuation*, every joint given a tensile strength, first the largest tensile stress
+     (N per m of joint) of the bonded self-weight state (every pair closed and holding: one linear solve), so that
+     the bonded state is admissible (:meth:`bridgefem.solver.newton.ContactSolver.set_tension`: each pair clamped
+     by that stress times its length). From the bonded start the Newton iteration proposes hundreds of pairs
+     opening at once on a bridge of many voussoirs on tall piers, and wanders; lowering the tensile strength opens
+     the joints in the order of their tension, a few at a time, as cracks form in a real structure.
+
    Each continuation step keeps ``RAMP_RATIO`` of the excess over the scene's value, the excess dropped after
    ``RAMP_STEPS`` steps; a failed step is halved (at most ``RAMP_HALVINGS`` times in all). A mechanism at a raised
    strength is a mechanism of the scene (a weaker structure carries no more); any other failure is a solver failure
@@ -144,9 +152,12 @@ def _carry(solver: ContactSolver, attempt: Attempt, progress: Progress, falls: b
         return replace(first, mechanism=True, reason=f"{first.reason}; no equilibrium exists (static theorem: the "
                                                      "rigid blocks under the FE's self-weight cannot stand)")
     fill = solver.material
-    if fill is None and solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0:
-        out = friction_continuation(solver, attempt, progress)
-        if not (out.converged or out.mechanism or progress.condensed) and states is not None:
+    if fill is None:
+        rough = solver.comm.allreduce(float(np.max(solver.friction, initial=0.0)), op=MPI.MAX) > 0
+        out = friction_continuation(solver, attempt, progress) if rough else first
+        if not (out.converged or out.mechanism):
+            out = tension_continuation(solver, attempt) or out
+        if rough and not (out.converged or out.mechanism or progress.condensed) and states is not None:
             progress.condensed = True
             out = condensed_self_weight(attempt, solver.initial_iterate(), states) or out
         return out if out.converged or out.mechanism or not first.mechanism else first  # the stronger evidence
@@ -197,6 +208,29 @@ def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Pro
                      describe, progress)
     finally:
         solver.set_friction_factor(1.0)
+
+
+def tension_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcome | None:
+    """The self-weight with every joint given the tensile strength of the bonded state's largest tensile stress, then
+    lowered to none (module docstring, step 2), from the unloaded state; None when no pair of the bonded state is in
+    tension. Collective."""
+    stress = solver.comm.allreduce(float(np.max(solver.bonded_tensile_stress(), initial=0.0)), op=MPI.MAX)
+    if stress <= 0.0:
+        return None
+    raised = {"excess": 1.0}
+
+    def strengthen(excess: float) -> None:
+        raised["excess"] = excess
+        solver.set_tension(excess * stress * solver.pairs.length if excess > 0 else None)
+
+    def describe() -> str:
+        return f"self-weight with the joints' tensile strength raised to {raised['excess'] * stress:.4g} N per m " \
+               "(continuation to 0)"
+
+    try:
+        return _ramp(solver, attempt, strengthen, describe, Progress(solver.initial_iterate()))
+    finally:
+        solver.set_tension(None)
 
 
 def _ramp(solver: ContactSolver, attempt: Attempt, strengthen: Callable[[float], None], describe: Callable[[], str],

@@ -144,6 +144,23 @@ class ContactSolver:
         self.system.law_changed()  # the slip rows hold mu
         self.cycles.forget()
 
+    def set_tension(self, tension: np.ndarray | None) -> None:
+        """Solve with each local pair clamped by the normal force ``tension`` (N, >= 0; None: none) from now on: its
+        joint then carries that much tension before it opens, and mu times it more shear (a tensile strength; the
+        self-weight's tension continuation; :meth:`bridgefem.solver.system.ContactSystem.clamp`). Collective."""
+        self.system.clamp(tension)
+        self.cycles.forget()
+
+    def bonded_tensile_stress(self, level: float = 0.0) -> np.ndarray:
+        """The tension (N per m of joint, >= 0; zero where compressed) of each local pair at live-load ``level`` with
+        every pair closed and holding (one linear solve; zeros when that system cannot be solved). Collective."""
+        start = self.initial_iterate()
+        x = self.system.vector()
+        if self.system.solve_set(level, start.active, start.slip_ref, x, None) is not None:
+            return np.zeros(len(self.pairs))
+        _, lam, _ = self.system.split(x)
+        return np.maximum(-lam[:, 0], 0.0) / np.maximum(self.pairs.length, 1e-300)
+
     def use(self, setting: Setting) -> None:
         """Solve the next load steps with ``setting`` (module docstring, *Retries*; ``DEFAULT_SETTING`` restores); the
         solves made with another setting count as ``retry_solves``."""

@@ -19,6 +19,12 @@ change, and the blocks' interiors are condensed out once (:mod:`bridgefem.solver
 reduced system of the joint faces and the joint forces is refactorised. Rank r owns [its u rows, its 2 m_r lam rows]
 (:meth:`ContactSystem.comb_u`, :meth:`ContactSystem.comb_lam`).
 
+A *clamp* (:meth:`ContactSystem.clamp`) presses the two faces of each pair together with a normal force T >= 0 (N):
+the loads gain -G^T t, t = (T, 0) per pair, and the law then governs lam' = lam + t, the joint force plus the clamp's.
+A joint with a tensile strength carries the same (lam_n >= -T, |lam_t| <= mu (lam_n + T): the law shifted along the
+normal by T), so the clamped system is the scene's with that tensile strength, whatever the law, without a law of its
+own (the self-weight's tension continuation, :mod:`bridgefem.search.selfweight`).
+
 With a Mohr-Coulomb fill (:mod:`bridgefem.fe.fill`) the stiffness block is the fill's consistent tangent K_t at the
 current displacements and the right-hand side carries ``K_t u - f_int(u)`` (N; :meth:`ContactSystem.linearise`).
 
@@ -65,6 +71,7 @@ class ContactSystem:
         self.f_dead, self.f_live = f_dead, f_live
         self.material = material
         self._correction = np.zeros(K.getLocalSize()[0])  # K_t u - f_int of the linearisation (N)
+        self._clamp: np.ndarray | float = 0.0  # the clamp's nodal forces -G^T t (owned, N; module docstring)
         self._layout(K)
         self._build(K)
         self._ksp(petsc_options)
@@ -189,8 +196,20 @@ class ContactSystem:
 
     # ----------------------------------------------------------------- right-hand side
     def loads(self, level: float) -> np.ndarray:
-        """The applied nodal forces (owned, N) at live-load level ``level``: self-weight plus ``level`` x live load."""
-        return self.f_dead.array + level * self.f_live.array
+        """The applied nodal forces (owned, N) at live-load level ``level``: self-weight plus ``level`` x live load,
+        and the clamp's forces (:meth:`clamp`; none by default)."""
+        return self.f_dead.array + level * self.f_live.array + self._clamp
+
+    def clamp(self, tension: np.ndarray | None) -> None:
+        """Press the faces of each local pair together with the normal force ``tension`` (N, >= 0; None: none) from
+        now on: the loads gain -G^T t, t = (T, 0) per pair (module docstring). Collective."""
+        if tension is None:
+            self._clamp = 0.0
+            return
+        self._lam.array[:] = 0.0
+        self._lam.array[0::2] = tension
+        self._G.multTranspose(self._lam, self.r)
+        self._clamp = -self.r.array[:self.n_u].copy()
 
     def _rhs(self, level: float, active: ContactState, slip_ref: np.ndarray, near: PETSc.Vec | None = None) -> None:
         """The right-hand side of an active set's system; with ``near``, the proximal term's anchor
