@@ -28,7 +28,7 @@ class OneDof:
     material = None
     movement = 0.0
     friction_factor = 1.0
-    friction = np.zeros(0)  # no joints to raise the friction of: no friction continuation
+    friction = np.zeros(0)  # no joints to raise the friction of, nor in tension: no continuation
     max_iterations = 60
     pairs = SimpleNamespace(joint=np.zeros(0, int))  # no joints: the self-weight's budget is max_iterations
 
@@ -49,6 +49,9 @@ class OneDof:
 
     def use(self, setting):  # one algorithm here: a retry solves the same step alike
         pass
+
+    def bonded_tensile_stress(self):  # no joints in tension: no tension continuation
+        return np.zeros(0)
 
     def solve_step(self, level, start, predictor=None, give_up=False, iterations=None):
         self.solves += 1
