@@ -8,6 +8,7 @@ from conftest import campaign_scene
 from mpi4py import MPI
 
 from bridgefem.analysis.build import Clock, build_model
+from bridgefem.analysis.evidence import AGREEMENT
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.reader import scene_from_dict
@@ -235,3 +236,25 @@ def test_a_mohr_coulomb_fill_carries_its_self_weight_through_the_cohesion_contin
     out = carry_self_weight(solver, attempt)
     assert out.converged, out.reason
     assert fill.material.cohesion == 5000.0 and tried[-1] == 5000.0 and max(tried) == pytest.approx(fill.overburden)
+
+
+# campaign spans seed 20261263 #66 with 16 voussoirs per span instead of 64: two elliptical spans on a 27.9 m pier of
+# 8 courses; from the bonded start the one step proposes about 200 pairs opening at once and wanders
+TALL_PIER = {"scene": {"name": "tall pier"},
+             "span": [{"shape": "elliptical", "span": 5.013, "rise": 1.563, "thickness": 0.3846, "voussoirs": 16},
+                      {"shape": "elliptical", "span": 19.632, "rise": 6.12, "thickness": 1.5062, "voussoirs": 16}],
+             "pier": [{"width": 2.553, "height": 27.861, "batter": 0.073, "blocks": 8}],
+             "masonry": {"young": 28.9e9, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.67},
+             "load": [{"kind": "point", "x": 24.7637}]}
+
+
+@pytest.mark.slow
+def test_a_bridge_on_a_tall_pier_carries_its_weight_through_the_tension_continuation():
+    """The one step and the friction continuation's first step cycle; the tension continuation's steps converge down
+    to no tension, and the bridge's limit is then the rigid-block LP's on the same joints within the FE/LP agreement
+    (before: a solver failure under self-weight)."""
+    an = run_analysis(scene_from_dict(TALL_PIER), max_refinements=0)
+    weight = [s for s in an.search.steps if s.level == 0.0]
+    assert [s.converged for s in weight[:3]] == [False, False, True] and weight[-1].converged
+    assert an.search.status == Status.LIMIT and an.lp.status == Status.LIMIT
+    assert (1 - AGREEMENT) * an.lp.level <= an.search.lower <= an.lp.level * (1 + 1e-9)
