@@ -12,8 +12,13 @@ from bridgefem.analysis.evidence import AGREEMENT
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.search.selfweight import (FRICTION_RAISE, RAMP_RATIO, SELF_WEIGHT_RETRIES, carry_self_weight,
-                                         self_weight_budget)
+from bridgefem.search.selfweight import (
+    FRICTION_RAISE,
+    RAMP_RATIO,
+    SELF_WEIGHT_RETRIES,
+    carry_self_weight,
+    self_weight_budget,
+)
 from bridgefem.solver.newton import DEFAULT_SETTING, StepOutcome
 from bridgefem.solver.settings import Setting
 from bridgefem.status import Status
