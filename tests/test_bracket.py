@@ -31,6 +31,7 @@ class OneDof:
     friction = np.zeros(0)  # no joints to raise the friction of, nor in tension: no continuation
     max_iterations = 60
     pairs = SimpleNamespace(joint=np.zeros(0, int))  # no joints: the self-weight's budget is max_iterations
+    law = SimpleNamespace(crushes=False)
 
     def __init__(self, limit=LIMIT, reach=math.inf, proves=True, stalls_at=math.inf):
         self.limit, self.reach, self.proves, self.stalls_at = limit, reach, proves, stalls_at

@@ -11,6 +11,8 @@ from bridgefem.analysis.build import Clock, build_model
 from bridgefem.analysis.evidence import AGREEMENT
 from bridgefem.analysis.refinement import refinement_reason
 from bridgefem.analysis.runner import run_analysis
+from bridgefem.laws.coulomb import CoulombJoints
+from bridgefem.laws.crushing import CrushingJoints
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.search.selfweight import (
     FRICTION_RAISE,
@@ -38,6 +40,7 @@ class RingSolver:
     comm = MPI.COMM_SELF
     max_iterations = 60
     pairs = SimpleNamespace(joint=np.zeros(1, int), length=np.array([0.5]))  # one joint: the budget is max_iterations
+    law = SimpleNamespace(crushes=False)
 
     def __init__(self, stress=0.0):
         self.friction, self.friction_factor, self.setting = np.array([0.5]), 1.0, DEFAULT_SETTING
@@ -124,6 +127,23 @@ def test_a_friction_continuation_that_fails_gives_way_to_the_tension_continuatio
     raised = [c for c in clamps if c is not None]
     assert raised[0] == pytest.approx(200.0) and clamps.index(raised[0]) == 2  # after the one step, friction's
     assert all(b == pytest.approx(RAMP_RATIO * a) for a, b in zip(raised, raised[1:]))
+
+
+def test_joints_that_crush_get_no_tension_continuation():
+    """A clamp would lower a compressive strength by as much as it adds in tension (no stronger structure): with
+    crushing joints the self-weight that the one step and the friction continuation miss stays a failure, no clamp
+    tried; Coulomb's joints do not crush, the crushing law's do."""
+    solver = RingSolver(stress=400.0)
+    solver.law = SimpleNamespace(crushes=True)
+    clamps = []
+
+    def attempt(level, start):
+        clamps.append(solver.tension)
+        return StepOutcome(False, "max iterations", 60, 1e-3, 60)
+
+    assert not carry_self_weight(solver, attempt).converged and all(c is None for c in clamps)
+    law = CoulombJoints(np.zeros(1), np.ones(1), 0.0)
+    assert not law.crushes and CrushingJoints.blocks(1e6, 1.0, 4).crushes
 
 
 def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved=False, lp=Status.LIMIT,

@@ -194,6 +194,11 @@ class JointLaw(ABC):
         infinitely strong in compression)."""
         return np.zeros(len(active.state), dtype=bool)
 
+    @property
+    def crushes(self) -> bool:
+        """Whether the law has a compressive strength (:meth:`stress_block_depth`)."""
+        return self.stress_block_depth(1.0) is not None
+
     def stress_block_depth(self, normal_force: float) -> float | None:
         """The depth (m) of the rectangular stress block at the compressive strength that carries ``normal_force``
         (N) over the joints' width, N / (f_c w); None for a law without a compressive strength."""

@@ -20,8 +20,8 @@ joint closed and sticking:
      opening at many joints at once and wanders into mechanisms. Lowering the friction lets the springings slip and
      the joints crack gradually, as the thrust falls to what friction can carry.
 
-   - a structure without a plastic fill whose friction continuation failed without a mechanism (or that has no
-     friction): the *tension continuation*, every joint given a tensile strength, first the largest tensile stress
+   - a structure without a plastic fill or a compressive strength whose friction continuation failed without a
+     mechanism (or that has no friction): the *tension continuation*, every joint given a tensile strength, first the largest tensile stress
      (N per m of joint) of the bonded self-weight state (every pair closed and holding: one linear solve), so that
      the bonded state is admissible (:meth:`bridgefem.solver.newton.ContactSolver.set_tension`: each pair clamped
      by that stress times its length). From the bonded start the Newton iteration proposes hundreds of pairs
@@ -213,7 +213,10 @@ def friction_continuation(solver: ContactSolver, attempt: Attempt, progress: Pro
 def tension_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcome | None:
     """The self-weight with every joint given the tensile strength of the bonded state's largest tensile stress, then
     lowered to none (module docstring, step 2), from the unloaded state; None when no pair of the bonded state is in
-    tension. Collective."""
+    tension, or when the joints crush (the clamp would lower their compressive strength by as much: no stronger
+    structure). Collective."""
+    if solver.law.crushes:
+        return None
     stress = solver.comm.allreduce(float(np.max(solver.bonded_tensile_stress(), initial=0.0)), op=MPI.MAX)
     if stress <= 0.0:
         return None

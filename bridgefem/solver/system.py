@@ -21,9 +21,10 @@ reduced system of the joint faces and the joint forces is refactorised. Rank r o
 
 A *clamp* (:meth:`ContactSystem.clamp`) presses the two faces of each pair together with a normal force T >= 0 (N):
 the loads gain -G^T t, t = (T, 0) per pair, and the law then governs lam' = lam + t, the joint force plus the clamp's.
-A joint with a tensile strength carries the same (lam_n >= -T, |lam_t| <= mu (lam_n + T): the law shifted along the
-normal by T), so the clamped system is the scene's with that tensile strength, whatever the law, without a law of its
-own (the self-weight's tension continuation, :mod:`bridgefem.search.selfweight`).
+A Coulomb joint with a tensile strength carries the same (lam_n >= -T, |lam_t| <= mu (lam_n + T): the law shifted
+along the normal by T), so the clamped system is the scene's with that tensile strength, without a law of its own
+(the self-weight's tension continuation, :mod:`bridgefem.search.selfweight`); a compressive bound would be lowered
+by T as well.
 
 With a Mohr-Coulomb fill (:mod:`bridgefem.fe.fill`) the stiffness block is the fill's consistent tangent K_t at the
 current displacements and the right-hand side carries ``K_t u - f_int(u)`` (N; :meth:`ContactSystem.linearise`).
