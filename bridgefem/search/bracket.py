@@ -27,8 +27,7 @@ lower``: the bracket's relative width.
 2. a suspect failure closes the bracket only from a failing step of at most ``SUSPECT`` widths, taken from a state
    that a step of at most ``SETTLED`` widths reached;
 3. otherwise the search backtracks to the converged state before ``lower`` (one of the last ``BACKTRACK``), drops
-   the soft bound and goes on with a shorter step (:mod:`bridgefem.search.schedule`; no landing on the target
-   first), at most ``BACKTRACKS`` times.
+   the soft bound and goes on with a shorter step (:mod:`bridgefem.search.schedule`), at most ``BACKTRACKS`` times.
 
 A wrong guess therefore costs steps, never the bracket rule.
 
@@ -92,7 +91,6 @@ class Bracket:
     retry: bool = False  # the next trial retries the soft bound
     stalled: bool = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     backtracks: int = 0
-    backed: bool = False  # the last trial's outcome was a backtrack: no landing on the target next
     linear: bool = False  # the last step converged in one Newton iteration (lower's active set) and was no jump
     failed_step: float = 0.0  # the step whose failure set the soft bound
 
@@ -125,9 +123,8 @@ class Bracket:
 
     def landing_refused(self, level: float) -> bool:
         """A trial at ``level`` already failed from the converged state at lower, or from ``FUTILE_LANDINGS``
-        converged states, or the search just backtracked (its next step is the schedule's shortened one)
-        (:mod:`bridgefem.search.target`, *Guess*: no landing there)."""
-        return ((self.visit, level) in self.failed_from or self.backed
+        converged states (:mod:`bridgefem.search.target`, *Guess*: no landing there)."""
+        return ((self.visit, level) in self.failed_from
                 or sum(failed == level for _, failed in self.failed_from) >= FUTILE_LANDINGS)
 
     def failed_before(self, level: float) -> bool:
@@ -142,7 +139,7 @@ class Bracket:
         self.linear = iterations == 1 and not jump
         self.history.append(Converged(self.lower, self.state, self.taken, self.visit))
         self.visit, self.taken = visit, level - self.lower
-        self.lower, self.state, self.stalled, self.backed = level, state, False, False
+        self.lower, self.state, self.stalled = level, state, False
 
     def reach_soft(self) -> bool:
         """Whether lower reached the soft bound, which it then discards for the lowest level above lower that set a
@@ -159,7 +156,7 @@ class Bracket:
 
     def fail(self, level: float) -> None:
         """Record the failure of the trial at ``level`` from lower."""
-        self.linear, self.backed = False, False
+        self.linear = False
         self.failed_from.add((self.visit, level))
 
     def backs_away(self, level: float, suspect: bool) -> bool:
@@ -175,7 +172,7 @@ class Bracket:
         discarded = self.taken
         self.backtracks += 1
         self.lower, self.state, self.taken, self.visit = self.history.pop()
-        self.soft, self.retry, self.backed = math.inf, False, True
+        self.soft, self.retry = math.inf, False
         self.softened.clear()
         return discarded
 

@@ -10,9 +10,8 @@ lower`` (:mod:`bridgefem.search.bracket`).
    close to its coarser run's limit: its trials above that level are then plausible, not suspect).
 2. Each approach step leaves ``APPROACH`` of the distance to T, at most the schedule's step long
    (:mod:`bridgefem.search.schedule`); a step that would stop within ``LANDING`` x T of T goes to T, unless T
-   already failed from the same converged state (the solve is deterministic, so that landing would replay the
-   failure), or the search has just backtracked (its next step is the shortened one: a landing would climb back
-   towards the dead end it backed away from) or T failed from ``FUTILE_LANDINGS`` states
+   already failed from the same converged state (after a backtrack: the solve is deterministic, so that landing
+   would replay the failure the search backed away from) or from ``FUTILE_LANDINGS`` states
    (:mod:`bridgefem.search.bracket`; a T above the limit of the path, as a coarser mesh's level can be, fails from
    every state: landing there again spends the steps of a bisection back down each time). An approach step that may
    not land is at least the width long, so that it crosses T instead of halving the distance to it for ever.
