@@ -105,28 +105,6 @@ def test_reaching_the_soft_bound_discards_it():
     assert b.reach_soft() and b.soft == math.inf
 
 
-def test_a_discarded_soft_bound_gives_way_to_the_lowest_failure_above_it_until_a_backtrack():
-    """Failures at 1100 then 1050 set the soft bound in turn; a state converged at 1060 discards 1050 and 1100 bounds
-    the bracket again (not the next step or the target beyond it); a backtrack forgets them all."""
-    b = climbed(1000.0)
-    for failed in (1100.0, 1050.0):
-        b.fail(failed)
-        b.soften(failed)
-    assert b.soft == 1050.0
-    b.advance(1060.0, "S2", 2, iterations=3)
-    assert b.reach_soft() and b.soft == 1100.0 and b.bisection() == pytest.approx(1080.0)
-    b.advance(1100.0, "S3", 3, iterations=3)
-    assert b.reach_soft() and b.soft == math.inf
-    b.fail(1200.0)
-    b.soften(1200.0)
-    b.backtrack()  # back to 1060, without a soft bound
-    assert b.lower == 1060.0 and b.soft == math.inf
-    b.fail(1150.0)
-    b.soften(1150.0)
-    b.advance(1160.0, "S4", 4, iterations=3)
-    assert b.reach_soft() and b.soft == math.inf  # 1200 was set before the backtrack
-
-
 def test_a_level_failed_from_this_state_and_from_any_state():
     """failed_before: from any state; the target's landing is refused where it failed from this state or from
     FUTILE_LANDINGS states."""

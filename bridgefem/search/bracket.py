@@ -11,9 +11,7 @@ lower``: the bracket's relative width.
 2. A failure reached by a longer step proves nothing: the response is path dependent (incremental friction), and
    the active-set Newton method can fail on a long step below the limit. It becomes the *soft* bound.
 3. Later trials bisect [lower, soft] and retry the soft bound itself once it lies within the width of ``lower``,
-   where its failure is decisive. A trial that converges at or above the soft bound discards it; the lowest
-   failure above it that set a soft bound before (since the last backtrack) is the soft bound again: it failed from
-   a state below, like the one discarded, and the bracket lies below it as much as it did.
+   where its failure is decisive. A trial that converges at or above the soft bound discards it.
 4. After a step that converged in one Newton iteration (its start's active set held: the response was linear over
    it), the next trial is the level whose width reaches the soft bound rather than the midpoint, not twice in a row.
 5. A failure that shows no mechanism (the Newton method not converging) closes the bracket only from a step of at
@@ -87,7 +85,6 @@ class Bracket:
     history: deque[Converged] = field(default_factory=lambda: deque(maxlen=BACKTRACK))  # the converged states before
     failed_from: set[tuple[int, float]] = field(default_factory=set)  # (visit, level) of the trials that failed
     soft: float = math.inf  # lowest failed level above lower
-    softened: list[float] = field(default_factory=list)  # the levels that set a soft bound since the last backtrack
     retry: bool = False  # the next trial retries the soft bound
     stalled: bool = False  # the soft bound failed from lower without proof of collapse: approach it by halving
     backtracks: int = 0
@@ -142,11 +139,10 @@ class Bracket:
         self.lower, self.state, self.stalled = level, state, False
 
     def reach_soft(self) -> bool:
-        """Whether lower reached the soft bound, which it then discards for the lowest level above lower that set a
-        soft bound before, if any (*Bracket rule*, rule 3)."""
+        """Whether lower reached the soft bound, which it then discards (*Bracket rule*)."""
         reached = self.lower >= self.soft
         if reached:
-            self.soft = min((level for level in self.softened if level > self.lower), default=math.inf)
+            self.soft = math.inf
         return reached
 
     def mark_retry(self, suspect: bool) -> None:
@@ -173,7 +169,6 @@ class Bracket:
         self.backtracks += 1
         self.lower, self.state, self.taken, self.visit = self.history.pop()
         self.soft, self.retry = math.inf, False
-        self.softened.clear()
         return discarded
 
     def ends(self, level: float, suspect: bool, mechanism: bool) -> bool:
@@ -189,7 +184,6 @@ class Bracket:
         (*Bracket rule*)."""
         self.failed_step = level - self.lower if level < self.soft else self.failed_step
         self.soft, self.retry = level, False
-        self.softened.append(level)
         self.stalled = level - self.lower <= self.width
 
 
