@@ -151,12 +151,12 @@ class ContactSolver:
         self.system.clamp(tension)
         self.cycles.forget()
 
-    def bonded_tensile_stress(self, level: float = 0.0) -> np.ndarray:
-        """The tension (N per m of joint, >= 0; zero where compressed) of each local pair at live-load ``level`` with
+    def bonded_tensile_stress(self) -> np.ndarray:
+        """The tension (N per m of joint, >= 0; zero where compressed) of each local pair under self-weight with
         every pair closed and holding (one linear solve; zeros when that system cannot be solved). Collective."""
         start = self.initial_iterate()
         x = self.system.vector()
-        if self.system.solve_set(level, start.active, start.slip_ref, x, None) is not None:
+        if self.system.solve_set(0.0, start.active, start.slip_ref, x, None) is not None:
             return np.zeros(len(self.pairs))
         _, lam, _ = self.system.split(x)
         return np.maximum(-lam[:, 0], 0.0) / np.maximum(self.pairs.length, 1e-300)
