@@ -220,15 +220,15 @@ def tension_continuation(solver: ContactSolver, attempt: Attempt) -> StepOutcome
     stress = solver.comm.allreduce(float(np.max(solver.bonded_tensile_stress(), initial=0.0)), op=MPI.MAX)
     if stress <= 0.0:
         return None
-    raised = {"excess": 1.0}
+    raised = stress  # the tensile strength the steps are solved with (N per m)
 
     def strengthen(excess: float) -> None:
-        raised["excess"] = excess
-        solver.set_tension(excess * stress * solver.pairs.length if excess > 0 else None)
+        nonlocal raised
+        raised = excess * stress
+        solver.set_tension(raised * solver.pairs.length if excess > 0 else None)
 
     def describe() -> str:
-        return f"self-weight with the joints' tensile strength raised to {raised['excess'] * stress:.4g} N per m " \
-               "(continuation to 0)"
+        return f"self-weight with the joints' tensile strength raised to {raised:.4g} N per m (continuation to 0)"
 
     try:
         return _ramp(solver, attempt, strengthen, describe, Progress(solver.initial_iterate()))
