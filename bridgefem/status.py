@@ -42,3 +42,6 @@ class Status(StrEnum):
 
 RINGS_UNDER_FILL = "the rings under the loads the fill transmits"  # names evidence 5 of
 # bridgefem.analysis.evidence in a failure's reason, read back by the verdict and the command line
+COLLAPSE_END = "the bracket's upper end is its rigid blocks' collapse level"  # a bracket that a collapse state ends
+# after every solver setting failed its closing trial (bridgefem.search.target, *Collapse state*, step 5), in the
+# failure's reason, read back by the command line and the warnings

@@ -225,6 +225,30 @@ def test_a_collapse_state_below_a_closing_failure_settles_it_without_retries():
             assert solver.retries == len(RETRIES)
 
 
+def test_a_collapse_state_below_a_closing_failure_of_every_setting_ends_the_bracket_at_its_level():
+    """A closing trial that fails without proof and does not settle is solved again with every other setting; when
+    all fail, a converged state below that is a collapse state ends the bracket at its collapse level (0.1 % above
+    the state here, beyond the width), the search's failure saying so; without one the search is a solver
+    failure."""
+    for end in (None, 1.001):
+        asked = []
+
+        def upper_end(lower, trial, state):
+            asked.append((lower, trial))
+            return (end * lower if end else None), "made up"
+
+        solver = Unprovable()
+        s = search(solver, guess=LIMIT, collapse=CollapseCheck(lambda it: None, lambda lower, trial, it: (False, ""),
+                                                               upper_end))
+        (lower, trial), = asked
+        assert lower <= LIMIT < trial and trial - lower <= 1e-4 * lower and solver.retries == len(RETRIES)
+        if end:
+            assert s.status == Status.LIMIT and s.lower == lower and s.upper == pytest.approx(1.001 * lower)
+            assert not s.proved and "collapse state and the bracket's upper end is" in s.failure
+        else:
+            assert Status.of(s.status) is Status.FAILURE and s.upper is None
+
+
 @pytest.mark.parametrize("reach", [math.inf, LIMIT / 40])
 def test_a_state_at_collapse_by_itself_counts_as_failed_and_the_bracket_closes_on_the_first_one(reach):
     """Evidence 5 (bridgefem.analysis.evidence; bridgefem.search.step, *Collapse state*): a converged state that is

@@ -250,3 +250,43 @@ def test_lp_command_states_the_associative_load_when_no_fixed_point_stands(tmp_p
     associative = collapse_load(load_scene(scene))
     assert associative.status == "limit load found"
     assert stated == pytest.approx(associative.load / 1e3, rel=0.01)
+
+
+TWO_SEGMENTAL_SPANS = {
+    "span": [{"shape": "segmental", "span": 4.829, "rise": 1.571, "thickness": 0.7313, "voussoirs": 64},
+             {"shape": "segmental", "span": 18.845, "rise": 6.13, "thickness": 2.8539, "voussoirs": 64}],
+    "pier": [{"width": 4.407, "height": 21.437, "blocks": 7}],
+    "masonry": {"young": 15.7e9, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.383},
+    "load": [{"kind": "patch", "x": 10.7398, "length": 1.334}], "mesh": {"elements_through_thickness": 4}}
+"""Two segmental spans on a pier whose collapse slides at both springings and by the load, 19 % below the
+associative LP (spans campaign seed 20261263, scene 78, with masonry a hundred times stiffer: the same limit)."""
+
+
+@pytest.mark.slow
+def test_a_collapse_state_whose_sliding_joints_hold_at_their_limit_with_a_pair_sticking_is_evidence():
+    """At the last converged state the joints that slide in the collapse carry mu x their normal force, but a pair
+    of each sticks, so no joint counts as sliding (bridgefem.analysis.mechanism.joint_states): the non-associative
+    check is still needed there (bridgefem.analysis.checks.coulomb_loaded), and it confirms the bracket: the
+    frozen LP on the FE's joint forces, computed here, collapses within 0.5 % above it, sliding only where the FE's
+    forces are at their Coulomb limit; the FE lies between the non-associative fixed point and the associative LP."""
+    from mpi4py import MPI
+
+    from bridgefem.analysis import runner as analysis
+    from bridgefem.analysis.static_bound import fe_blocks
+    from bridgefem.status import Status
+
+    scene = scene_from_dict(TWO_SEGMENTAL_SPANS)
+    an = analysis._analyse(scene, MPI.COMM_WORLD, None, lambda s: None, lambda p: None)
+    s = an.search
+    assert s.status == Status.LIMIT and an.verdict.evidence.startswith("agreement: the non-associative")
+    assert not any(j.sliding for j in an.joints) and an.verdict.slides
+    blocks = fe_blocks(scene, an.model, an.block_mesh, an.ring)
+    normal, shear = np.zeros(blocks.n_joints), np.zeros(blocks.n_joints)
+    normal[[j.id for j in an.joints]] = [j.normal_force for j in an.joints]
+    shear[[j.id for j in an.joints]] = [j.shear_force for j in an.joints]
+    frozen = frozen_capacity_collapse(blocks, normal)
+    assert s.lower * (1 - 1e-9) <= frozen.level <= s.lower * 1.005 and frozen.sliding
+    assert coulomb_limited(normal, shear, blocks.friction, frozen.joint_slip, frozen.sliding) == tuple(frozen.sliding)
+    associative = collapse_load(scene)
+    fixed = collapse_load(scene, friction_model="non-associative")
+    assert fixed.level <= s.lower and s.upper <= associative.level  # levels: N per unit load factor

@@ -157,6 +157,21 @@ def test_a_closing_failure_is_settled_only_by_a_collapse_state_within_the_width(
     assert not slip(frozen=None).settles(90.0, 90.009, 100.0, 1e-4)
 
 
+def test_a_closing_failure_of_every_setting_ends_the_bracket_at_the_collapse_state_level():
+    """Every solver setting failed the closing trial at 90.009 N from the FE's state at 90.0 N: a collapse state
+    that confirms [90.0, 90.009] (evidence 3: its frozen LP within 0.5 %) ends the bracket at its frozen level, at
+    least the trial; a state with a reserve beyond 0.5 %, or that is no collapse state, ends nothing, and the final
+    verdict confirms the bracket it set by the same evidence."""
+    assert slip(frozen=90.4).upper_end(90.0, 90.009, 100.0) == 90.4
+    assert slip(frozen=90.005).upper_end(90.0, 90.009, 100.0) == 90.009
+    v = confirm(Status.LIMIT, 90.0, 90.4, False, *LP, slip=slip(frozen=90.4))
+    assert v.status == Status.LIMIT and v.upper == 90.4 and v.evidence.startswith("agreement: the non-associative")
+    for bad in (slip(frozen=91.0), slip(frozen=90.4, limited=()), slip(frozen=90.4, exact=95.0), slip(frozen=None),
+                slip(frozen=90.4, frozen_sliding=())):
+        assert bad.upper_end(90.0, 90.009, 100.0) is None
+    assert slip(frozen=101.0, exact=101.0).upper_end(101.0, 101.01, 100.0) is None  # above the associative LP
+
+
 def test_coulomb_limited_joints_resist_the_slip_at_mu_n():
     """Joints whose shear is at mu n against the slip (shear on the right block, slip of the right block relative
     to the left one: opposite signs), within 0.5 %; not a joint below its limit, nor one sheared the other way."""

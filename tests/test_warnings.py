@@ -10,16 +10,17 @@ SPAN = 10.0  # m
 
 
 def run(ratio=1.0, sliding=0, fill=None, bounds=None, lower=100e3, deflection=0.001, shortest=1.0, size=0.25,
-        verdict=(), upper=None):
+        verdict=(), upper=None, slides=False):
     """The parts of an Analysis that the warnings read: one converged step with its ``deflection`` (m), the last
     converged live load ``lower`` and the bracket's ``upper`` end (N, one unit of load), the FE/LP ``ratio``, one joint ``sliding`` or not, the fill's
-    conic ``bounds`` (N), the shortest voussoir and the element size (m), the verdict's own warnings."""
+    conic ``bounds`` (N), the shortest voussoir and the element size (m), the verdict's own warnings and whether it
+    confirmed a collapse state that ``slides``; the bracket's tolerance 1e-4."""
     return SimpleNamespace(search=SimpleNamespace(steps=[SimpleNamespace(converged=True, deflection=deflection)],
-                                                  lower=lower, upper=upper),
+                                                  lower=lower, upper=upper, tolerance=1e-4),
                            scene=SimpleNamespace(arch=SimpleNamespace(span=SPAN), fill=fill), load_total=1.0,
                            shortest_voussoir=shortest, block_mesh=SimpleNamespace(element_size=size),
                            fe_lp_ratio=ratio, joints=[SimpleNamespace(sliding=sliding)], fill_bounds=bounds,
-                           verdict=SimpleNamespace(warnings=verdict))
+                           verdict=SimpleNamespace(warnings=verdict, slides=slides))
 
 
 def test_a_sound_run_has_no_warning():
@@ -46,6 +47,22 @@ def test_an_fe_lp_ratio_outside_its_range_warns_only_on_a_bare_ring_without_slid
     friction) and a fill (the LP carries it as dead load only) may stop anywhere below."""
     warnings = user_warnings(run(ratio=ratio, sliding=sliding, fill=fill))
     assert any("FE/LP limit-load ratio" in w for w in warnings) == warns
+
+
+def test_a_confirmed_collapse_state_that_slides_is_sliding_for_the_fe_lp_ratio():
+    """A joint held at its Coulomb limit while a pair of it sticks does not count as sliding, but a verdict that
+    confirmed a collapse state sliding there (evidence 3) is a sliding collapse: no ratio warning."""
+    assert any("FE/LP limit-load ratio" in w for w in user_warnings(run(ratio=0.81)))
+    assert not any("FE/LP limit-load ratio" in w for w in user_warnings(run(ratio=0.81, slides=True)))
+
+
+@pytest.mark.parametrize("upper, warns", [(100e3 * (1 + 1e-4), False), (100e3 * 1.0015, True), (None, False)])
+def test_a_bracket_wider_than_its_tolerance_warns(upper, warns):
+    """A bracket that a collapse state ends at its rigid blocks' collapse level can be wider than the tolerance: the
+    run says how wide (bridgefem.search.target, *Collapse state*, step 5)."""
+    warnings = [w for w in user_warnings(run(upper=upper)) if "wider than the tolerance" in w]
+    assert bool(warnings) == warns
+    assert not warns or warnings[0].startswith("the bracket is 0.150% wide")
 
 
 @pytest.mark.parametrize("upper, warns", [(100e3 / (1 + 1.01 * FILL_BOUND_TOL), True),

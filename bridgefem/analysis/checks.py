@@ -20,6 +20,8 @@ collective; an LP that fails is a check that confirms nothing, never the reason 
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 from mpi4py import MPI
 
@@ -60,16 +62,24 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     the last converged step on the rigid ``blocks`` loaded as the FE loads them (None with a fill: no check).
     On a barrel of rings (blocks whose joints are pieces of the FE's: a ring interface's chords, :func:`per_piece`)
     the check is on the FE's own pairs (``contacts``, :class:`PairCheck`), and it is needed where any pair slides (a
-    curved ring interface slides with some of its pairs, seldom with all). Collective; None when no check is
-    needed."""
+    curved ring interface slides with some of its pairs, seldom with all). Elsewhere it is needed where a joint
+    slides or carries its Coulomb capacity (:func:`coulomb_loaded`). Collective; None when no check is needed."""
     if not per_piece(blocks) and contacts is None:
         return None
-    slides = any(j.sliding for j in joints) or (contacts is not None and search.last is not None
-                                                and contacts.slides(search.last))
+    slides = (contacts.slides(search.last) if search.last is not None else False) if contacts is not None \
+        else any(j.sliding for j in joints) or coulomb_loaded(joints, blocks)
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, slides):
         return None
     return contacts.state(search.last) if contacts is not None else slip_state(scene, comm, lp, joints, blocks)
+
+
+def coulomb_loaded(joints: list[JointState], blocks: BlockModel) -> bool:
+    """Whether a joint of a converged state carries its Coulomb capacity, |shear| >= (1 - ``AGREEMENT``) mu x its
+    normal force (> 0): a non-associative collapse state can hold a joint at its limit while a pair of it sticks, so
+    that the joint does not count as sliding (:func:`bridgefem.analysis.mechanism.joint_states`)."""
+    return any(j.normal_force > 0 and abs(j.shear_force) >= (1 - AGREEMENT) * blocks.friction[j.id] * j.normal_force
+               for j in joints)
 
 
 def slip_state(scene: Scene, comm: MPI.Comm, lp: LPResult, joints: list[JointState], blocks: BlockModel,
@@ -189,18 +199,26 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
     LP's level of a state whose mechanism slides only where the state's joints are at their Coulomb limit
     (:func:`frozen_collapse`; the search's estimate of the limit), and whether a state at ``lower`` settles the
     bracket [``lower``, ``trial``] of relative width ``tolerance``
-    (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`), with the check in words (``unit``: N of live load per
-    unit level), on the rigid ``blocks`` loaded as the FE loads them. On a barrel of rings (:func:`per_piece`) the
-    closing trial's settling alone, on its own pairs (``contacts``, :class:`PairCheck`), without the estimate: the
+    (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`) or, after every solver setting failed the closing trial,
+    ends it (:meth:`bridgefem.analysis.evidence.SlipCheck.upper_end`), with the check in words (``unit``: N of live
+    load per unit level), on the rigid ``blocks`` loaded as the FE loads them. On a barrel of rings
+    (:func:`per_piece`) the closing trial's readings alone, on its own pairs (``contacts``, :class:`PairCheck`), without the estimate: the
     estimate steers the search's path, which on a barrel can then reach another non-associative collapse state
     (``docs/robustness.md``, *Rings*). None with a fill (``blocks`` None) or without an LP limit (evidence 3 does not
     apply). Collective."""
-    if contacts is not None:
-        def pair_settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
-            slip = contacts.state(state)
+    def readings(check: Callable[[Iterate], SlipCheck]) -> dict:
+        def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
+            slip = check(state)
             return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
 
-        return CollapseCheck(settles=pair_settles)
+        def upper_end(lower: float, trial: float, state: Iterate) -> tuple[float | None, str]:
+            slip = check(state)
+            return slip.upper_end(lower, trial, lp.level), slip.describe(unit)
+
+        return dict(settles=settles, upper_end=upper_end)
+
+    if contacts is not None:
+        return CollapseCheck(**readings(contacts.state))
     if not per_piece(blocks) or lp.status != Status.LIMIT or lp.level is None:
         return None
 
@@ -214,9 +232,8 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
                 out = None
         return comm.bcast(out, root=0)
 
-    def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
-        slip = slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
-        return slip.settles(lower, trial, lp.level, tolerance), slip.describe(unit)
+    def slip(state: Iterate) -> SlipCheck:
+        return slip_state(scene, comm, lp, joint_states(solver, pairs, ring, state), blocks, fixed_point=False)
 
-    return CollapseCheck(level, settles)
+    return CollapseCheck(level, **readings(slip))
 

@@ -32,7 +32,7 @@ evidence of collapse only when
    exactly, the joint's moment rows being its pairs' no-tension; a joint slides in that mechanism where its pairs do
    more than ``AGREEMENT`` of its friction dissipation, and is at its Coulomb limit where the FE's shears do all but
    ``AGREEMENT`` of its pairs' share. There the search uses it only to settle a closing trial that failed without
-   proof (:mod:`bridgefem.search.target`, *Collapse state*, step 4), not as its estimate of the limit, which would
+   proof (:mod:`bridgefem.search.target`, *Collapse state*, steps 4 and 5), not as its estimate of the limit, which would
    steer the path (``docs/robustness.md``, *Rings*).
 
 4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the FE's own
@@ -187,6 +187,21 @@ class SlipCheck:
         search's path does not reach."""
         return self.agrees(lower, trial, lp_level) and self.frozen_level <= (1 + tolerance) * lower
 
+    def upper_end(self, lower: float, trial: float, lp_level: float) -> float | None:
+        """The bracket's upper end when the closing trial at ``trial`` failed without proof from this check's state
+        at ``lower`` with every solver setting: the frozen LP's level, at least ``trial``, when the state is the
+        collapse state that confirms [``lower``, ``trial``] (:meth:`agrees`, evidence 3: its rigid blocks with the
+        FE's friction capacities collapse within ``AGREEMENT`` of the bracket); None otherwise (the failure stays a
+        solver failure).
+
+        Why the frozen level and not the trial: the FE found no equilibrium above ``lower``, but its state's blocks
+        carry up to the frozen level with the state's normal forces; a bracket that ends there claims no more than
+        the two readings give, and its width, wider than the search's tolerance, says how far they leave the limit
+        (:func:`bridgefem.analysis.result.user_warnings`)."""
+        if not self.agrees(lower, trial, lp_level):
+            return None
+        return max(trial, self.frozen_level)
+
     def back_at(self, lower: float, upper: float, lp_level: float) -> bool:
         """A limit that depends on the mesh: a fixed point that slides at the FE's sliding joints at the associative
         LP's level (within ``AGREEMENT``: the FE found the associative mechanism at a load its mesh moves), or a
@@ -282,13 +297,15 @@ class Verdict:
     failure) and warnings for the user; ``mesh_dependent``: a failure whose mechanism is the associative LP's at a
     level the mesh moves (:meth:`SlipCheck.back_at`), which a finer mesh can settle, or a collapse state of evidence
     3 more than ``AGREEMENT`` below the associative LP (its normal forces, and so its level, move with the mesh: a
-    finer one can carry more, up to the LP)."""
+    finer one can carry more, up to the LP); ``slides``: confirmed by evidence 3, a collapse state whose mechanism
+    slides."""
 
     status: str
     upper: float | None
     evidence: str
     warnings: tuple[str, ...] = ()
     mesh_dependent: bool = False
+    slides: bool = False
 
 
 def needs_slip_check(status: str, lower: float, upper: float | None, proved: bool, lp_status: str | None,
@@ -341,7 +358,7 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
         if slip is not None and lp is Status.LIMIT and slip.agrees(lower, upper, lp_level):
             return Verdict(status, upper, f"agreement: {slip.describe(unit)}: the FE's state is that collapse "
                            f"state (with associative friction {lp_text})",
-                           mesh_dependent=upper < (1 - AGREEMENT) * lp_level)
+                           mesh_dependent=upper < (1 - AGREEMENT) * lp_level, slides=True)
         checked = f"; {slip.describe(unit)}" if slip is not None else ""
         if slip is not None and slip.frozen_level is not None and slip.frozen_level > (1 + AGREEMENT) * upper:
             checked += (f"; the FE stopped with a reserve of {slip.frozen_level / upper - 1:.1%} at its own friction "

@@ -13,11 +13,14 @@ a class of wrong answers that the verdict's evidence does not catch:
   small-displacement model (a masonry Young's modulus too low), whose limit is that of the undeformed arch.
 - *Short voussoirs*: a voussoir shorter than an element is not resolved by the mesh, and the FE can stop below the
   limit.
-- *FE/LP ratio* ``LP_RATIO_RANGE``: on a bare ring without FE sliding, elastic blocks stop at most a little below
-  the rigid-block LP and never above it; a ratio outside the range points at the mesh, the tolerance or the
-  mechanism.
+- *FE/LP ratio* ``LP_RATIO_RANGE``: on a bare ring without FE sliding (nor a confirmed collapse state that
+  slides), elastic blocks stop at most a little below the rigid-block LP and never above it; a ratio outside the
+  range points at the mesh, the tolerance or the mechanism.
 - *Conic upper bound* ``FILL_BOUND_TOL``: an FE limit above the rigid-plastic upper bound of the bridge with its
   fill (:func:`bridgefem.limit.bounds.fill_bounds`) is a fill mesh that has not converged.
+- *A bracket wider than its tolerance*: one that a collapse state ends after every solver setting failed its closing
+  trial (:mod:`bridgefem.search.target`, *Collapse state*, step 5) reaches up to that state's rigid-block collapse
+  level; its width says how far the two readings leave the limit.
 
 The verdict's own warnings (:mod:`bridgefem.analysis.evidence`) follow.
 """
@@ -158,7 +161,8 @@ def user_warnings(an: Analysis) -> list[str]:
     if shortest < size:
         out.append(f"voussoirs as short as {shortest:.3g} m are shorter than one element ({size:.3g} m): the FE "
                    "can stop below the limit load; raise [mesh] elements_through_thickness or use fewer voussoirs")
-    ratio, sliding = an.fe_lp_ratio, any(j.sliding for j in an.joints)
+    ratio = an.fe_lp_ratio
+    sliding = any(j.sliding for j in an.joints) or (an.verdict is not None and an.verdict.slides)
     if ratio is not None and not sliding and an.scene.fill is None \
             and not LP_RATIO_RANGE[0] <= ratio <= LP_RATIO_RANGE[1]:
         out.append(f"FE/LP limit-load ratio {ratio:.4f} is outside {list(LP_RATIO_RANGE)} on a case without FE "
@@ -167,7 +171,11 @@ def user_warnings(an: Analysis) -> list[str]:
     if bounds.get("upper") and an.search.lower * an.load_total > (1 + FILL_BOUND_TOL) * bounds["upper"]:
         out.append(f"FE limit above the conic upper bound of the bridge with its fill ({bounds['upper'] / 1e3:.6g} "
                    "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
-    upper = an.search.upper
+    upper, lower, tolerance = an.search.upper, an.search.lower, an.search.tolerance
+    if upper is not None and lower > 0 and upper - lower > tolerance * lower * (1 + 1e-9):
+        out.append(f"the bracket is {upper / lower - 1:.3%} wide, wider than the tolerance {tolerance:g}: no solver "
+                   "setting found an equilibrium above its lower end, and its upper end is where the rigid blocks of "
+                   "that state, with its friction capacities, collapse (failure_reason)")
     if bounds.get("lower") and upper is not None and upper * an.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
         out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
                    "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, its fill's "

@@ -29,7 +29,7 @@ from ..scene.keys import SceneError
 from ..scene.model import Scene
 from ..scene.petsc_options import PETSC_PREFIX
 from ..scene.reader import did_you_mean, load_scene, resolved_toml
-from ..status import RINGS_UNDER_FILL, Status
+from ..status import COLLAPSE_END, RINGS_UNDER_FILL, Status
 from ..structure.sizing import LARGE_DOFS, MAX_DOFS, SizeEstimate, check_size
 from .output import Terminated, claim, sigterm_raises
 from .targets import OutputError, failed_target, version
@@ -162,6 +162,9 @@ def _collapse(reason: str) -> str:
     if reason.startswith("no trial above the bracket"):
         return ("no equilibrium by the static theorem: the rigid-block LP on the same joints under the FE's own loads "
                 "bounds every FE equilibrium")
+    if COLLAPSE_END in reason:
+        return ("no equilibrium found with any solver setting, and the last converged state's rigid blocks with its "
+                "friction capacities collapse at the bracket's upper end")
     if RINGS_UNDER_FILL in reason:
         return (f"{RINGS_UNDER_FILL} collapse: the rings move as a mechanism, which only the elastic fill's own "
                 "stiffness could restrain further")

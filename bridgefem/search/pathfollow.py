@@ -81,6 +81,8 @@ under the FE's own loads.
 2. a failure that would end the search without proof, or a suspect one, is first checked against the collapse
    state it started from (:mod:`bridgefem.search.target`, *Collapse state*, step 4), else solved again with the
    solver's other settings (:func:`bridgefem.solver.newton.retried`); a retry that converges continues the search.
+   A closing trial that every setting fails ends the search as a limit only where its state is a collapse state
+   (step 5 there: the bracket then ends at that state's collapse level), else as a solver failure.
    A failure read off a converged equilibrium (a flat load-deflection curve, a collapse state under an elastic
    fill: :mod:`bridgefem.search.step`) is not a solver's failure and is not solved again: the other settings
    reach the same equilibrium and the same reading, at the cost of their Newton iterations;
@@ -121,7 +123,7 @@ from typing import Callable
 from petsc4py import PETSc
 
 from ..solver.newton import ContactSolver, Iterate, StepOutcome, retried
-from ..status import Status
+from ..status import COLLAPSE_END, Status
 from .bracket import CLOSE, Bracket, Converged, below
 from .records import CollapseCheck, LimitSearch, LoadStep, SearchGuides, SearchObservers, SearchSettings
 from .schedule import StepSchedule
@@ -265,6 +267,8 @@ class _Search:
                 not self.target.plausible(trial) or not out.mechanism):
             out = _settled(self.target.collapse, lower, trial, state, out) or (out if out.equilibrium else retried(
                 self.solver, lambda: self.attempt(trial, state, lower, give_up=True, iterations=budget), out))
+            if not (out.converged or out.mechanism or far):
+                out = _ended(self.target.collapse, lower, trial, state, out) or out
         predicted = self.guides.predicted
         if out.converged or out.proved or not far or predicted is None or self.futile >= FUTILE_PREDICTIONS:
             return out
@@ -319,7 +323,7 @@ class _Search:
             self.schedule.back_off(b.backtrack())
         elif self._final(trial, out):
             status = LIMIT_FOUND if out.mechanism else Status.failure(out.reason)
-            return self.result(status, trial if out.mechanism else None, out.reason, out.proved)
+            return self.result(status, (out.upper or trial) if out.mechanism else None, out.reason, out.proved)
         else:
             self.schedule.halve(trial - b.lower)
             b.soften(trial)
@@ -337,6 +341,18 @@ def _settled(collapse: CollapseCheck | None, lower: float, trial: float, state: 
     settles, check = collapse.settles(lower, trial, state)
     return replace(failed, mechanism=True, reason=f"{failed.reason}; the converged state below is a collapse "
                                                   f"state: {check}") if settles else None
+
+
+def _ended(collapse: CollapseCheck | None, lower: float, trial: float, state: Iterate, failed: StepOutcome
+           ) -> StepOutcome | None:
+    """The closing trial at ``trial`` that ``failed`` without proof from the converged ``state`` at ``lower`` with
+    every solver setting, as a mechanism whose bracket ends where ``collapse`` reads that state's collapse
+    (:mod:`bridgefem.search.target`, *Collapse state*, step 5), else None (a solver failure). Collective."""
+    if collapse is None:
+        return None
+    upper, check = collapse.upper_end(lower, trial, state)
+    return replace(failed, mechanism=True, upper=upper, reason=f"{failed.reason}; the converged state below is a "
+                   f"collapse state and {COLLAPSE_END}: {check}") if upper is not None else None
 
 
 def _secant(previous: Converged, level: float, state: Iterate, trial: float) -> PETSc.Vec:

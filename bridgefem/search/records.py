@@ -87,6 +87,11 @@ def _never(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
     return False, ""
 
 
+def _no_end(lower: float, trial: float, state: Iterate) -> tuple[float | None, str]:
+    """No state ends a bracket whose closing trial every solver setting failed."""
+    return None, ""
+
+
 @dataclass
 class CollapseCheck:
     """A converged state read as a collapse state (:mod:`bridgefem.search.target`, *Collapse state*): evidence 3
@@ -98,6 +103,9 @@ class CollapseCheck:
     the search's estimate of the limit (None: no such mechanism).
     ``settles(lower, trial, state)``: whether the state at ``lower`` is the collapse state that settles the bracket
     [lower, trial] of a closing trial, with the check in words.
+    ``upper_end(lower, trial, state)``: the bracket's upper end (at least ``trial``) when the state at ``lower`` is
+    the collapse state that confirms [lower, trial] after every solver setting failed the closing trial without
+    proof (:mod:`bridgefem.search.target`, *Collapse state*, step 5), with the check in words; None: no such state.
     ``at_collapse(level, state, settled)``: whether the converged live-load ``state`` at ``level`` is a collapse
     state by itself, with the check in words; its step then counts as failed, with a mechanism
     (:mod:`bridgefem.search.step`, *Collapse state*; ``settled``: the converged state at live load 0). None: no such
@@ -105,6 +113,7 @@ class CollapseCheck:
 
     level: Callable[[Iterate], float | None] = _no_level
     settles: Callable[[float, float, Iterate], tuple[bool, str]] = _never
+    upper_end: Callable[[float, float, Iterate], tuple[float | None, str]] = _no_end
     at_collapse: Callable[[float, Iterate, Iterate], tuple[bool, str]] | None = None
 
 

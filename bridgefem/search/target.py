@@ -42,10 +42,17 @@ since the state's forces are admissible for those blocks (the lower-bound theore
    :meth:`bridgefem.analysis.evidence.SlipCheck.settles`): the verdict confirms the bracket from that very state,
    and a retry could only reach another non-associative collapse state (they are not unique: Gilbert, Casapulla &
    Ahmed 2006) by raising the sliding joints' normal forces along a flat curve.
-5. On a barrel of rings only step 4 applies, on its own pairs (:class:`bridgefem.analysis.checks.PairCheck`): the
-   estimate F would steer the path, and there it can then reach another non-associative collapse state far below
-   the one the search's own path reaches (``docs/robustness.md``, *Rings*).
-6. Under an elastic fill the reading is evidence 5 of :mod:`bridgefem.analysis.evidence` instead
+5. A closing trial that every solver setting failed without proof (:mod:`bridgefem.search.pathfollow`, *Failures
+   without proof*), from a state that is the collapse state confirming [``lower``, trial] (F within ``AGREEMENT``
+   of it, the rest of evidence 3 as in step 4), is the mechanism too, and the bracket ends at F
+   (``collapse.upper_end``, :meth:`bridgefem.analysis.evidence.SlipCheck.upper_end`): the FE's path finds no
+   equilibrium above ``lower``, its state's rigid blocks carry up to F with the state's normal forces, and the
+   bracket claims no more than those two readings, its width wider than the tolerance saying how far they leave the
+   limit. Where the path stops at a state with a reserve beyond ``AGREEMENT`` the failure stays a solver failure.
+6. On a barrel of rings only steps 4 and 5 apply, on its own pairs (:class:`bridgefem.analysis.checks.PairCheck`):
+   the estimate F would steer the path, and there it can then reach another non-associative collapse state far
+   below the one the search's own path reaches (``docs/robustness.md``, *Rings*).
+7. Under an elastic fill the reading is evidence 5 of :mod:`bridgefem.analysis.evidence` instead
    (:func:`bridgefem.analysis.interface.fill_collapse_check`, ``collapse.at_collapse``): no estimate F (the rings'
    collapse level under the loads the fill transmits rises with the load wherever the fill restrains them), but a
    converged state at which the rings under those loads collapse within the width is a collapse state by itself,

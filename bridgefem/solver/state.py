@@ -57,6 +57,8 @@ class StepOutcome:
     diverged: bool = False  # some solve of the failed step was singular or diverged
     equilibrium: bool = False  # a failure read off a converged equilibrium (a flat load-deflection curve, a collapse
     # state): the solver did not fail, so no other solver setting is tried for it
+    upper: float | None = None  # a failure read off the converged state below it (a collapse state after every solver
+    # setting failed): the bracket's upper end that reading sets, N per unit load factor (None: the failed level)
 
 
 class Proposal(NamedTuple):
