@@ -1,11 +1,12 @@
 """A fill over spans of different rings is meshed at each span's scale: along each extrados and at each load the
 size of the span under it, graded away from the rings to the bridge's far size (twice the coarsest span's outer ring
-element size), each pier at the scale of the spans it carries; the size estimate follows that mesh."""
+element size), each pier's course with as many elements across as a ring has through its thickness; the size
+estimate follows that mesh."""
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from bridgefem.fe.mesh import LOAD_REFINEMENT, ROAD_TAG, _gmsh_bridge, build_block_mesh
+from bridgefem.fe.mesh import LOAD_REFINEMENT, ROAD_TAG, _gmsh_bridge, build_block_mesh, joint_face_tag
 from bridgefem.geometry.ring import fill_outline
 from bridgefem.scene.reader import scene_from_dict
 from bridgefem.structure.ring import scene_ring
@@ -66,17 +67,20 @@ def test_the_fill_is_meshed_alike_whichever_span_comes_first():
     assert counts[0] == pytest.approx(counts[1], rel=0.05), counts
 
 
-def test_each_pier_is_meshed_at_the_scale_of_the_spans_it_carries():
-    """Thin, thick, thick: the second pier (between the thick spans) at twice the thick ring's element size (0.6 m):
-    ``TRIANGLES_PER_AREA`` x its triangles' mean area / 0.6^2 within a factor 2 of 1 (at the thin ring's 0.15 m it
-    would be 1/16); the first pier, which carries the thin span, finer."""
+def test_each_pier_course_is_meshed_with_as_many_elements_across_as_a_ring_through_its_thickness():
+    """Thin, thick, thick on piers 1.5 m wide of two courses 1.5 m high: every course at 1.5 m / ETT = 0.75 m
+    whatever the rings it carries (above twice the thick ring's element size, 0.6 m, and far above the thin ring's
+    0.15 m): ``TRIANGLES_PER_AREA`` x its triangles' mean area / 0.75^2 within a factor 2 of 1 (at 0.15 m it would be
+    1/25), Gmsh grading it from the springings' finer nodes; a bed joint has as many pairs as a ring joint."""
     scene, ring = bridge([THIN, THICK, THICK], fill=False)
     bm = build_block_mesh(ring, ETT, MPI.COMM_SELF)
-    mean = [np.mean(areas(np.concatenate([block_triangles(bm, b.id) for b in ring.piers if b.pier == k])))
-            for k in (0, 1)]
-    size = 2 * THICK["thickness"] / ETT
-    assert 0.5 < TRIANGLES_PER_AREA * mean[1] / size ** 2 < 2.0, mean
-    assert mean[0] < mean[1] / 2
+    size = PIER["width"] / ETT
+    for k in (0, 1):
+        mean = np.mean(areas(np.concatenate([block_triangles(bm, b.id) for b in ring.piers if b.pier == k])))
+        assert 0.5 < TRIANGLES_PER_AREA * mean / size ** 2 < 2.0, (k, mean)
+    bed = [j for j in ring.joints if j.kind == "pier"]
+    faces = [int(np.sum(bm.facet_tags.values == joint_face_tag(j.id, 0))) for j in bed]
+    assert bed and faces == [ETT] * len(bed), faces
 
 
 def test_a_load_over_a_thick_span_is_refined_at_that_spans_scale():

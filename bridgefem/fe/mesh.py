@@ -36,8 +36,9 @@ them: the bearing zone under a load lies in the fill, whose depth, not the ring'
 (docs/fill.md, *Why the fill's scale at the loads*).
 
 Elastic abutments (:func:`bridgefem.geometry.ring.add_abutments`) and the piers' courses of a bridge of several
-spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles of twice the finest
-ring element size of the spans each carries (:func:`~bridgefem.structure.sizing.support_element_size`); their tops
+spans (:func:`bridgefem.geometry.bridge.build_bridge`) are meshed with unstructured triangles, as many across a
+block as a ring has through its thickness and at least twice the finest ring element size of the spans each carries
+(:func:`~bridgefem.structure.sizing.support_element_size`), graded from the springing joints' nodes; their tops
 share the springing joints' curves with the rings, a pier's bed joints are lines shared by its two courses, and a
 base or foundation on the ground is a joint with a single face, like a springing on rigid ground. The bridge's top
 (every span's outer extrados and the piers' top edges between them) is where loads act and a fill rests.

@@ -4,8 +4,9 @@ swapping for minutes, and a long one is announced.
 
 Cells follow the mesher's rules (:mod:`bridgefem.fe.mesh`): element size h = thickness / elements_through_thickness
 in each ring, each voussoir a structured grid of ``elements_through_thickness`` x ceil(length / h) quadrilaterals
-cut into two triangles (more along under a thin fill: one per extrados element size); the piers and the abutments
-unstructured at twice the finest element size of the spans each carries; the fill over the whole bridge (its road
+cut into two triangles (more along under a thin fill: one per extrados element size); the piers' courses and the
+abutments unstructured with as many elements across as a ring has through its thickness, at least twice the finest
+element size of the spans each carries (:func:`block_element_size`); the fill over the whole bridge (its road
 at the highest crown's extrados plus its depth, over the piers too) integrated with the mesher's size field
 (:func:`fill_element_sizes`: each span's extrados size in a band along it, graded to the bridge's far size). With a
 compressive strength the ring joints are graded for the stress block before meshing
@@ -75,16 +76,26 @@ def extrados_sizes(ring: ArchRing, per_thickness: int, depth: float | None) -> l
             for b in ring.barrels]
 
 
+def block_element_size(finest: float, extent: float, per_thickness: int) -> float:
+    """The element size (m) of a block that carries spans (an elastic abutment, a pier's course): as many elements
+    across its lesser ``extent`` (m, the lesser side of its bounding box) as a ring has through its thickness
+    (``per_thickness``), so that its bed joints and base are resolved as a ring's joints are and its interior is no
+    finer than that; at least twice ``finest`` (m), the finest ring element size of the spans it carries, so that a
+    small block is not meshed finer than those rings. Gmsh grades it from the springing joints' finer nodes."""
+    return max(2 * finest, extent / per_thickness)
+
+
 def support_element_size(ring: ArchRing, block: Abutment | PierBlock, per_thickness: int) -> float:
-    """The element size (m) of a block that carries spans (an elastic abutment, a pier's course): twice the finest
-    ring element size of the spans it carries (a pier k carries spans k and k + 1, an abutment the end span on its
-    side), so that a pier between thick rings is not meshed at a thin ring's size elsewhere on the bridge."""
+    """The element size (m) of a block that carries spans (:func:`block_element_size`): a pier k carries spans k and
+    k + 1, an abutment the end span on its side, so that a pier between thick rings is not meshed at a thin ring's
+    size elsewhere on the bridge."""
     barrels = ring.barrels
     if isinstance(block, PierBlock):
         carried = barrels[block.pier:block.pier + 2]
     else:
         carried = barrels[:1] if block.side == "left" else barrels[-1:]
-    return 2 * min(min(ring_element_sizes(b, per_thickness)) for b in carried)
+    finest = min(min(ring_element_sizes(b, per_thickness)) for b in carried)
+    return block_element_size(finest, float(np.ptp(block.polygon, axis=0).min()), per_thickness)
 
 
 def fill_far_size(ring: ArchRing, per_thickness: int, element_size: float = 0.0) -> float:
@@ -279,7 +290,8 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None,
     through as the ring joints have (:func:`graded_elements` of ``joint_nodes``), each ring interface's pairs (one
     per h of the finer ring along it); the fill's triangles over the whole bridge with the mesher's size field
     (:func:`fill_cell_count`, on ``ring`` when given: the scene's, else built from the scene); then the piers and the
-    abutments (unstructured at :func:`support_element_size`: twice the finest h of the spans each carries)."""
+    abutments (unstructured at :func:`block_element_size`: elements_through_thickness elements across a pier's course
+    or an abutment, at least twice the finest h of the spans each carries)."""
     degree = scene.mesh.degree
     through = graded_elements(scene, joint_nodes)
     parts = [_barrel_size(a, scene, through) for a in scene.arches]
@@ -289,15 +301,21 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None,
         cells += fill_cells
         nodes += fill_cells * (0.5 if degree == 1 else 2.0)
     finest = [part[3] for part in parts]  # each span's finest h
-    block_cells = sum(TRIANGLES_PER_AREA * p.height * (p.width + p.batter * p.height) / (2 * min(finest[k:k + 2])) ** 2
-                      for k, p in enumerate(scene.piers))
+    ett = scene.mesh.elements_through_thickness
+    block_cells = 0.0
+    for k, p in enumerate(scene.piers):  # course by course, each at its own size (block_element_size)
+        course = p.height / p.blocks
+        sizes = [block_element_size(min(finest[k:k + 2]), min(p.width + 2 * p.batter * (c + 1) * course, course),
+                                    ett) for c in range(p.blocks)]
+        block_cells += sum(TRIANGLES_PER_AREA * course * (p.width + p.batter * (2 * c + 1) * course) / size ** 2
+                           for c, size in enumerate(sizes))
+        pairs += (p.blocks + 2) * (degree * p.width / min(sizes) + 1)
     if scene.abutments.elastic:
-        block_cells += sum(TRIANGLES_PER_AREA * scene.abutments.height * scene.abutments.length / (2 * h) ** 2
-                           for h in (finest[0], finest[-1]))
+        a = scene.abutments
+        block_cells += sum(TRIANGLES_PER_AREA * a.height * a.length
+                           / block_element_size(h, min(a.height, a.length), ett) ** 2 for h in (finest[0], finest[-1]))
     cells += block_cells
     nodes += block_cells * (0.5 if degree == 1 else 2.0)
-    pairs += sum((p.blocks + 2) * (degree * p.width / (2 * min(finest[k:k + 2])) + 1)
-                 for k, p in enumerate(scene.piers))
     dofs = int(2 * nodes + 2 * pairs)
     base = FILL_MEMORY_BASE if scene.fill is not None else MEMORY_BASE
     memory = base + MEMORY_PER_DOF[degree] * dofs * math.log2(max(dofs, 2))
