@@ -66,8 +66,10 @@ def slip_check(scene: Scene, comm: MPI.Comm, search: LimitSearch, lp: LPResult, 
     slides or carries its Coulomb capacity (:func:`coulomb_loaded`). Collective; None when no check is needed."""
     if not per_piece(blocks) and contacts is None:
         return None
-    slides = (contacts.slides(search.last) if search.last is not None else False) if contacts is not None \
-        else any(j.sliding for j in joints) or coulomb_loaded(joints, blocks)
+    if contacts is not None:
+        slides = search.last is not None and contacts.slides(search.last)
+    else:
+        slides = any(j.sliding for j in joints) or coulomb_loaded(joints, blocks)
     if not needs_slip_check(search.status, search.lower, search.upper, search.proved, lp.status, lp.level,
                             scene.fill is not None, slides):
         return None
@@ -202,10 +204,10 @@ def collapse_check(scene: Scene, comm: MPI.Comm, lp: LPResult, blocks: BlockMode
     (:meth:`bridgefem.analysis.evidence.SlipCheck.settles`) or, after every solver setting failed the closing trial,
     ends it (:meth:`bridgefem.analysis.evidence.SlipCheck.upper_end`), with the check in words (``unit``: N of live
     load per unit level), on the rigid ``blocks`` loaded as the FE loads them. On a barrel of rings
-    (:func:`per_piece`) the closing trial's readings alone, on its own pairs (``contacts``, :class:`PairCheck`), without the estimate: the
-    estimate steers the search's path, which on a barrel can then reach another non-associative collapse state
-    (``docs/robustness.md``, *Rings*). None with a fill (``blocks`` None) or without an LP limit (evidence 3 does not
-    apply). Collective."""
+    (:func:`per_piece`) the closing trial's readings alone, on its own pairs (``contacts``, :class:`PairCheck`),
+    without the estimate: the estimate steers the search's path, which on a barrel can then reach another
+    non-associative collapse state (``docs/robustness.md``, *Rings*). None with a fill (``blocks`` None) or without
+    an LP limit (evidence 3 does not apply). Collective."""
     def readings(check: Callable[[Iterate], SlipCheck]) -> dict:
         def settles(lower: float, trial: float, state: Iterate) -> tuple[bool, str]:
             slip = check(state)

@@ -32,8 +32,8 @@ evidence of collapse only when
    exactly, the joint's moment rows being its pairs' no-tension; a joint slides in that mechanism where its pairs do
    more than ``AGREEMENT`` of its friction dissipation, and is at its Coulomb limit where the FE's shears do all but
    ``AGREEMENT`` of its pairs' share. There the search uses it only to settle a closing trial that failed without
-   proof (:mod:`bridgefem.search.target`, *Collapse state*, steps 4 and 5), not as its estimate of the limit, which would
-   steer the path (``docs/robustness.md``, *Rings*).
+   proof (:mod:`bridgefem.search.target`, *Collapse state*, steps 4 and 5), not as its estimate of the limit, which
+   would steer the path (``docs/robustness.md``, *Rings*).
 
 4. on a bare ring, the *static theorem* (:class:`StaticBound`): the rigid-block LP on the same joints under the FE's own
    assembled block loads (:func:`bridgefem.analysis.static_bound.block_loads`) has the collapse level LP_fe. A converged
