@@ -38,6 +38,7 @@ from ..limit.rigid_block import LPResult
 from ..scene.model import Scene
 from ..search.records import LimitSearch
 from ..solver.newton import ContactSolver
+from ..status import COLLAPSE_END
 from .evidence import StaticBound, Verdict
 from .mechanism import JointState
 
@@ -173,9 +174,11 @@ def user_warnings(an: Analysis) -> list[str]:
                    "kN, fill_bounds): the FE's fill mesh is not converged (docs/fill.md: bridgefem converge)")
     upper, lower, tolerance = an.search.upper, an.search.lower, an.search.tolerance
     if upper is not None and lower > 0 and upper - lower > tolerance * lower * (1 + 1e-9):
-        out.append(f"the bracket is {upper / lower - 1:.3%} wide, wider than the tolerance {tolerance:g}: no solver "
-                   "setting found an equilibrium above its lower end, and its upper end is where the rigid blocks of "
-                   "that state, with its friction capacities, collapse (failure_reason)")
+        why = ("no solver setting found an equilibrium above its lower end, and its upper end is where the rigid "
+               "blocks of that state, with its friction capacities, collapse" if COLLAPSE_END in an.search.failure
+               else "its upper end is not a failed load step")
+        out.append(f"the bracket is {upper / lower - 1:.3%} wide, wider than the tolerance {tolerance:g}: {why} "
+                   "(failure_reason)")
     if bounds.get("lower") and upper is not None and upper * an.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
         out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
                    "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, its fill's "
