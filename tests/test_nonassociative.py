@@ -258,8 +258,8 @@ TWO_SEGMENTAL_SPANS = {
     "pier": [{"width": 4.407, "height": 21.437, "blocks": 7}],
     "masonry": {"young": 15.7e9, "poisson": 0.2, "density": 2000.0}, "joints": {"friction": 0.383},
     "load": [{"kind": "patch", "x": 10.7398, "length": 1.334}], "mesh": {"elements_through_thickness": 4}}
-"""Two segmental spans on a pier whose collapse slides at both springings and by the load, 19 % below the
-associative LP (spans campaign seed 20261263, scene 78, with masonry a hundred times stiffer: the same limit)."""
+"""Two segmental spans on a pier whose collapse slides at the short span's springings and by the load, 19 % below
+the associative LP (spans campaign seed 20261263, scene 78, with masonry a hundred times stiffer: the same limit)."""
 
 
 @pytest.mark.slow
