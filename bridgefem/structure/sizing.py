@@ -271,13 +271,10 @@ def _barrel_size(a: Arch, scene: Scene, through: int) -> tuple[float, float, flo
     return cells, nodes, pairs, min(sizes)
 
 
-def _fill_cells(scene: Scene, ring: ArchRing | None) -> float:
-    """The fill's triangles (:func:`fill_cell_count`) on the scene's ring (``ring``, else built from the scene:
-    :func:`bridgefem.structure.ring.scene_ring`) and fill outline, with the mesher's sizes."""
-    from .ring import scene_ring
-
+def _fill_cells(scene: Scene, ring: ArchRing) -> float:
+    """The fill's triangles (:func:`fill_cell_count`) on the scene's ``ring`` and fill outline, with the mesher's
+    sizes."""
     f, ett = scene.fill, scene.mesh.elements_through_thickness
-    ring = ring if ring is not None else scene_ring(scene)
     outline = fill_outline(ring, f.depth, f.extension, scene.load_edges_x())
     pieces = top_pieces(ring, extrados_sizes(ring, ett, f.depth))
     return fill_cell_count(ring, outline, pieces, fill_far_size(ring, ett, f.element_size), f.depth)
@@ -289,31 +286,28 @@ def estimate_size(scene: Scene, joint_nodes: tuple[float, ...] | None = None,
     thickness / elements_through_thickness) its voussoirs' structured grids and its joints' pairs, as many elements
     through as the ring joints have (:func:`graded_elements` of ``joint_nodes``), each ring interface's pairs (one
     per h of the finer ring along it); the fill's triangles over the whole bridge with the mesher's size field
-    (:func:`fill_cell_count`, on ``ring`` when given: the scene's, else built from the scene); then the piers and the
-    abutments (unstructured at :func:`block_element_size`: elements_through_thickness elements across a pier's course
-    or an abutment, at least twice the finest h of the spans each carries)."""
+    (:func:`fill_cell_count`, on ``ring`` when given: the scene's, else built from the scene,
+    :func:`bridgefem.structure.ring.scene_ring`); then the piers' courses and the abutments, each its area at the
+    mesher's size (:func:`support_element_size`)."""
     degree = scene.mesh.degree
     through = graded_elements(scene, joint_nodes)
     parts = [_barrel_size(a, scene, through) for a in scene.arches]
     cells, nodes, pairs = (sum(part[k] for part in parts) for k in range(3))
+    if ring is None and (scene.fill is not None or scene.piers or scene.abutments.elastic):
+        from .ring import scene_ring
+
+        ring = scene_ring(scene)
     if scene.fill is not None:
         fill_cells = _fill_cells(scene, ring)
         cells += fill_cells
         nodes += fill_cells * (0.5 if degree == 1 else 2.0)
-    finest = [part[3] for part in parts]  # each span's finest h
-    ett = scene.mesh.elements_through_thickness
-    block_cells = 0.0
-    for k, p in enumerate(scene.piers):  # course by course, each at its own size (block_element_size)
-        course = p.height / p.blocks
-        sizes = [block_element_size(min(finest[k:k + 2]), min(p.width + 2 * p.batter * (c + 1) * course, course),
-                                    ett) for c in range(p.blocks)]
-        block_cells += sum(TRIANGLES_PER_AREA * course * (p.width + p.batter * (2 * c + 1) * course) / size ** 2
-                           for c, size in enumerate(sizes))
-        pairs += (p.blocks + 2) * (degree * p.width / min(sizes) + 1)
-    if scene.abutments.elastic:
-        a = scene.abutments
-        block_cells += sum(TRIANGLES_PER_AREA * a.height * a.length
-                           / block_element_size(h, min(a.height, a.length), ett) ** 2 for h in (finest[0], finest[-1]))
+    # the blocks that carry spans, with the mesher's sizes
+    supports = [(block, support_element_size(ring, block, scene.mesh.elements_through_thickness))
+                for block in (ring.piers + ring.abutments if ring is not None else [])]
+    block_cells = sum(TRIANGLES_PER_AREA * block.area / size ** 2 for block, size in supports)
+    for k, p in enumerate(scene.piers):  # its bed joints, base and top at its finest course's size
+        pairs += (p.blocks + 2) * (degree * p.width / min(size for b, size in supports
+                                                           if isinstance(b, PierBlock) and b.pier == k) + 1)
     cells += block_cells
     nodes += block_cells * (0.5 if degree == 1 else 2.0)
     dofs = int(2 * nodes + 2 * pairs)
