@@ -26,7 +26,7 @@ import numpy as np
 
 from .bounds_mesh import INTERFACE, INTERIOR, ON_BLOCK, ROAD, ROLLER
 from .bounds_model import LimitProblem, block_rows, joint_rows, soil_rows
-from .conic import MAX_ITERATIONS, NONNEG, ZERO, ConicProgramme, ConicSolution
+from .conic import FACTORISATION, MAX_ITERATIONS, NONNEG, ZERO, ConicProgramme, ConicSolution
 
 
 def _traction_coefficients(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -36,9 +36,10 @@ def _traction_coefficients(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([nx, zero, ny]), np.column_stack([zero, ny, nx])
 
 
-def lower_bound(problem: LimitProblem, max_iter: int = MAX_ITERATIONS) -> tuple[ConicSolution, dict]:
-    """Solve the static programme in at most ``max_iter`` interior-point iterations; returns the solution and the
-    column layout {"joints", "stress", "factor"} (stress columns: ``9 triangle + 3 vertex + component``)."""
+def lower_bound(problem: LimitProblem, max_iter: int = MAX_ITERATIONS, factorisation: str = FACTORISATION
+                ) -> tuple[ConicSolution, dict]:
+    """Solve the static programme in at most ``max_iter`` interior-point iterations (the KKT ``factorisation`` as in
+    :meth:`~bridgefem.limit.conic.ConicProgramme.solve`); returns the solution and the column layout {"joints", "stress", "factor"} (stress columns: ``9 triangle + 3 vertex + component``)."""
     blocks, mesh = problem.blocks, problem.mesh
     nj = blocks.n_joints
     ne = mesh.n_triangles if mesh is not None else 0
@@ -58,7 +59,7 @@ def lower_bound(problem: LimitProblem, max_iter: int = MAX_ITERATIONS) -> tuple[
     prog.add(ZERO, np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), -blocks.dead.ravel())
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), [f]])
-    return prog.maximise(lam, scale, max_iter), {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
+    return prog.maximise(lam, scale, max_iter, factorisation), {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
 
 
 def _soil(prog: ConicProgramme, problem: LimitProblem, cs: int, lam: int):

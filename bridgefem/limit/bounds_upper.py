@@ -30,11 +30,12 @@ import scipy.sparse as sp
 
 from .bounds_mesh import BONDED, FIXED, INTERFACE, ROAD, ROLLER
 from .bounds_model import LimitProblem, block_rows, joint_rows, soil_rows
-from .conic import NONNEG, ZERO, ConicProgramme, ConicSolution
+from .conic import FACTORISATION, NONNEG, ZERO, ConicProgramme, ConicSolution
 
 
-def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
-    """Solve the kinematic programme (in its dual form); returns the solution and the layout: {"free": the
+def upper_bound(problem: LimitProblem, factorisation: str = FACTORISATION) -> tuple[ConicSolution, dict]:
+    """Solve the kinematic programme (in its dual form; the KKT ``factorisation`` as in
+    :meth:`~bridgefem.limit.conic.ConicProgramme.solve`); returns the solution and the layout: {"free": the
     free velocity unknowns (2 node + component; nodes: vertices, then edge midpoints), "velocities": the matrix
     taking the equality duals to the free velocity unknowns followed by the block velocities (3 per block),
     "factor": the load-factor column}."""
@@ -64,7 +65,7 @@ def upper_bound(problem: LimitProblem) -> tuple[ConicSolution, dict]:
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), np.full(6 * n_if, f / max(np.ptp(
         mesh.x, axis=0).max() * problem.width, 1e-300) if mesh is not None else 1.0), [f]])
-    return prog.maximise(lam, scale), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
+    return prog.maximise(lam, scale, factorisation=factorisation), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
 
 
 def _bonded_nodes(problem: LimitProblem, row_of: np.ndarray, n_free: int) -> sp.csr_matrix:

@@ -23,6 +23,11 @@ MAX_ITERATIONS = 60  # interior-point iterations; past them Clarabel reports "Al
 RETRY_REGULARIZATION = 1e-7  # Clarabel's static KKT regularisation (default 1e-8) for a second attempt after a
 # numerical failure: the rigid rough footing (a block bonded to weightless soil, fans of tiny triangles at its edges)
 # stops with NumericalError / InsufficientProgress at size B/20 under the default and solves with this
+FACTORISATION = "qdldl"  # Clarabel's sparse LDL^T of the KKT system: QDLDL (its default; one thread) or faer
+# (supernodal, here on one thread): on the same iterates QDLDL took 0.4-0.5 x faer's time on the programmes of a
+# three-span bridge under a Mohr-Coulomb fill (5139 triangles) and 0.9-1.1 x on Prestwood's (1649);
+# benchmarks/bounds_factorisation.py measures both side by side
+FACTORISATIONS = ("qdldl", "faer")
 _CONES = (ZERO, NONNEG, SOC)
 
 
@@ -82,19 +87,21 @@ class ConicProgramme:
         r, c, v, b = (np.concatenate(p) for p in zip(*parts))
         return sp.csr_matrix((v, (r, c)), shape=(self.rows[cone], self.n)), b
 
-    def maximise(self, column: int, scale: np.ndarray, max_iter: int = MAX_ITERATIONS) -> ConicSolution:
+    def maximise(self, column: int, scale: np.ndarray, max_iter: int = MAX_ITERATIONS,
+                 factorisation: str = FACTORISATION) -> ConicSolution:
         """Maximise the unknown ``column`` (a load factor), kept nonnegative by one more row, in at most ``max_iter``
-        interior-point iterations; ``scale`` as in :meth:`solve`."""
+        interior-point iterations; ``scale`` and ``factorisation`` as in :meth:`solve`."""
         self.add(NONNEG, [0], [column], [-1.0], [0.0])
         cost = np.zeros(self.n)
         cost[column] = -1.0
-        return self.solve(cost, scale, max_iter)
+        return self.solve(cost, scale, max_iter, factorisation)
 
-    def solve(self, cost: np.ndarray, scale: np.ndarray, max_iter: int = MAX_ITERATIONS) -> ConicSolution:
+    def solve(self, cost: np.ndarray, scale: np.ndarray, max_iter: int = MAX_ITERATIONS,
+              factorisation: str = FACTORISATION) -> ConicSolution:
         """Minimise ``cost . x``; ``scale`` (n,) are typical magnitudes of the unknowns. Clarabel's defaults
-        (tolerances 1e-8) with the supernodal ``faer`` factorisation on one thread (MPI ranks run their own); a
-        numerical failure is retried once with the static regularisation ``RETRY_REGULARIZATION`` (iterations
-        and seconds then count both attempts)."""
+        (tolerances 1e-8) with the KKT factorisation ``factorisation`` (one of ``FACTORISATIONS``) on one thread
+        (MPI ranks run their own); a numerical failure is retried once with the static regularisation
+        ``RETRY_REGULARIZATION`` (iterations and seconds then count both attempts)."""
         import clarabel
 
         blocks, rhs, row_scale = [], [], []
@@ -122,7 +129,7 @@ class ConicProgramme:
             settings = clarabel.DefaultSettings()
             settings.verbose = False
             settings.max_iter = max_iter
-            settings.direct_solve_method = "faer"
+            settings.direct_solve_method = factorisation
             settings.max_threads = 1
             if regularization is not None:
                 settings.static_regularization_constant = regularization
