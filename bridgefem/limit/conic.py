@@ -23,10 +23,9 @@ MAX_ITERATIONS = 60  # interior-point iterations; past them Clarabel reports "Al
 RETRY_REGULARIZATION = 1e-7  # Clarabel's static KKT regularisation (default 1e-8) for a second attempt after a
 # numerical failure: the rigid rough footing (a block bonded to weightless soil, fans of tiny triangles at its edges)
 # stops with NumericalError / InsufficientProgress at size B/20 under the default and solves with this
-FACTORISATION = "qdldl"  # Clarabel's sparse LDL^T of the KKT system: QDLDL (its default; one thread) or faer
-# (supernodal, here on one thread): on the same iterates QDLDL took 0.4-0.5 x faer's time on the programmes of a
-# three-span bridge under a Mohr-Coulomb fill (5139 triangles) and 0.9-1.1 x on Prestwood's (1649);
-# benchmarks/bounds_factorisation.py measures both side by side
+FACTORISATION = "qdldl"  # Clarabel's sparse LDL^T of the KKT system: QDLDL (its default) or faer (supernodal),
+# each on one thread; on the same iterates QDLDL takes 0.4-0.75 x faer's time from about 5000 triangles and
+# 0.8-1.2 x below 2500 (benchmarks/bounds_factorisation.py measures both side by side)
 FACTORISATIONS = ("qdldl", "faer")
 _CONES = (ZERO, NONNEG, SOC)
 
