@@ -13,6 +13,7 @@ import pytest
 from conftest import ROOT, bridgefem, scene_dict
 
 from bridgefem.fe.footing import MARTIN_N_GAMMA
+from bridgefem.io import cli
 from bridgefem.io.bounds_plot import plot_bounds
 from bridgefem.limit import bounds, bounds_model
 from bridgefem.limit.bounds import SETTLED, collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
@@ -376,6 +377,10 @@ def test_a_capped_lower_bound_above_its_optimum_stands_only_where_the_solve_agai
     assert between["programmes"]["lower"]["iterations"] == 16 + iterations
     below = fill_bounds(scene, 0.99 * stalled)
     assert below["lower"] is None and below["upper"] == capped["upper"]
+    static = below["programmes"]["lower"]  # the undecided bound's value where its programme stopped, as the run prints
+    assert static["load"] > 0.99 * stalled and static["iterations"] == 16 + iterations
+    assert (f"lower undecided (its programme stopped at {static['load'] / 1e3:.2f} kN, {static['status']}, after "
+            f"{static['iterations']} iterations), upper {capped['upper'] / 1e3:.2f} kN") in cli._bounds_line(below)
 
 
 MPI_BOUNDS_SCRIPT = """

@@ -351,7 +351,7 @@ def prestwood(tmp_path_factory):
     out = tmp_path_factory.mktemp("prestwood")
     proc = bridgefem("run", ROOT / "demos/prestwood.toml", "--quiet", "--out", out / "serial")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    return out, json.loads((out / "serial/results.json").read_text())
+    return out, json.loads((out / "serial/results.json").read_text()), proc.stdout
 
 
 @pytest.mark.slow
@@ -359,7 +359,7 @@ def test_prestwood_limit_load_against_the_collapse_test(prestwood):
     """TRRL RR110: 228 kN. The Mohr-Coulomb fill must give a limit load within 15 % of the test (the fill's
     stiffness, depth and extent are assumed, see demos/prestwood.toml) and well above the LP with the fill as
     dead load only (the fill's strength is what carries the rest); the test's mechanism had four hinges."""
-    _, data = prestwood
+    _, data, _ = prestwood
     lim = data["limit_load"]
     assert data["status"] == "limit load found", data["failure_reason"]
     assert 0.5 * (lim["lower"] + lim["upper"]) == pytest.approx(228e3, rel=0.15)
@@ -372,10 +372,12 @@ def test_prestwood_fe_lies_within_its_conic_bounds(prestwood):
     """The FE bracket of the run (P2, the loading beam, associated flow) lies between the lower and upper collapse
     bounds of the same rigid-plastic model (results.json ``fill_bounds``, an independent conic programme): the bound
     theorems put the exact collapse load there, and an FE limit above the upper bound is an unconverged mesh."""
-    _, data = prestwood
+    _, data, printed = prestwood
     lim, bounds = data["limit_load"], data["fill_bounds"]
     assert bounds["lower"] <= lim["lower"] and lim["upper"] <= bounds["upper"]
     assert not any("upper bound" in w for w in data["warnings"])
+    assert (f"conic bounds of the bridge with its fill (rigid-plastic, fill_bounds): lower {bounds['lower'] / 1e3:.2f} "
+            f"kN, upper {bounds['upper'] / 1e3:.2f} kN") in printed
 
 
 @pytest.mark.mpi
@@ -386,7 +388,7 @@ def test_prestwood_same_bracket_under_mpi(prestwood):
     1e-9. (Before the arch-fill pairs were chosen by geometry, the fill node at a joint's extrados corner rode on
     the voussoir with the lower global node number, which depends on the partition: the runs drifted apart once a
     joint opened and their brackets differed by one width.)"""
-    out, serial = prestwood
+    out, serial, _ = prestwood
     proc = bridgefem("run", ROOT / "demos/prestwood.toml", "--quiet", "--out", out / "mpi", ranks=2)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     mpi = json.loads((out / "mpi/results.json").read_text())

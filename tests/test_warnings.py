@@ -89,5 +89,21 @@ def test_an_fe_limit_below_the_conic_lower_bound_of_its_fill_warns(lower_bound, 
     assert any("below the conic lower bound" in w for w in warnings) == warns
 
 
+@pytest.mark.parametrize("value, decided, warns", [
+    (100e3 / (1 - 1.01 * FILL_BOUND_TOL), False, True), (100e3 / (1 - 0.99 * FILL_BOUND_TOL), False, False),
+    (None, False, False), (100e3 / (1 - 1.01 * FILL_BOUND_TOL), True, False)])
+def test_an_fe_limit_below_an_undecided_lower_bound_warns_with_its_programmes_value(value, decided, warns):
+    """A static programme that stopped short of full accuracy above the FE leaves the lower bound undecided (its
+    value falls as the iterations go on): where that value lies more than the tolerance above the bracket, the run
+    says so with the value and its status, as a value to read, not a bound; a decided bound warns as a bound."""
+    static = {"status": "optimal (reduced accuracy)", "iterations": 260, "load": value, "level": value}
+    bounds = {"lower": value if decided else None, "upper": None, "unit": "N", "programmes": {"lower": static}}
+    warnings = user_warnings(run(ratio=0.5, fill="a fill", bounds=bounds, lower=99.9e3, upper=100e3))
+    undecided = [w for w in warnings if "lower bound of the bridge with its fill is undecided" in w]
+    assert bool(undecided) == warns
+    assert not warns or "(optimal (reduced accuracy), 260 iterations)" in undecided[0] and "1.0% above" in undecided[0]
+    assert any("below the conic lower bound" in w for w in warnings) == decided
+
+
 def test_the_verdicts_warnings_come_last():
     assert user_warnings(run(shortest=0.2, verdict=("the LP says otherwise",)))[-1] == "the LP says otherwise"

@@ -18,6 +18,11 @@ a class of wrong answers that the verdict's evidence does not catch:
   range points at the mesh, the tolerance or the mechanism.
 - *Conic upper bound* ``FILL_BOUND_TOL``: an FE limit above the rigid-plastic upper bound of the bridge with its
   fill (:func:`bridgefem.limit.bounds.fill_bounds`) is a fill mesh that has not converged.
+- *Conic lower bound* ``FILL_BOUND_TOL``: an FE bracket below the rigid-plastic lower bound stopped before that
+  model's collapse (the flat-curve test, the fill's flow rule, non-associative friction, crushing joints); where
+  that bound is undecided (its static programme stopped short of full accuracy above the FE, its value still
+  falling: :func:`bridgefem.limit.bounds.fill_bounds`), a value of that programme more than ``FILL_BOUND_TOL`` above
+  the bracket says the same, as a value to read with its status.
 - *A bracket wider than its tolerance*: one that a collapse state ends after every solver setting failed its closing
   trial (:mod:`bridgefem.search.target`, *Collapse state*, step 5) reaches up to that state's rigid-block collapse
   level; its width says how far the two readings leave the limit.
@@ -179,9 +184,18 @@ def user_warnings(an: Analysis) -> list[str]:
                else "its upper end is not a failed load step")
         out.append(f"the bracket is {upper / lower - 1:.3%} wide, wider than the tolerance {tolerance:g}: {why} "
                    "(failure_reason)")
+    causes = ("the flat-curve test, its fill's flow rule, its non-associative friction, or crushing joints whose "
+              "stress blocks are still forming")
+    static = (bounds.get("programmes") or {}).get("lower") or {}
     if bounds.get("lower") and upper is not None and upper * an.load_total < (1 - FILL_BOUND_TOL) * bounds["lower"]:
         out.append(f"FE limit below the conic lower bound of the bridge with its fill ({bounds['lower'] / 1e3:.6g} "
-                   "kN, fill_bounds): the FE stops before the rigid-plastic collapse (the flat-curve test, its fill's "
-                   "flow rule, its non-associative friction, or crushing joints whose stress blocks are still "
-                   "forming); read the bracket with the bounds")
+                   f"kN, fill_bounds): the FE stops before the rigid-plastic collapse ({causes}); read the bracket "
+                   "with the bounds")
+    elif bounds.get("lower") is None and static.get("load") and upper is not None \
+            and upper * an.load_total < (1 - FILL_BOUND_TOL) * static["load"]:
+        out.append(f"the conic lower bound of the bridge with its fill is undecided: its static programme stopped "
+                   f"({static['status']}, {static['iterations']} iterations) at {static['load'] / 1e3:.6g} kN, "
+                   f"{static['load'] / (upper * an.load_total) - 1:.1%} above the FE's bracket, its value still "
+                   f"falling (fill_bounds.programmes.lower); if the bound is near it, the FE stops before the "
+                   f"rigid-plastic collapse ({causes})")
     return out + (list(an.verdict.warnings) if an.verdict else [])

@@ -280,6 +280,8 @@ def _print_run(scene, data: dict, out: Path) -> None:
     if ring and ring["load"]:
         print(f"  ring under the loads the fill transmits (rigid-block LP): {ring['load'] / 1e3:.2f} kN, "
               f"{ring['ratio']:.4f} x the last converged FE load, hinges {ring['mechanism']['hinges']}")
+    if (data["fill_bounds"] or {}).get("programmes"):
+        print(f"  {_bounds_line(data['fill_bounds'])}")
     refined = [r["elements_through_thickness"] for r in data["mesh_refinements"]]
     if refined:
         print(f"  mesh: {data['model']['elements_through_thickness']} elements through the thickness, after "
@@ -287,6 +289,22 @@ def _print_run(scene, data: dict, out: Path) -> None:
     for warning in data["warnings"]:
         print(f"  WARNING: {warning}")
     print(f"  results in {out}/ (results.json, fields.xdmf, load_deflection.png, mechanism.png, report.html)")
+
+
+def _bounds_line(bounds: dict) -> str:
+    """The conic bounds of the bridge with its fill (results.json's ``fill_bounds``): each bound in kN, or why it
+    has none (an undecided lower bound with its programme's value where it stopped)."""
+    parts = []
+    for name in ("lower", "upper"):
+        programme = bounds["programmes"][name]
+        if bounds[name] is not None:
+            parts.append(f"{name} {bounds[name] / 1e3:.2f} kN")
+        elif programme.get("load") is not None:
+            parts.append(f"{name} undecided (its programme stopped at {programme['load'] / 1e3:.2f} kN, "
+                         f"{programme['status']}, after {programme['iterations']} iterations)")
+        else:
+            parts.append(f"{name} none ({programme['status']})")
+    return f"conic bounds of the bridge with its fill (rigid-plastic, fill_bounds): {', '.join(parts)}"
 
 
 def _crushed_line(data: dict) -> str:

@@ -260,11 +260,12 @@ def upper_mechanism(b: Bounds) -> dict | None:
 
 
 def bounds_summary(b: Bounds) -> dict:
-    """The JSON form: lower, upper (N), unit, model, mesh, time (s), the upper bound's mechanism, and per bound
-    its status, sizes, iterations and seconds."""
+    """The JSON form: lower, upper (N), unit, model, mesh, time (s), the upper bound's mechanism, and per
+    programme its status, level (load factor) and load (N; both None without a value), iterations, seconds and
+    sizes."""
     return {"lower": b.lower.load, "upper": b.upper.load, "unit": "N", "model": BOUNDS_MODEL, "mesh": b.mesh,
             "time": b.timings["total"], "mechanism": upper_mechanism(b),
-            "programmes": {name: {"status": x.status, "level": x.level, "iterations": x.iterations,
+            "programmes": {name: {"status": x.status, "level": x.level, "load": x.load, "iterations": x.iterations,
                                   "seconds": x.seconds, **x.sizes} for name, x in (("lower", b.lower),
                                                                                     ("upper", b.upper))}}
 
