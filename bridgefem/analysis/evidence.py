@@ -282,11 +282,13 @@ def admissible(st: Statics, sigma: np.ndarray, friction: np.ndarray, length: np.
     the FE's tolerances (module docstring, evidence 4): ``st`` the LP's rows at the state
     (:func:`bridgefem.limit.rigid_block.statics`), ``sigma`` (nj,) the joint tolerance (N), ``friction`` mu and
     ``length`` t (m) per joint, ``block_force`` (nb,) N and ``block_moment`` (nb,) N·m the blocks' equilibrium
-    tolerances. Returns the answer and the largest violation as a fraction of its tolerance, in words."""
-    ratios = {"net tension": st.tension / sigma, "Coulomb excess": st.friction / ((1 + friction) * sigma),
-              "thrust outside a joint": st.eccentricity / (sigma * length),
-              "block force residual": np.abs(st.equilibrium[:, :2]).max(axis=1) / block_force,
-              "block moment residual": np.abs(st.equilibrium[:, 2]) / block_moment}
+    tolerances. Returns the answer and the largest violation as a fraction of its tolerance, in words (a violation
+    too large for a float against its tolerance, e.g. a bonded joint's Coulomb excess, is infinite: inadmissible)."""
+    with np.errstate(over="ignore", divide="ignore"):
+        ratios = {"net tension": st.tension / sigma, "Coulomb excess": st.friction / ((1 + friction) * sigma),
+                  "thrust outside a joint": st.eccentricity / (sigma * length),
+                  "block force residual": np.abs(st.equilibrium[:, :2]).max(axis=1) / block_force,
+                  "block moment residual": np.abs(st.equilibrium[:, 2]) / block_moment}
     name, worst = max(((k, float(v.max(initial=-np.inf))) for k, v in ratios.items()), key=lambda kv: kv[1])
     return worst <= 1.0, f"largest violation: {name} at {worst:.3g} of its tolerance"
 
