@@ -394,6 +394,7 @@ if MPI.COMM_WORLD.rank == 0:
 """
 
 
+@pytest.mark.mpi
 def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry():
     """Under ``mpirun -n 2`` the static programme runs on rank 0 and the kinematic one on rank 1 at the same time:
     rank 0's entry has the serial bounds, mechanism, statuses and iterations (the same programmes on the same data),
@@ -416,6 +417,7 @@ def test_two_ranks_solve_the_two_programmes_and_rank_0_reports_the_serial_entry(
             {k: v for k, v in serial["programmes"][name].items() if k != "seconds"})
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_bounds_on_threads_are_the_serial_ones_and_raise_on_the_callers_thread(monkeypatch):
     """The two programmes on two threads (a process alone with a core to spare) and both on a thread beside the
     caller's work (:class:`bounds.SceneBounds` ahead, as the FE search runs) give the serial bounds, statuses and

@@ -86,6 +86,7 @@ BARREL = scene_dict(arch={"shape": "parabolic", "span": 7.547, "rise": 3.177, "t
                     load=[{"kind": "point", "position": 0.8999}], mesh={"elements_through_thickness": 2})
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_a_barrel_carries_its_weight_from_the_condensed_states():
     """The self-weight's one step of the barrel from the bonded start does not converge (the ring interfaces' active
     set keeps changing); solved again from the condensed states it converges, and the ground's reactions carry the

@@ -49,6 +49,7 @@ def _stress(an, scene):
     return u, 2 * mu * strain(u) + lam * ufl.tr(strain(u)) * ufl.Identity(2)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_vertical_stress_at_fill_base_is_overburden(settled):
     """Near the vertical ends (rollers) the fill is a confined column: sigma_yy at the base = -gamma H. Measured
     as the mean over the outer 0.5 m of the base; 3 % allows for the arch's influence 11.5 m away."""
@@ -64,6 +65,7 @@ def test_vertical_stress_at_fill_base_is_overburden(settled):
     assert force / 0.5 == pytest.approx(-scene.fill.unit_weight * height, rel=0.03)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_total_vertical_reaction_equals_total_weight(settled):
     """Reactions of the fixed fill base plus the springings' ground forces = ring + fill weight (hand values:
     density x g x ring area, unit weight x fill area). 1e-3: the chord error of the curved faces."""
@@ -125,6 +127,7 @@ def test_cohesionless_fill_carries_its_self_weight():
     assert np.abs(s.last.plastic_strain).max() > 0
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_cohesion_continuation_lowers_the_cohesion_to_the_scenes():
     """The fallback for a self-weight that fails in one step: the whole self-weight with the fill's cohesion
     raised to its overburden stress, then lowered in decreasing steps back to the scene's 0; the last step is
@@ -264,6 +267,7 @@ def soft_fill(variant: str):
     return run_analysis(scene_from_dict(soft_fill_dict(variant)))
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 @pytest.mark.parametrize("variant", list(SOFT_VARIANTS))
 def test_interface_forces_balance_the_ring(variant):
     """The arch-fill interface forces (signs, completeness, the ring side of every pair) with the ground's forces on

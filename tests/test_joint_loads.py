@@ -82,6 +82,7 @@ def test_default_demo_least_favourable():
     assert collapse_load(sc, load_at_joint="split").load / 1e3 == pytest.approx(137.1, abs=0.05)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_split_is_never_least_favourable():
     """Convexity (collapse._least_favourable): the split allocation is never below both single-block ones."""
     rng = np.random.default_rng(12)

@@ -151,6 +151,7 @@ def test_a_wide_short_pier_gives_each_span_alone_on_rigid_springings(x):
     assert collapse_load(scene_from_dict(bridge([STOCKY], point(x)))).load == pytest.approx(alone, rel=1e-7)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position():
     """A point load swept over the first span: on slender piers the least collapse load is lower than on stocky
     ones, a pier's bed joint and the second span hinge in its mechanism, and the critical position moves from near
@@ -175,6 +176,7 @@ def test_a_slender_pier_lowers_the_collapse_load_and_moves_the_critical_position
     assert any(ring.joints[j].span == 1 for j in lp.by_joint.hinges)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_pier_joints_crush():
     """A compressive strength weakens the piers' bed joints too (the masonry law): the slender-pier bridge's LP
     collapse load falls with it, and a pier's foundation hinge is in its mechanism."""

@@ -231,6 +231,7 @@ def test_the_collapse_state_check_is_collective(tmp_path):
     assert [r["solves"] for r in parallel["mesh_refinements"]] == [r["solves"] for r in serial["mesh_refinements"]]
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_lp_command_states_the_associative_load_when_no_fixed_point_stands(tmp_path, capsys):
     """A barrel of four staggered rings whose rings slide along each other: the associative LP finds it standing
     (the rings' dilatancy lets friction hold them), the non-associative iteration finds no state that carries the

@@ -181,6 +181,7 @@ BAD_OPTIONS = {  # PETSC_OPTIONS -> the option the error line names
 }
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 @pytest.mark.parametrize("options", BAD_OPTIONS)
 def test_a_bad_petsc_option_gives_one_line_and_exit_2(folder, options):
     named = BAD_OPTIONS[options]
@@ -203,6 +204,7 @@ def test_two_ranks_give_one_line_for_a_bad_petsc_option(folder):
     assert snapshot(folder.parent) == before
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_petsc_options_write_the_files_the_user_asks_for(folder):
     """PETSC_OPTIONS are the user's: PETSc writes its log where they say, and reads their options file."""
     (folder / "opts").write_text(f"-log_view :{folder}/log.txt\n")

@@ -89,6 +89,7 @@ def test_results_describe_each_joint_and_load(small_ring):
     assert [b["ring"] for b in ring] == [0] * n and all(b["span"] == 0 for b in ring)
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_a_bare_ring_with_crushing_rebuilds_too():
     """With a compressive strength the joints' law crushes; the rebuilt model uses it."""
     scene = bridgefem.scene_from_dict(scene_dict(masonry={"compressive_strength": 2e6}, solver={"preset": "fast"}))

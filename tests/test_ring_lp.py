@@ -117,6 +117,7 @@ def test_a_ring_interface_separates_or_slides_and_is_never_a_hinge():
     assert res.load < collapse_load(monolithic()).load  # rings that separate carry less than one ring
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_min_thickness_scales_every_ring():
     """Aligned rings that cannot slide stand down to the monolithic ring's least thickness (Heyman's 0.51 m here):
     the search scales the barrel, every ring with it."""
@@ -212,6 +213,7 @@ def lp_states(res, n_joints):
                             eccentricity=f["m"][j] / f["n"][j] if f["n"][j] > 0 else 0.0) for j in range(n_joints)]
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_the_readme_rings_example_prints_what_the_readme_shows(capsys):
     """README, *Rings*: ``bridgefem lp demos/multi_ring.toml`` prints what the README shows (but the seconds), and the
     monolithic ring and the bonded rings it quotes are the LP's."""
@@ -223,6 +225,7 @@ def test_the_readme_rings_example_prints_what_the_readme_shows(capsys):
     assert f"`ring_cohesion = 20e3` Pa between them raises it to {bonded / 1e3:.3f} kN" in section
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_aligned_rings_that_cannot_slide_crush_as_the_monolithic_ring():
     """With a compressive strength (2 MPa: the hinges' stress blocks a few cm deep) aligned rings that cannot slide
     collapse as the monolithic ring: a stress block deeper than the outer ring's joint crushes it whole and goes on

@@ -230,6 +230,7 @@ def mohr_coulomb_fill_model():
     return build_model(scene, MPI.COMM_WORLD, None, lambda name: None, Clock(MPI.COMM_WORLD))
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_a_plastic_fill_step_whose_active_set_repeats_itself_converges():
     """Seed 20261241 #15's self-weight with the fill's cohesion raised to its overburden stress, from the unloaded
     state with the Alart-Curnier constants x 10 (the first retry): the line-searched iteration returns to the same

@@ -40,6 +40,7 @@ def model():
     return build_model(scene, MPI.COMM_WORLD, None, lambda _: None, Clock(MPI.COMM_WORLD))
 
 
+@pytest.mark.slow  # an end-to-end run of more than a second
 def test_the_fills_evaluations_free_their_vectors(model):
     """150 evaluations of the fill (internal force and tangent): the resident memory grows by less than a tenth of
     the 150 vectors of the displacements that one new vector per evaluation would hold."""
