@@ -39,7 +39,8 @@ def _traction_coefficients(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def lower_bound(problem: LimitProblem, max_iter: int = MAX_ITERATIONS, factorisation: str = FACTORISATION
                 ) -> tuple[ConicSolution, dict]:
     """Solve the static programme in at most ``max_iter`` interior-point iterations (the KKT ``factorisation`` as in
-    :meth:`~bridgefem.limit.conic.ConicProgramme.solve`); returns the solution and the column layout {"joints", "stress", "factor"} (stress columns: ``9 triangle + 3 vertex + component``)."""
+    :meth:`~bridgefem.limit.conic.ConicProgramme.solve`); returns the solution and the column layout {"joints",
+    "stress", "factor"} (stress columns: ``9 triangle + 3 vertex + component``)."""
     blocks, mesh = problem.blocks, problem.mesh
     nj = blocks.n_joints
     ne = mesh.n_triangles if mesh is not None else 0
@@ -59,7 +60,8 @@ def lower_bound(problem: LimitProblem, max_iter: int = MAX_ITERATIONS, factorisa
     prog.add(ZERO, np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), -blocks.dead.ravel())
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), [f]])
-    return prog.maximise(lam, scale, max_iter, factorisation), {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
+    layout = {"joints": slice(0, cs), "stress": slice(cs, lam), "factor": lam}
+    return prog.maximise(lam, scale, max_iter, factorisation), layout
 
 
 def _soil(prog: ConicProgramme, problem: LimitProblem, cs: int, lam: int):

@@ -65,7 +65,8 @@ def upper_bound(problem: LimitProblem, factorisation: str = FACTORISATION) -> tu
     f, s = problem.force_scale, (problem.stress_scale if mesh is not None else 1.0)
     scale = np.concatenate([np.full(cs, f), np.full(9 * ne, s), np.full(6 * n_if, f / max(np.ptp(
         mesh.x, axis=0).max() * problem.width, 1e-300) if mesh is not None else 1.0), [f]])
-    return prog.maximise(lam, scale, factorisation=factorisation), {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
+    layout = {"free": free, "velocities": tie.T.tocsr(), "factor": lam}
+    return prog.maximise(lam, scale, factorisation=factorisation), layout
 
 
 def _bonded_nodes(problem: LimitProblem, row_of: np.ndarray, n_free: int) -> sp.csr_matrix:
