@@ -401,7 +401,9 @@ def test_an_immutable_file_in_the_target_is_refused(tmp_path, capsys, never_anal
     scene = write_toml(tmp_path / "s.toml", scene_dict())
     if shutil.which("chattr") is None or subprocess.run(["chattr", "+i", str(out / "results.json")],
                                                         capture_output=True).returncode != 0:
-        pytest.skip("chattr +i is not available here (it needs root and a file system with the attribute)")
+        pytest.skip("chattr +i is not available here (it needs root and a file system with the attribute); a "
+                    "write-protected results.json is refused all the same in "
+                    "test_a_write_protected_target_is_refused_before_the_analysis")
     try:
         err = run_refused(capsys, scene, "--out", out)
     finally:
