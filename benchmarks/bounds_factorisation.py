@@ -5,7 +5,8 @@ system; Clarabel offers QDLDL (its default) and faer (supernodal). For each scen
 fill's mesh) the problem is built once, then each programme is solved with each factorisation, alternately,
 ``--rounds`` times on one thread, with the cap of the runs (``conic.MAX_ITERATIONS``). Printed per programme: the
 triangles, the iterations, the fastest solve time with each factorisation, their ratio (qdldl / faer: below 1,
-QDLDL is faster) and the largest difference of the load factors (the iterates are the same up to rounding).
+QDLDL is faster) and the relative difference of the load factors reached (the iterates agree up to rounding, which
+can move a programme's iteration count by a few).
 The factorisation the runs use is ``conic.FACTORISATION``.
 
 Run:
