@@ -205,16 +205,18 @@ def test_a_ring_near_its_least_thickness_stands():
     assert 0.995 * lp <= an.search.upper * an.load_total and an.search.lower * an.load_total <= 1.005 * lp
 
 
-def test_a_ring_held_by_friction_at_both_springings_carries_its_weight_in_one_step():
+def test_a_ring_held_by_friction_at_both_springings_carries_its_weight():
     """Campaign seed 1 #297 (elliptical, 47 voussoirs, mu = 0.376; meshed as with its load at 0.786 of the span, the
     search stopped at 1 mN): under self-weight both springings slide outwards, so the symmetric ring's thrust is
-    friction-limited, H = mu V = mu W / 2 at each (V = W / 2). With both springings wholly sliding the ring may
-    translate freely: the last sticking pair of one springing, on its cone, is frozen (its law waived within
-    BOND_RTOL of the largest nodal force) instead of letting the ring run off. The one step converges (it took all
-    60 iterations and failed, then a friction continuation), with H within 1e-5 of mu W / 2 at both springings."""
+    friction-limited, H = mu V = mu W / 2 at each (V = W / 2 exactly: the meshed voussoirs carry the exact blocks'
+    weights, :func:`bridgefem.fe.model.block_weight_shape`, so neither springing is the lighter one that slides
+    first). Both springings at their limit at once leave the ring free to translate; the self-weight converges (a
+    friction continuation when the one step cycles) and the search goes on, with H within 1e-5 of mu W / 2 at both
+    springings."""
     scene = scene_from_dict({**campaign_scene(297, 1.2278), "solver": {"max_load": 1e-3, "initial_step": 1e-3}})
     an = run_analysis(scene, max_refinements=0)
-    assert an.search.steps[0].converged and an.search.steps[1].level > 0.0
+    assert next(s for s in an.search.steps if s.converged).level == 0.0
+    assert any(s.converged and s.level > 0.0 for s in an.search.steps)
     _, lam, _ = an.solver.system.split(an.search.last.x)
     joints = an.pairs.joint
     for springing in (joints.min(), joints.max()):

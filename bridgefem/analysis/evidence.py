@@ -21,9 +21,11 @@ evidence of collapse only when
    and its slips do not dilate (the FE's non-associative Coulomb law), so the blocks can move on it with the FE's forces
    unchanged at the FE's load: the load-deflection curve of the FE's state is flat there. The rule asks for that level
    within ``AGREEMENT`` of the bracket, a mechanism that slides somewhere and only at joints whose FE forces are at
-   their Coulomb limit against the slip (:func:`coulomb_limited`), the same frozen LP under the scene's exact voussoir
-   weights within ``AGREEMENT`` too (the mesh's straight-edged voussoirs weigh O(h^2) differently, which moves a limit
-   that is small against the self-weight by far more; otherwise the limit depends on the mesh and a finer one is tried),
+   their Coulomb limit against the slip (:func:`coulomb_limited`), the same frozen LP under the scene's exact loads
+   within ``AGREEMENT`` too (the meshed voussoirs carry the exact blocks' weights,
+   :func:`bridgefem.fe.model.block_weight_shape`, but the live load acts on the mesh's straight-edged faces, and a
+   limit small against the loads that decide it moves by far more than such a difference; otherwise the limit depends
+   on the mesh and a finer one is tried),
    and the FE at most ``1 + AGREEMENT`` x the associative LP (the upper bound on any non-associative collapse,
    Radenkovic's first theorem). On a barrel of rings the LP cuts each curved ring interface into chords, whose forces
    the FE's pairs along the curve do not give, so the rule reads the FE's own blocks and pairs instead, each pair a
@@ -57,8 +59,8 @@ evidence of collapse only when
    per waived pair can raise the LP's level by more than the bracket's tolerance. A refused state, like one outside the
    tolerances, voids the rule for the search (which goes on without the bound). The bound caps every search (no FE
    equilibrium exists above it, whatever the mesh), but the verdict asks for the bracket within ``AGREEMENT`` of the LP
-   with the exact voussoirs' weights too (as evidence 3 does: the mesh's straight-edged voussoirs weigh O(h^2)
-   differently, which moves a limit that is small against the self-weight by far more); elsewhere the other rules decide
+   with the exact voussoirs' weights too (as evidence 3 does: the FE's live load acts on the mesh's straight-edged
+   faces, which moves a limit small against the loads that decide it by far more); elsewhere the other rules decide
    (a finer mesh among them). Where LP_fe and that LP differ by more than ``AGREEMENT`` the cap still saves the trials
    above LP_fe, which could only fail. The bound is the FE's up to those tolerances (k delta per joint moves the LP's
    level by far less than the bracket's width). Under self-weight the same theorem reads: a converged FE state, with
@@ -111,8 +113,8 @@ Safeguards:
 
 - *No verdict without evidence*: a singular or diverging solve alone proves nothing (a wrong active set, or a linear
   solver that did not solve, looks the same), so an unproven mechanism needs the LP's agreement or a collapse state.
-- *Exact voussoir weights* (rules 3 and 4): a limit small against the self-weight is moved by the mesh's
-  straight-edged voussoirs by far more than their O(h^2) weight error; such a limit goes to a finer mesh instead.
+- *Exact loads* (rules 3 and 4): the meshed voussoirs carry the exact blocks' weights (their resultants), and a limit
+  that the mesh's faces under the live load still move beyond ``AGREEMENT`` goes to a finer mesh instead.
 - *Waived pairs refused* (rule 4): a state that bends the joint law at some pairs is no premise of the static
   theorem.
 - *"Unstable" never where the LP stands*: the LP's equilibrium of the same joints certifies that the ring stands.

@@ -143,8 +143,8 @@ def block_extents(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[
 def block_loads(model: ElasticModel, bm: BlockMesh, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The FE's self-weight and unit live load on each block of the ring (voussoirs, abutments) as resultants
     (nb, 3): Fx, Fy (N) and M (N·m, counter-clockwise) about ``ref`` (nb, 2), the sums of the assembled nodal
-    forces (the meshed voussoirs' weight, which the mesh's straight cell edges make differ from the exact
-    voussoirs' by O(h^2)). Collective."""
+    forces (the self-weight's are the exact voussoirs' weights and lines of action,
+    :func:`bridgefem.fe.model.block_weight_shape`; the live load's as the mesh's faces apply it). Collective."""
     comm = model.V.mesh.comm
     blk, x, on = _ring_nodes(model, bm, len(ref))
 

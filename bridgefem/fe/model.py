@@ -11,8 +11,9 @@ scene's degree on triangles. :func:`build_elastic_model`
    :func:`bridgefem.structure.materials.block_materials`: masonry, a pier's own, an abutment; the fill; a loading beam
    ``BEAM_STIFFNESS`` times as stiff as the fill, so rigid against it and weightless);
 2. assembles ``K`` from ``width (sigma(u) : eps(v)) dx`` with the fill's supports (fixed base, roller ends) built in;
-3. assembles the self-weight ``-width gamma v_y dx`` and records the rings', the fill's and the supports' (abutments',
-   piers') weights;
+3. assembles the self-weight ``-width gamma w v_y dx``, ``w`` the factor that gives each meshed block its exact
+   polygon's weight and line of action (:func:`block_weight_shape`; 1 on the fill), and records the rings', the
+   fill's and the supports' (abutments', piers') weights;
 4. assembles the live load for a unit level: a patch as a uniform pressure per horizontal metre on the extrados of a
    bare ring, on the road or on a loading beam's top over a fill; a point load as a nodal force shared by the nodes
    at its point (``POINT_TOL``) of the blocks that carry it, on a joint the side the rigid-block LP finds least
@@ -35,7 +36,7 @@ from dolfinx.fem.petsc import assemble_matrix, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..geometry.ring import ArchRing, joint_under, point_load_blocks
+from ..geometry.ring import ArchRing, joint_under, point_load_blocks, polygon_area_centroid
 from ..scene.model import Fill, Scene
 from ..structure.materials import block_materials
 from .mesh import BEAM_TOP_TAG, EXTRADOS_TAG, FILL_BASE_TAG, FILL_END_TAG, ROAD_TAG, BlockMesh, marked
@@ -106,6 +107,57 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
     return q
 
 
+def block_weight_shape(bm: BlockMesh, ring: ArchRing, Q: fem.FunctionSpace) -> ufl.core.expr.Expr:
+    """The factor on each block's unit weight that gives its meshed cells the exact block's weight and line of
+    action: ``a + c (x - X)`` on block b's cells, 1 on the fill and the loading beams.
+
+    The mesh's cells follow a voussoir's curved intrados and extrados by straight edges, so the meshed voussoir
+    weighs O(h^2) differently from the block (:attr:`bridgefem.geometry.ring.ArchRing.blocks`, its polygon) that the
+    rigid-block LP, the bounds and the evidence rule load; a live-load capacity small against the self-weight moves
+    by that difference. The factor makes the resultant of the block's self-weight, the only thing of it its rigid
+    body's equilibrium sees, the block's own, on any mesh:
+
+    1. per block, the meshed area A, first moment S = int x dA and second moment about its centroid X = S / A,
+       I = int (x - X)^2 dA, summed over each rank's owned cells (straight-edged triangles, exact) and over the ranks;
+    2. the block's polygon area A_e and centroid abscissa X_e (:func:`bridgefem.geometry.ring.polygon_area_centroid`);
+    3. a = A_e / A (the weight) and c = A_e (X_e - X) / I (the moment about X: int (a + c (x - X)) x dA = A_e X_e).
+
+    A block drawn with straight edges (a pier's course, an abutment) has a = 1 and c = 0 to round-off. Units: a
+    dimensionless, c in 1/m, X in m."""
+    mesh = bm.mesh
+    nb = len(ring.blocks)
+    owned = bm.cell_tags.indices < mesh.topology.index_map(mesh.topology.dim).size_local
+    cells, blocks = bm.cell_tags.indices[owned], bm.cell_tags.values[owned]
+    keep = blocks < nb
+    cells, blocks = cells[keep], blocks[keep]
+    corners = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 3)[cells], :2]  # (cells, 3 vertices, xy)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    x = corners[:, :, 0]
+    second = area * (np.sum(x ** 2, axis=1) + x[:, 0] * x[:, 1] + x[:, 0] * x[:, 2] + x[:, 1] * x[:, 2]) / 6
+    sums = np.vstack([np.bincount(blocks, w, minlength=nb) for w in (area, area * x.mean(axis=1), second)])
+    A, S, Q2 = mesh.comm.allreduce(sums)
+    X = S / A
+    inertia = Q2 - A * X ** 2
+    exact = [polygon_area_centroid(b.polygon) for b in ring.blocks]
+    A_e = np.array([a for a, _ in exact])
+    X_e = np.array([c[0] for _, c in exact])
+    a, c = A_e / A, A_e * (X_e - X) / inertia
+
+    def per_block(values: np.ndarray, other: float) -> fem.Function:
+        """A DG0 field: ``values`` by block on the blocks' cells, ``other`` on the fill's and the beams'."""
+        q = fem.Function(Q)
+        tags = bm.cell_tags
+        value = np.full(len(tags.values), other)
+        inside = tags.values < nb
+        value[inside] = values[tags.values[inside]]
+        q.x.array[Q.dofmap.list.array[tags.indices]] = value
+        q.x.scatter_forward()
+        return q
+
+    return per_block(a, 1.0) + per_block(c, 0.0) * (ufl.SpatialCoordinate(mesh)[0] - per_block(X, 0.0))
+
+
 def node_blocks(V: fem.FunctionSpace, bm: BlockMesh) -> np.ndarray:
     """The block (cell tag: voussoir, abutment or fill) of each local node of V, owned then ghost (-1: none).
     Nodes are duplicated at the joints, so each belongs to one block; a loading beam's nodes count as the fill's
@@ -166,7 +218,7 @@ def build_elastic_model(bm: BlockMesh, ring: ArchRing, scene: Scene,
 
     rho_g = scene.masonry.density * scene.gravity
     weight = cell_constant(bm, rho_g, fill.unit_weight if fill is not None else 0.0,
-                           {b: materials.unit_weight[b] for b in own}, Q)
+                           {b: materials.unit_weight[b] for b in own}, Q) * block_weight_shape(bm, ring, Q)
     f_dead = _load_vector(-width * weight * v[1] * ufl.dx, bcs)
 
     def weight_of(blocks: tuple[int, ...]) -> float:
