@@ -45,3 +45,5 @@ RINGS_UNDER_FILL = "the rings under the loads the fill transmits"  # names evide
 COLLAPSE_END = "the bracket's upper end is its rigid blocks' collapse level"  # a bracket that a collapse state ends
 # after every solver setting failed its closing trial (bridgefem.search.target, *Collapse state*, step 5), in the
 # failure's reason, read back by the command line and the warnings
+LINEAR_SOLVER_FAILED = "linear solver failed"  # a failed linear solve in a failure's reason (its factorisation or
+# its PETSc options: bridgefem.solver.linear), read back by the re-runs on a finer mesh (bridgefem.analysis.refinement)

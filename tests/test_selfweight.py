@@ -147,13 +147,13 @@ def test_joints_that_crush_get_no_tension_continuation():
 
 
 def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved=False, lp=Status.LIMIT,
-                  shortest=0.08, fill=None):
+                  shortest=0.08, fill=None, reason="active set cycling"):
     """The parts of an Analysis that refinement_reason reads: a failed run (4 elements, 0.134 m) that carried
     nothing, its self-weight ``converged`` or not, its live-load search ended by a failed trial or ``capped`` by the
     load steps."""
     return SimpleNamespace(
         load_total=1.0, verdict=SimpleNamespace(mesh_dependent=mesh_dependent), scene=SimpleNamespace(fill=fill),
-        search=SimpleNamespace(status=Status.failure("x"), last="state" if converged else None,
+        search=SimpleNamespace(status=Status.failure(reason), last="state" if converged else None,
                                settled="state" if converged else None, proved=proved, lower=0.0,
                                failure="" if capped else "diverged"),
         lp=SimpleNamespace(status=lp, load=343.0), shortest_voussoir=shortest,
@@ -172,18 +172,21 @@ def analysis_like(*, mesh_dependent=False, converged=False, capped=False, proved
     ({"converged": True, "capped": True}, False),  # the cap on the load steps ended it: the scene's setting
     ({"converged": True, "fill": "a fill"}, True),  # under a fill on voussoirs shorter than an element
     ({"converged": True, "fill": "a fill", "shortest": 0.2}, False),  # ... not on longer ones
-    ({"shortest": 0.2}, False),  # a self-weight failure on voussoirs longer than an element
+    ({"shortest": 0.2}, True),  # a bare structure's self-weight failure on voussoirs longer than an element
+    ({"shortest": 0.2, "fill": "a fill"}, False),  # ... not under a fill
+    ({"shortest": 0.2, "reason": "linear solver failed: DIVERGED_PCSETUP_FAILED"}, False),  # not the mesh's
+    ({"shortest": 0.2, "reason": "linear solver failed, MUMPS INFOG(1) = -13: out of memory"}, False),
     ({"mesh_dependent": True, "converged": True}, True)])
 def test_which_failures_are_re_run_on_a_finer_mesh(case, re_run):
     """A failure is re-run only without proof and with the LP's ring standing: on a live-load trial of a bare ring,
-    or on voussoirs shorter than an element under live load with a fill or under self-weight; a mesh-dependent
-    limit always."""
+    on voussoirs shorter than an element under live load with a fill or under self-weight, under self-weight on
+    longer ones of a bare structure unless its linear solve failed; a mesh-dependent limit always."""
     reason = refinement_reason(analysis_like(**case), 4)
     assert bool(reason) == re_run
     if re_run and not case.get("mesh_dependent"):
         short = "" if case.get("shortest") else " on voussoirs shorter than an element"
         assert reason.startswith(f"the search failed without proof at 0 kN{short} (" if case.get("converged") else
-                                 "the self-weight failed without proof on voussoirs shorter than an element")
+                                 f"the self-weight failed without proof{short} (")
 
 
 @pytest.mark.slow

@@ -14,8 +14,8 @@ once from the bonded start, reaches only where the voussoirs are an element long
   mesh (both ``Verdict.mesh_dependent``);
 - a live-load trial that failed without proof where the rigid-block LP finds the ring standing, on a bare ring or,
   under a fill, on voussoirs shorter than an element;
-- a self-weight that failed without proof on voussoirs shorter than an element, where the LP finds the ring
-  standing;
+- a self-weight that failed without proof where the LP finds the ring standing: on voussoirs shorter than an
+  element, and on longer ones of a bare structure (no fill) unless a linear solve failed;
 - under a Mohr-Coulomb fill, a limit whose bracket carries more than the rigid-plastic upper bound of the bridge with
   its fill (:func:`bridgefem.limit.bounds.fill_bounds`, the conic bounds: an upper bound of every collapse load of the
   blocks and the fill with associated flow, which bounds the FE's with its own flow rule too): the FE's fill mesh has
@@ -27,9 +27,10 @@ once from the bonded start, reaches only where the voussoirs are an element long
   joints could have no more elements (:func:`finer_joints`: graded joints at the size budget of both meshes, which
   a re-run would grade the same), when the run warns instead.
 
-A self-weight failure on longer voussoirs is not re-run (that is where a PETSc option that breaks the linear solve
-fails, and a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
-limit, and its re-runs are costly).
+A self-weight on longer voussoirs whose linear solve failed is not re-run (a PETSc option that breaks the linear
+solve, or MUMPS out of memory: a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
+limit, and its re-runs are costly). A bare structure's self-weight that cycles or runs out of iterations is: its
+joints' active set settles as the joints' pairs get finer, as under live load.
 
 **The loop** (:func:`refine`):
 
@@ -75,7 +76,7 @@ from ..limit.collapse import collapse_load
 from ..scene.keys import SceneError
 from ..scene.model import Scene, with_mesh
 from ..search.coarser_path import CoarserPath
-from ..status import Status
+from ..status import LINEAR_SOLVER_FAILED, Status
 from ..structure.sizing import MAX_DOFS, check_size, most_graded_elements
 from .evidence import AGREEMENT
 from .result import Analysis, MeshRefinement
@@ -139,7 +140,7 @@ def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str
     LP, or a failed run whose limit depends on the mesh (both ``Verdict.mesh_dependent``), or a run that failed
     without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
-    such voussoirs; or a limit above ``above``, the conic upper bound of the scene it exceeds (N, from
+    such voussoirs or, unless a linear solve failed, on a bare structure's longer ones; or a limit above ``above``, the conic upper bound of the scene it exceeds (N, from
     :func:`exceeded_bound`; None: none exceeded)."""
     coarse = coarse_stress_block(an)
     if coarse and finer_joints(an, ett):
@@ -165,9 +166,9 @@ def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str
         return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
                 f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
                 f"thickness), where the rigid-block LP finds the ring standing")
-    if an.search.last is None and short:
-        return (f"the self-weight failed without proof on voussoirs shorter than an element ({ett} elements through "
-                f"the thickness), where the rigid-block LP finds the ring standing")
+    if an.search.last is None and (short or (an.scene.fill is None and LINEAR_SOLVER_FAILED not in an.search.status)):
+        return (f"the self-weight failed without proof{' on voussoirs shorter than an element' if short else ''} "
+                f"({ett} elements through the thickness), where the rigid-block LP finds the ring standing")
     return ""
 
 

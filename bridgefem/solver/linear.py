@@ -27,6 +27,7 @@ from petsc4py import PETSc
 from ..petsc_start import startup_options
 from ..scene.keys import SceneError
 from ..scene.petsc_options import PETSC_PREFIX
+from ..status import LINEAR_SOLVER_FAILED
 
 if TYPE_CHECKING:
     from .interior import InteriorCondensation
@@ -189,7 +190,7 @@ class CheckedSolve:
         """Describe a failed solve (a KSP reason or an error's text); singular only when MUMPS says so."""
         names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
         pc = self.ksp.getPC()
-        text = f"linear solver failed: {names.get(reason, reason)}"
+        text = f"{LINEAR_SOLVER_FAILED}: {names.get(reason, reason)}"
         if pc.getType() == "lu" and pc.getFactorSolverType() == "mumps":
             infog = pc.getFactorMatrix().getMumpsInfog(1)
             detail = {-10: "numerically singular matrix (mechanism)", -9: "MUMPS workspace too small "
