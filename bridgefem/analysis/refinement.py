@@ -28,9 +28,9 @@ once from the bonded start, reaches only where the voussoirs are an element long
   a re-run would grade the same), when the run warns instead.
 
 A self-weight on longer voussoirs whose linear solve failed is not re-run (a PETSc option that breaks the linear
-solve, or MUMPS out of memory: a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's restraint decides its
-limit, and its re-runs are costly). A bare structure's self-weight that cycles or runs out of iterations is: its
-joints' active set settles as the joints' pairs get finer, as under live load.
+solve, or MUMPS out of memory: a finer mesh cannot mend it), nor a fill's failure on longer voussoirs (the fill's
+restraint decides its limit, and its re-runs are costly). A bare structure's self-weight that cycles or runs out of
+iterations is: its joints' active set settles as the joints' pairs get finer, as under live load.
 
 **The loop** (:func:`refine`):
 
@@ -140,8 +140,8 @@ def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str
     LP, or a failed run whose limit depends on the mesh (both ``Verdict.mesh_dependent``), or a run that failed
     without proof where the rigid-block LP finds the ring standing: on a live-load trial (not at the cap on the load
     steps) of a bare ring, or of a ring under a fill on voussoirs shorter than an element, or under self-weight on
-    such voussoirs or, unless a linear solve failed, on a bare structure's longer ones; or a limit above ``above``, the conic upper bound of the scene it exceeds (N, from
-    :func:`exceeded_bound`; None: none exceeded)."""
+    such voussoirs or, unless a linear solve failed, on a bare structure's longer ones; or a limit above ``above``,
+    the conic upper bound of the scene it exceeds (N, from :func:`exceeded_bound`; None: none exceeded)."""
     coarse = coarse_stress_block(an)
     if coarse and finer_joints(an, ett):
         return coarse
@@ -166,7 +166,8 @@ def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str
         return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
                 f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
                 f"thickness), where the rigid-block LP finds the ring standing")
-    if an.search.last is None and (short or (an.scene.fill is None and LINEAR_SOLVER_FAILED not in an.search.status)):
+    bare = an.scene.fill is None and LINEAR_SOLVER_FAILED not in an.search.status
+    if an.search.last is None and (short or bare):
         return (f"the self-weight failed without proof{' on voussoirs shorter than an element' if short else ''} "
                 f"({ett} elements through the thickness), where the rigid-block LP finds the ring standing")
     return ""

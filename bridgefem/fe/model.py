@@ -136,9 +136,9 @@ def block_weight_shape(bm: BlockMesh, ring: ArchRing, Q: fem.FunctionSpace) -> u
     x = corners[:, :, 0]
     second = area * (np.sum(x ** 2, axis=1) + x[:, 0] * x[:, 1] + x[:, 0] * x[:, 2] + x[:, 1] * x[:, 2]) / 6
     sums = np.vstack([np.bincount(blocks, w, minlength=nb) for w in (area, area * x.mean(axis=1), second)])
-    A, S, Q2 = mesh.comm.allreduce(sums)
+    A, S, second_moment = mesh.comm.allreduce(sums)
     X = S / A
-    inertia = Q2 - A * X ** 2
+    inertia = second_moment - A * X ** 2
     exact = [polygon_area_centroid(b.polygon) for b in ring.blocks]
     A_e = np.array([a for a, _ in exact])
     X_e = np.array([c[0] for _, c in exact])
