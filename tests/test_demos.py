@@ -33,7 +33,7 @@ def _rows_by_kind(rows, case, kind):
     return [r for r in rows if r["case"] == case and r["kind"] == kind]
 
 
-def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the_seed(tmp_path):
+def test_speed_accuracy_quick_fe_approaches_the_lp_and_bracket_ignores_the_seed(tmp_path):
     rows = run_demo("speed_accuracy", ["--quick"], tmp_path)
     for case in ("semicircular", "segmental"):
         for r in _rows_by_kind(rows, case, "mesh") + _rows_by_kind(rows, case, "seed"):
@@ -42,11 +42,12 @@ def test_speed_accuracy_quick_discretisation_error_falls_and_bracket_ignores_the
             assert 0 < upper - lower <= tol * lower * (1 + 1e-9), r  # the bracket rule at the tight tolerance
         mesh = sorted(_rows_by_kind(rows, case, "mesh"), key=lambda r: int(r["ett"]))
         errors = [float(r["err_lp"]) for r in mesh]
-        # refining the mesh moves the elastic-block FE limit towards the rigid-block LP on the same joints; the
-        # bracket is 1e-4 wide, far narrower than the t/1 error, so this is the discretisation error, not the
-        # bracket tolerance
+        # refining the mesh moves the elastic-block FE limit towards the rigid-block LP on the same joints, or the
+        # limit is the LP's on every mesh: the static theorem's bound is the LP's level (the meshed voussoirs carry
+        # their polygons' weights), and the bracket's midpoint lies half its width below it
         assert all(b <= a + 1e-4 for a, b in zip(errors, errors[1:])), errors
-        assert errors[-1] < 0.5 * errors[0], errors
+        half = 0.5 * max(float(r["tolerance"]) for r in mesh) * (1 + 1e-9)
+        assert errors[-1] < 0.5 * errors[0] or max(errors) <= half, errors
         reference = _rows_by_kind(rows, case, "reference")[0]
         assert abs(float(reference["fe_mid_kN"]) / float(reference["lp_kN"]) - 1) < 1e-3, reference
         # the same configuration seeded with 0.5 x and 2 x the LP and without a seed: the same limit load within

@@ -77,7 +77,7 @@ from .checks import PairCheck, collapse_check, slip_check
 from .evidence import confirm
 from .interface import fill_collapse_check, transmitted_load_check
 from .mechanism import collapse_mode, joint_states
-from .refinement import MAX_REFINEMENTS, coarse_stress_block, refine
+from .refinement import MAX_REFINEMENTS, SETTLED_MOVE, coarse_stress_block, refine
 from .result import Analysis, ConvergedState, user_warnings
 from .static_bound import fe_blocks, static_cap
 
@@ -208,18 +208,21 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
         attempted.append(step)
         report(step)
 
-    def keep(step: LoadStep, it: Iterate) -> None:  # every converged state: the fields' time series, a re-run's path
-        u, lam, d = solver.system.split(it.x)
-        states.append(ConvergedState(step.index, step.level * total, u.copy(), it.active.state.copy(), lam.copy(),
-                                     d.copy()))
-
     # a failed trial's predicted state (bridgefem.solver.tresca) and a failed self-weight's
     # (bridgefem.solver.condensed): every structure without a fill
     predictor = TrescaPredictor(solver) if scene.fill is None else None
     condensed = CondensedPredictor(solver) if scene.fill is None else None
     lp = fe.lp
     try:
-        with solver.linear.limited(budget):  # exact: the solve past it raises (bridgefem.solver.linear)
+        with solver.linear.limited(budget) as lift:  # exact: the solve past it raises (bridgefem.solver.linear)
+            def keep(step: LoadStep, it: Iterate) -> None:  # every converged state: the fields' time series, a
+                # re-run's path; a budgeted re-run that carries a level the confirmed run did not has moved its limit
+                u, lam, d = solver.system.split(it.x)
+                states.append(ConvergedState(step.index, step.level * total, u.copy(), it.active.state.copy(),
+                                             lam.copy(), d.copy()))
+                if coarser is not None and step.level > (1 + max(s.tolerance, SETTLED_MOVE)) * coarser:
+                    lift()
+
             guides = SearchGuides(guess=lp.level if lp.status == Status.LIMIT else None, bound=bound, coarser=coarser,
                                   collapse=collapse_check(scene, comm, lp, blocks, solver, fe.pairs, fe.ring,
                                                           s.tolerance, total, contacts)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Iterator, NamedTuple
+from typing import TYPE_CHECKING, Callable, Iterator, NamedTuple
 
 import numpy as np
 from mpi4py import MPI
@@ -84,15 +84,20 @@ class CheckedSolve:
         self._bound = (math.inf, math.inf)  # the count of solves the next may not pass, and the budget that set it
 
     @contextmanager
-    def limited(self, budget: float | None) -> Iterator[None]:
+    def limited(self, budget: float | None) -> Iterator[Callable[[], None]]:
         """Within: at most ``budget`` more solves (None: no bound; an enclosing bound still holds); the next one
         raises :class:`SolveBudgetSpent` before it solves. Every solve is collective, so every rank counts the same
-        solves and raises at the same one."""
+        solves and raises at the same one. Yields ``lift()``, which drops this bound for the rest of the block (the
+        enclosing one still holds); collective by the same count."""
         outer = self._bound
         if budget is not None and self.stats["solves"] + budget < outer[0]:
             self._bound = (self.stats["solves"] + budget, budget)
+
+        def lift() -> None:
+            self._bound = outer
+
         try:
-            yield
+            yield lift
         finally:
             self._bound = outer
 
