@@ -49,9 +49,11 @@ iterations is: its joints' active set settles as the joints' pairs get finer, as
    starts its trials from that run's converged path (:mod:`bridgefem.search.coarser_path`); a re-run of a confirmed
    run may spend ``REFINEMENT_BUDGET`` times that run's linear solves, at least ``REFINEMENT_FLOOR``, exactly (the
    solve past it is never made: :meth:`bridgefem.solver.linear.CheckedSolve.limited`), and one that spends it
-   unsettled is a failure "not settled within its budget" (step 2). A limit above the conic upper bound is not
-   confirmed (an independent bound contradicts it): its re-run has no budget, and its failure is the answer. Go to
-   step 2.
+   unsettled is a failure "not settled within its budget" (step 2); a re-run that converges more than
+   ``SETTLED_MOVE`` (or the search's tolerance) above the confirmed run's level has shown that run's limit to be
+   its mesh's, no answer it refines, and its budget is lifted (:func:`bridgefem.analysis.runner.run_analysis`). A
+   limit above the conic upper bound is not confirmed (an independent bound contradicts it): its re-run has no
+   budget, and its failure is the answer. Go to step 2.
 
 The last run is the answer, the runs it replaced listed in ``Analysis.refinements``; its verdict needs the same
 evidence as any other.
@@ -63,7 +65,8 @@ Safeguards:
 - *Caps* ``MAX_REFINEMENTS``, ``REFINED_ELEMENTS_MAX`` and the size estimate: the re-runs' cost and memory stay
   bounded.
 - *Budget of a confirmed run's re-run* ``REFINEMENT_BUDGET``, ``REFINEMENT_FLOOR``: such a re-run can only refine
-  an answer already confirmed, so it may not cost more than a few times that answer.
+  an answer already confirmed, so it may not cost more than a few times that answer, until it carries more than
+  that answer (step 4).
 - *The confirmed run stands* (step 2): a finer mesh's solver failure never replaces a confirmed answer.
 """
 from __future__ import annotations

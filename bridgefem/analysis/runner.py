@@ -45,7 +45,8 @@ Safeguards:
   the ring does, so the flat-curve test watches the loaded road; an elastic fill cannot, and its elastic settlement
   would hide the ring's mechanism from that test, so there it watches the ring.
 - *An exact solve budget* (step 5): a re-run's search that spends its budget ends as a failure that names the most
-  load it carried, never as a partial bracket.
+  load it carried, never as a partial bracket; a re-run that converges beyond the confirmed run's level by more
+  than ``SETTLED_MOVE`` (or the search's tolerance) has its budget lifted, since it no longer refines that run.
 - *Collective read-outs once* (step 6): no attribute of a result waits for the other ranks, so reading a warning on
   one rank cannot hang.
 """
