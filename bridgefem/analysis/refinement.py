@@ -169,8 +169,8 @@ def refinement_reason(an: Analysis, ett: int, above: float | None = None) -> str
         return (f"the search failed without proof at {an.search.lower * an.load_total / 1e3:.6g} kN"
                 f"{' on voussoirs shorter than an element' if short else ''} ({ett} elements through the "
                 f"thickness), where the rigid-block LP finds the ring standing")
-    bare = an.scene.fill is None and LINEAR_SOLVER_FAILED not in an.search.status
-    if an.search.last is None and (short or bare):
+    mendable = an.scene.fill is None and LINEAR_SOLVER_FAILED not in an.search.status  # a bare structure's active set
+    if an.search.last is None and (short or mendable):
         return (f"the self-weight failed without proof{' on voussoirs shorter than an element' if short else ''} "
                 f"({ett} elements through the thickness), where the rigid-block LP finds the ring standing")
     return ""

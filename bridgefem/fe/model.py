@@ -99,8 +99,12 @@ def cell_constant(bm: BlockMesh, arch_value: float, fill_value: float = 0.0,
     tags = bm.cell_tags
     is_fill = tags.values == bm.fill_block if bm.fill_block is not None else np.zeros(len(tags.values), bool)
     value = np.where(is_fill, fill_value, arch_value)
-    for block, v in (block_values or {}).items():
-        value[tags.values == block] = v
+    if block_values:
+        blocks = np.fromiter(block_values, dtype=np.int64)
+        order = np.argsort(blocks)
+        own = np.isin(tags.values, blocks)
+        value[own] = np.fromiter(block_values.values(), dtype=float)[order][
+            np.searchsorted(blocks[order], tags.values[own])]
     value[np.isin(tags.values, bm.beam_blocks)] = beam_value
     q.x.array[Q.dofmap.list.array[tags.indices]] = value
     q.x.scatter_forward()
@@ -144,16 +148,8 @@ def block_weight_shape(bm: BlockMesh, ring: ArchRing, Q: fem.FunctionSpace) -> u
     X_e = np.array([c[0] for _, c in exact])
     a, c = A_e / A, A_e * (X_e - X) / inertia
 
-    def per_block(values: np.ndarray, other: float) -> fem.Function:
-        """A DG0 field: ``values`` by block on the blocks' cells, ``other`` on the fill's and the beams'."""
-        q = fem.Function(Q)
-        tags = bm.cell_tags
-        value = np.full(len(tags.values), other)
-        inside = tags.values < nb
-        value[inside] = values[tags.values[inside]]
-        q.x.array[Q.dofmap.list.array[tags.indices]] = value
-        q.x.scatter_forward()
-        return q
+    def per_block(values: np.ndarray, other: float) -> fem.Function:  # ``other`` on the fill and the beams
+        return cell_constant(bm, other, other, dict(enumerate(values)), Q, other)
 
     return per_block(a, 1.0) + per_block(c, 0.0) * (ufl.SpatialCoordinate(mesh)[0] - per_block(X, 0.0))
 
