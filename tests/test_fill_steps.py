@@ -187,3 +187,54 @@ def test_a_plateau_below_a_converged_state_is_no_plateau():
     s = search(Knee(), replace(SETTINGS, stiffness_drop=DROP), guess=0.45 * LIMIT)
     assert s.status == Status.LIMIT and not s.failure.startswith("load-deflection curve flat"), s.failure
     assert_bracket(s)
+
+
+
+COARSE = replace(SETTINGS, stiffness_drop=DROP, tolerance=5e-3)  # a crushing ring's default tolerance
+
+
+class Creeping(OneDof):
+    """A curve that approaches its plateau LIMIT algebraically, P = LIMIT (1 - (1 + STIFFNESS delta / (2 LIMIT))^-2),
+    as an elastic-plastic section does its plastic moment: its tangent stiffness falls as (1 - P / LIMIT)^(3/2), more
+    slowly towards the plateau than an exponential's, which the three-point fit assumes. No equilibrium above
+    LIMIT."""
+
+    def _iterate(self, level):
+        return super()._iterate(2 * LIMIT / STIFFNESS * ((1.0 - min(level, LIMIT) / LIMIT) ** -0.5 - 1.0))
+
+    def live_load_tangent(self, it):
+        remaining = (1.0 + STIFFNESS * it.x.array[0] / (2 * LIMIT)) ** -3
+        return OneDof._iterate(self, 1.0 / (STIFFNESS * remaining))
+
+
+def test_a_creeping_curve_read_by_the_exponential_alone_stops_short_of_its_plateau():
+    """What the floor guards against: without a proved level, the fitted plateau closes the bracket below 0.998 x
+    the curve's own, under a level a lower bound could prove carried (0.999 x)."""
+    s = search(Creeping(), COARSE)
+    assert s.status == Status.LIMIT and s.failure.startswith("load-deflection curve flat"), s.failure
+    assert s.upper < 0.998 * LIMIT
+
+
+@pytest.mark.parametrize("proved", [0.999, 0.9999])
+def test_a_flat_curve_below_a_proved_level_is_not_its_plateau(proved):
+    """A level a lower bound proves carried (``floor``: a fill's conic lower bound) keeps the bracket from closing
+    below it: the creeping curve is bracketed between that level and its plateau (by a flat step above that level,
+    or by the lost equilibrium where the level is within the tolerance of the plateau); the floor is asked only
+    where a step would otherwise read flat, with that step's level."""
+    asked = []
+
+    def floor(level):
+        asked.append(level)
+        return proved * LIMIT
+
+    s = search(Creeping(), COARSE, floor=floor)
+    assert s.status == Status.LIMIT, s.failure
+    assert (1 - COARSE.tolerance) * proved * LIMIT <= s.lower <= LIMIT <= s.upper / (1 - COARSE.tolerance), s
+    assert s.upper >= proved * LIMIT
+    assert asked and all(level <= s.upper for level in asked)
+
+
+def test_the_plateau_of_three_points_on_a_nearly_flat_curve_is_finite():
+    """Three points whose exponential decays over far less than the last increment (the rate times that increment
+    beyond a float's exponent) leave no reserve, without overflowing."""
+    assert plateau_through((0.0, 0.0), (1.0, 1e-3), (1.0 + 1e-12, 1.0)) == 0.0

@@ -114,7 +114,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
     fall while the run goes on (:class:`bridgefem.search.records.SearchSettings`). The last run is returned, the runs it replaced listed in
     ``Analysis.refinements``."""
     def analyse(mesh_scene: Scene, coarser: float | None, budget: int | None, path: CoarserPath | None) -> Analysis:
-        return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough)
+        return _analyse(mesh_scene, comm, petsc_options, report, phase, coarser, budget, path, joint_law, enough,
+                        lower_bound)
 
     with quiet_compiler():
         # the conic bounds of a fill, once (steps 5-6): a process alone in its run (not one of an assessment's
@@ -123,18 +124,27 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         known = SceneBounds(scene, comm, ahead=spare_core(MPI.COMM_WORLD)) if plastic else None
         waited: dict[str, float] = {}
 
-        def upper_bound() -> float | None:  # the refinement's bound, its wait timed as the phase "conic bounds"
-            if known is None:
-                return None
-            clock = Clock(comm)
-            upper = known.upper()
-            clock.lap("conic bounds")
-            waited["conic bounds"] = waited.get("conic bounds", 0.0) + clock.timings["conic bounds"]
-            return upper
+        def timed(read: Callable[..., float | None]) -> Callable[..., float | None]:
+            def bound(*compared: float) -> float | None:  # a bound (N), its wait timed as the phase "conic bounds"
+                if known is None:
+                    return None
+                clock = Clock(comm)
+                value = read(known, *compared)
+                clock.lap("conic bounds")
+                waited["conic bounds"] = waited.get("conic bounds", 0.0) + clock.timings["conic bounds"]
+                return value
+            return bound
+        # the refinement's upper bound; the search's floor, the lower bound (bridgefem.search.step, *Flat curve*)
+        upper_bound, lower_bound = timed(SceneBounds.upper), timed(SceneBounds.lower)
         an = refine(scene, comm, analyse, notice, max_refinements, max_dofs, upper_bound)
         _conclude(an, comm, known)
         an.timings.update(waited)
     return an
+
+
+def _per_level(load: float | None, total: float) -> float | None:
+    """A load (N; None: none) as a live-load level, N per unit load factor of the ``total`` live load."""
+    return load / total if load else None
 
 
 def _conclude(an: Analysis, comm: MPI.Comm, known: SceneBounds | None = None) -> None:
@@ -159,12 +169,15 @@ def _conclude(an: Analysis, comm: MPI.Comm, known: SceneBounds | None = None) ->
 def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
              report: Callable[[LoadStep], None], phase: Callable[[str], None],
              coarser: float | None = None, budget: int | None = None, path: CoarserPath | None = None,
-             joint_law: JointLawFactory | None = None, enough: float | Callable[[], float] = math.inf) -> Analysis:
+             joint_law: JointLawFactory | None = None, enough: float | Callable[[], float] = math.inf,
+             lower_bound: Callable[[float], float | None] = lambda compared: None) -> Analysis:
     """One run of the scene's mesh (module docstring, steps 1-4); ``coarser``: the last converged level (N per unit
     load factor) of the run on a coarser mesh that this one re-runs (:func:`first_step`), None on a first run, and
     ``path`` that run's converged path, a bare ring's (its trials start from it: :mod:`bridgefem.search.coarser_path`);
     ``budget``: the linear solves its search may spend (None: no limit), exactly; a failure when spent; ``joint_law``
-    builds the joints' law; ``enough`` as in :func:`run_analysis`. Collective."""
+    builds the joints' law; ``enough`` as in :func:`run_analysis`; ``lower_bound(compared)``: a proved lower bound of
+    the scene's collapse load (N; None: none) decided against the load ``compared`` (N), the search's floor.
+    Collective."""
     clock = Clock(comm)
     fe = build_model(scene, comm, petsc_options, phase, clock, joint_law)
     phase("limit search")
@@ -174,7 +187,7 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
     clock.lap("static bound")
     contacts = PairCheck.of(scene, comm, fe.lp, blocks, fe.solver, fe.pairs, fe.ring)  # a barrel: evidence 3 on pairs
     search, states = _search(scene, comm, fe, blocks, bound[1] if bound else None, report, coarser, budget, path,
-                             enough, contacts)
+                             enough, contacts, lower_bound)
     clock.lap("limit search")
     solver, lp, total = fe.solver, fe.lp, scene.live_per_level
     joints = joint_states(solver, fe.pairs, fe.ring, search.last) if search.last is not None else []
@@ -188,13 +201,14 @@ def _analyse(scene: Scene, comm: MPI.Comm, petsc_options: dict | None,
 
 def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | None, bound: StaticCap | None,
             report: Callable[[LoadStep], None], coarser: float | None, budget: int | None, path: CoarserPath | None,
-            enough: float | Callable[[], float], contacts: PairCheck | None
-            ) -> tuple[LimitSearch, list[ConvergedState]]:
+            enough: float | Callable[[], float], contacts: PairCheck | None,
+            lower_bound: Callable[[float], float | None]) -> tuple[LimitSearch, list[ConvergedState]]:
     """The limit search of one run (module docstring, step 3) on the model ``fe``, with the rigid ``blocks`` loaded
     as the FE loads them and the static ``bound`` (None with a fill); returns the search and its converged states,
     each kept for the output's time series and a re-run's coarser path. A search that spends its ``budget`` of linear
     solves is a failure (:func:`_analyse`); ``enough`` (N) as in :func:`run_analysis`; ``contacts``: a barrel's
-    evidence 3 on its own pairs (:class:`bridgefem.analysis.checks.PairCheck`; None elsewhere). Collective."""
+    evidence 3 on its own pairs (:class:`bridgefem.analysis.checks.PairCheck`; None elsewhere); ``lower_bound``
+    as in :func:`_analyse`. Collective."""
     solver, model, s = fe.solver, fe.model, scene.solver
     # a plastic fill can fail under the load before the ring does: watch the load's own displacement; an elastic
     # fill cannot, and its elastic settlement would hide the ring's mechanism from the flat-curve test
@@ -231,7 +245,8 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
                                                          total),
                                   predicted=predictor.predict if predictor is not None else None,
                                   self_weight_states=condensed.states if condensed is not None else None,
-                                  coarser_path=path.guide(solver) if path is not None else None)
+                                  coarser_path=path.guide(solver) if path is not None else None,
+                                  floor=lambda level: _per_level(lower_bound(level * total), total))
             level = (lambda: enough() / total) if callable(enough) else enough / total
             settings = search_settings(scene, model.dead_weight, coarser, level)
             search = find_limit_load(solver, under_load, settings,

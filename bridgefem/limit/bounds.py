@@ -213,7 +213,9 @@ class SceneBounds:
     2. :meth:`result` returns the :class:`Bounds` (rank 0's; None on the other ranks) with the timings of
        :func:`collapse_bounds` (``total``: from the start to the end of the programmes), or raises the scene's
        :class:`SceneError` (a model the bounds do not cover) or the thread's error.
-    3. :meth:`upper` is the upper bound (N) on every rank, None where there is none."""
+    3. :meth:`upper` is the upper bound (N) on every rank, None where there is none; :meth:`lower` the lower bound (N)
+       on every rank where its static programme is optimal, once :func:`decide_lower` has compared it with a load,
+       else None."""
 
     def __init__(self, scene: Scene, comm=None, ahead: bool = False):
         self.scene, self.comm = scene, comm
@@ -240,11 +242,18 @@ class SceneBounds:
         return self._bounds
 
     def upper(self) -> float | None:
+        return self._load(lambda b: b.upper.load)
+
+    def lower(self, compared: float) -> float | None:
+        return self._load(lambda b: b.lower.load if decide_lower(b, compared) and b.lower.status == "optimal" else None)
+
+    def _load(self, read: Callable[[Bounds], float | None]) -> float | None:
+        """``read`` of rank 0's bounds (N) on every rank; None without bounds. Collective."""
         try:
             b = self.result()
         except SceneError:
             return None
-        load = None if b is None else b.upper.load
+        load = None if b is None else read(b)
         return load if self.comm is None or self.comm.size == 1 else self.comm.bcast(load, root=0)
 
 
@@ -288,17 +297,24 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None, known: S
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
     if b is None:
         return None
+    summary = bounds_summary(b)
+    return summary if decide_lower(b, compared) else {**summary, "lower": None}
+
+
+def decide_lower(b: Bounds, compared: float | None) -> bool:
+    """Whether the lower bound of ``b`` decides its comparison with the load ``compared`` (N; None: no comparison,
+    True) after its static programme is solved again where it stopped short of Clarabel's full tolerances above that
+    load or without a value (module docstring, *Accuracy*, steps 2-3); that solve replaces ``b.lower``, its
+    iterations and seconds counting both solves."""
     capped = b.lower
     stopped = capped.load is None and capped.status.startswith("solver failure")  # at the cap, without a value
     if compared is None or capped.status == "optimal" or not (stopped or capped.load is not None
                                                               and capped.load > compared):
-        return bounds_summary(b)
+        return True
     again, _, _ = _bound(b.problem, lambda problem: lower_bound(problem, CHECK_ITERATIONS))
     b.lower = replace(again, iterations=capped.iterations + again.iterations, seconds=capped.seconds + again.seconds)
     b.timings["total"] += again.seconds
-    summary = bounds_summary(b)
-    decided = again.load is not None and (again.status == "optimal" or again.load <= compared or (
+    return again.load is not None and (again.status == "optimal" or again.load <= compared or (
         capped.load is not None and abs(capped.load - again.load) <= SETTLED * again.load))
-    return summary if decided else {**summary, "lower": None}
 
 

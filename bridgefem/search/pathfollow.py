@@ -167,6 +167,7 @@ def find_limit_load(solver: ContactSolver, deflection: Callable[[Iterate], float
         return LimitSearch(STABLE, 0.0, None, tolerance, steps, state, settled=settled)
     if settings.stiffness_drop > 0:
         attempt.k_initial = tangent_stiffness(solver, deflection, state) or math.inf
+    attempt.floor = guides.floor
     if guides.collapse is not None and guides.collapse.at_collapse is not None:
         reading = guides.collapse.at_collapse
         attempt.at_collapse = lambda level, it: reading(level, it, settled)

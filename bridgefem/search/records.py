@@ -176,6 +176,9 @@ class SearchGuides:
     ``coarser_path(trial, lower, state)``: a re-run's start of a trial from its converged ``state`` at ``lower`` on its
     coarser run's path (:class:`bridgefem.search.coarser_path.CoarserPath`), or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*).
+    ``floor(level)``: a level (N per unit load factor) that a lower bound of the collapse proves carried (a fill's
+    conic lower bound), decided against ``level`` (N per unit load factor); None: none
+    (:mod:`bridgefem.search.step`, *Flat curve*, step 3). Collective.
     """
 
     guess: float | None = None
@@ -185,6 +188,7 @@ class SearchGuides:
     predicted: Callable[[float, Iterate], PETSc.Vec | None] | None = None
     coarser_path: Callable[[float, float, Iterate], PairPrediction | None] | None = None
     self_weight_states: Callable[[float, Iterate], Iterator[PETSc.Vec]] | None = None
+    floor: Callable[[float], float | None] | None = None
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ exactly: its load-deflection curve flattens towards a plateau, the plastic limit
    R = P_inf - P is the load still to come above the step's end, at least up to the highest level at which a step
    has converged (flat or not: an equilibrium exists there, so the plateau lies no lower);
 4. a step whose reserve is within the bracket's tolerance of its level (R <= tolerance x P) counts as failed, with a
-   mechanism: the curve is flat at its plateau. A step whose curve is not softening (its secant not below the one
+   mechanism: the curve is flat at its plateau; but not below a level that a lower bound of the collapse proves
+   carried (``floor``: a fill's conic lower bound whose static programme is optimal). A step whose curve is not softening (its secant not below the one
    before it, or its tangent not below its secant) has no plateau in sight and converges.
 
 On a softening (concave) curve the secant over a step exceeds the tangent at its end, so such a failure is as
@@ -50,6 +51,10 @@ Safeguards:
 - *An equilibrium is a floor* (step 3): an exponential fitted across a knee of the curve (a long stiff step, then a
   short soft one) puts its plateau just above the step; a level at which a step converged, even one counted as flat,
   keeps the bracket from closing below it.
+- *A proof is a floor* (step 4): the exponential is an estimate; a curve that creeps (a plastic fill, crushing
+  joints whose stress blocks form over large rotations) approaches its plateau more slowly than it, and the fit
+  through three nearby states can put the plateau below a level the static theorem proves carried. The bound is
+  asked for only where a step would otherwise read flat (it may still be computing), with that step's level.
 - *Displaced start keeps the converged state's active set*: an estimate changes where the Newton iteration starts,
   never what counts as converged.
 """
@@ -84,6 +89,7 @@ class StepRecorder:
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
     at_collapse: Callable[[float, Iterate], tuple[bool, str]] | None = None
+    floor: Callable[[float], float | None] | None = None  # a level proved carried (*Flat curve*, step 3); collective
     # the converged live-load states of the path: level -> (its deflection in m, the level of the state its step
     # started from; None for the settled state)
     path: dict[float, tuple[float, float | None]] = field(default_factory=dict)
@@ -146,7 +152,7 @@ class StepRecorder:
             reserve = plateau_through((before, self.path[before][0]), (start_level, start), (level, reached))
             fit = "the path's last three converged states"
         reserve = max(reserve, self.highest - level)
-        if reserve > self.tolerance * level:
+        if reserve > self.tolerance * level or (self.floor is not None and level < (self.floor(level) or 0.0)):
             return None
         at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else (
             "no tangent at its end" if needed else "tangent not needed")
@@ -176,7 +182,8 @@ def plateau_through(first: tuple[float, float], second: tuple[float, float], thi
     while excess(high) > 0:
         high *= 2.0
     rate = brentq(excess, low, high, xtol=1e-300, rtol=1e-13) if excess(low) > 0 else low
-    return b / math.expm1(v * rate)
+    x = v * rate
+    return b * math.exp(-x) / -math.expm1(-x)  # b / (exp(x) - 1), without overflow where the curve is flat
 
 
 def plateau_reserve(load: float, secant: float, tangent: float) -> float:
