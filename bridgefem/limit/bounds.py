@@ -297,8 +297,9 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None, known: S
         return {"lower": None, "upper": None, "unit": "N", "status": str(err)}
     if b is None:
         return None
+    decided = decide_lower(b, compared)
     summary = bounds_summary(b)
-    return summary if decide_lower(b, compared) else {**summary, "lower": None}
+    return summary if decided else {**summary, "lower": None}
 
 
 def decide_lower(b: Bounds, compared: float | None) -> bool:
