@@ -16,7 +16,7 @@ from bridgefem.fe.footing import MARTIN_N_GAMMA
 from bridgefem.io import cli
 from bridgefem.io.bounds_plot import plot_bounds
 from bridgefem.limit import bounds, bounds_model
-from bridgefem.limit.bounds import SETTLED, collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
+from bridgefem.limit.bounds import SETTLED, SceneBounds, collapse_bounds, fill_bounds, problem_bounds, upper_mechanism
 from bridgefem.limit.bounds_model import MAX_TRIANGLES, Soil, bridge_problem, strip_footing_problem
 from bridgefem.limit.collapse import collapse_load
 from bridgefem.limit.conic import MAX_ITERATIONS
@@ -343,6 +343,12 @@ def test_a_lower_bound_above_the_compared_load_is_solved_again():
     assert checked["programmes"]["lower"]["iterations"] > MAX_ITERATIONS
     assert capped["lower"] * (1 - SETTLED) <= checked["lower"] <= capped["lower"]
     assert checked["upper"] == capped["upper"]
+    known = SceneBounds(scene)  # the search's floor and the results' entry share one re-solve
+    floor = known.lower(0.99 * capped["lower"])
+    again = fill_bounds(scene, 0.98 * capped["lower"], known=known)
+    assert again["programmes"]["lower"]["iterations"] == checked["programmes"]["lower"]["iterations"]
+    assert again["lower"] == checked["lower"] and floor == (checked["lower"] if checked["programmes"]["lower"][
+        "status"] == "optimal" else None)
 
 
 def capped_small_bridge(monkeypatch, cap: int, check: int | None = None):

@@ -96,6 +96,7 @@ class Bounds:
     block_velocities: np.ndarray | None = None
     soil_velocities: np.ndarray | None = None
     problem: LimitProblem | None = field(default=None, repr=False)
+    capped: Bound | None = None  # the static programme's bound at its cap, once solved again (:func:`decide_lower`)
 
 
 def _bound(problem: LimitProblem, solve) -> tuple[Bound, object, dict]:
@@ -305,16 +306,19 @@ def fill_bounds(scene: Scene, compared: float | None = None, comm=None, known: S
 def decide_lower(b: Bounds, compared: float | None) -> bool:
     """Whether the lower bound of ``b`` decides its comparison with the load ``compared`` (N; None: no comparison,
     True) after its static programme is solved again where it stopped short of Clarabel's full tolerances above that
-    load or without a value (module docstring, *Accuracy*, steps 2-3); that solve replaces ``b.lower``, its
-    iterations and seconds counting both solves."""
-    capped = b.lower
+    load or without a value (module docstring, *Accuracy*, steps 2-3), once: that solve replaces ``b.lower``, its
+    iterations and seconds counting both solves, and the capped bound is kept as ``b.capped``."""
+    capped = b.capped or b.lower
     stopped = capped.load is None and capped.status.startswith("solver failure")  # at the cap, without a value
     if compared is None or capped.status == "optimal" or not (stopped or capped.load is not None
                                                               and capped.load > compared):
         return True
-    again, _, _ = _bound(b.problem, lambda problem: lower_bound(problem, CHECK_ITERATIONS))
-    b.lower = replace(again, iterations=capped.iterations + again.iterations, seconds=capped.seconds + again.seconds)
-    b.timings["total"] += again.seconds
+    if b.capped is None:
+        again, _, _ = _bound(b.problem, lambda problem: lower_bound(problem, CHECK_ITERATIONS))
+        b.capped, b.lower = capped, replace(again, iterations=capped.iterations + again.iterations,
+                                            seconds=capped.seconds + again.seconds)
+        b.timings["total"] += again.seconds
+    again = b.lower
     return again.load is not None and (again.status == "optimal" or again.load <= compared or (
         capped.load is not None and abs(capped.load - again.load) <= SETTLED * again.load))
 

@@ -176,9 +176,9 @@ class SearchGuides:
     ``coarser_path(trial, lower, state)``: a re-run's start of a trial from its converged ``state`` at ``lower`` on its
     coarser run's path (:class:`bridgefem.search.coarser_path.CoarserPath`), or None
     (:mod:`bridgefem.search.pathfollow`, *Predictor*).
-    ``floor(level)``: a level (N per unit load factor) that a lower bound of the collapse proves carried (a fill's
-    conic lower bound), decided against ``level`` (N per unit load factor); None: none
-    (:mod:`bridgefem.search.step`, *Flat curve*, step 3). Collective.
+    ``floor(level)``: a level (N per unit load factor) that a lower bound of the rigid-plastic collapse proves
+    carried (a fill's conic lower bound), decided against ``level`` (N per unit load factor); None: none
+    (:mod:`bridgefem.search.step`, *Flat curve*, step 4). Collective.
     """
 
     guess: float | None = None

@@ -23,9 +23,10 @@ exactly: its load-deflection curve flattens towards a plateau, the plastic limit
    R = P_inf - P is the load still to come above the step's end, at least up to the highest level at which a step
    has converged (flat or not: an equilibrium exists there, so the plateau lies no lower);
 4. a step whose reserve is within the bracket's tolerance of its level (R <= tolerance x P) counts as failed, with a
-   mechanism: the curve is flat at its plateau; but not below a level that a lower bound of the collapse proves
-   carried (``floor``: a fill's conic lower bound whose static programme is optimal). A step whose curve is not softening (its secant not below the one
-   before it, or its tangent not below its secant) has no plateau in sight and converges.
+   mechanism: the curve is flat at its plateau; but not below a level that a lower bound of the rigid-plastic
+   collapse proves carried (``floor``: a fill's conic lower bound, whose static programme is optimal). A step whose
+   curve is not softening (its secant not below the one before it, or its tangent not below its secant) has no
+   plateau in sight and converges.
 
 On a softening (concave) curve the secant over a step exceeds the tangent at its end, so such a failure is as
 decisive as a lost equilibrium, and the bracket rule is unchanged: the bracket closes where the plateau lies within
@@ -54,7 +55,9 @@ Safeguards:
 - *A proof is a floor* (step 4): the exponential is an estimate; a curve that creeps (a plastic fill, crushing
   joints whose stress blocks form over large rotations) approaches its plateau more slowly than it, and the fit
   through three nearby states can put the plateau below a level the static theorem proves carried. The bound is
-  asked for only where a step would otherwise read flat (it may still be computing), with that step's level.
+  asked for only where a step would otherwise read flat (it may still be computing), with that step's level. It
+  only keeps the estimate from closing the bracket: a search whose steps fail below it (non-associative friction
+  or flow can collapse there) ends by the bracket rule as before.
 - *Displaced start keeps the converged state's active set*: an estimate changes where the Newton iteration starts,
   never what counts as converged.
 """
@@ -89,7 +92,7 @@ class StepRecorder:
     steps: list[LoadStep] = field(default_factory=list)
     k_initial: float = math.inf
     at_collapse: Callable[[float, Iterate], tuple[bool, str]] | None = None
-    floor: Callable[[float], float | None] | None = None  # a level proved carried (*Flat curve*, step 3); collective
+    floor: Callable[[float], float | None] | None = None  # a level proved carried (*Flat curve*, step 4); collective
     # the converged live-load states of the path: level -> (its deflection in m, the level of the state its step
     # started from; None for the settled state)
     path: dict[float, tuple[float, float | None]] = field(default_factory=dict)
