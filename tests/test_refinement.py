@@ -50,7 +50,7 @@ def fake_analyses(monkeypatch, outcomes, lowers=(97.0, 98.0, 99.0), statuses=Non
     statuses = list(statuses or ("solver failure: x" if d else Status.LIMIT for d in outcomes))
 
     def fake(scene, comm, petsc, report, phase, coarser_level=None, budget=None, path=None, joint_law=None,
-             enough=None):
+             enough=None, lower_bound=None):
         meshes.append(scene.mesh.elements_through_thickness)
         if paths is not None:
             paths.append(path)

@@ -135,7 +135,8 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
                 return value
             return bound
         # the refinement's upper bound; the search's floor, the lower bound (bridgefem.search.step, *Flat curve*)
-        upper_bound, lower_bound = timed(SceneBounds.upper), timed(SceneBounds.lower)
+        upper_bound = timed(lambda bounds: bounds.upper())
+        lower_bound = timed(lambda bounds, compared: bounds.lower(compared))
         an = refine(scene, comm, analyse, notice, max_refinements, max_dofs, upper_bound)
         _conclude(an, comm, known)
         an.timings.update(waited)
