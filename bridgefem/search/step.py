@@ -138,7 +138,8 @@ class StepRecorder:
         """The converged ``out`` at ``level`` (its deflection ``reached``, m) as a failed step with a mechanism when
         the load-deflection curve is flat there (module docstring, *Flat curve*): its secant stiffness from the
         converged state at ``start_level`` (N per unit load factor) or its tangent stiffness below ``stiffness_drop``
-        x ``k_initial``, and the curve's plateau within ``tolerance`` x ``level`` above it; else None."""
+        x ``k_initial``, and the curve's plateau within ``tolerance`` x ``level`` above it, ``level`` not below the
+        ``floor``; else None."""
         start, before = self.path[start_level]
         load, rise = level - start_level, reached - start
         secant = load / rise if rise > 0 else math.inf
