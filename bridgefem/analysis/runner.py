@@ -124,19 +124,21 @@ def run_analysis(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: d
         known = SceneBounds(scene, comm, ahead=spare_core(MPI.COMM_WORLD)) if plastic else None
         waited: dict[str, float] = {}
 
-        def timed(read: Callable[..., float | None]) -> Callable[..., float | None]:
-            def bound(*compared: float) -> float | None:  # a bound (N), its wait timed as the phase "conic bounds"
-                if known is None:
-                    return None
-                clock = Clock(comm)
-                value = read(known, *compared)
-                clock.lap("conic bounds")
-                waited["conic bounds"] = waited.get("conic bounds", 0.0) + clock.timings["conic bounds"]
-                return value
-            return bound
-        # the refinement's upper bound; the search's floor, the lower bound (bridgefem.search.step, *Flat curve*)
-        upper_bound = timed(lambda bounds: bounds.upper())
-        lower_bound = timed(lambda bounds, compared: bounds.lower(compared))
+        def wait_for(read: Callable[[SceneBounds], float | None]) -> float | None:
+            """A bound (N) ``read`` off the scene's bounds, the wait timed as the phase "conic bounds"."""
+            if known is None:
+                return None
+            clock = Clock(comm)
+            value = read(known)
+            clock.lap("conic bounds")
+            waited["conic bounds"] = waited.get("conic bounds", 0.0) + clock.timings["conic bounds"]
+            return value
+
+        def upper_bound() -> float | None:  # the refinement's
+            return wait_for(lambda bounds: bounds.upper())
+
+        def lower_bound(compared: float) -> float | None:  # the search's floor (bridgefem.search.step, *Flat curve*)
+            return wait_for(lambda bounds: bounds.lower(compared))
         an = refine(scene, comm, analyse, notice, max_refinements, max_dofs, upper_bound)
         _conclude(an, comm, known)
         an.timings.update(waited)
