@@ -388,8 +388,8 @@ def test_prestwood_fe_lies_within_its_conic_bounds(prestwood):
 @pytest.mark.slow
 def test_prestwood_same_bracket_under_mpi(prestwood):
     """2 ranks follow the serial load path trial by trial and give the same bracket and hinges. The partitions
-    only round differently (states agree to ~1e-10), and the levels tried are computed from the same LP guess:
-    1e-9. (Before the arch-fill pairs were chosen by geometry, the fill node at a joint's extrados corner rode on
+    only round differently (states agree to ~1e-10), and the levels tried are computed by the same rules from the
+    same states: 1e-9. (Before the arch-fill pairs were chosen by geometry, the fill node at a joint's extrados corner rode on
     the voussoir with the lower global node number, which depends on the partition: the runs drifted apart once a
     joint opened and their brackets differed by one width.)"""
     out, serial, _ = prestwood
@@ -543,7 +543,8 @@ def test_loading_beam_on_a_cohesive_fill_bears_prandtls_load():
     own collapse is far above): the FE limit lies above Prandtl's load (a displacement FE converges from above)
     and within the mesh error of the footing calibration (docs/fill.md, P2: 1.04-1.12 on 16-8 cells per side;
     measured 1.089 here, the beam's edges at B/6; the fill ends 0.3 m beyond the springings, coarse away from the
-    ring: 9 s)."""
+    ring: 9 s). The rigid-block LP, which takes the fill for dead load, collapses far above that bearing failure:
+    it does not steer the search (no guess), as a guess there would be wrong."""
     d = {"arch": {"shape": "semicircular", "span": 4.0, "thickness": 0.4, "width": 1.0, "voussoirs": 12},
          "masonry": {"young": 10e9, "density": 2000.0}, "joints": {"friction": 0.6},
          "fill": {"material": "mohr-coulomb", "unit_weight": 18000.0, "friction_angle": 0.0, "cohesion": 1e4,
@@ -556,6 +557,7 @@ def test_loading_beam_on_a_cohesive_fill_bears_prandtls_load():
     prandtl = (2 + np.pi) * 1e4 * 0.3
     assert prandtl < s.lower * an.load_total and s.upper * an.load_total < 1.12 * prandtl
     assert not any(j.hinge for j in an.joints)  # the fill fails, not the ring
+    assert an.lp.level > 2 * s.upper and s.guess is None
 
 
 @pytest.mark.slow
