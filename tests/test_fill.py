@@ -479,6 +479,13 @@ def test_loading_beam_moves_as_a_rigid_body_and_tilts():
     assert np.abs(line - uy).max() > 3 * misfit
 
 
+def test_the_rigid_block_lp_does_not_steer_the_search_under_a_fill():
+    """The LP takes the fill for dead load, leaving out the stiffness and strength with which a fill carries the
+    live load beyond the rings' collapse or fails first: it is no guess of the limit there."""
+    _, an = beam_analysis()
+    assert an.lp.status == LIMIT_FOUND and an.search.guess is None
+
+
 def test_fill_reaction_on_the_loading_beam_is_the_patch_load_through_its_centre():
     """Equilibrium of the beam: the forces the fill exerts on its base (the beam's internal nodal forces at its
     base nodes, from its stress) balance the patch load on its top: vertical resultant = the load (1e-6), no

@@ -11,8 +11,8 @@ rigid-block LP of Livesley 1978 and Gilbert & Melbourne 1994 as its independent 
    bounds every FE equilibrium (:mod:`bridgefem.analysis.static_bound`; evidence 4 of
    :mod:`bridgefem.analysis.evidence`).
 3. The limit search (:mod:`bridgefem.search.pathfollow`), with its settings from the scene's keys
-   (:func:`search_settings`) and its guides: the LP's level as a guess (not with a plastic fill, whose strength the
-   LP leaves out: *The LP is no guess for a plastic fill*), the static bound, a coarser run's level and
+   (:func:`search_settings`) and its guides: the LP's level as a guess (not with a fill, whose strength and stiffness
+   the LP leaves out: *The LP is no guess with a fill*), the static bound, a coarser run's level and
    path, the collapse-state check at its converged states (:func:`bridgefem.analysis.checks.collapse_check`; under
    an elastic fill :func:`bridgefem.analysis.interface.fill_collapse_check`) and,
    on a bare ring, a predicted state for a failed trial (:class:`bridgefem.solver.tresca.TrescaPredictor`). It
@@ -42,11 +42,12 @@ level), the ``load`` of results.json.
 
 Safeguards:
 
-- *The LP is no guess for a plastic fill* (step 3): the LP takes the fill for dead load, leaving out its strength,
-  which can carry the live load far beyond the rings' collapse (Prestwood: twice the LP's level) or fail under it
-  first (a loading beam's bearing failure, far below); a search steered by that level approaches it in ever
-  shorter steps and starts again from the bracket's width above it, where nothing happens. Without a guess the
-  steps grow from the first one until a failure; the bracket rule, the retries and the conic lower bound's floor
+- *The LP is no guess with a fill* (step 3): the LP takes the fill for dead load, leaving out its strength and
+  stiffness, with which the fill can carry the live load far beyond the rings' collapse (Prestwood's Mohr-Coulomb
+  fill twice the LP's level, the campaign's elastic fills a median 7 times it) or fail under it first (a loading
+  beam's bearing failure, far below); a search steered by that level approaches it in ever shorter steps and
+  starts again from the bracket's width above it, where nothing happens. Without a guess the steps grow from the
+  first one until a failure; the bracket rule, the retries, the collapse-state readings and a plastic fill's floor
   guard the verdict as before.
 - *The live load's own displacement with a plastic fill* (step 3): a plastic fill can fail under the load before
   the ring does, so the flat-curve test watches the loaded road; an elastic fill cannot, and its elastic settlement
@@ -238,8 +239,8 @@ def _search(scene: Scene, comm: MPI.Comm, fe: BridgeModel, blocks: BlockModel | 
     predictor = TrescaPredictor(solver) if scene.fill is None else None
     condensed = CondensedPredictor(solver) if scene.fill is None else None
     lp = fe.lp
-    # the LP leaves out a plastic fill's strength (module docstring, *The LP is no guess for a plastic fill*)
-    guess = lp.level if lp.status == Status.LIMIT and solver.material is None else None
+    # the LP leaves out a fill's strength and stiffness (module docstring, *The LP is no guess with a fill*)
+    guess = lp.level if lp.status == Status.LIMIT and scene.fill is None else None
     try:
         with solver.linear.limited(budget) as lift:  # exact: the solve past it raises (bridgefem.solver.linear)
             def keep(step: LoadStep, it: Iterate) -> None:  # every converged state: the fields' time series, a
