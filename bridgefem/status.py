@@ -40,6 +40,8 @@ class Status(StrEnum):
         return self in (Status.LOCKED, Status.UNBOUNDED)
 
 
+FLAT_CURVE = "load-deflection curve flat"  # opens the reason of a step read off a flat curve (bridgefem.search.step,
+# *Flat curve*), read back by the verdict under a fill
 RINGS_UNDER_FILL = "the rings under the loads the fill transmits"  # names evidence 5 of
 # bridgefem.analysis.evidence in a failure's reason, read back by the verdict and the command line
 COLLAPSE_END = "the bracket's upper end is its rigid blocks' collapse level"  # a bracket that a collapse state ends

@@ -8,6 +8,7 @@ from conftest import ROOT, campaign_module, campaign_scene, scene_dict
 
 from bridgefem.geometry.ring import AT_JOINT_TOL, polygon_area_centroid
 from bridgefem.scene.reader import scene_from_dict
+from bridgefem.status import FLAT_CURVE, RINGS_UNDER_FILL
 from bridgefem.structure.ring import scene_ring
 
 # campaign scene 294: a thick pointed ring (t = 0.3 of the rise); the extrados offsets of the two arcs end
@@ -346,11 +347,33 @@ def test_with_a_fill_a_limit_is_not_refused_by_the_lp_but_one_below_it_warns():
     from bridgefem.analysis.evidence import confirm
     from bridgefem.status import Status
 
-    above = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True)
+    flat = f"{FLAT_CURVE}: secant stiffness 1e3 N/m over the step"
+    above = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True, failure=flat)
     assert above.status == Status.LIMIT and above.upper == 181.0 and not above.warnings
-    below = confirm(Status.LIMIT, 60.0, 61.0, False, Status.LIMIT, 100.0, fill=True)
+    below = confirm(Status.LIMIT, 60.0, 61.0, False, Status.LIMIT, 100.0, fill=True, failure=flat)
     assert below.status == Status.LIMIT and "the fill fails before the ring" in below.warnings[0]
     assert not confirm(Status.LOCKED, 900.0, None, False, Status.LIMIT, 100.0, fill=True).warnings
+
+
+@pytest.mark.parametrize("failure, stands", [
+    (f"{FLAT_CURVE}: secant stiffness 1e3 N/m over the step", True),
+    (f"{RINGS_UNDER_FILL} collapse within the tolerance", True),
+    ("no convergence: diverged along an inadmissible mode; no equilibrium with any of 5 other solver settings, each "
+     "diverging (no proof)", False),
+    ("inaccurate linear solve: scaled equilibrium residual 1e-3 (singular system)", False)])
+def test_with_a_fill_a_limit_needs_its_own_evidence(failure, stands):
+    """Under a fill the LP cannot confirm a limit, so a mechanism without proof (every solver setting diverging, a
+    singular system) is a solver failure, never a collapse; a flat load-deflection curve or the rings' collapse under
+    the loads the fill transmits (evidence 5) is the FE's own evidence, and a proved mechanism is a proof."""
+    from bridgefem.analysis.evidence import confirm
+    from bridgefem.status import Status
+
+    verdict = confirm(Status.LIMIT, 180.0, 181.0, False, Status.LIMIT, 100.0, fill=True, failure=failure)
+    assert (verdict.status == Status.LIMIT) is stands
+    if not stands:
+        assert verdict.status.startswith("solver failure: unproven mechanism") and verdict.upper is None
+    assert confirm(Status.LIMIT, 180.0, 181.0, True, Status.LIMIT, 100.0, fill=True, failure=failure).status == \
+        Status.LIMIT
 
 
 @pytest.mark.slow

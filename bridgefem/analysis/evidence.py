@@ -105,7 +105,8 @@ point load), which can lower it far below the LP, even below the conic upper bou
 So it cannot confirm an FE limit either way: the search's flat
 load-deflection curve, or under an elastic fill evidence 5, is the FE's evidence, the conic bounds (``fill_bounds``,
 :mod:`bridgefem.limit.bounds`) the independent check, and an FE limit below the LP gets a warning that names the
-likely cause. Under self-weight
+likely cause. A limit with neither (a mechanism without proof: every solver setting diverging, a singular system)
+is a solver failure under a fill. Under self-weight
 alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
 as for a bare ring.
 
@@ -131,7 +132,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..limit.rigid_block import Statics
-from ..status import RINGS_UNDER_FILL, Status
+from ..status import FLAT_CURVE, RINGS_UNDER_FILL, Status
 
 AGREEMENT = 0.005  # FE within this fraction of the LP's level agrees with it (the limit load's accuracy target)
 
@@ -337,6 +338,11 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
     lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
     lp_text = (f"{lp_name} gives {lp_level * unit / 1e3:.6g} kN" if lp is Status.LIMIT
                else f"{lp_name} finds '{lp_status}'" if lp_status else "no rigid-block LP answer")
+    if kind is Status.LIMIT and fill and not (proved or RINGS_UNDER_FILL in failure or failure.startswith(FLAT_CURVE)):
+        return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN under a fill (no admissible "
+                                      "mode with positive work, no flat load-deflection curve and no collapse of the "
+                                      f"rings under the loads the fill transmits; {lp_text} cannot confirm it: "
+                                      f"{failure})"), None, "")
     if kind is Status.LIMIT and fill:
         below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         evidence = ("proof: an admissible rigid-block mode on which the loads do positive work" if proved else

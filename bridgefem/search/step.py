@@ -73,6 +73,7 @@ from petsc4py import PETSc
 from scipy.optimize import brentq
 
 from ..solver.newton import ContactSolver, Iterate, PairPrediction, StepOutcome
+from ..status import FLAT_CURVE
 from .records import LoadStep, SearchObservers
 
 
@@ -160,7 +161,7 @@ class StepRecorder:
             return None
         at_end = f"tangent {tangent:.3g} N/m at its end" if tangent else (
             "no tangent at its end" if needed else "tangent not needed")
-        return StepOutcome(False, f"load-deflection curve flat: secant stiffness {secant:.3g} N/m over the step, "
+        return StepOutcome(False, f"{FLAT_CURVE}: secant stiffness {secant:.3g} N/m over the step, "
                                   f"{at_end}, below {self.stiffness_drop:g} x the initial {self.k_initial:.3g} "
                                   f"N/m; its plateau, fitted to {fit}, {reserve:.3g} N per unit load factor above "
                                   f"it, within the tolerance (collapse)", out.iterations, out.residual,
