@@ -389,9 +389,9 @@ def test_prestwood_fe_lies_within_its_conic_bounds(prestwood):
 def test_prestwood_same_bracket_under_mpi(prestwood):
     """2 ranks follow the serial load path trial by trial and give the same bracket and hinges. The partitions
     only round differently (states agree to ~1e-10), and the levels tried are computed by the same rules from the
-    same states: 1e-9. (Before the arch-fill pairs were chosen by geometry, the fill node at a joint's extrados corner rode on
-    the voussoir with the lower global node number, which depends on the partition: the runs drifted apart once a
-    joint opened and their brackets differed by one width.)"""
+    same states: 1e-9. (Before the arch-fill pairs were chosen by geometry, the fill node at a joint's extrados
+    corner rode on the voussoir with the lower global node number, which depends on the partition: the runs drifted
+    apart once a joint opened and their brackets differed by one width.)"""
     out, serial, _ = prestwood
     proc = bridgefem("run", ROOT / "demos/prestwood.toml", "--quiet", "--out", out / "mpi", ranks=2)
     assert proc.returncode == 0, proc.stdout + proc.stderr
