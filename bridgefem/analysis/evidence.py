@@ -338,18 +338,19 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
     lp_name = "the rigid-block LP on the same joints" + (" with the fill as dead load" if fill else "")
     lp_text = (f"{lp_name} gives {lp_level * unit / 1e3:.6g} kN" if lp is Status.LIMIT
                else f"{lp_name} finds '{lp_status}'" if lp_status else "no rigid-block LP answer")
-    if kind is Status.LIMIT and fill and not (proved or RINGS_UNDER_FILL in failure or failure.startswith(FLAT_CURVE)):
-        return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN under a fill (no admissible "
-                                      "mode with positive work, no flat load-deflection curve and no collapse of the "
-                                      f"rings under the loads the fill transmits; {lp_text} cannot confirm it: "
-                                      f"{failure})"), None, "")
     if kind is Status.LIMIT and fill:
-        below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         evidence = ("proof: an admissible rigid-block mode on which the loads do positive work" if proved else
                     f"collapse state: {RINGS_UNDER_FILL} collapse at the bracket's upper end, and an elastic fill has "
                     "no strength to give way (evidence 5; failure_reason, ring_under_transmitted_loads)"
                     if RINGS_UNDER_FILL in failure else "the search's load-deflection curve (with a fill the LP cannot "
-                    "confirm it; the conic bounds fill_bounds are the check)")
+                    "confirm it; the conic bounds fill_bounds are the check)" if failure.startswith(FLAT_CURVE)
+                    else None)
+        if evidence is None:  # a mechanism without proof, which no LP can confirm under a fill
+            return Verdict(Status.failure(f"unproven mechanism at {upper * unit / 1e3:.6g} kN under a fill (no "
+                                          "admissible mode with positive work, no flat load-deflection curve and no "
+                                          f"collapse of {RINGS_UNDER_FILL}; {lp_text} cannot confirm it: {failure})"),
+                           None, "")
+        below = lp is Status.LIMIT and upper < (1 - AGREEMENT) * lp_level
         return Verdict(status, upper, evidence, (f"FE limit below {lp_text}: the fill fails before "
                        "the ring (e.g. a bearing failure under the load); compare fill_bounds",) if below else ())
     if kind is Status.LIMIT and closed and lp is Status.LIMIT and reaches(lower, upper, lp_level):
