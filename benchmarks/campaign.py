@@ -489,6 +489,9 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         out.update(bound_lower=None, bound_upper=upper)
         cls = ("wrong (fill mesh not converged)" if upper is not None and lim["upper"] > (1 + BOUND_TOL) * upper
                else "unjudged (bounds failed)")
+    elif fill and status == "unstable under self-weight" and (((data.get("fill_bounds") or {}).get("programmes") or {})
+                                                                .get("upper") or {}).get("status") == "infeasible":
+        cls = "confirmed"  # the conic kinematic programme's certificate: the bridge with its fill cannot stand
     elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
         cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict
         # is at or above that LP

@@ -131,6 +131,22 @@ def test_campaign_judge_takes_the_evidence_rules_agreement():
                           "")["class"] == "confirmed"
 
 
+@pytest.mark.parametrize("upper,lp,cls", [("infeasible", "limit load found", "confirmed"),
+                                           ("infeasible", "unstable under self-weight", "confirmed"),
+                                           ("optimal", "limit load found", "wrong")])
+def test_campaign_judge_takes_the_kinematic_certificate_under_a_fill(upper, lp, cls):
+    """Under a fill, "unstable under self-weight" is confirmed by the conic kinematic programme without a feasible
+    point (its certificate a collapse mechanism under the dead load), whatever the LP with the fill as dead load
+    says; without that certificate an FE instability where that LP stands is wrong."""
+    campaign = campaign_module()
+    data = {"status": "unstable under self-weight", "limit_load": {"lower": 0.0, "upper": 0.0},
+            "lp": {"status": lp, "load": 325.0 if lp == "limit load found" else None, "mechanism": {"sliding": []}},
+            "mechanism": {"sliding": []}, "evidence": "proof: ...", "solver": {"solves": 90}, "mesh_refinements": [],
+            "fill_bounds": {"lower": None, "upper": None if upper == "infeasible" else 2e5,
+                            "programmes": {"lower": {"status": upper}, "upper": {"status": upper}}}}
+    assert campaign.judge(data, 0, "", fill=True)["class"] == cls
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [[], ["--options"], ["--ranks", "2"]])
 def test_readme_campaign_command_runs_and_judges(tmp_path, options):

@@ -582,3 +582,64 @@ def test_a_fill_step_far_beyond_the_collapse_load_stops_as_diverged():
     out = an.solver.solve_step(10 * upper / an.load_total, an.search.last, iterations=budget)
     assert not out.converged and not out.mechanism
     assert out.reason.startswith("diverged") and out.residual > DIVERGED_OUT_OF_BALANCE and out.iterations < budget
+
+
+BOUNDS_INFEASIBLE = {"lower": None, "upper": None,
+                     "programmes": {"lower": {"status": "infeasible"}, "upper": {"status": "infeasible"}}}
+
+
+@pytest.mark.parametrize("status,settled,bounds,lp,unstable", [
+    # a self-weight without an FE equilibrium and a kinematic certificate: the bridge falls
+    ("solver failure: self-weight ... diverged", False, BOUNDS_INFEASIBLE, "unstable under self-weight", True),
+    ("solver failure: self-weight ... diverged", False, BOUNDS_INFEASIBLE, "limit load found", True),
+    # the static programme's infeasibility alone is no proof
+    ("solver failure: self-weight ... diverged", False,
+     {**BOUNDS_INFEASIBLE, "programmes": {"lower": {"status": "infeasible"}, "upper": {"status": "solver failure"}}},
+     "unstable under self-weight", False),
+    # bounds that carry the dead load, a live-load failure, a verdict, no bounds: nothing to decide
+    ("solver failure: self-weight ... diverged", False,
+     {"lower": 1e5, "upper": 2e5, "programmes": {"upper": {"status": "optimal"}}}, "limit load found", False),
+    ("solver failure: unproven mechanism at 12 kN", True, BOUNDS_INFEASIBLE, "limit load found", False),
+    ("limit load found", True, BOUNDS_INFEASIBLE, "limit load found", False),
+    ("solver failure: self-weight ... diverged", False, None, "unstable under self-weight", False),
+])
+def test_a_self_weight_without_equilibrium_falls_where_the_kinematic_programme_proves_it(status, settled, bounds, lp,
+                                                                                         unstable):
+    """Evidence 6: a self-weight that found no FE equilibrium is "unstable under self-weight" only where the conic
+    kinematic programme has no feasible point (its certificate a mechanism on which the dead load does more work than
+    it dissipates); a standing LP with the fill as dead load leaves a warning."""
+    from bridgefem.analysis.evidence import dead_load_collapse
+    from bridgefem.status import Status
+
+    verdict = dead_load_collapse(status, settled, bounds, lp)
+    assert (verdict is not None) is unstable
+    if unstable:
+        assert (verdict.status, verdict.upper) == (Status.UNSTABLE, 0.0)
+        assert verdict.evidence.startswith("proof: the conic bounds' kinematic programme")
+        assert bool(verdict.warnings) is (lp != Status.UNSTABLE)
+
+
+@pytest.mark.slow  # an end-to-end run and the conic bounds: about 30 s
+def test_a_ring_under_a_weak_fill_that_cannot_stand_is_unstable(tmp_path):
+    """A tall parabolic ring (6 m span, 3 m rise, t = 0.2 m) under a weak fill (phi = 20 deg, c = 1 kPa): the FE's
+    cohesion continuation finds no equilibrium under self-weight, and none exists: the conic programmes of the bridge
+    with its fill, solved independently by ``bridgefem bounds``, have no feasible point (the kinematic one's
+    certificate a collapse mechanism under the dead load). The run says "unstable under self-weight" (exit 0) with
+    that proof, keeps the FE's own reason, and warns that the LP with the fill as dead load (a ring carrying the
+    fill as a pressure) stands."""
+    d = scene_dict(arch={"shape": "parabolic", "span": 6.0, "rise": 3.0, "thickness": 0.2, "voussoirs": 16},
+                   fill={"material": "mohr-coulomb", "unit_weight": 18000.0, "friction_angle": 20.0,
+                         "cohesion": 1000.0, "young": 50e6, "depth": 0.4, "extension": 0.5},
+                   load=[{"kind": "patch", "position": 0.25, "length": 0.5}])
+    scene = write_toml(tmp_path / "weak.toml", d)
+    bounds = bridgefem("bounds", scene, "--json")
+    assert [json.loads(bounds.stdout.splitlines()[-1])["programmes"][p]["status"] for p in ("lower", "upper")] == \
+        ["infeasible", "infeasible"]
+    proc = bridgefem("run", scene, "--out", tmp_path / "out", "--quiet")
+    data = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert proc.returncode == 0, proc.stderr
+    assert data["status"] == "unstable under self-weight"
+    assert data["evidence"].startswith("proof: the conic bounds' kinematic programme")
+    assert data["failure_reason"].startswith("self-weight")
+    assert data["lp"]["status"] == "limit load found" and any("LP with the fill as dead load" in w
+                                                              for w in data["warnings"])

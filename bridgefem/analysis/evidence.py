@@ -85,6 +85,21 @@ evidence of collapse only when
    plastic fill has its own failure (the flat curve's evidence and the conic bounds), so there the rule does not
    apply.
 
+6. under a Mohr-Coulomb fill, a self-weight without an FE equilibrium (the search never settled, a solver failure)
+   is "unstable under self-weight" when the *kinematic programme* of the conic bounds (:mod:`bridgefem.limit.
+   bounds_upper`, ``fill_bounds`` in results.json) proves it: that programme, solved in its dual form (the largest
+   load factor of a weakly equilibrated stress field within the Mohr-Coulomb set, joint forces within their limits),
+   has no feasible point, and Clarabel's certificate of that (Farkas' lemma for cones) is a velocity field of the
+   blocks and the fill, kinematically admissible (its strain rates and jumps in the flow cones), on which the dead
+   load does more work than the field dissipates, the live load none against it. By the upper bound theorem the
+   associative rigid-plastic bridge (rigid voussoirs, no-tension Coulomb joints, the fill's Mohr-Coulomb cone with
+   its cut-off) cannot carry its own weight; by Radenkovic's first theorem the FE's non-associative joints and a fill
+   dilating less than it rubs carry no more, and elasticity changes no collapse load (the limit theorems of elastic,
+   perfectly plastic bodies). No FE equilibrium exists, so the failure was the solver's search for one that is not
+   there. The FE's own reason stays its ``failure_reason``; where the rigid-block LP with the fill as dead load stands,
+   the verdict warns that the fill itself gives way. A static programme without a feasible point is no proof (its
+   stress fields are a subset of the admissible ones) and is not read.
+
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
 elastic path reaches, never that no other path carries more. The Tresca fixed point (Gilbert, Casapulla & Ahmed
@@ -107,8 +122,8 @@ load-deflection curve, or under an elastic fill evidence 5, is the FE's evidence
 :mod:`bridgefem.limit.bounds`) the independent check, and an FE limit below the LP gets a warning that names the
 likely cause. A limit with neither (a mechanism without proof: every solver setting diverging, a singular system)
 is a solver failure under a fill. Under self-weight
-alone the LP standing means the ring carries the fill's weight, so "unstable under self-weight" is refused there
-as for a bare ring.
+alone the LP standing means the ring carries the fill's weight as a pressure, so an FE mechanism under self-weight is
+refused there as for a bare ring; only evidence 6, a proof that the bridge with its fill cannot stand, overrides it.
 
 Safeguards:
 
@@ -118,12 +133,17 @@ Safeguards:
   that the mesh's faces under the live load still move beyond ``AGREEMENT`` goes to a finer mesh instead.
 - *Waived pairs refused* (rule 4): a state that bends the joint law at some pairs is no premise of the static
   theorem.
-- *"Unstable" never where the LP stands*: the LP's equilibrium of the same joints certifies that the ring stands.
+- *"Unstable" never where the LP stands*: the LP's equilibrium of the same joints certifies that the ring stands
+  (with a fill, only that the ring carries the fill as a pressure: evidence 6's proof of the whole bridge decides).
+- *Only a kinematic certificate* (rule 6): of the conic bounds, the programme whose infeasibility is a mechanism; the
+  static programme's infeasibility depends on its mesh's stress fields.
 
 References: R. K. Livesley (1978), Limit analysis of structures formed from rigid blocks, IJNME 12; M. Gilbert,
 C. Casapulla & H. M. Ahmed (2006), Limit analysis of masonry block structures with non-associative frictional joints
 using linear programming, Computers & Structures 84; D. Radenkovic (1961), the theorems of the limit load for
-non-standard materials (the associative upper bound).
+non-standard materials (the associative upper bound); A. Ben-Tal & A. Nemirovski (2001), Lectures on Modern Convex
+Optimization, SIAM, sec. 2.3 (the conic theorem on alternatives: a certificate of infeasibility); A. Makrodimopoulos
+& C. M. Martin (2007), IJNAMG 31 (the kinematic programme as a cone programme).
 """
 from __future__ import annotations
 
@@ -131,6 +151,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..limit.conic import INFEASIBLE
 from ..limit.rigid_block import Statics
 from ..status import FLAT_CURVE, RINGS_UNDER_FILL, Status
 
@@ -400,3 +421,21 @@ def confirm(status: str, lower: float, upper: float | None, proved: bool, lp_sta
             warn = (f"the FE carries {lower * unit / 1e3:.6g} kN, above the collapse load: {lp_text}",)
         return Verdict(status, upper, "equilibrium found", warn)
     return Verdict(status, upper, "")
+
+
+def dead_load_collapse(status: str, settled: bool, fill_bounds: dict | None, lp_status: str | None) -> Verdict | None:
+    """Evidence 6 (module docstring): the verdict "unstable under self-weight" of a run with a fill whose search never
+    ``settled`` under self-weight and ended in a solver failure (``status``), where the kinematic programme of its
+    ``fill_bounds`` (results.json's entry; None without a fill) has no feasible point; None otherwise. ``lp_status``:
+    the rigid-block LP's with the fill as dead load (a warning where it stands)."""
+    if settled or Status.of(status) is not Status.FAILURE or not fill_bounds:
+        return None
+    upper = (fill_bounds.get("programmes") or {}).get("upper") or {}
+    if upper.get("status") != INFEASIBLE:
+        return None
+    warnings = () if lp_status == Status.UNSTABLE else (
+        f"the rigid-block LP with the fill as dead load finds '{lp_status}' (its ring carries the fill as a "
+        "pressure), but the bridge with its fill cannot stand: the fill gives way with the ring (fill_bounds)",)
+    return Verdict(Status.UNSTABLE, 0.0, "proof: the conic bounds' kinematic programme has no feasible point, "
+                   "its certificate a mechanism of the blocks and the fill on which the dead load does more work than "
+                   "it dissipates (upper bound theorem; the FE's non-associative joints carry no more)", warnings)

@@ -29,8 +29,9 @@ Then, for the scene (:func:`run_analysis`):
 6. The collective read-outs of the last run, done once on every rank (:func:`_conclude`): the conic bounds of the
    bridge with its fill (:func:`bridgefem.limit.bounds.fill_bounds`; computed once for steps 5 and 6, by a process
    alone with a core to spare on a thread of their own from the start, beside steps 1-5:
-   :class:`bridgefem.limit.bounds.SceneBounds`; they depend on the scene, not on its mesh), the ring under the loads
-   the fill transmits
+   :class:`bridgefem.limit.bounds.SceneBounds`; they depend on the scene, not on its mesh), the verdict of a
+   self-weight that found no equilibrium where those bounds prove the bridge cannot stand (evidence 6,
+   :func:`bridgefem.analysis.evidence.dead_load_collapse`), the ring under the loads the fill transmits
    (:mod:`bridgefem.analysis.interface`), the collapse mode (:mod:`bridgefem.analysis.mechanism`) and the warnings
    (:mod:`bridgefem.analysis.result`). Reading the returned :class:`bridgefem.analysis.result.Analysis` is then local
    on every rank.
@@ -83,7 +84,7 @@ from ..status import Status
 from ..structure.sizing import MAX_DOFS
 from .build import BridgeModel, Clock, JointLawFactory, build_model
 from .checks import PairCheck, collapse_check, slip_check
-from .evidence import confirm
+from .evidence import confirm, dead_load_collapse
 from .interface import fill_collapse_check, transmitted_load_check
 from .mechanism import collapse_mode, joint_states
 from .refinement import MAX_REFINEMENTS, SETTLED_MOVE, coarse_stress_block, refine
@@ -162,12 +163,16 @@ def _conclude(an: Analysis, comm: MPI.Comm, known: SceneBounds | None = None) ->
     """The collective read-outs of the run ``an`` (module docstring, step 6), done once on every rank and stored on
     it as plain data: the conic bounds of the bridge with its fill (the static programme on rank 0, the kinematic one
     on rank 1 at the same time: :func:`bridgefem.limit.bounds.fill_bounds`; broadcast; ``known``: the scene's,
-    computed once, :class:`bridgefem.limit.bounds.SceneBounds`), the ring under the loads the fill transmits, the
-    collapse mode and the warnings; timed as the phase "checks". Collective."""
+    computed once, :class:`bridgefem.limit.bounds.SceneBounds`), the verdict of evidence 6 where they prove that a
+    self-weight without an FE equilibrium has none, the ring under the loads the fill transmits, the collapse mode
+    and the warnings; timed as the phase "checks". Collective."""
     clock = Clock(comm)
     solver_comm = an.solver.comm
     compared = an.search.upper * an.load_total if an.search.upper is not None else None  # the FE's upper end (N)
     an.fill_bounds = solver_comm.bcast(fill_bounds(an.scene, compared, solver_comm, known), root=0)
+    proved = dead_load_collapse(an.search.status, an.search.settled is not None, an.fill_bounds, an.lp.status)
+    if proved is not None:  # evidence 6: no equilibrium under self-weight exists
+        an.verdict, an.search.status, an.search.upper = proved, proved.status, proved.upper
     an.ring_check = transmitted_load_check(an)
     an.collapse_mode = collapse_mode(an.model, an.block_mesh, an.ring, [c.u for c in an.converged])
     coarse = coarse_stress_block(an)  # with crushing: a mesh too coarse for the stress block, after the re-runs

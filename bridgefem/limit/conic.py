@@ -28,6 +28,7 @@ FACTORISATION = "qdldl"  # Clarabel's sparse LDL^T of the KKT system: QDLDL (its
 # 0.8-1.2 x below 2500 (benchmarks/bounds_factorisation.py measures both side by side)
 FACTORISATIONS = ("qdldl", "faer")
 _CONES = (ZERO, NONNEG, SOC)
+INFEASIBLE = "infeasible"  # Clarabel's certificate of primal infeasibility: no feasible point exists
 
 
 @dataclass
@@ -142,7 +143,7 @@ class ConicProgramme:
             if name not in ("NumericalError", "InsufficientProgress"):
                 break
         seconds = time.perf_counter() - start
-        status = {"Solved": "optimal", "AlmostSolved": "optimal (reduced accuracy)", "PrimalInfeasible": "infeasible",
+        status = {"Solved": "optimal", "AlmostSolved": "optimal (reduced accuracy)", "PrimalInfeasible": INFEASIBLE,
                   "DualInfeasible": "unbounded"}.get(name, f"solver failure: Clarabel {name}")
         if not status.startswith("optimal"):
             return ConicSolution(status, None, {}, None, iterations, seconds, sizes)
