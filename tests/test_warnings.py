@@ -11,13 +11,15 @@ SPAN = 10.0  # m
 
 
 def run(ratio=1.0, sliding=0, fill=None, bounds=None, lower=100e3, deflection=0.001, shortest=1.0, size=0.25,
-        verdict=(), upper=None, slides=False, failure=""):
+        verdict=(), upper=None, slides=False, failure="", status="limit load found", settled=True):
     """The parts of an Analysis that the warnings read: one converged step with its ``deflection`` (m), the last
     converged live load ``lower`` and the bracket's ``upper`` end (N, one unit of load), the FE/LP ``ratio``, one joint ``sliding`` or not, the fill's
     conic ``bounds`` (N), the shortest voussoir and the element size (m), the verdict's own warnings and whether it
-    confirmed a collapse state that ``slides``; the bracket's tolerance 1e-4 and the search's ``failure`` reason."""
+    confirmed a collapse state that ``slides``; the bracket's tolerance 1e-4, the search's ``failure`` reason, its
+    ``status`` and whether it ``settled`` under self-weight."""
     return SimpleNamespace(search=SimpleNamespace(steps=[SimpleNamespace(converged=True, deflection=deflection)],
-                                                  lower=lower, upper=upper, tolerance=1e-4, failure=failure),
+                                                  lower=lower, upper=upper, tolerance=1e-4, failure=failure,
+                                                  status=status, settled=object() if settled else None),
                            scene=SimpleNamespace(arch=SimpleNamespace(span=SPAN), fill=fill), load_total=1.0,
                            shortest_voussoir=shortest, block_mesh=SimpleNamespace(element_size=size),
                            fe_lp_ratio=ratio, joints=[SimpleNamespace(sliding=sliding)], fill_bounds=bounds,
@@ -103,6 +105,19 @@ def test_an_fe_limit_below_an_undecided_lower_bound_warns_with_its_programmes_va
     assert bool(undecided) == warns
     assert not warns or "(optimal (reduced accuracy), 260 iterations)" in undecided[0] and "1.0% above" in undecided[0]
     assert any("below the conic lower bound" in w for w in warnings) == decided
+
+
+@pytest.mark.parametrize("lower_bound, settled, warns", [(50e3, False, True), (None, False, False),
+                                                        (50e3, True, False)])
+def test_a_failed_self_weight_that_the_conic_lower_bound_shows_standing_warns(lower_bound, settled, warns):
+    """A self-weight without an FE equilibrium under a fill whose static programme carries the dead load (and some
+    live load): the bridge stands, so the failure is the solver's; the warning names the bound."""
+    bounds = {"lower": lower_bound, "upper": None, "unit": "N"}
+    warnings = user_warnings(run(fill="a fill", bounds=bounds, lower=0.0, settled=settled,
+                                 status="solver failure: self-weight ... diverged"))
+    standing = [w for w in warnings if "the bridge with its fill stands" in w]
+    assert bool(standing) == warns
+    assert not warns or "50 kN of live load" in standing[0]
 
 
 def test_the_verdicts_warnings_come_last():

@@ -26,6 +26,10 @@ a class of wrong answers that the verdict's evidence does not catch:
 - *A bracket wider than its tolerance*: one that a collapse state ends after every solver setting failed its closing
   trial (:mod:`bridgefem.search.target`, *Collapse state*, step 5) reaches up to that state's rigid-block collapse
   level; its width says how far the two readings leave the limit.
+- *A failed self-weight that the conic lower bound shows standing*: a self-weight without an FE equilibrium under a
+  fill whose static programme carries the dead load (a lower bound of the bridge with its fill) is the solver's
+  failure, not the bridge's; the warning says so, with that bound (the converse, a proof that no equilibrium exists,
+  makes the run "unstable": :mod:`bridgefem.analysis.evidence`, evidence 6).
 
 The verdict's own warnings (:mod:`bridgefem.analysis.evidence`) follow.
 """
@@ -43,7 +47,7 @@ from ..limit.rigid_block import LPResult
 from ..scene.model import Scene
 from ..search.records import LimitSearch
 from ..solver.newton import ContactSolver
-from ..status import COLLAPSE_END
+from ..status import COLLAPSE_END, Status
 from .evidence import StaticBound, Verdict
 from .mechanism import JointState
 
@@ -198,4 +202,8 @@ def user_warnings(an: Analysis) -> list[str]:
                    f"{static['load'] / (upper * an.load_total) - 1:.1%} above the FE's bracket, its value still "
                    f"falling (fill_bounds.programmes.lower); if the bound is near it, the FE stops before the "
                    f"rigid-plastic collapse ({causes})")
+    if an.search.settled is None and Status.of(an.search.status) is Status.FAILURE and bounds.get("lower"):
+        out.append(f"the bridge with its fill stands: the conic lower bound (fill_bounds) carries its self-weight and "
+                   f"{bounds['lower'] / 1e3:.6g} kN of live load, so this failure to find its self-weight state is "
+                   "the solver's, not a collapse")
     return out + (list(an.verdict.warnings) if an.verdict else [])
