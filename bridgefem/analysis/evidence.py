@@ -86,19 +86,19 @@ evidence of collapse only when
    apply.
 
 6. under a Mohr-Coulomb fill, a self-weight without an FE equilibrium (the search never settled, a solver failure)
-   is "unstable under self-weight" when the *kinematic programme* of the conic bounds (:mod:`bridgefem.limit.
-   bounds_upper`, ``fill_bounds`` in results.json) proves it: that programme, solved in its dual form (the largest
-   load factor of a weakly equilibrated stress field within the Mohr-Coulomb set, joint forces within their limits),
-   has no feasible point, and Clarabel's certificate of that (Farkas' lemma for cones) is a velocity field of the
-   blocks and the fill, kinematically admissible (its strain rates and jumps in the flow cones), on which the dead
-   load does more work than the field dissipates, the live load none against it. By the upper bound theorem the
-   associative rigid-plastic bridge (rigid voussoirs, no-tension Coulomb joints, the fill's Mohr-Coulomb cone with
-   its cut-off) cannot carry its own weight; by Radenkovic's first theorem the FE's non-associative joints and a fill
-   dilating less than it rubs carry no more, and elasticity changes no collapse load (the limit theorems of elastic,
-   perfectly plastic bodies). No FE equilibrium exists, so the failure was the solver's search for one that is not
-   there. The FE's own reason stays its ``failure_reason``; where the rigid-block LP with the fill as dead load stands,
-   the verdict warns that the fill itself gives way. A static programme without a feasible point is no proof (its
-   stress fields are a subset of the admissible ones) and is not read.
+   is "unstable under self-weight" when the *kinematic programme* of the conic bounds
+   (:mod:`bridgefem.limit.bounds_upper`, ``fill_bounds`` in results.json) proves it: that programme, solved in its
+   dual form (the largest load factor, free in sign, of a weakly equilibrated stress field within the Mohr-Coulomb
+   set, joint forces within their limits), has no feasible point, and Clarabel's certificate of that (Farkas' lemma
+   for cones) is a velocity field of the blocks and the fill, kinematically admissible (its strain rates and jumps in
+   the flow cones), on which the dead load does more work than the field dissipates and the live load none. By the
+   upper bound theorem the associative rigid-plastic bridge (rigid voussoirs, no-tension Coulomb joints, the fill's
+   Mohr-Coulomb cone with its cut-off) cannot carry its own weight; by Radenkovic's first theorem the FE's
+   non-associative joints and a fill dilating less than it rubs carry no more, and elasticity changes no collapse
+   load (the limit theorems of elastic, perfectly plastic bodies). No FE equilibrium exists, so the failure was the
+   solver's search for one that is not there. The FE's own reason stays its ``failure_reason``; where the rigid-block
+   LP with the fill as dead load stands, the verdict warns that the fill gives way with the ring. A static programme
+   without a feasible point is no proof (its stress fields are a subset of the admissible ones) and is not read.
 
 Non-associative collapse states are not unique (non-associative friction has no bound theorems beyond the
 associative upper bound): rule 3 says that the FE's limit is a collapse state of its own rigid blocks, the one its
