@@ -87,6 +87,7 @@ import numpy as np
 
 from bridgefem.analysis.evidence import AGREEMENT, reaches
 from bridgefem.io.targets import failed_target
+from bridgefem.limit.conic import INFEASIBLE
 
 SHAPES = ("semicircular", "segmental", "pointed", "elliptical", "parabolic")
 RISE_RATIO = {"segmental": (0.1, 0.45), "pointed": (0.55, 1.0), "elliptical": (0.15, 0.5), "parabolic": (0.15, 0.5)}
@@ -490,7 +491,7 @@ def judge(data: dict | None, code: int | None, stderr: str, fill: bool = False) 
         cls = ("wrong (fill mesh not converged)" if upper is not None and lim["upper"] > (1 + BOUND_TOL) * upper
                else "unjudged (bounds failed)")
     elif fill and status == "unstable under self-weight" and (((data.get("fill_bounds") or {}).get("programmes") or {})
-                                                                .get("upper") or {}).get("status") == "infeasible":
+                                                                .get("upper") or {}).get("status") == INFEASIBLE:
         cls = "confirmed"  # the conic kinematic programme's certificate: the bridge with its fill cannot stand
     elif fill and not (data.get("fill_bounds") or {}).get("lower") and lp_status == "unstable under self-weight":
         cls = "confirmed"  # an elastic fill can hold up a ring that falls under the fill's weight alone: any verdict

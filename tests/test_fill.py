@@ -619,7 +619,7 @@ def test_a_self_weight_without_equilibrium_falls_where_the_kinematic_programme_p
         assert bool(verdict.warnings) is (lp != Status.UNSTABLE)
 
 
-@pytest.mark.slow  # an end-to-end run and the conic bounds: about 30 s
+@pytest.mark.slow  # an end-to-end run and the conic bounds: about 50 s
 def test_a_ring_under_a_weak_fill_that_cannot_stand_is_unstable(tmp_path):
     """A tall parabolic ring (6 m span, 3 m rise, t = 0.2 m) under a weak fill (phi = 20 deg, c = 1 kPa): the FE's
     cohesion continuation finds no equilibrium under self-weight, and none exists: the conic programmes of the bridge
