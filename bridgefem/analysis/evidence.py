@@ -427,13 +427,13 @@ def dead_load_collapse(status: str, settled: bool, fill_bounds: dict | None, lp_
     """Evidence 6 (module docstring): the verdict "unstable under self-weight" of a run with a fill whose search never
     ``settled`` under self-weight and ended in a solver failure (``status``), where the kinematic programme of its
     ``fill_bounds`` (results.json's entry; None without a fill) has no feasible point; None otherwise. ``lp_status``:
-    the rigid-block LP's with the fill as dead load (a warning where it stands)."""
+    the rigid-block LP's with the fill as dead load (a warning where it stands: a limit load, or no collapse)."""
     if settled or Status.of(status) is not Status.FAILURE or not fill_bounds:
         return None
     upper = (fill_bounds.get("programmes") or {}).get("upper") or {}
     if upper.get("status") != INFEASIBLE:
         return None
-    warnings = () if lp_status == Status.UNSTABLE else (
+    warnings = () if lp_status not in (Status.LIMIT, Status.UNBOUNDED) else (
         f"the rigid-block LP with the fill as dead load finds '{lp_status}' (its ring carries the fill as a "
         "pressure), but the bridge with its fill cannot stand: the fill gives way with the ring (fill_bounds)",)
     return Verdict(Status.UNSTABLE, 0.0, "proof: the conic bounds' kinematic programme has no feasible point, "
