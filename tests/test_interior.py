@@ -5,14 +5,16 @@ import tomllib
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from conftest import ROOT, scene_dict
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.sparse.linalg import splu
 
 from bridgefem.analysis.build import Clock, build_model
 from bridgefem.laws.base import ContactState
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.solver.interior import REDUCED_SHARE, InteriorCondensation
+from bridgefem.solver.interior import REDUCED_SHARE, InteriorCondensation, trailing_schur
 from bridgefem.solver.linear import CheckedSolve
 
 
@@ -70,6 +72,58 @@ def test_every_pair_open_is_a_mechanism_for_both(system):
         assert np.abs(x.array[u]).max() > 1e3 and np.abs(y.array[u]).max() > 1e3
     else:
         assert condensed.singular == whole.singular
+
+
+def schur_by_solves(K_II, K_IF, K_FI) -> np.ndarray:
+    """K_FI K_II^-1 K_IF by dense linear algebra."""
+    return K_FI.toarray() @ np.linalg.solve(K_II.toarray(), K_IF.toarray())
+
+
+def interior_lu(K_II: sp.spmatrix):
+    return splu(sp.csc_matrix(K_II), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                options={"SymmetricMode": True})
+
+
+def free_line(n: int) -> sp.csr_matrix:
+    """The stiffness of n nodes in a line joined by unit springs, its ends free: singular by its translation."""
+    K = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n)).tolil()
+    K[0, 0] = K[n - 1, n - 1] = 1.0
+    return K.tocsr()
+
+
+def test_a_free_blocks_schur_complement_is_its_trailing_factor():
+    """A free body (a grid of springs in two directions: singular by its two translations) with its two end
+    columns as faces: the Schur complement read from one factorisation with the faces last is the one by solves."""
+    nx, ny = 30, 7
+    K = sp.kron(sp.kron(sp.eye(nx), free_line(ny)) + sp.kron(free_line(nx), sp.eye(ny)), sp.eye(2)).tocsr()
+    assert np.abs(K @ np.tile([1.0, 0.0], nx * ny)).max() < 1e-12  # singular: it translates freely
+    faces = np.r_[np.arange(2 * ny), np.arange(K.shape[0] - 2 * ny, K.shape[0])]
+    interior = np.setdiff1d(np.arange(K.shape[0]), faces)
+    K_II = K[interior][:, interior].tocsc()
+    K_IF, K_FI, K_FF = K[interior][:, faces], K[faces][:, interior], K[faces][:, faces]
+    Z = trailing_schur(interior_lu(K_II), K_II, K_IF, K_FI, K_FF)
+    reference = schur_by_solves(K_II, K_IF, K_FI)
+    assert Z is not None and np.abs(Z - reference).max() <= 1e-12 * np.abs(reference).max()
+
+
+def test_each_voussoirs_schur_complement_is_its_trailing_factor(system):
+    """The fixture's voussoirs (their stiffness from the FE model, every block of the condensation): the trailing
+    factor gives each block's Schur complement onto its faces as the solves do."""
+    condensation = system.linear.condensation
+    indptr, indices, data = system.A.getValuesCSR()
+    first, _ = system.A.getOwnershipRange()
+    parts = MPI.COMM_WORLD.allgather((first, indptr, indices, data))
+    N = system.A.getSize()[0]
+    A = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for _, i, j, d in sorted(parts, key=lambda p: p[0])
+                   ]).tocsr()
+    blocks = condensation._blocks()
+    assert len(blocks) == 16
+    for dofs, faces in blocks:
+        I, F = condensation.I[dofs], condensation.B[faces]
+        K_II, K_IF, K_FI, K_FF = A[I][:, I].tocsc(), A[I][:, F], A[F][:, I], A[F][:, F]
+        Z = trailing_schur(interior_lu(K_II), K_II, K_IF, K_FI, K_FF)
+        reference = schur_by_solves(K_II, K_IF, K_FI)
+        assert Z is not None and np.abs(Z - reference).max() <= 1e-11 * np.abs(reference).max()
 
 
 def combined(blocks: list[np.ndarray], law_rows: list[dict[int, float]]) -> PETSc.Mat:

@@ -129,21 +129,26 @@ class InteriorCondensation:
             if rank != self.comm.rank:
                 continue
             dofs, faces = blocks[b]
-            coupling = self.A_IB[dofs]
+            coupling, K_II = self.A_IB[dofs], self.A_II[dofs][:, dofs].tocsc()
             try:
-                lu = splu(self.A_II[dofs][:, dofs].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                lu = splu(K_II, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                           options={"SymmetricMode": True})
             except RuntimeError:  # exactly singular: a block without interface dofs
                 return None
-            X = lu.solve(coupling[:, faces].toarray()) if len(faces) else np.zeros((len(dofs), 0))
-            if not len(faces) or not np.all(np.isfinite(X)):
-                return None
-            self.blocks.append((dofs, lu))
             back = A_BI[:, dofs].tocsr()
             touching = np.flatnonzero(np.diff(back.indptr))
+            if not len(faces):
+                return None
+            Z = (trailing_schur(lu, K_II, coupling[:, faces], back[faces], self._A_BS[faces][:, faces])
+                 if np.array_equal(touching, faces) else None)
+            if Z is None:  # no faces-last factorisation: one solve per face dof
+                Z = back[touching] @ lu.solve(coupling[:, faces].toarray())
+            if not np.all(np.isfinite(Z)):
+                return None
+            self.blocks.append((dofs, lu))
             rows.append(np.repeat(touching, len(faces)))
             cols.append(np.tile(faces, len(touching)))
-            vals.append((back[touching] @ X).ravel())
+            vals.append(Z.ravel())
         return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
     def _reduced_system(self, schur: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
@@ -220,3 +225,34 @@ class InteriorCondensation:
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
         return a
+
+
+def trailing_schur(lu, K_II: sp.csc_matrix, K_IF: sp.spmatrix, K_FI: sp.spmatrix, K_FF: sp.spmatrix
+                   ) -> "np.ndarray | None":
+    """Z = K_FI K_II^-1 K_IF (N/m, dense |F| x |F|) of one block, its interior stiffness ``K_II`` factorised in
+    ``lu`` (scipy's SuperLU), from one more sparse LU instead of |F| solves:
+
+    1. order the block's matrix [[K_II, K_IF], [K_FI, K_FF + D]] with its interior in ``lu``'s fill-reducing order
+       and its face dofs F last; D = d I, d the mean of K_FF's diagonal, holds the faces elastically (a voussoir
+       alone is free: its own stiffness is singular by its rigid motions), so that the matrix is symmetric positive
+       definite; Z does not depend on D;
+    2. factorise it with that order kept (SuperLU's natural order, diagonal pivots). Eliminating the interior first
+       leaves the Schur complement K_FF + D - Z in the trailing block: L_FF U_FF (Golub & Van Loan 2013, *Matrix
+       Computations*, sec. 3.2.10);
+    3. Z = K_FF + D - L_FF U_FF.
+
+    SuperLU post-orders its elimination tree; the faces stay last when the interior is connected (the tree's interior
+    part then hangs from the first face dof, the faces a chain above it), which is checked on the factor's
+    permutations: None where they moved or the factorisation failed (the caller then solves)."""
+    n_i, n_f = K_II.shape[0], K_FF.shape[0]
+    interior = np.argsort(lu.perm_c)  # the interior's dofs in the order lu eliminated them
+    held = sp.csr_matrix(K_FF) + K_FF.diagonal().mean() * sp.eye(n_f)
+    M = sp.bmat([[K_II[interior][:, interior], K_IF[interior]], [K_FI[:, interior], held]], format="csc")
+    try:
+        full = splu(M, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    except RuntimeError:
+        return None
+    tail = np.arange(n_i, n_i + n_f)
+    if not (np.array_equal(full.perm_c[n_i:], tail) and np.array_equal(full.perm_r[n_i:], tail)):
+        return None
+    return held.toarray() - full.L[n_i:, n_i:].toarray() @ full.U[n_i:, n_i:].toarray()
