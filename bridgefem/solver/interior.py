@@ -12,7 +12,9 @@ joint forces L the combined matrix is
 
 where only A_LB and A_LL (the law's rows) change. K_II is the stiffness of every block with its faces held: it is
 nonsingular and block-diagonal (one block per connected component: a voussoir, a pier course, a fill), factorised
-once; its Schur complement Z = K_BI K_II^-1 K_IB is dense within each block and computed once. A solve of the
+once; its Schur complement Z = K_BI K_II^-1 K_IB is dense within each block and computed once, from one more
+factorisation of the block with its faces last (:func:`trailing_schur`; one solve per face dof where that order
+cannot be kept). A solve of the
 active set's system is then (Saad 2003, *Iterative Methods for Sparse Linear Systems*, sec. 14.2; the substructuring
 of Przemieniecki 1963):
 
