@@ -131,16 +131,16 @@ class InteriorCondensation:
             if rank != self.comm.rank:
                 continue
             dofs, faces = blocks[b]
+            if not len(faces):  # a block without interface dofs: its K_II is singular
+                return None
             coupling, K_II = self.A_IB[dofs], self.A_II[dofs][:, dofs].tocsc()
             try:
                 lu = splu(K_II, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                           options={"SymmetricMode": True})
-            except RuntimeError:  # exactly singular: a block without interface dofs
+            except RuntimeError:  # exactly singular
                 return None
             back = A_BI[:, dofs].tocsr()
             touching = np.flatnonzero(np.diff(back.indptr))
-            if not len(faces):
-                return None
             Z = (trailing_schur(lu, K_II, coupling[:, faces], back[faces], self._A_BS[faces][:, faces])
                  if np.array_equal(touching, faces) else None)
             if Z is None:  # no faces-last factorisation: one solve per face dof
