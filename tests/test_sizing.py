@@ -1,5 +1,6 @@
 """The model's size from the scene alone: close to the mesher's counts, a scene beyond the machine refused with the
 numbers, a large run announced with its set-up phases."""
+import numpy as np
 import pytest
 from conftest import scene_dict, write_toml
 
@@ -10,6 +11,7 @@ from bridgefem.structure.grading import GRADING_TOLERANCES, graded_nodes
 from bridgefem.structure.sizing import (
     GRADED_PAIRS,
     MAX_DOFS,
+    _densify,
     check_size,
     estimate_size,
     graded_elements,
@@ -103,3 +105,23 @@ def test_a_large_run_prints_its_estimate_and_phases(tmp_path, capsys, monkeypatc
     assert lines[1:6] == ["  meshing ...", "  assembling ...", "  pairing the joints ...",
                           "  setting up the solver (first factorisation) ...", "  limit search ..."]
     assert lines[6].startswith("load steps: ") and lines[7].startswith("step   0")
+
+
+def test_a_densified_polyline_keeps_its_vertices_and_its_spacing():
+    """The points the fill's size field measures distances to: every vertex in order, each segment cut into
+    ceil(length / spacing) equal parts (one for a segment of no length), consecutive points at most the spacing
+    apart and on the polyline."""
+    rng = np.random.default_rng(3)
+    line = np.cumsum(rng.normal(size=(12, 2)), axis=0)
+    line[5] = line[4]  # a segment of no length
+    spacing = 0.3
+    points = _densify(line, spacing)
+    lengths = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    parts = np.maximum(1, np.ceil(lengths / spacing)).astype(int)
+    assert len(points) == 1 + parts.sum()
+    ends = np.concatenate([[0], np.cumsum(parts)])
+    assert np.allclose(points[ends], line, rtol=0, atol=1e-12)
+    assert np.linalg.norm(np.diff(points, axis=0), axis=1).max() <= spacing * (1 + 1e-12)
+    for i, (a, b) in enumerate(zip(ends[:-1], ends[1:])):  # segment i's points lie on it, equally spaced
+        along = np.linalg.norm(points[a:b + 1] - line[i], axis=1)
+        assert np.allclose(along, np.linspace(0.0, lengths[i], b - a + 1), rtol=0, atol=1e-12)

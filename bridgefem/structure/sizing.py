@@ -189,12 +189,14 @@ def fill_cell_count(ring: ArchRing, outline: FillOutline, pieces: list[TopPiece]
 
 
 def _densify(line: np.ndarray, spacing: float) -> np.ndarray:
-    """Points along the polyline ``line`` (k, 2) m at most ``spacing`` (m) apart, its vertices included."""
-    parts = [line[:1]]
-    for a, b in zip(line[:-1], line[1:]):
-        n = max(1, int(math.ceil(np.linalg.norm(b - a) / spacing)))
-        parts.append(a + np.outer(np.arange(1, n + 1) / n, b - a))
-    return np.vstack(parts)
+    """Points along the polyline ``line`` (k, 2) m at most ``spacing`` (m) apart, its vertices included: each
+    segment cut into n = ceil(length / spacing) equal parts (at least one), its points after its start in order."""
+    line = np.asarray(line, float)
+    seg = np.diff(line, axis=0)
+    n = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / spacing)).astype(np.int64)
+    of = np.repeat(np.arange(len(seg)), n)  # the segment of each new point
+    k = np.arange(1, int(n.sum()) + 1) - np.repeat(np.cumsum(n) - n, n)  # its index within the segment, 1..n
+    return np.vstack([line[:1], line[of] + (k / n[of])[:, None] * seg[of]])
 
 
 @dataclass(frozen=True)
