@@ -14,7 +14,7 @@ from scipy.sparse.linalg import splu
 from bridgefem.analysis.build import Clock, build_model
 from bridgefem.laws.base import ContactState
 from bridgefem.scene.reader import scene_from_dict
-from bridgefem.solver.interior import REDUCED_SHARE, InteriorCondensation, trailing_schur
+from bridgefem.solver.interior import REDUCED_SHARE, InteriorCondensation, gathered, trailing_schur
 from bridgefem.solver.linear import CheckedSolve
 
 
@@ -109,13 +109,7 @@ def test_a_free_blocks_schur_complement_is_its_trailing_factor():
 def test_each_voussoirs_schur_complement_is_its_trailing_factor(system):
     """The fixture's voussoirs (their stiffness from the FE model, every block of the condensation): the trailing
     factor gives each block's Schur complement onto its faces as the solves do."""
-    condensation = system.linear.condensation
-    indptr, indices, data = system.A.getValuesCSR()
-    first, _ = system.A.getOwnershipRange()
-    parts = MPI.COMM_WORLD.allgather((first, indptr, indices, data))
-    N = system.A.getSize()[0]
-    A = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for _, i, j, d in sorted(parts, key=lambda p: p[0])
-                   ]).tocsr()
+    condensation, A = system.linear.condensation, gathered(system.A)
     blocks = condensation._blocks()
     assert len(blocks) == 16
     for dofs, faces in blocks:

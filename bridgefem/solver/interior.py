@@ -85,11 +85,9 @@ class InteriorCondensation:
         rank's owned rows) are the law's; None where it does not apply (module docstring). Collective."""
         comm = A.getComm().tompi4py()
         first, last = A.getOwnershipRange()
-        indptr, indices, data = A.getValuesCSR()
-        parts = comm.allgather((indptr, indices, data, first + np.asarray(law_local, dtype=np.int64)))
-        N = A.getSize()[0]
-        full = sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d, _ in parts]).tocsr()
-        built = cls(full, np.concatenate([p[3] for p in parts]), comm, np.array(comm.allgather((first, last))))
+        full, N = gathered(A), A.getSize()[0]
+        law = np.concatenate(comm.allgather(first + np.asarray(law_local, dtype=np.int64)))
+        built = cls(full, law, comm, np.array(comm.allgather((first, last))))
         if len(built.S) > REDUCED_SHARE * N:
             return None
         built._couplings(full)
@@ -227,6 +225,15 @@ class InteriorCondensation:
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
         return a
+
+
+def gathered(A: PETSc.Mat) -> sp.csr_matrix:
+    """The distributed matrix ``A`` whole on every rank (scipy CSR, global numbering: the ranks' rows in order).
+    Collective."""
+    indptr, indices, data = A.getValuesCSR()
+    N = A.getSize()[0]
+    parts = A.getComm().tompi4py().allgather((indptr, indices, data))
+    return sp.vstack([sp.csr_matrix((d, j, i), shape=(len(i) - 1, N)) for i, j, d in parts]).tocsr()
 
 
 def trailing_schur(lu, K_II: sp.csc_matrix, K_IF: sp.spmatrix, K_FI: sp.spmatrix, K_FF: sp.spmatrix
