@@ -262,6 +262,7 @@ def test_a_joint_at_its_coulomb_limit_with_a_pair_sticking_needs_the_non_associa
     from bridgefem.analysis.mechanism import JointState
 
     blocks = SimpleNamespace(friction=np.array([0.5, 0.5]))
+
     def joint(id, normal, shear):
         return JointState(id, normal, shear, eccentricity=0.0, open_fraction=0.0, opening=0.0, sliding=0)
 
