@@ -17,3 +17,26 @@ def test_the_blas_is_openblas():
     loaded = ast.literal_eval(out.strip().splitlines()[-1])
     assert loaded, "no BLAS mapped: the probe proves nothing"
     assert all("openblas" in path for path in loaded), loaded
+
+
+KERNELS = """
+import ctypes, numpy
+library = next(m for m in {line.split()[-1] for line in open('/proc/self/maps')} if 'openblas' in m)
+openblas = ctypes.CDLL(library)
+openblas.openblas_get_corename.restype = ctypes.c_char_p
+print(openblas.openblas_get_corename().decode())
+"""
+
+
+def test_openblas_runs_the_kernels_of_the_processors_instruction_sets():
+    """Under ``./run`` (this suite's environment) OpenBLAS runs the kernels the processor's instruction sets allow,
+    whatever model number it has: SkylakeX's with AVX-512, Haswell's with AVX2 and FMA (OpenBLAS 0.3.21 gives a model
+    newer than it knows its SSE3 kernels, Prescott's, 5x slower); the probe reads the kernels the library chose."""
+    flags = set(next(line for line in open("/proc/cpuinfo") if line.startswith("flags")).split(":", 1)[1].split())
+    core = subprocess.run([sys.executable, "-c", KERNELS], capture_output=True, text=True, check=True).stdout.split()[-1]
+    if {"avx512f", "avx512bw", "avx512dq", "avx512vl", "avx512cd"} <= flags:
+        assert core == "SkylakeX", core
+    elif {"avx2", "fma"} <= flags:
+        assert core == "Haswell", core
+    else:
+        assert core, "no kernels named"
