@@ -20,7 +20,8 @@ of Przemieniecki 1963):
 
 1. y_I = K_II^-1 b_I (each block's factor);
 2. solve the reduced system R x_S = b_S - A_SI y_I for S = (B, L), with R = A_SS - [[Z, 0], [0, 0]] (its law rows the
-   active set's), by the run's solver (by default MUMPS LU), refactorised only when the law's rows changed;
+   active set's), by the run's solver (by default MUMPS LU), refactorised only when the law's rows changed, and then
+   only when the low-rank correction of an earlier factorisation would cost more (:mod:`bridgefem.solver.low_rank`);
 3. u_I = K_II^-1 (b_I - K_IB u_B).
 
 R is singular exactly when the whole system is (K_II is nonsingular): MUMPS finding R numerically singular marks the
@@ -50,6 +51,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
+
+from .low_rank import LowRankUpdate
 
 REDUCED_SHARE = 1.0 / 3.0  # condensed only where the reduced system has at most this share of the unknowns
 
@@ -178,16 +181,23 @@ class InteriorCondensation:
         self._law_perm = self._perm[first:] - len(self._upper_values)
         self._law_rows = np.arange(n_b, n_s, dtype=PETSc.IntType)
         self._rhs, self._x = self.R.createVecLeft(), self.R.createVecRight()
+        self.update = LowRankUpdate(self.R, n_b, self._law_indptr, self._law_indices,
+                                    law_part.data[self._law_perm], self._write, self.comm)
         del self._A_BS, self._law_part
 
     def _values(self, law_values: np.ndarray) -> np.ndarray:
         """R's values (its CSR order) with the law rows' ``law_values`` in the order of the gathered rows."""
         return np.concatenate([self._upper_values, law_values])[self._perm]
 
-    def law_changed(self, law_values: np.ndarray) -> None:
-        """Take the law rows' new values (this rank's law rows, CSR order) into R. Collective."""
-        gathered = np.concatenate(self.comm.allgather(law_values))
-        self.R.setValuesIJV(self._law_indptr, self._law_indices, gathered[self._law_perm], rowmap=self._law_rows)
+    def law_changed(self, law_values: np.ndarray) -> bool:
+        """Take the law rows' new values (this rank's law rows, CSR order); True when R must be factorised again (they
+        are then in R), False when the factorisation of R as it stands serves, updated (:mod:`bridgefem.solver.low_rank`).
+        Collective."""
+        return not self.update.follows(np.concatenate(self.comm.allgather(law_values))[self._law_perm])
+
+    def _write(self, values: np.ndarray) -> None:
+        """Put the law rows' ``values`` (R's law rows, CSR order) into R."""
+        self.R.setValuesIJV(self._law_indptr, self._law_indices, values, rowmap=self._law_rows)
         self.R.assemble()
 
     def _own_solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -210,7 +220,7 @@ class InteriorCondensation:
             coupled = self._A_SI_own @ self._own_solve(b_I[self._own]) if b_I.any() else np.zeros(len(self.S))
             self._last = (b_I, self._summed(coupled))
         self._rhs.array[:] = b_S - self._last[1]
-        ksp.solve(self._rhs, self._x)
+        self.update.solve(ksp, self._rhs, self._x)
         x_S = self._x.array
         interior = np.zeros(len(self.I))
         interior[self._own] = self._own_solve(b_I[self._own] - self._A_IS_own @ x_S)

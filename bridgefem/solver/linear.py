@@ -64,7 +64,8 @@ def environment_options() -> dict:
 
 
 class CheckedSolve:
-    """The KSP of a matrix ``A`` and counters ``stats`` (factorisations, solves, seconds factorising and solving);
+    """The KSP of a matrix ``A`` and counters ``stats`` (factorisations, updates: new matrices solved without one,
+    solves, seconds factorising and solving);
     with a ``condensation`` (:class:`bridgefem.solver.interior.InteriorCondensation`) the KSP is its reduced system's,
     each solve goes through it and is checked on ``A`` as any other, and a factorisation is the reduced system's.
     Its options (without the prefix): the defaults, overridden by the user's environment's
@@ -77,7 +78,7 @@ class CheckedSolve:
         merged = {**DEFAULT_PETSC_OPTIONS, **environment_options(), **options}
         self.options = {k: str(v) for k, v in merged.items()}
         self.ksp = self._new_ksp()
-        self.stats = {"factorisations": 0, "solves": 0, "time_factorise_solve": 0.0}
+        self.stats = {"factorisations": 0, "updates": 0, "solves": 0, "time_factorise_solve": 0.0}
         self._r = A.createVecLeft()
         self._residual, self._correction = A.createVecLeft(), A.createVecRight()
         self._broken = False
@@ -126,18 +127,27 @@ class CheckedSolve:
     def matrix_changed(self, law_values: np.ndarray | None = None) -> None:
         """The matrix's values changed: the next solve refactorises; with a condensation only the law's rows may
         change, and ``law_values`` are their new values (the rank's law rows, CSR order), for the reduced system."""
-        if self.condensation is not None:
-            self.condensation.law_changed(law_values)
+        if self.condensation is not None and not self.condensation.law_changed(law_values):
+            self.stats["updates"] += 1  # the factorisation serves, updated for the changed law rows
+            return
         self.ksp.setOperators(self.operator)
         self.stats["factorisations"] += 1
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
         """Solve A x = b; None when the solve is good (module docstring). After a failure the caller must not reuse
-        the factorisation (it calls :meth:`matrix_changed` before the next solve). Collective; raises
-        :class:`SolveBudgetSpent`, solving nothing, beyond the bound of :meth:`limited`."""
+        the factorisation (it calls :meth:`matrix_changed` before the next solve, which then factorises). Collective;
+        raises :class:`SolveBudgetSpent`, solving nothing, beyond the bound of :meth:`limited`."""
+        failure = self._checked_solve(b, x)
+        if failure is not None and self.condensation is not None:
+            self.condensation.update.forget()
+        return failure
+
+    def _checked_solve(self, b: PETSc.Vec, x: PETSc.Vec) -> SolveFailure | None:
+        """:meth:`solve` without its care for the factorisation after a failure."""
         if self.stats["solves"] + 1 > self._bound[0]:
             raise SolveBudgetSpent(self._bound[1])
         t0 = time.perf_counter()
+        fallbacks = self.condensation.update.fallbacks if self.condensation is not None else 0
         try:
             if self._broken:
                 self.ksp.destroy()
@@ -156,6 +166,8 @@ class CheckedSolve:
         finally:
             self.stats["time_factorise_solve"] += time.perf_counter() - t0
             self.stats["solves"] += 1
+            if self.condensation is not None:  # updated solves that were factorised instead
+                self.stats["factorisations"] += self.condensation.update.fallbacks - fallbacks
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             self._broken = True  # module docstring: a new KSP for the next solve

@@ -39,7 +39,8 @@ active-set step for the joints at once.
    settings (:func:`retried`).
 
 Each iteration costs one sparse solve with the symbolic factorisation reused (the sparsity never changes; the matrix
-is refactorised only when the active set does). Every stop decision is collective over MPI.
+is refactorised only when the active set does, and without a fill often not even then:
+:mod:`bridgefem.solver.low_rank`). Every stop decision is collective over MPI.
 
 **Safeguards.** Each changes only the iteration's path, never what counts as converged or as a proof; why each
 exists, with the scenes that showed the need: ``docs/robustness.md``, *Why each safeguard exists*.

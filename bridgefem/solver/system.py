@@ -16,7 +16,8 @@ laws read c G_n u = -c g_n and c G_t u = c (d_t(ref) - g_t). The system lives in
 pattern never changes (entries of inactive laws are explicit zeros), so the direct solver's symbolic factorisation is
 reused; the matrix is refactorised only when the active set changed. Without a plastic fill only the law's rows
 change, and the blocks' interiors are condensed out once (:mod:`bridgefem.solver.interior`, where it pays): only the
-reduced system of the joint faces and the joint forces is refactorised. Rank r owns [its u rows, its 2 m_r lam rows]
+reduced system of the joint faces and the joint forces is refactorised, or solved by an earlier set's factorisation
+and a low-rank correction for the rows that changed (:mod:`bridgefem.solver.low_rank`). Rank r owns [its u rows, its 2 m_r lam rows]
 (:meth:`ContactSystem.comb_u`, :meth:`ContactSystem.comb_lam`).
 
 A *clamp* (:meth:`ContactSystem.clamp`) presses the two faces of each pair together with a normal force T >= 0 (N):
