@@ -82,6 +82,7 @@ class CheckedSolve:
         self._r = A.createVecLeft()
         self._residual, self._correction = A.createVecLeft(), A.createVecRight()
         self._broken = False
+        self._norm: float | None = None  # |A|_inf of the matrix as it stands
         self._bound = (math.inf, math.inf)  # the count of solves the next may not pass, and the budget that set it
 
     @contextmanager
@@ -126,9 +127,11 @@ class CheckedSolve:
 
     def matrix_changed(self, law_values: np.ndarray | None = None) -> None:
         """The matrix's values changed: the next solve refactorises; with a condensation only the law's rows may
-        change, and ``law_values`` are their new values (the rank's law rows, CSR order), for the reduced system."""
+        change, and ``law_values`` are their new values (the rank's law rows, CSR order), for the reduced system,
+        whose factorisation may serve them updated (:mod:`bridgefem.solver.low_rank`)."""
+        self._norm = None
         if self.condensation is not None and not self.condensation.law_changed(law_values):
-            self.stats["updates"] += 1  # the factorisation serves, updated for the changed law rows
+            self.stats["updates"] += 1
             return
         self.ksp.setOperators(self.operator)
         self.stats["factorisations"] += 1
@@ -200,7 +203,9 @@ class CheckedSolve:
         self.A.mult(x, self._r)
         self._r.axpy(-1.0, b)
         inf = PETSc.NormType.INFINITY
-        scale = self.A.norm(inf) * x.norm(inf) + b.norm(inf)
+        if self._norm is None:  # |A|_inf, kept until the matrix changes
+            self._norm = self.A.norm(inf)
+        scale = self._norm * x.norm(inf) + b.norm(inf)
         return self._r.norm(inf) / scale if scale > 0 else 0.0
 
     def _failure(self, reason: int | str) -> SolveFailure:

@@ -157,12 +157,22 @@ class ContactSystem:
     def _values(self, active: ContactState, proximal: bool = False) -> np.ndarray:
         """Matrix values (CSR order) of the linear system of an active set (with the proximal term:
         :meth:`_proximal_rows`)."""
+        return np.concatenate([self._const, self._law_entries(active, proximal)])[self._perm]
+
+    def _law_values(self, active: ContactState, proximal: bool = False) -> np.ndarray:
+        """The law rows' part of :meth:`_values` (the rows after the displacements', CSR order): all the law's
+        entries, none of the stiffness'."""
+        law = self._perm[self._indptr[self.n_u]:] - len(self._const)
+        return self._law_entries(active, proximal)[law]
+
+    def _law_entries(self, active: ContactState, proximal: bool) -> np.ndarray:
+        """The law's entries of the combined matrix, in the order :meth:`_build` gave them (G's rows, then the
+        diagonal blocks)."""
         rows = self._proximal_rows(active) if proximal else self.law.rows(active)
         pair = self._g_rows // 2
         law_active = np.where(self._g_rows % 2 == 0, rows.a_n[pair], rows.a_t[pair])
         g_part = self._g_vals * self.law.c[pair] * law_active
-        diag = np.concatenate([rows.b_n, rows.b_t, rows.e_t])
-        return np.concatenate([self._const, g_part, diag])[self._perm]
+        return np.concatenate([g_part, rows.b_n, rows.b_t, rows.e_t])
 
     def _ksp(self, options: dict) -> None:
         condensation = None if self.material is not None else \
@@ -272,13 +282,12 @@ class ContactSystem:
         failure."""
         key = active.key() + bytes([proximal])
         if self.comm.allreduce(int(key != self._matrix_key), op=MPI.MAX):  # a new active set, or a new fill tangent
-            values = self._values(active, proximal)
             if self.linear.condensation is None:
-                self.A.setValuesCSR(self._indptr, self._indices, values)
+                self.A.setValuesCSR(self._indptr, self._indices, self._values(active, proximal))
                 self.A.assemble()
                 self.linear.matrix_changed()
             else:  # only the law's rows change
-                law = values[self._indptr[self.n_u]:]
+                law = self._law_values(active, proximal)
                 self.A.setValuesIJV(self._indptr[self.n_u:] - self._indptr[self.n_u],
                                     self._indices[self._indptr[self.n_u]:], law, rowmap=self._law_rows)
                 self.A.assemble()
