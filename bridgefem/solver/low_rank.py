@@ -186,7 +186,8 @@ class LowRankUpdate:
         if self.base_matrix is None:
             self.base_matrix = sp.csr_matrix(self.R.getValuesCSR()[::-1], shape=(self.n, self.n))
             force = (np.arange(self.n) >= self.first).astype(float)
-            self.base_sums = np.stack([abs(self.base_matrix) @ (1.0 - force), abs(self.base_matrix) @ force])
+            magnitude = abs(self.base_matrix)
+            self.base_sums = np.stack([magnitude @ (1.0 - force), magnitude @ force])
         r = self.base_matrix @ u - rhs
         r[self.first + self.changed] += self._V @ u
         sums = self.base_sums.copy()
